@@ -1,0 +1,1 @@
+"""microslip: Gmsh parametric models -> tagged meshes (no physics here)."""

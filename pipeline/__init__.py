@@ -1,0 +1,1 @@
+"""microslip: assembly, reduction, contact, harmonic balance, continuation, CLI."""
