@@ -1,0 +1,301 @@
+"""Friction contact elements in the frequency domain (seed section 3 and 4.2).
+
+Four laws (DESIGN.md §3), each vectorised over many points with per-point
+parameters:
+
+====  ============  ===============  =====================================
+law   tangential    normal load      reference
+====  ============  ===============  =====================================
+A     1D            constant N0      Griffin 1980
+B     1D            variable         Yang et al. 1998; Petrov & Ewins 2003
+C     2D (circle)   constant N0      Sanliturk & Ewins 1996; Menq & Yang 1998
+D     2D (circle)   variable         Yang & Menq 1998
+====  ============  ===============  =====================================
+
+Inputs per point are the Fourier coefficients of the relative displacements
+``u`` (tangential, d components) and ``v`` (normal, positive when the bodies
+approach, variable laws only); outputs are the coefficients of the tangential
+force ``T`` and of the normal force ``N`` (variable laws), both resisting the
+relative motion: on the DOFs they act as ``-B^T [T; N]``.
+
+Forms
+-----
+uncoupled (seed eq. 13/17): ``N = max(N0 + kn v, 0)`` with ``N0`` given a
+    priori; the static (0th) harmonic of the inputs is ignored and the static
+    part of the forces is not returned: the static state was solved before.
+coupled (seed eqs. 24-28): ``N = max(kn (interference + v), 0)`` with ``v``
+    holding its 0th harmonic; the tangential static force follows from the 0th
+    harmonic of ``u`` (unique under slip, the predictor/corrector of eqs.
+    26-28 under full stick). Internally ``n0 = kn * interference``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _returnmap
+from .harmonics import Harmonics
+
+LAWS: dict[str, tuple[int, bool]] = {  # law -> (tangential dimension, variable normal)
+    "A": (1, False),
+    "B": (1, True),
+    "C": (2, False),
+    "D": (2, True),
+}
+
+# Per-point contact state over one period.
+STICK, STICK_SLIP, GROSS_SLIP, PARTIAL_LIFTOFF, OPEN = range(5)
+STATE_NAMES = ("stick", "stick-slip", "gross slip", "partial lift-off", "open")
+
+
+def _per_point(name: str, value, shape: tuple[int, ...], *, positive=False, nonneg=False):
+    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.broadcast_to(arr, shape).astype(float)
+    except ValueError:
+        raise ValueError(
+            f"contact: '{name}' has shape {np.shape(value)}, expected a scalar or {shape}"
+        ) from None
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"contact: '{name}' must be finite, got {value!r}")
+    if positive and np.any(arr <= 0):
+        raise ValueError(f"contact: '{name}' must be > 0, got min {arr.min():g}")
+    if nonneg and np.any(arr < 0):
+        raise ValueError(f"contact: '{name}' must be >= 0, got min {arr.min():g}")
+    return arr
+
+
+@dataclass(frozen=True)
+class ContactResponse:
+    """Result of evaluating a contact set at one state.
+
+    forces: (P, c, nc) coefficients of ``[T_1, ..., T_d, (N)]`` per point, N.
+    jacobian: (P, c, nc, c, nc) d forces / d relative displacements, N/m; or None.
+    d_n0: (P, c, nc) d forces / d n0 (preload), dimensionless; or None.
+    state: (P,) int, one of STICK .. OPEN over the period.
+    slip_fraction: (P,) fraction of the samples in slip.
+    dissipation: (P,) energy dissipated by friction per cycle, J (``oint T . du``).
+    normal_work: (P,) work of the normal force per cycle, J: zero for an
+        elastic normal spring up to the time discretisation (a check).
+    periods: (P,) periods marched before the cycle repeated.
+    T, N, u, v: time histories (P, d, ns), (P, ns), (P, d, ns), (P, ns) if asked.
+    """
+
+    forces: np.ndarray
+    jacobian: np.ndarray | None
+    d_n0: np.ndarray | None
+    state: np.ndarray
+    slip_fraction: np.ndarray
+    dissipation: np.ndarray
+    normal_work: np.ndarray
+    periods: np.ndarray
+    T: np.ndarray | None = None
+    N: np.ndarray | None = None
+    u: np.ndarray | None = None
+    v: np.ndarray | None = None
+
+    @property
+    def state_names(self) -> list[str]:
+        return [STATE_NAMES[s] for s in self.state]
+
+
+@dataclass(frozen=True, eq=False)
+class ContactElements:
+    """P friction contact points sharing one law and form.
+
+    Parameters (per point, broadcast from scalars)
+    ----------
+    law: "A", "B", "C" or "D".
+    kt: tangential contact stiffness, N/m, shape (P,) or (P, d) (k_tx, k_ty).
+    mu: friction coefficient, >= 0.
+    n0: normal preload N0, N (uncoupled; negative means an initial gap for the
+        variable laws), or ``kn * interference`` (coupled).
+    kn: normal contact stiffness, N/m (> 0 for the variable laws B and D; 0 for
+        A and C).
+    coupled: static/dynamic coupling (seed section 4.2).
+    """
+
+    law: str
+    kt: np.ndarray
+    kn: np.ndarray
+    mu: np.ndarray
+    n0: np.ndarray
+    coupled: bool = False
+
+    @classmethod
+    def create(
+        cls,
+        law: str,
+        *,
+        kt,
+        mu,
+        n0=None,
+        kn=0.0,
+        interference=None,
+        coupled: bool = False,
+        n_points: int | None = None,
+    ) -> ContactElements:
+        """Validate and broadcast per-point parameters.
+
+        Give ``n0`` (N) for the uncoupled form, ``interference`` (m, negative
+        for a gap) for the coupled form of the variable laws, or ``n0`` for the
+        coupled form of the constant-load laws A and C."""
+        if law not in LAWS:
+            raise ValueError(f"contact: 'law' = {law!r} is not one of {sorted(LAWS)}")
+        d, variable = LAWS[law]
+        if n_points is None:
+            sizes = [np.size(x) for x in (mu, n0, kn, interference) if x is not None]
+            sizes.append(np.size(kt) // d if np.ndim(kt) == 2 else np.size(kt))
+            n_points = max(sizes)
+        P = int(n_points)
+        if P < 1:
+            raise ValueError(f"contact: 'n_points' must be >= 1, got {n_points}")
+        kt_arr = np.asarray(kt, dtype=float)
+        if kt_arr.ndim <= 1:
+            kt_arr = np.broadcast_to(kt_arr.reshape(-1, 1) if kt_arr.ndim else kt_arr, (P, d))
+        kt_arr = _per_point("kt", kt_arr, (P, d), positive=True)
+        mu_arr = _per_point("mu", mu, (P,), nonneg=True)
+        kn_arr = _per_point("kn", kn, (P,), nonneg=True)
+        if variable and np.any(kn_arr <= 0):
+            raise ValueError(f"contact: law {law} needs 'kn' > 0, got min {kn_arr.min():g}")
+        if not variable and np.any(kn_arr != 0):
+            raise ValueError(f"contact: law {law} has a constant normal load; 'kn' must be 0")
+        if interference is not None:
+            if not (coupled and variable):
+                raise ValueError(
+                    "contact: 'interference' applies to the coupled form of laws B and D; "
+                    f"got law {law}, coupled={coupled}"
+                )
+            if n0 is not None:
+                raise ValueError("contact: give either 'n0' or 'interference', not both")
+            n0_arr = kn_arr * _per_point("interference", interference, (P,))
+        else:
+            if n0 is None:
+                raise ValueError(f"contact: law {law} needs 'n0' (N) or, coupled, 'interference'")
+            n0_arr = _per_point("n0", n0, (P,))
+            if not variable and np.any(n0_arr < 0):
+                raise ValueError(
+                    f"contact: law {law} has a constant normal load; 'n0' must be >= 0, "
+                    f"got min {n0_arr.min():g}"
+                )
+        return cls(law, kt_arr, kn_arr, mu_arr, n0_arr, bool(coupled))
+
+    # ----------------------------------------------------------------- layout
+    @property
+    def dim(self) -> int:
+        """Tangential dimension d."""
+        return LAWS[self.law][0]
+
+    @property
+    def variable_normal(self) -> bool:
+        return LAWS[self.law][1]
+
+    @property
+    def n_components(self) -> int:
+        """Relative-displacement components per point: d (+1 normal)."""
+        return self.dim + int(self.variable_normal)
+
+    @property
+    def size(self) -> int:
+        return self.kt.shape[0]
+
+    def with_n0(self, n0) -> ContactElements:
+        """Same contacts with another preload (continuation in N0)."""
+        return ContactElements(
+            self.law, self.kt, self.kn, self.mu, _per_point("n0", n0, (self.size,)), self.coupled
+        )
+
+    # ------------------------------------------------------------- evaluation
+    def evaluate(
+        self,
+        g: np.ndarray,
+        harmonics: Harmonics,
+        *,
+        jacobian: bool = True,
+        histories: bool = False,
+        max_periods: int = 200,
+        rtol: float = 1e-11,
+    ) -> ContactResponse:
+        """Forces (and their derivatives) for relative displacements ``g``.
+
+        g: (P, c, nc) Fourier coefficients of ``[u_1, ..., u_d, (v)]``, m, in the
+        layout of ``harmonics``. ``rtol`` ends the march when the force at the
+        end of a period repeats to ``rtol`` times the force scale.
+        """
+        P, c, nc = self.size, self.n_components, harmonics.n_coeffs
+        g = np.asarray(g, dtype=float)
+        if g.shape != (P, c, nc):
+            raise ValueError(
+                f"contact: relative displacements have shape {g.shape}, expected (P, c, nc) = "
+                f"{(P, c, nc)} for law {self.law} with {P} points and {nc} coefficients"
+            )
+        if not np.all(np.isfinite(g)):
+            raise ValueError("contact: relative displacements contain NaN or Inf")
+        static = harmonics.static_mask
+        if not self.coupled and static.any():
+            g = g.copy()
+            g[..., static] = 0.0
+        d, ns = self.dim, harmonics.n_samples
+        E, A = harmonics.synthesis, harmonics.analysis
+        samples = g @ E.T  # (P, c, ns)
+        u = np.ascontiguousarray(samples[:, :d])
+        v = (
+            np.ascontiguousarray(samples[:, d])
+            if self.variable_normal
+            else np.zeros((P, ns))
+        )
+        m = c * nc + 1
+        T = np.empty((P, d, ns))
+        N = np.empty((P, ns))
+        st = np.empty((P, ns), dtype=np.int8)
+        jT = np.empty((P, d, nc, m) if jacobian else (1, 1, 1, 1))
+        jN = np.empty((P, nc, m) if jacobian else (1, 1, 1))
+        periods = np.empty(P, dtype=np.int64)
+        _returnmap.march(
+            u, v, self.kt, self.kn, self.mu, self.n0, E, A, self.variable_normal,
+            jacobian, int(max_periods), float(rtol), T, N, st, jT, jN, periods,
+        )
+        forces = np.empty((P, c, nc))
+        forces[:, :d] = T @ A.T
+        if self.variable_normal:
+            forces[:, d] = N @ A.T
+        jac = dn0 = None
+        if jacobian:
+            full = np.empty((P, c, nc, m))
+            full[:, :d] = jT
+            if self.variable_normal:
+                full[:, d] = jN
+            jac = full[..., :-1].reshape(P, c, nc, c, nc)
+            dn0 = full[..., -1]
+        if not self.coupled and static.any():
+            forces[..., static] = 0.0
+            if jacobian:
+                jac[:, :, static] = 0.0
+                jac[..., static] = 0.0
+                dn0[..., static] = 0.0
+        state, slip_fraction = _classify(st)
+        dissipation = harmonics.work(forces[:, :d], g[:, :d]).sum(axis=1)
+        normal_work = (
+            harmonics.work(forces[:, d], g[:, d]) if self.variable_normal else np.zeros(P)
+        )
+        extra = {}
+        if histories:
+            extra = {"T": T, "N": N, "u": u, "v": v}
+        return ContactResponse(
+            forces, jac, dn0, state, slip_fraction, dissipation, normal_work, periods, **extra
+        )
+
+
+def _classify(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-point state over the period from per-sample stick/slip/open flags."""
+    n_open = np.sum(samples == _returnmap.OPEN, axis=1)
+    n_slip = np.sum(samples == _returnmap.SLIP, axis=1)
+    ns = samples.shape[1]
+    state = np.full(samples.shape[0], STICK)
+    state[n_slip > 0] = STICK_SLIP
+    state[(n_slip > 0) & (n_slip + n_open == ns)] = GROSS_SLIP
+    state[n_open > 0] = PARTIAL_LIFTOFF
+    state[n_open == ns] = OPEN
+    return state, n_slip / ns

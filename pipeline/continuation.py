@@ -1,0 +1,407 @@
+"""Newton's method and continuation of solution branches (seed appendix).
+
+The problem is a callable ``fun(x, lam, jacobian) -> (R, J, R_lam)``: the
+residual ``R`` (n,), its Jacobian ``J = dR/dx`` (n, n) and ``R_lam = dR/dlam``
+(n,), in physical units. Unknowns and parameter are scaled internally
+(``x / x_scale``, ``lam / lam_scale``, ``R / f_scale``) so that tolerances and
+the arclength metric mean the same for a 1 N blade and a 30 kN disk.
+
+* :func:`newton` - damped Newton at fixed ``lam`` (backtracking on ||R||).
+* :func:`natural` - natural continuation (seed 7.1): ``lam`` stepped, the last
+  solutions extrapolated as predictor, the step halved where Newton fails.
+* :func:`arclength` - pseudo-arclength continuation (seed 7.2, eqs. 55-56):
+  tangent predictor, corrector on the hyperplane orthogonal to the tangent,
+  adaptive step, turning points followed and reported.
+
+Neither raises on non-convergence: the branch computed so far is returned with
+``status`` and a ``message`` saying where and why it stopped.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+
+Problem = Callable[[np.ndarray, float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
+@dataclass(frozen=True)
+class NewtonResult:
+    x: np.ndarray
+    converged: bool
+    iterations: int
+    residual: float  # ||R||_inf / f_scale at x
+    reason: str = ""
+
+
+@dataclass
+class Branch:
+    """A computed solution branch: one row per converged point."""
+
+    parameter: str
+    values: np.ndarray  # (n_points,) parameter value
+    x: np.ndarray  # (n_points, n_unknowns)
+    residuals: np.ndarray  # (n_points,) scaled residual norm
+    iterations: np.ndarray  # (n_points,) Newton iterations
+    turning_points: list[int] = field(default_factory=list)  # indices into the points
+    status: str = "complete"  # "complete" or "stopped"
+    message: str = ""
+    steps: int = 0  # predictor-corrector attempts, including rejected ones
+
+    @property
+    def complete(self) -> bool:
+        return self.status == "complete"
+
+    def __len__(self) -> int:
+        return self.values.size
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Solver knobs (each one's speed/accuracy trade is shown by ``microslip bench core``).
+
+    tol: converged when ||R||_inf <= tol * f_scale.
+    max_iter: Newton iterations per point.
+    step: first step, as a fraction of the parameter range (arclength: of the
+        scaled arc). min_step / max_step bound the adaptive step (same units).
+    target_iter: the arclength step grows below it and shrinks above it.
+    max_turn: the arclength step halves where the tangent turns more (rad).
+    max_points: stop after this many points (a guard against cycling).
+    """
+
+    tol: float = 1e-9
+    max_iter: int = 25
+    step: float = 0.01
+    min_step: float = 1e-6
+    max_step: float = 0.05
+    target_iter: int = 4
+    max_turn: float = 0.15
+    max_points: int = 5000
+
+    def __post_init__(self):
+        for name in ("tol", "step", "min_step", "max_step", "max_turn"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"continuation: '{name}' must be > 0, got {v}")
+        if self.min_step > self.max_step:
+            raise ValueError(
+                f"continuation: 'min_step' ({self.min_step}) exceeds 'max_step' ({self.max_step})"
+            )
+        for name in ("max_iter", "target_iter", "max_points"):
+            v = getattr(self, name)
+            if int(v) != v or v < 1:
+                raise ValueError(f"continuation: '{name}' must be an integer >= 1, got {v}")
+
+
+def newton(
+    fun: Problem,
+    x0: np.ndarray,
+    lam: float,
+    *,
+    x_scale: float | np.ndarray = 1.0,
+    f_scale: float = 1.0,
+    settings: Settings = Settings(),
+) -> NewtonResult:
+    """Damped Newton iterations on ``R(x, lam) = 0`` at fixed ``lam``."""
+    x = np.array(x0, dtype=float)
+    R, J, _ = fun(x, lam, True)
+    res = _norm(R, f_scale)
+    for it in range(settings.max_iter + 1):
+        if not np.isfinite(res):
+            return NewtonResult(x, False, it, res, "residual is NaN or Inf")
+        if res <= settings.tol:
+            return NewtonResult(x, True, it, res)
+        if it == settings.max_iter:
+            break
+        try:
+            dx = -_solve(J, R)
+        except (np.linalg.LinAlgError, ValueError) as err:
+            return NewtonResult(x, False, it, res, f"singular Jacobian ({err})")
+        x, R, J, res = _damped(fun, x, dx, lam, res, f_scale)
+    return NewtonResult(
+        x, False, settings.max_iter, res,
+        f"no convergence in {settings.max_iter} iterations (||R|| = {res:.3g} * f_scale)",
+    )
+
+
+def _damped(fun, x, dx, lam, res0, f_scale):
+    """Backtracking: halve the step until ||R|| decreases (at most 6 times)."""
+    best = None
+    alpha = 1.0
+    for _ in range(7):
+        xt = x + alpha * dx
+        R, J, _ = fun(xt, lam, True)
+        res = _norm(R, f_scale)
+        if best is None or (np.isfinite(res) and res < best[3]):
+            best = (xt, R, J, res)
+        if np.isfinite(res) and res < res0:
+            break
+        alpha *= 0.5
+    return best
+
+
+def _norm(R: np.ndarray, f_scale: float) -> float:
+    return float(np.max(np.abs(R))) / f_scale if R.size else 0.0
+
+
+def _solve(J: np.ndarray, R: np.ndarray) -> np.ndarray:
+    if not np.all(np.isfinite(J)):
+        raise ValueError("Jacobian has NaN or Inf")
+    lu, piv = sla.lu_factor(J, check_finite=False)
+    if np.any(np.diag(lu) == 0):
+        raise np.linalg.LinAlgError("zero pivot")
+    return sla.lu_solve((lu, piv), R, check_finite=False)
+
+
+def _check_range(start: float, stop: float, name: str) -> None:
+    if not (np.isfinite(start) and np.isfinite(stop)):
+        raise ValueError(f"continuation: range of '{name}' must be finite, got {start}..{stop}")
+    if start == stop:
+        raise ValueError(
+            f"continuation: range of '{name}' has zero length ({start} to {stop}); "
+            "give start != stop"
+        )
+
+
+def natural(
+    fun: Problem,
+    x0: np.ndarray,
+    start: float,
+    stop: float,
+    *,
+    parameter: str = "lambda",
+    x_scale: float | np.ndarray = 1.0,
+    f_scale: float = 1.0,
+    settings: Settings = Settings(),
+    progress: Callable[[int, float, int], None] | None = None,
+) -> Branch:
+    """Natural continuation from ``start`` to ``stop`` in steps of
+    ``settings.step * |stop - start|`` (halved down to ``min_step`` on failure)."""
+    _check_range(start, stop, parameter)
+    span = stop - start
+    out = _Collector(parameter)
+    lam, x = start, np.asarray(x0, float)
+    first = newton(fun, x, lam, x_scale=x_scale, f_scale=f_scale, settings=settings)
+    out.steps += 1
+    if not first.converged:
+        return out.finish("stopped", f"no solution at {parameter} = {lam:.6g}: {first.reason}")
+    out.add(lam, first)
+    if progress:
+        progress(len(out), lam, first.iterations)
+    step = settings.step
+    while (lam - stop) * np.sign(span) < 0 and len(out) < settings.max_points:
+        step_now = min(step, abs(stop - lam) / abs(span))
+        new = lam + np.sign(span) * step_now * abs(span)
+        guess = out.extrapolate(new)
+        r = newton(fun, guess, new, x_scale=x_scale, f_scale=f_scale, settings=settings)
+        out.steps += 1
+        if r.converged:
+            lam = new
+            out.add(lam, r)
+            if progress:
+                progress(len(out), lam, r.iterations)
+            step = min(settings.step, step * 2)
+            continue
+        step /= 2
+        if step < settings.min_step:
+            return out.finish(
+                "stopped",
+                f"stopped at {parameter} = {new:.6g} (last converged {lam:.6g}): "
+                f"{r.reason}; step fell below min_step = {settings.min_step:g}",
+            )
+    if len(out) >= settings.max_points and (lam - stop) * np.sign(span) < 0:
+        return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")
+    return out.finish("complete", "")
+
+
+def arclength(
+    fun: Problem,
+    x0: np.ndarray,
+    start: float,
+    stop: float,
+    *,
+    parameter: str = "lambda",
+    x_scale: float | np.ndarray = 1.0,
+    f_scale: float = 1.0,
+    settings: Settings = Settings(),
+    progress: Callable[[int, float, int], None] | None = None,
+) -> Branch:
+    """Pseudo-arclength continuation from ``start`` until ``stop`` is passed.
+
+    Scaled unknowns ``y = [x / x_scale, lam / lam_scale]`` with ``lam_scale =
+    |stop - start|``; steps ``h`` are arc lengths in that metric."""
+    _check_range(start, stop, parameter)
+    lam_scale = abs(stop - start)
+    direction = np.sign(stop - start)
+    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x0)).copy()
+    out = _Collector(parameter)
+    first = newton(fun, x0, start, x_scale=xs, f_scale=f_scale, settings=settings)
+    out.steps += 1
+    if not first.converged:
+        return out.finish("stopped", f"no solution at {parameter} = {start:.6g}: {first.reason}")
+    out.add(start, first)
+    if progress:
+        progress(len(out), start, first.iterations)
+    x, lam = first.x, start
+    tangent = _tangent(fun, x, lam, xs, lam_scale, f_scale, None, direction)
+    if tangent is None:
+        return out.finish("stopped", f"singular Jacobian at {parameter} = {lam:.6g}")
+    h = settings.step
+    while len(out) < settings.max_points:
+        y = np.append(x / xs, lam / lam_scale)
+        pred = y + h * tangent
+        lam_p = pred[-1] * lam_scale
+        if (lam_p - stop) * direction >= 0 and abs(tangent[-1]) > 1e-3:
+            # overshoot: land exactly on the end value, at fixed lam
+            frac = (stop - lam) / (lam_p - lam)
+            guess = (y + frac * h * tangent)[:-1] * xs
+            r = newton(fun, guess, stop, x_scale=xs, f_scale=f_scale, settings=settings)
+            out.steps += 1
+            if r.converged:
+                out.add(stop, r)
+                if progress:
+                    progress(len(out), stop, r.iterations)
+                return out.finish("complete", "")
+            h /= 2
+            if h < settings.min_step:
+                return out.finish("stopped", f"no solution at the end value {stop:.6g}: {r.reason}")
+            continue
+        ok, y_new, its, res, reason = _correct(fun, pred, tangent, xs, lam_scale, f_scale,
+                                               settings)
+        out.steps += 1
+        if not ok:
+            h /= 2
+            if h < settings.min_step:
+                return out.finish(
+                    "stopped",
+                    f"stopped near {parameter} = {lam:.6g}: corrector failed ({reason}) "
+                    f"with step below min_step = {settings.min_step:g}",
+                )
+            continue
+        x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
+        t_new = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent, direction)
+        if t_new is None:
+            return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_new:.6g}")
+        out.add(lam_new, NewtonResult(x_new, True, its, res))
+        if progress:
+            progress(len(out), lam_new, its)
+        if np.sign(t_new[-1]) != np.sign(tangent[-1]) and tangent[-1] != 0:
+            out.turning_points.append(len(out) - 1)
+        turn = np.arccos(np.clip(t_new @ tangent, -1.0, 1.0))
+        x, lam, tangent = x_new, lam_new, t_new
+        # adapt the step to the corrector's effort and to how fast the branch turns
+        if turn > settings.max_turn:
+            h = max(h * 0.5, settings.min_step)
+        elif its <= settings.target_iter - 1:
+            h = min(h * 1.5, settings.max_step)
+        elif its > settings.target_iter + 2:
+            h = max(h * 0.6, settings.min_step)
+        # dynamic scaling: the unknowns' scale follows the largest amplitude met,
+        # so a resonance 100x the start amplitude does not take 100x the points
+        grow = np.max(np.abs(x)) / xs
+        if np.any(grow > 1.0):
+            new_xs = np.maximum(xs, np.max(np.abs(x)))
+            tangent = np.append(tangent[:-1] * xs / new_xs, tangent[-1])
+            tangent /= np.linalg.norm(tangent)
+            xs = new_xs
+        if (lam - start) * direction < -0.5 * lam_scale:
+            return out.finish("stopped", f"branch turned back past the start ({lam:.6g})")
+    return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")
+
+
+def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction):
+    """Unit tangent of the scaled branch, oriented along the previous one
+    (or towards increasing progress at the first point)."""
+    R, J, dR = fun(x, lam, True)
+    Js = J * xs[None, :] / f_scale
+    dRs = dR * lam_scale / f_scale
+    n = x.size
+    if previous is None:
+        try:
+            z = _solve(Js, -dRs)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        t = np.append(z, 1.0)
+        t /= np.linalg.norm(t)
+        return t * direction
+    A = np.zeros((n + 1, n + 1))
+    A[:n, :n], A[:n, n], A[n] = Js, dRs, previous
+    rhs = np.zeros(n + 1)
+    rhs[n] = 1.0
+    try:
+        t = _solve(A, rhs)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    t /= np.linalg.norm(t)
+    return t if t @ previous >= 0 else -t
+
+
+def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
+    """Newton on [R(y) = 0; t . (y - y_pred) = 0] (seed eq. 56)."""
+    y = pred.copy()
+    n = y.size - 1
+    res = np.inf
+    for it in range(settings.max_iter + 1):
+        x, lam = y[:-1] * xs, y[-1] * lam_scale
+        R, J, dR = fun(x, lam, True)
+        res = _norm(R, f_scale)
+        if not np.isfinite(res):
+            return False, y, it, res, "residual is NaN or Inf"
+        if res <= settings.tol:
+            return True, y, it, res, ""
+        if it == settings.max_iter:
+            break
+        A = np.empty((n + 1, n + 1))
+        A[:n, :n] = J * xs[None, :] / f_scale
+        A[:n, n] = dR * lam_scale / f_scale
+        A[n] = tangent
+        rhs = np.append(R / f_scale, tangent @ (y - pred))
+        try:
+            y = y - _solve(A, rhs)
+        except (np.linalg.LinAlgError, ValueError) as err:
+            return False, y, it, res, f"singular bordered Jacobian ({err})"
+    return False, y, settings.max_iter, res, f"no convergence (||R|| = {res:.3g} * f_scale)"
+
+
+class _Collector:
+    def __init__(self, parameter: str):
+        self.parameter = parameter
+        self.values: list[float] = []
+        self.xs: list[np.ndarray] = []
+        self.res: list[float] = []
+        self.its: list[int] = []
+        self.turning_points: list[int] = []
+        self.steps = 0
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def add(self, lam: float, r: NewtonResult) -> None:
+        self.values.append(float(lam))
+        self.xs.append(np.array(r.x))
+        self.res.append(r.residual)
+        self.its.append(r.iterations)
+
+    def extrapolate(self, lam: float) -> np.ndarray:
+        """Secant predictor from the last two points (the last one if alone)."""
+        if len(self.values) < 2 or self.values[-1] == self.values[-2]:
+            return self.xs[-1].copy()
+        a = (lam - self.values[-1]) / (self.values[-1] - self.values[-2])
+        return self.xs[-1] + a * (self.xs[-1] - self.xs[-2])
+
+    def finish(self, status: str, message: str) -> Branch:
+        n = self.xs[0].size if self.xs else 0
+        return Branch(
+            self.parameter,
+            np.array(self.values),
+            np.array(self.xs).reshape(len(self.xs), n),
+            np.array(self.res),
+            np.array(self.its, dtype=int),
+            list(self.turning_points),
+            status,
+            message,
+            self.steps,
+        )

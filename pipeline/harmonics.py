@@ -1,0 +1,231 @@
+"""Harmonic layout, time sampling and the discrete Fourier pair of the balance.
+
+Convention (DESIGN.md §2, seed eq. 2): ``x(t) = Re(sum_n X_n exp(i n w t))``.
+Per DOF the real coefficients are laid out ``[a0, a1, b1, ..., aH, bH]`` with
+``x = a0 + sum(a_n cos(n w t) + b_n sin(n w t))``, so that ``X_n = a_n - i b_n``.
+Only the orders kept in :class:`Harmonics` appear (e.g. 0 and the odd ones).
+
+Time is sampled uniformly over one period, ``theta_k = w t_k = 2 pi k / N``.
+With ``N > 2 max(order)`` the analysis matrix is the exact left inverse of the
+synthesis matrix (``A @ E == I``): the transform round-trips to rounding.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+
+
+def default_samples(max_order: int) -> int:
+    """Samples per period for harmonics up to ``max_order``: a power of two,
+    at least 16 per period of the highest harmonic and never below 64, so that
+    the stick-slip transitions of a return map are resolved (see the
+    speed/accuracy table of ``microslip bench core``)."""
+    need = max(64, 16 * (max_order + 1))
+    return int(2 ** int(np.ceil(np.log2(need))))
+
+
+class Harmonics:
+    """Harmonic orders kept in the balance and the time sampling of one period.
+
+    Parameters
+    ----------
+    orders:
+        Non-negative harmonic orders, e.g. ``range(0, 8)`` or ``[0, 1, 3, 5]``.
+    n_samples:
+        Time samples per period; must exceed ``2 * max(orders)``. Default from
+        :func:`default_samples`.
+    """
+
+    def __init__(self, orders, n_samples: int | None = None):
+        raw = np.atleast_1d(np.asarray(orders))
+        if raw.size == 0:
+            raise ValueError("harmonics: 'orders' is empty; give at least one order, e.g. [1]")
+        if not np.all(np.equal(np.mod(raw, 1), 0)):
+            raise ValueError(f"harmonics: 'orders' must be integers, got {raw.tolist()}")
+        ords = sorted({int(o) for o in raw})
+        if ords[0] < 0:
+            raise ValueError(f"harmonics: 'orders' must be >= 0, got {ords}")
+        if n_samples is None:
+            n_samples = default_samples(ords[-1])
+        if int(n_samples) != n_samples or n_samples <= 2 * ords[-1]:
+            raise ValueError(
+                f"harmonics: 'n_samples' = {n_samples} is too few for order {ords[-1]}; "
+                f"need an integer > 2 * max(orders) = {2 * ords[-1]}"
+            )
+        self.orders: tuple[int, ...] = tuple(ords)
+        self.n_samples: int = int(n_samples)
+        self.dynamic_orders: tuple[int, ...] = tuple(o for o in ords if o > 0)
+
+    @classmethod
+    def up_to(cls, H: int, n_samples: int | None = None) -> Harmonics:
+        """Orders ``0..H``."""
+        if int(H) != H or H < 0:
+            raise ValueError(f"harmonics: 'H' must be an integer >= 0, got {H}")
+        return cls(range(int(H) + 1), n_samples)
+
+    def __repr__(self) -> str:
+        return f"Harmonics(orders={list(self.orders)}, n_samples={self.n_samples})"
+
+    def __eq__(self, other) -> bool:
+        return (
+            isinstance(other, Harmonics)
+            and self.orders == other.orders
+            and self.n_samples == other.n_samples
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.orders, self.n_samples))
+
+    # ------------------------------------------------------------------ layout
+    @property
+    def has_static(self) -> bool:
+        return self.orders[0] == 0
+
+    @property
+    def n_coeffs(self) -> int:
+        """Real coefficients per DOF: 1 for order 0, 2 for every other."""
+        return int(self.has_static) + 2 * len(self.dynamic_orders)
+
+    @cached_property
+    def coeff_order(self) -> np.ndarray:
+        """(n_coeffs,) int: the harmonic order of each coefficient."""
+        out = [0] if self.has_static else []
+        for o in self.dynamic_orders:
+            out += [o, o]
+        return np.array(out, dtype=np.int64)
+
+    @cached_property
+    def cos_index(self) -> np.ndarray:
+        """(n_dyn,) int: position of a_n for each dynamic order."""
+        return int(self.has_static) + 2 * np.arange(len(self.dynamic_orders))
+
+    @cached_property
+    def sin_index(self) -> np.ndarray:
+        """(n_dyn,) int: position of b_n for each dynamic order."""
+        return self.cos_index + 1
+
+    @cached_property
+    def static_mask(self) -> np.ndarray:
+        """(n_coeffs,) bool: True at a0."""
+        return self.coeff_order == 0
+
+    # --------------------------------------------------------------- transforms
+    @cached_property
+    def theta(self) -> np.ndarray:
+        """(n_samples,) phase ``w t`` of each sample, rad."""
+        return 2.0 * np.pi * np.arange(self.n_samples) / self.n_samples
+
+    @cached_property
+    def synthesis(self) -> np.ndarray:
+        """E, (n_samples, n_coeffs): time samples ``x_k = E @ c``."""
+        return self.synthesis_at(self.theta)
+
+    def synthesis_at(self, theta: np.ndarray) -> np.ndarray:
+        """(len(theta), n_coeffs) synthesis matrix at arbitrary phases."""
+        theta = np.asarray(theta, dtype=float)
+        E = np.empty((theta.size, self.n_coeffs))
+        if self.has_static:
+            E[:, 0] = 1.0
+        n = np.array(self.dynamic_orders, dtype=float)
+        E[:, self.cos_index] = np.cos(np.outer(theta, n))
+        E[:, self.sin_index] = np.sin(np.outer(theta, n))
+        return E
+
+    @cached_property
+    def analysis(self) -> np.ndarray:
+        """A, (n_coeffs, n_samples): Fourier coefficients ``c = A @ x``.
+
+        Discrete projection (trapezoidal rule on the period), the exact left
+        inverse of :attr:`synthesis` when ``n_samples > 2 max(order)``."""
+        A = self.synthesis.T * (2.0 / self.n_samples)
+        if self.has_static:
+            A[0] *= 0.5
+        return np.ascontiguousarray(A)
+
+    @cached_property
+    def derivative(self) -> np.ndarray:
+        """(n_coeffs, n_coeffs) d/dtheta in coefficient space: ``c' = D @ c``.
+
+        ``d/dtheta (a cos n theta + b sin n theta) = n b cos - n a sin``."""
+        D = np.zeros((self.n_coeffs, self.n_coeffs))
+        for o, ic, js in zip(self.dynamic_orders, self.cos_index, self.sin_index):
+            D[ic, js] = o
+            D[js, ic] = -o
+        return D
+
+    def work(self, force: np.ndarray, displacement: np.ndarray) -> np.ndarray:
+        """Work per period of a force on a displacement, from coefficients.
+
+        ``oint f dx = pi * sum_n n (f_a x_b - f_b x_a)``; equal to the sampled
+        sum ``sum_k f(theta_k) x'(theta_k) dtheta`` of the projected force.
+
+        force, displacement: (..., n_coeffs). Returns (...) in J (N m)."""
+        ic, js = self.cos_index, self.sin_index
+        n = np.array(self.dynamic_orders, dtype=float)
+        fa, fb = force[..., ic], force[..., js]
+        xa, xb = displacement[..., ic], displacement[..., js]
+        return np.pi * np.sum(n * (fa * xb - fb * xa), axis=-1)
+
+    def real_matrix(self, S: np.ndarray) -> np.ndarray:
+        """Per-order complex operators (n_orders, n, n) -> the real operator on
+        DOF-major coefficients, (n * n_coeffs, n * n_coeffs).
+
+        ``X_n = a_n - i b_n`` turns ``Y = S X`` into ``y_a = Re S a + Im S b``,
+        ``y_b = -Im S a + Re S b``; order 0 keeps ``Re S``."""
+        n, nc = S.shape[1], self.n_coeffs
+        R = np.zeros((n, nc, n, nc))
+        Rt = R.transpose(1, 3, 0, 2)  # view: (coeff, coeff, dof, dof)
+        dyn = self._dynamic_positions
+        if self.has_static:
+            Rt[0, 0] = S[0].real
+        if dyn.size:
+            ia, ib = self.cos_index, self.sin_index
+            Rt[ia, ia] = Rt[ib, ib] = S[dyn].real
+            Rt[ia, ib] = S[dyn].imag
+            Rt[ib, ia] = -S[dyn].imag
+        return R.reshape(n * nc, n * nc)
+
+    def real_vector(self, F: np.ndarray) -> np.ndarray:
+        """Per-order complex vectors (n_orders, n) -> DOF-major coefficients (n, n_coeffs)."""
+        c = np.zeros((F.shape[1], self.n_coeffs))
+        if self.has_static:
+            c[:, 0] = F[0].real
+        dyn = self._dynamic_positions
+        c[:, self.cos_index] = F[dyn].real.T
+        c[:, self.sin_index] = -F[dyn].imag.T
+        return c
+
+    @cached_property
+    def _dynamic_positions(self) -> np.ndarray:
+        return np.arange(int(self.has_static), len(self.orders))
+
+    def to_complex(self, c: np.ndarray) -> dict[int, np.ndarray]:
+        """Coefficients (..., n_coeffs) -> {order: complex X_n = a_n - i b_n}."""
+        out = {}
+        if self.has_static:
+            out[0] = c[..., 0].astype(complex)
+        for o, ic, js in zip(self.dynamic_orders, self.cos_index, self.sin_index):
+            out[o] = c[..., ic] - 1j * c[..., js]
+        return out
+
+    def from_complex(self, X: dict[int, np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+        """{order: complex X_n} -> real coefficients (*shape, n_coeffs); orders missing
+        from ``X`` are zero, orders not kept here are ignored."""
+        c = np.zeros((*shape, self.n_coeffs))
+        if self.has_static and 0 in X:
+            c[..., 0] = np.real(X[0])
+        for o, ic, js in zip(self.dynamic_orders, self.cos_index, self.sin_index):
+            if o in X:
+                c[..., ic] = np.real(X[o])
+                c[..., js] = -np.imag(X[o])
+        return c
+
+    def peak(self, c: np.ndarray, oversample: int = 4) -> np.ndarray:
+        """max_t |x(t)| of coefficient rows (..., n_coeffs), sampled at
+        ``oversample * n_samples`` phases (enough for the orders kept)."""
+        theta = 2.0 * np.pi * np.arange(oversample * self.n_samples) / (
+            oversample * self.n_samples
+        )
+        return np.max(np.abs(c @ self.synthesis_at(theta).T), axis=-1)

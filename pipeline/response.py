@@ -1,0 +1,162 @@
+"""Forced response: sweeps of a harmonic-balance model and what a user reads off them.
+
+:func:`sweep` follows the solution in one scalar parameter (frequency, excitation
+level, mass multiplier, preload) by natural or arclength continuation and wraps
+the branch in a :class:`Response`, which recovers every DOF, peaks ``max|x(t)|``,
+contact states and dissipated energies point by point.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import continuation as cont
+from .contact import ContactResponse
+from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
+
+METHODS = ("arclength", "natural")
+
+
+@dataclass
+class Response:
+    """A solved branch of a harmonic-balance model."""
+
+    model: HarmonicBalance
+    branch: cont.Branch
+    base: OperatingPoint
+
+    def __len__(self) -> int:
+        return len(self.branch)
+
+    @property
+    def parameter(self) -> str:
+        return self.branch.parameter
+
+    @property
+    def values(self) -> np.ndarray:
+        return self.branch.values
+
+    def point(self, i: int) -> OperatingPoint:
+        return self.base.set(self.parameter, self.branch.values[i])
+
+    @property
+    def omega(self) -> np.ndarray:
+        """(n_points,) excitation frequency, rad/s."""
+        return np.array([self.point(i).omega for i in range(len(self))])
+
+    def coefficients(self, dofs: Sequence[int] | None = None) -> np.ndarray:
+        """(n_points, n_dofs, n_coeffs) harmonic coefficients of the DOFs (m)."""
+        sel = slice(None) if dofs is None else np.asarray(dofs)
+        return np.array(
+            [self.model.recover(x, self.point(i))[sel] for i, x in enumerate(self.branch.x)]
+        )
+
+    def amplitude(self, dofs: Sequence[int] | None = None, oversample: int = 4) -> np.ndarray:
+        """(n_points, n_dofs) max_t |x(t)| of the DOFs, m."""
+        return self.model.harmonics.peak(self.coefficients(dofs), oversample)
+
+    def contacts(self, i: int, histories: bool = False) -> list[ContactResponse]:
+        """Contact forces, states and dissipation at point ``i``, per contact."""
+        return self.model.contact_response(self.branch.x[i], self.point(i), histories)
+
+    def energy(self, i: int) -> dict[str, float]:
+        """Work per cycle at point ``i`` (see HarmonicBalance.energy_balance)."""
+        return self.model.energy_balance(self.branch.x[i], self.point(i))
+
+
+def scales(model: HarmonicBalance, point: OperatingPoint) -> tuple[float, float]:
+    """(x_scale, f_scale): displacement and force that make unknowns and
+    residuals O(1). The force scale is the largest condensed external force
+    (static or dynamic) or, without any, the largest contact force limit; the
+    displacement scale is the response of the linear system with stuck contacts."""
+    lin = model.condensed(point)
+    f = float(np.max(np.abs(lin.F))) if lin.F.size else 0.0
+    if f == 0.0:
+        f = max(
+            (float(np.max(np.abs(c.elements.n0) * np.maximum(c.elements.mu, 1.0)))
+             for c in model.contacts),
+            default=0.0,
+        )
+    f = f if f > 0 else 1.0
+    x = float(np.max(np.abs(model.linear_guess(point, stuck=True))))
+    return (x if x > 0 else 1.0), f
+
+
+def initial_guess(model: HarmonicBalance, point: OperatingPoint, f_scale: float) -> np.ndarray:
+    """The better (smaller residual) of the free and the stuck linear responses."""
+    best, best_res = None, np.inf
+    for stuck in (False, True):
+        x = model.linear_guess(point, stuck=stuck)
+        if not np.all(np.isfinite(x)):
+            continue
+        R, _, _ = model.residual(x, point, jacobian=False)
+        res = float(np.max(np.abs(R))) / f_scale if R.size else 0.0
+        if res < best_res:
+            best, best_res = x, res
+    return best if best is not None else np.zeros(model.n_unknowns)
+
+
+def sweep(
+    model: HarmonicBalance,
+    parameter: str,
+    start: float,
+    stop: float,
+    base: OperatingPoint,
+    *,
+    method: str = "arclength",
+    settings: cont.Settings = cont.Settings(),
+    x0: np.ndarray | None = None,
+    x_scale: float | None = None,
+    progress: Callable[[int, float, int], None] | None = None,
+) -> Response:
+    """Follow the solution of ``model`` as ``parameter`` goes from start to stop.
+
+    base: values of the other parameters (and of this one, overridden by the
+    sweep). Bad arguments raise ValueError before any solve.
+    """
+    if parameter not in PARAMETERS:
+        raise ValueError(f"sweep: 'parameter' = {parameter!r} is not one of {PARAMETERS}")
+    if method not in METHODS:
+        raise ValueError(f"sweep: 'method' = {method!r} is not one of {METHODS}")
+    cont._check_range(start, stop, parameter)
+    if parameter == "frequency" and min(start, stop) <= 0:
+        raise ValueError(f"sweep: frequency range must be > 0 rad/s, got {start}..{stop}")
+    if parameter in ("mass",) and min(start, stop) <= 0:
+        raise ValueError(f"sweep: mass multiplier range must be > 0, got {start}..{stop}")
+    if x0 is not None and np.shape(x0) != (model.n_unknowns,):
+        raise ValueError(f"sweep: 'x0' has shape {np.shape(x0)}, expected ({model.n_unknowns},)")
+    p0 = base.set(parameter, start)
+    xs, fs = scales(model, p0)
+    if x_scale is not None:
+        xs = float(x_scale)
+    if x0 is None:
+        x0 = initial_guess(model, p0, fs)
+
+    def fun(x, lam, jac):
+        return model.residual(x, base.set(parameter, lam), parameter, jacobian=jac)
+
+    run = cont.arclength if method == "arclength" else cont.natural
+    branch = run(fun, x0, start, stop, parameter=parameter, x_scale=xs, f_scale=fs,
+                 settings=settings, progress=progress)
+    return Response(model, branch, base)
+
+
+def solve_point(
+    model: HarmonicBalance,
+    point: OperatingPoint,
+    *,
+    settings: cont.Settings = cont.Settings(),
+    x0: np.ndarray | None = None,
+) -> cont.NewtonResult:
+    """One harmonic-balance solution at a fixed operating point."""
+    xs, fs = scales(model, point)
+    if x0 is None:
+        x0 = initial_guess(model, point, fs)
+
+    def fun(x, lam, jac):
+        return model.residual(x, point, None, jacobian=jac)
+
+    return cont.newton(fun, x0, 0.0, x_scale=xs, f_scale=fs, settings=settings)
