@@ -96,6 +96,9 @@ class Settings:
                 raise ValueError(f"continuation: '{name}' must be an integer >= 1, got {v}")
 
 
+DEFAULT = Settings()
+
+
 def newton(
     fun: Problem,
     x0: np.ndarray,
@@ -103,7 +106,7 @@ def newton(
     *,
     x_scale: float | np.ndarray = 1.0,
     f_scale: float = 1.0,
-    settings: Settings = Settings(),
+    settings: Settings = DEFAULT,
 ) -> NewtonResult:
     """Damped Newton iterations on ``R(x, lam) = 0`` at fixed ``lam``."""
     x = np.array(x0, dtype=float)
@@ -175,7 +178,7 @@ def natural(
     parameter: str = "lambda",
     x_scale: float | np.ndarray = 1.0,
     f_scale: float = 1.0,
-    settings: Settings = Settings(),
+    settings: Settings = DEFAULT,
     progress: Callable[[int, float, int], None] | None = None,
 ) -> Branch:
     """Natural continuation from ``start`` to ``stop`` in steps of
@@ -226,7 +229,7 @@ def arclength(
     parameter: str = "lambda",
     x_scale: float | np.ndarray = 1.0,
     f_scale: float = 1.0,
-    settings: Settings = Settings(),
+    settings: Settings = DEFAULT,
     progress: Callable[[int, float, int], None] | None = None,
 ) -> Branch:
     """Pseudo-arclength continuation from ``start`` until ``stop`` is passed.

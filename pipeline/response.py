@@ -107,7 +107,7 @@ def sweep(
     base: OperatingPoint,
     *,
     method: str = "arclength",
-    settings: cont.Settings = cont.Settings(),
+    settings: cont.Settings = cont.DEFAULT,
     x0: np.ndarray | None = None,
     x_scale: float | None = None,
     progress: Callable[[int, float, int], None] | None = None,
@@ -148,7 +148,7 @@ def solve_point(
     model: HarmonicBalance,
     point: OperatingPoint,
     *,
-    settings: cont.Settings = cont.Settings(),
+    settings: cont.Settings = cont.DEFAULT,
     x0: np.ndarray | None = None,
 ) -> cont.NewtonResult:
     """One harmonic-balance solution at a fixed operating point."""
