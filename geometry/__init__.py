@@ -1,1 +1,41 @@
-"""microslip: Gmsh parametric models -> tagged meshes (no physics here)."""
+"""microslip: Gmsh parametric models -> tagged meshes (no physics here).
+
+Public API
+----------
+Mesh, CyclicBoundary, ContactPatch       the mesh contract (geometry.mesh)
+beam, annular_sector                     reference models for FE checks (geometry.simple)
+blisk_sector, BliskParameters            blisk sector + wedge damper (geometry.blisk)
+root_joint, RootJointParameters          dovetail disk sector + blade (geometry.root_joint)
+full_disk                                Ns rotated copies joined at the cyclic faces
+sicn                                     element quality (geometry.quality)
+GeometryParameterError, GeometryBuildError
+Previews: geometry.preview.render_previews(mesh, out_dir) (imports pyvista).
+"""
+
+from .blisk import BliskParameters, blisk_sector
+from .full_disk import full_disk
+from .mesh import ContactPatch, CyclicBoundary, Mesh, MeshValidationError, rotation_z
+from .params import GeometryBuildError, GeometryParameterError
+from .quality import sicn
+from .root_joint import RootJointParameters, root_joint
+from .simple import AnnularSectorParameters, BeamParameters, annular_sector, beam
+
+__all__ = [
+    "AnnularSectorParameters",
+    "BeamParameters",
+    "BliskParameters",
+    "ContactPatch",
+    "CyclicBoundary",
+    "GeometryBuildError",
+    "GeometryParameterError",
+    "Mesh",
+    "MeshValidationError",
+    "RootJointParameters",
+    "annular_sector",
+    "beam",
+    "blisk_sector",
+    "full_disk",
+    "rotation_z",
+    "root_joint",
+    "sicn",
+]

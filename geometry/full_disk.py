@@ -1,0 +1,87 @@
+"""Full 360-degree model from a sector model by rotated copies (reference for cyclic checks)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .mesh import ContactPatch, Mesh, rotation_z
+
+
+def full_disk(sector: Mesh) -> Mesh:
+    """Assemble Ns rotated copies of a sector mesh into a full-disk mesh.
+
+    Copy k is the sector rotated by k phi about +z (k = 0..Ns-1). Each cyclic body becomes
+    one body of the same name, its copies joined node for node at the cyclic faces (copy
+    k's right face is copy k+1's left face). Every other body (blade, damper) becomes Ns
+    bodies "<body>#k" with their own nodes. Node sets become "<set>#k" (one per copy; the
+    cyclic face sets are dropped: they are interior now). Contact patches become
+    "<patch>#k"; a patch whose body_b is in the neighbouring sector (b_sector_offset = s)
+    pairs copy k of body_a with copy k+s of body_b, so every full-disk patch is a plain
+    coincident pair (b_sector_offset = 0).
+
+    Shapes: points (Ns * n_unique, 3), tetrahedra (Ns * n_tets, 4). Needs one common Ns.
+    """
+    counts = {c.sectors for c in sector.cyclic.values()}
+    if len(counts) != 1:
+        raise ValueError(f"full_disk needs exactly one sector count, got {sorted(counts)}")
+    ns = counts.pop()
+    phi = 2 * np.pi / ns
+    n = len(sector.points)
+    # node_map[k, i]: full-disk index of sector node i in copy k (-1 = not used)
+    node_map = np.full((ns, n), -1, dtype=np.int64)
+    next_id = 0
+    shared_left = np.zeros(n, dtype=bool)
+    for cyc in sector.cyclic.values():
+        shared_left[cyc.left] = True
+    used = np.zeros(n, dtype=bool)
+    used[sector.tetrahedra.ravel()] = True
+    own = np.flatnonzero(used & ~shared_left)
+    for k in range(ns):
+        node_map[k, own] = np.arange(next_id, next_id + len(own))
+        next_id += len(own)
+    for cyc in sector.cyclic.values():
+        for k in range(ns):  # copy k's left face is copy k-1's right face
+            node_map[k, cyc.left] = node_map[(k - 1) % ns, cyc.right]
+    points = np.zeros((next_id, 3))
+    for k in range(ns):
+        points[node_map[k, own]] = sector.points[own] @ rotation_z(k * phi).T
+
+    tets, bodies, offset = [], {}, 0
+    for name, idx in sector.bodies.items():
+        copies = []
+        for k in range(ns):
+            t = node_map[k][sector.tetrahedra[idx]]
+            tets.append(t)
+            copies.append(np.arange(offset, offset + len(t)))
+            offset += len(t)
+        if name in sector.cyclic:
+            bodies[name] = np.concatenate(copies)
+        else:
+            bodies.update({f"{name}#{k}": c for k, c in enumerate(copies)})
+
+    def body_copy(body: str, k: int) -> str:
+        return body if body in sector.cyclic else f"{body}#{k % ns}"
+
+    node_sets = {
+        f"{name}#{k}": np.unique(node_map[k, idx])
+        for name, idx in sector.node_sets.items()
+        if not name.startswith("cyclic/")
+        for k in range(ns)
+    }
+    contacts = {}
+    for name, p in sector.contacts.items():
+        for k in range(ns):
+            kb = k + p.b_sector_offset
+            contacts[f"{name}#{k}"] = ContactPatch(
+                f"{name}#{k}", body_copy(p.body_a, k), body_copy(p.body_b, kb),
+                node_map[k][p.nodes_a], node_map[kb % ns][p.nodes_b],
+                rotation_z(k * phi) @ p.normal, p.area)
+    return Mesh(
+        model=f"{sector.model}_full",
+        points=points,
+        tetrahedra=np.vstack(tets),
+        bodies=bodies,
+        node_sets=node_sets,
+        contacts=contacts,
+        parameters={**sector.parameters, "full_disk": True},
+    )

@@ -1,0 +1,404 @@
+"""The mesh contract: a plain, immutable, validated data object.
+
+Everything downstream (assembly, cyclic symmetry, reduction, contact) reads a
+:class:`Mesh`; nothing downstream ever talks to Gmsh.
+
+Conventions
+-----------
+* SI units (m). Node and element indices are 0-based ``int64``.
+* Disk axis = global +z through the origin. The fundamental sector spans
+  ``theta in [-phi/2, +phi/2]`` (measured from +x about +z), ``phi = 2 pi / Ns``,
+  so the sector's blade points along +x. Left cyclic face at ``-phi/2``, right
+  face at ``+phi/2``; ``right[i]`` is the image of ``left[i]`` under the rotation
+  by ``+phi`` about +z.
+* Node-set names are "/" paths ("disk/bore", "cyclic/disk/left",
+  "contact/root_left/blade", ...); each model documents its names.
+* Different bodies share no node; touching faces carry distinct, coincident nodes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+#: Geometric matching tolerance of cyclic faces and contact grids (m).
+MATCH_TOL = 1e-9
+
+
+class MeshValidationError(ValueError):
+    """A :class:`Mesh` (or one of its parts) violates the mesh contract."""
+
+
+def rotation_z(angle: float) -> np.ndarray:
+    """(3, 3) rotation matrix by ``angle`` (rad) about +z."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _index_array(name: str, values, ndim: int | None = None) -> np.ndarray:
+    arr = np.asarray(values)
+    if arr.size == 0:
+        arr = arr.astype(np.int64)
+    if not np.issubdtype(arr.dtype, np.integer):
+        raise MeshValidationError(f"{name}: expected integer indices, got dtype {arr.dtype}")
+    if ndim is not None and arr.ndim != ndim:
+        raise MeshValidationError(f"{name}: expected {ndim}-D array, got shape {arr.shape}")
+    return _frozen(arr.astype(np.int64))
+
+
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    out = np.ascontiguousarray(arr).copy()
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True)
+class CyclicBoundary:
+    """Node-for-node periodic faces of one sector body.
+
+    left:    (k,) int64 node indices on the left cyclic face (theta = -phi/2)
+    right:   (k,) int64; ``right[i]`` is the image of ``left[i]`` under the rotation
+             by +phi about +z
+    sectors: Ns; ``phi = 2 pi / Ns``
+    """
+
+    left: np.ndarray
+    right: np.ndarray
+    sectors: int
+
+    def __post_init__(self) -> None:
+        left = _index_array("CyclicBoundary.left", self.left, 1)
+        right = _index_array("CyclicBoundary.right", self.right, 1)
+        if left.shape != right.shape:
+            raise MeshValidationError(
+                f"CyclicBoundary: left {left.shape} and right {right.shape} differ in size"
+            )
+        if int(self.sectors) < 3:
+            raise MeshValidationError(f"CyclicBoundary.sectors = {self.sectors}, must be >= 3")
+        if np.intersect1d(left, right).size:
+            raise MeshValidationError("CyclicBoundary: a node is on both left and right faces")
+        object.__setattr__(self, "left", left)
+        object.__setattr__(self, "right", right)
+        object.__setattr__(self, "sectors", int(self.sectors))
+
+    @property
+    def angle(self) -> float:
+        """Sector angle phi = 2 pi / Ns (rad)."""
+        return 2.0 * np.pi / self.sectors
+
+
+@dataclass(frozen=True)
+class ContactPatch:
+    """Two touching faces meshed as the same structured n1 x n2 grid.
+
+    name:    patch name (also used in node-set names "contact/<name>/<body>")
+    body_a:  body owning ``nodes_a``
+    body_b:  body owning ``nodes_b``
+    nodes_a: (n1, n2) int64 node indices on body_a's face; ``nodes_a[i, j]`` and
+             ``nodes_a[i+1, j]`` are neighbours along the patch's first direction
+    nodes_b: (n1, n2) int64 node indices on body_b's face, paired with nodes_a
+    normal:  (3,) unit outward normal of body_a's face (from body_a into body_b), in
+             the assembled position of body_a (body_a is never rotated)
+    area:    patch area (m^2)
+    b_sector_offset:
+             k, an integer. The face of body_b that touches may belong to a neighbouring
+             sector of a cyclic body (the blisk damper touches the platform of the next
+             blade). Then ``nodes_b`` are the *fundamental sector's own* nodes and the
+             touching face is their image under the rotation by ``k phi`` about +z:
+             ``points[nodes_a] == points[nodes_b] @ R(k phi).T`` (within 1e-9 m).
+             Downstream, the displacement of the touching face at nodal diameter h is
+             ``exp(i h k phi) R(k phi) u_b`` (per temporal harmonic n: h = n EO).
+             ``k = 0`` (default): plain coincidence, ``points[nodes_a] == points[nodes_b]``.
+    """
+
+    name: str
+    body_a: str
+    body_b: str
+    nodes_a: np.ndarray
+    nodes_b: np.ndarray
+    normal: np.ndarray
+    area: float
+    b_sector_offset: int = 0
+
+    def __post_init__(self) -> None:
+        nodes_a = _index_array(f"ContactPatch {self.name!r}.nodes_a", self.nodes_a, 2)
+        nodes_b = _index_array(f"ContactPatch {self.name!r}.nodes_b", self.nodes_b, 2)
+        if nodes_a.shape != nodes_b.shape:
+            raise MeshValidationError(
+                f"ContactPatch {self.name!r}: nodes_a {nodes_a.shape} != nodes_b {nodes_b.shape}"
+            )
+        if min(nodes_a.shape) < 2:
+            raise MeshValidationError(
+                f"ContactPatch {self.name!r}: grid {nodes_a.shape} is smaller than 2 x 2"
+            )
+        normal = np.asarray(self.normal, dtype=np.float64)
+        if normal.shape != (3,) or abs(np.linalg.norm(normal) - 1.0) > 1e-9:
+            raise MeshValidationError(
+                f"ContactPatch {self.name!r}: normal must be a (3,) unit vector, got {normal}"
+            )
+        if not float(self.area) > 0.0:
+            raise MeshValidationError(f"ContactPatch {self.name!r}: area {self.area} <= 0")
+        if self.body_a == self.body_b:
+            raise MeshValidationError(f"ContactPatch {self.name!r}: body_a == body_b")
+        object.__setattr__(self, "nodes_a", nodes_a)
+        object.__setattr__(self, "nodes_b", nodes_b)
+        object.__setattr__(self, "normal", _frozen(normal))
+        object.__setattr__(self, "area", float(self.area))
+        object.__setattr__(self, "b_sector_offset", int(self.b_sector_offset))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Grid shape (n1, n2)."""
+        return tuple(self.nodes_a.shape)
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Linear tetrahedral mesh of one model with bodies, named sets, cyclic faces, contacts.
+
+    model:      model name ("blisk_sector", "root_joint", "beam", "annular_sector")
+    points:     (n_nodes, 3) float64 node coordinates (m)
+    tetrahedra: (n_tets, 4) int64 node indices, positively oriented
+    bodies:     body name -> (n_body_tets,) int64 tet indices; bodies partition the tets
+                and share no node
+    node_sets:  name -> sorted unique int64 node indices
+    cyclic:     body name -> its :class:`CyclicBoundary` (sector bodies only)
+    contacts:   patch name -> :class:`ContactPatch`
+    parameters: JSON-serialisable parameters that built the mesh (plus derived values
+                under "derived", e.g. CAD volumes and the damper's nominal mass)
+    """
+
+    model: str
+    points: np.ndarray
+    tetrahedra: np.ndarray
+    bodies: dict[str, np.ndarray]
+    node_sets: dict[str, np.ndarray] = field(default_factory=dict)
+    cyclic: dict[str, CyclicBoundary] = field(default_factory=dict)
+    contacts: dict[str, ContactPatch] = field(default_factory=dict)
+    parameters: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ checks
+    def __post_init__(self) -> None:
+        points = np.asarray(self.points, dtype=np.float64)
+        if points.ndim != 2 or points.shape[1] != 3:
+            raise MeshValidationError(f"points: expected shape (n, 3), got {points.shape}")
+        if not np.all(np.isfinite(points)):
+            raise MeshValidationError("points: non-finite coordinates")
+        tets = _index_array("tetrahedra", self.tetrahedra, 2)
+        if tets.shape[1] != 4:
+            raise MeshValidationError(f"tetrahedra: expected shape (m, 4), got {tets.shape}")
+        n = len(points)
+        if tets.size and (tets.min() < 0 or tets.max() >= n):
+            raise MeshValidationError(f"tetrahedra: indices outside [0, {n})")
+        points = _frozen(points)
+        object.__setattr__(self, "points", points)
+        object.__setattr__(self, "tetrahedra", tets)
+        vol = signed_volumes(points, tets)
+        if vol.size and vol.min() <= 0.0:
+            raise MeshValidationError(
+                f"tetrahedra: {int((vol <= 0).sum())} elements not positively oriented"
+            )
+        object.__setattr__(self, "bodies", self._checked_bodies(len(tets)))
+        object.__setattr__(self, "node_sets", self._checked_node_sets(n))
+        self._check_cyclic()
+        self._check_contacts()
+        try:
+            json.dumps(self.parameters, sort_keys=True)
+        except TypeError as exc:
+            raise MeshValidationError(f"parameters are not JSON-serialisable: {exc}") from exc
+
+    def _checked_bodies(self, n_tets: int) -> dict[str, np.ndarray]:
+        if not self.bodies:
+            raise MeshValidationError("bodies: at least one body is required")
+        bodies = {k: _index_array(f"bodies[{k!r}]", v, 1) for k, v in self.bodies.items()}
+        owner = np.full(n_tets, -1)
+        for i, (name, idx) in enumerate(bodies.items()):
+            if idx.size and (idx.min() < 0 or idx.max() >= n_tets):
+                raise MeshValidationError(f"bodies[{name!r}]: tet indices outside [0, {n_tets})")
+            if np.any(owner[idx] >= 0):
+                raise MeshValidationError(f"bodies[{name!r}]: tets assigned to two bodies")
+            owner[idx] = i
+        if np.any(owner < 0):
+            raise MeshValidationError(f"bodies: {int((owner < 0).sum())} tets belong to no body")
+        seen: set[int] = set()
+        for name, idx in bodies.items():
+            nodes = set(np.unique(self.tetrahedra[idx]).tolist())
+            if nodes & seen:
+                raise MeshValidationError(f"bodies[{name!r}] shares nodes with another body")
+            seen |= nodes
+        return bodies
+
+    def _checked_node_sets(self, n: int) -> dict[str, np.ndarray]:
+        sets = {}
+        for name, idx in self.node_sets.items():
+            arr = _index_array(f"node_sets[{name!r}]", idx, 1)
+            if arr.size and (arr.min() < 0 or arr.max() >= n):
+                raise MeshValidationError(f"node_sets[{name!r}]: indices outside [0, {n})")
+            if arr.size > 1 and np.any(np.diff(arr) <= 0):
+                raise MeshValidationError(f"node_sets[{name!r}]: not sorted unique")
+            sets[name] = arr
+        return sets
+
+    def _check_cyclic(self) -> None:
+        for body, cyc in self.cyclic.items():
+            if body not in self.bodies:
+                raise MeshValidationError(f"cyclic[{body!r}]: unknown body")
+            owned = self.body_nodes(body)
+            for side in ("left", "right"):
+                if not np.all(np.isin(getattr(cyc, side), owned)):
+                    raise MeshValidationError(f"cyclic[{body!r}].{side}: nodes outside the body")
+            image = self.points[cyc.left] @ rotation_z(cyc.angle).T
+            err = np.abs(image - self.points[cyc.right]).max(initial=0.0)
+            if err > MATCH_TOL:
+                raise MeshValidationError(
+                    f"cyclic[{body!r}]: right != R(phi) left, max error {err:.3e} m"
+                )
+
+    def _check_contacts(self) -> None:
+        for name, patch in self.contacts.items():
+            for body, nodes in ((patch.body_a, patch.nodes_a), (patch.body_b, patch.nodes_b)):
+                if body not in self.bodies:
+                    raise MeshValidationError(f"contacts[{name!r}]: unknown body {body!r}")
+                if not np.all(np.isin(nodes, self.body_nodes(body))):
+                    raise MeshValidationError(f"contacts[{name!r}]: nodes outside body {body!r}")
+            if patch.b_sector_offset and patch.body_b not in self.cyclic:
+                raise MeshValidationError(
+                    f"contacts[{name!r}]: b_sector_offset needs a cyclic body_b"
+                )
+            err = np.abs(self.patch_points(name, "a") - self.patch_points(name, "b")).max()
+            if err > MATCH_TOL:
+                raise MeshValidationError(
+                    f"contacts[{name!r}]: grids do not coincide, max error {err:.3e} m"
+                )
+
+    # ----------------------------------------------------------------- queries
+    def body_nodes(self, body: str) -> np.ndarray:
+        """(k,) sorted unique int64 node indices used by the tets of ``body``."""
+        return np.unique(self.tetrahedra[self.bodies[body]])
+
+    def sector_angle(self, body: str) -> float:
+        """phi = 2 pi / Ns of a cyclic body (rad)."""
+        return self.cyclic[body].angle
+
+    def patch_points(self, name: str, side: str) -> np.ndarray:
+        """(n1, n2, 3) assembled coordinates (m) of side "a" or "b" of a contact patch.
+
+        Side "b" is rotated by ``b_sector_offset * phi`` when the touching face belongs
+        to a neighbouring sector (see :class:`ContactPatch`).
+        """
+        patch = self.contacts[name]
+        if side == "a":
+            return self.points[patch.nodes_a]
+        if side != "b":
+            raise ValueError(f"side must be 'a' or 'b', got {side!r}")
+        xyz = self.points[patch.nodes_b]
+        if patch.b_sector_offset:
+            angle = patch.b_sector_offset * self.cyclic[patch.body_b].angle
+            xyz = xyz @ rotation_z(angle).T
+        return xyz
+
+    def body_volume(self, body: str) -> float:
+        """Sum of the tet volumes of ``body`` (m^3)."""
+        return float(signed_volumes(self.points, self.tetrahedra[self.bodies[body]]).sum())
+
+    @cached_property
+    def content_hash(self) -> str:
+        """sha256 hex digest over arrays, names and parameters (stable across runs)."""
+        h = hashlib.sha256()
+
+        def put(tag: str, arr: np.ndarray | None = None) -> None:
+            h.update(tag.encode() + b"\0")
+            if arr is not None:
+                a = np.ascontiguousarray(arr)
+                h.update(str(a.shape).encode() + a.dtype.str.encode() + a.tobytes())
+
+        put(self.model)
+        put("points", self.points)
+        put("tetrahedra", self.tetrahedra)
+        for name in sorted(self.bodies):
+            put("body/" + name, self.bodies[name])
+        for name in sorted(self.node_sets):
+            put("set/" + name, self.node_sets[name])
+        for name in sorted(self.cyclic):
+            cyc = self.cyclic[name]
+            put(f"cyclic/{name}/{cyc.sectors}", np.stack([cyc.left, cyc.right]))
+        for name in sorted(self.contacts):
+            p = self.contacts[name]
+            put(f"contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/{p.area!r}")
+            put("a", p.nodes_a)
+            put("b", p.nodes_b)
+            put("n", p.normal)
+        put(json.dumps(self.parameters, sort_keys=True))
+        return h.hexdigest()
+
+    # ---------------------------------------------------------------------- IO
+    def to_meshio(self):
+        """meshio.Mesh: one tetra block per body, cell data "body" (int), and per node set a
+        0/1 point-data mask named like the set ("/" replaced by "."), for ParaView."""
+        import meshio
+
+        names = list(self.bodies)
+        cells = [("tetra", self.tetrahedra[self.bodies[b]]) for b in names]
+        body_id = [np.full(len(self.bodies[b]), i, dtype=np.int32) for i, b in enumerate(names)]
+        point_data = {}
+        for name, idx in self.node_sets.items():
+            mask = np.zeros(len(self.points), dtype=np.uint8)
+            mask[idx] = 1
+            point_data[name.replace("/", ".")] = mask
+        return meshio.Mesh(
+            np.asarray(self.points),
+            cells,
+            point_data=point_data,
+            cell_data={"body": body_id},
+            field_data={b: np.array([i, 3]) for i, b in enumerate(names)},
+        )
+
+    def write_msh(self, path) -> Path:
+        """Write a Gmsh 2.2 ASCII file: one physical volume per body, one physical point
+        group (vertex cells) per node set; physical names are the body and set names."""
+        import meshio
+
+        path = Path(path)
+        cells, phys, geom, field_data = [], [], [], {}
+        tag = 1
+        for name, idx in self.bodies.items():
+            cells.append(("tetra", self.tetrahedra[idx]))
+            phys.append(np.full(len(idx), tag, dtype=np.int32))
+            field_data[name] = np.array([tag, 3])
+            tag += 1
+        for name, idx in self.node_sets.items():
+            cells.append(("vertex", idx.reshape(-1, 1)))
+            phys.append(np.full(len(idx), tag, dtype=np.int32))
+            field_data[name] = np.array([tag, 0])
+            tag += 1
+        geom = [p.copy() for p in phys]
+        m = meshio.Mesh(
+            np.asarray(self.points),
+            cells,
+            cell_data={"gmsh:physical": phys, "gmsh:geometrical": geom},
+            field_data=field_data,
+        )
+        meshio.write(path, m, file_format="gmsh22", binary=False)
+        return path
+
+    def write(self, path) -> Path:
+        """Write by suffix: ".msh" (Gmsh) or anything meshio knows (".vtu", ".xdmf", ...)."""
+        import meshio
+
+        path = Path(path)
+        if path.suffix == ".msh":
+            return self.write_msh(path)
+        meshio.write(path, self.to_meshio())
+        return path
+
+
+def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """(m,) signed volumes (m^3) of tets (m, 4) over points (n, 3); > 0 when positive."""
+    p = np.asarray(points)[np.asarray(tets)]
+    d = p[:, 1:] - p[:, :1]
+    return np.einsum("ij,ij->i", d[:, 0], np.cross(d[:, 1], d[:, 2])) / 6.0
