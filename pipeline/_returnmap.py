@@ -15,10 +15,22 @@ The march starts as if the previous sample had ``T = kt u_{N-1}``, so the
 first predictor is ``kt u_0`` (the static part included: seed eqs. 26-28), and
 repeats periods until the force at the end of a period repeats.
 
+Sub-sample transitions. Between two samples the inputs are taken linear in
+time. A contact that closes inside an interval starts sticking from where it
+closed, ``Tp = kt (u_k - u(s_z))``, not from the previous sample. The Fourier
+projection is the trapezoid rule, spectrally accurate on the smooth stretches
+of T and N but only O(h^2) across a kink (stick->slip, opening, closing). Each
+kink, located at fraction ``s`` of its interval, with slope jump J taken from
+the exact slopes of the trigonometric inputs there, gets the Euler-Maclaurin
+term of the periodic trapezoid rule removed, ``h^2 J (s (1 - s) - 1/6) / 2``.
+That makes the error O(h^3) and, as importantly for Newton, keeps the
+coefficients continuous as a transition moves from one interval to the next.
+
 Derivatives are propagated forward through the same recursion (Petrov & Ewins
 2003): ``G_k = dT_k / d(inputs)``, the inputs being the Fourier coefficients
 of every component and ``n0``. The last period's ``G`` is projected onto the
-harmonics with one matrix product per point.
+harmonics with one matrix product per point; the kink terms are differentiated
+in closed form.
 """
 
 from __future__ import annotations
@@ -30,59 +42,64 @@ STICK, SLIP, OPEN = 0, 1, 2
 
 
 @njit(cache=True, parallel=True, fastmath=False)
-def march(u, v, kt, kn, mu, n0, E, A, has_normal, want_jac, max_periods, rtol,
-          T_out, N_out, state_out, jT_out, jN_out, periods_out):  # pragma: no cover
+def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, max_periods,
+          rtol, corrections, T_out, N_out, state_out, F_out, J_out,
+          periods_out):  # pragma: no cover
     """March the return map of every point to its periodic steady state.
 
-    u: (P, d, ns) tangential samples; v: (P, ns) normal samples;
-    kt: (P, d); kn, mu, n0: (P,); E: (ns, nc) synthesis; A: (nc, ns) analysis.
+    g: (P, d + has_normal, nc) input coefficients; u: (P, d, ns) tangential
+    samples; v: (P, ns) normal samples (the synthesis of g);
+    kt: (P, d); kn, mu, n0: (P,); E: (ns, nc) synthesis; A: (nc, ns) analysis;
+    corder (nc,) float harmonic order and ckind (nc,) int (0 constant, 1 cos,
+    2 sin) of each coefficient.
     Outputs: T_out (P, d, ns), N_out (P, ns), state_out (P, ns) int8,
-    jT_out (P, d, nc, m) and jN_out (P, nc, m) with m = (d + has_normal) nc + 1
+    F_out (P, d + 1, nc) force coefficients [T_1, ..., T_d, N],
+    J_out (P, d + has_normal, nc, m) their derivatives, m = (d + has_normal) nc + 1
     columns [u_1 coeffs, ..., u_d coeffs, (v coeffs), n0]; periods_out (P,).
     """
     P, d, ns = u.shape
     nc = E.shape[1]
-    m = jT_out.shape[3]
+    m = J_out.shape[3]
     vcol = d * nc  # first v column
     for p in prange(P):
         G = np.zeros((ns, d * m)) if want_jac else np.zeros((1, 1))
         dT = np.zeros((d, m))
-        dTp = np.zeros((d, m))
         T = np.empty(d)
         Tp = np.empty(d)
         Tend = np.empty(d)
-        # Start: previous sample at k = ns - 1 with T = kt u (seed eq. 26).
+        # Start: previous sample at k = ns - 1 with T = kt u (seed eq. 26), or open.
+        closed = n0[p] + kn[p] * v[p, ns - 1] > 0.0
         for j in range(d):
-            T[j] = kt[p, j] * u[p, j, ns - 1]
-            if want_jac:
+            T[j] = kt[p, j] * u[p, j, ns - 1] if closed else 0.0
+            if want_jac and closed:
                 for c in range(nc):
                     dT[j, j * nc + c] = kt[p, j] * E[ns - 1, c]
         for j in range(d):
             Tend[j] = T[j]
+        was_open = not closed
         kprev = ns - 1
         periods = 0
         for period in range(max_periods):
             periods = period + 1
             scale = 0.0
             for k in range(ns):
-                # predictor
-                for j in range(d):
-                    Tp[j] = T[j] + kt[p, j] * (u[p, j, k] - u[p, j, kprev])
-                if want_jac:
-                    for j in range(d):
-                        for col in range(m):
-                            dTp[j, col] = dT[j, col]
-                        for c in range(nc):
-                            dTp[j, j * nc + c] += kt[p, j] * (E[k, c] - E[kprev, c])
                 N = n0[p] + kn[p] * v[p, k]
+                if was_open and N > 0.0:
+                    _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, m, Tp, dT)
+                else:
+                    # predictor; dT becomes dTp in place (a stuck sample touches nc columns)
+                    for j in range(d):
+                        Tp[j] = T[j] + kt[p, j] * (u[p, j, k] - u[p, j, kprev])
+                    if want_jac:
+                        for j in range(d):
+                            for c in range(nc):
+                                dT[j, j * nc + c] += kt[p, j] * (E[k, c] - E[kprev, c])
                 if N <= 0.0:
                     N = 0.0
                     for j in range(d):
                         T[j] = 0.0
                     if want_jac:
-                        for j in range(d):
-                            for col in range(m):
-                                dT[j, col] = 0.0
+                        dT[:, :] = 0.0
                     state_out[p, k] = OPEN
                 else:
                     norm = 0.0
@@ -93,10 +110,6 @@ def march(u, v, kt, kn, mu, n0, E, A, has_normal, want_jac, max_periods, rtol,
                     if norm <= lim:
                         for j in range(d):
                             T[j] = Tp[j]
-                        if want_jac:
-                            for j in range(d):
-                                for col in range(m):
-                                    dT[j, col] = dTp[j, col]
                         state_out[p, k] = STICK
                     else:
                         ratio = lim / norm
@@ -104,20 +117,24 @@ def march(u, v, kt, kn, mu, n0, E, A, has_normal, want_jac, max_periods, rtol,
                             T[j] = ratio * Tp[j]
                         if want_jac:
                             # dT = ratio (I - n n^T) dTp + mu n dN,  n = Tp / |Tp|
-                            for col in range(m):
-                                proj = 0.0
-                                for j in range(d):
-                                    proj += Tp[j] * dTp[j, col]
-                                proj /= norm
-                                for j in range(d):
-                                    dT[j, col] = ratio * (dTp[j, col] - Tp[j] / norm * proj)
+                            if d == 1:
+                                dT[0, :] = 0.0
+                            else:
+                                for col in range(m):
+                                    proj = 0.0
+                                    for j in range(d):
+                                        proj += Tp[j] * dT[j, col]
+                                    proj /= norm
+                                    for j in range(d):
+                                        dT[j, col] = ratio * (dT[j, col] - Tp[j] / norm * proj)
                             for j in range(d):
-                                g = mu[p] * Tp[j] / norm
+                                mun = mu[p] * Tp[j] / norm
                                 if has_normal:
                                     for c in range(nc):
-                                        dT[j, vcol + c] += g * kn[p] * E[k, c]
-                                dT[j, m - 1] += g
+                                        dT[j, vcol + c] += mun * kn[p] * E[k, c]
+                                dT[j, m - 1] += mun
                         state_out[p, k] = SLIP
+                was_open = N == 0.0
                 N_out[p, k] = N
                 for j in range(d):
                     T_out[p, j, k] = T[j]
@@ -138,20 +155,281 @@ def march(u, v, kt, kn, mu, n0, E, A, has_normal, want_jac, max_periods, rtol,
             if diff <= rtol * scale or scale == 0.0:
                 break
         periods_out[p] = periods
+        # trapezoid projection of the samples
+        for c in range(nc):
+            for j in range(d):
+                acc = 0.0
+                for k in range(ns):
+                    acc += A[c, k] * T_out[p, j, k]
+                F_out[p, j, c] = acc
+            acc = 0.0
+            for k in range(ns):
+                acc += A[c, k] * N_out[p, k]
+            F_out[p, d, c] = acc
         if want_jac:
             J = np.dot(A, G)  # (nc, d m)
             for j in range(d):
                 for c in range(nc):
                     for col in range(m):
-                        jT_out[p, j, c, col] = J[c, j * m + col]
-            # normal force: dN_k = [N_k > 0] (kn E_k on v, 1 on n0)
-            for c in range(nc):
-                for col in range(m):
-                    jN_out[p, c, col] = 0.0
-                for k in range(ns):
-                    if N_out[p, k] > 0.0:
-                        a = A[c, k]
-                        if has_normal:
+                        J_out[p, j, c, col] = J[c, j * m + col]
+            if has_normal:
+                # normal force: dN_k = [N_k > 0] (kn E_k on v, 1 on n0)
+                for c in range(nc):
+                    for col in range(m):
+                        J_out[p, d, c, col] = 0.0
+                    for k in range(ns):
+                        if N_out[p, k] > 0.0:
+                            a = A[c, k]
                             for c2 in range(nc):
-                                jN_out[p, c, vcol + c2] += a * kn[p] * E[k, c2]
-                        jN_out[p, c, m - 1] += a
+                                J_out[p, d, c, vcol + c2] += a * kn[p] * E[k, c2]
+                            J_out[p, d, c, m - 1] += a
+        if corrections:
+            _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
+                   T_out, N_out, state_out, G, F_out, J_out)
+
+
+@njit(cache=True)
+def _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, m, Tp, dT):
+    """Predictor of a contact that closes inside (kprev, k): T was 0 and sticking
+    starts where the normal gap closes, ``Tp = kt (1 - s) (u_k - u_kprev)`` with
+    ``s = Nu_prev / (Nu_prev - Nu_k)``, ``Nu = n0 + kn v``. dT (zero while open)
+    becomes dTp."""  # pragma: no cover
+    d = Tp.size
+    nu0 = n0[p] + kn[p] * v[p, kprev]
+    nu1 = n0[p] + kn[p] * v[p, k]
+    den = nu0 - nu1
+    s = nu0 / den
+    for j in range(d):
+        Tp[j] = (1.0 - s) * kt[p, j] * (u[p, j, k] - u[p, j, kprev])
+    if want_jac:
+        # ds = (-nu1 dnu0 + nu0 dnu1) / den^2, dnu = kn E (v columns) + 1 (n0 column)
+        for j in range(d):
+            du = kt[p, j] * (u[p, j, k] - u[p, j, kprev])
+            for c in range(nc):
+                dT[j, j * nc + c] = (1.0 - s) * kt[p, j] * (E[k, c] - E[kprev, c])
+                ds = kn[p] * (-nu1 * E[kprev, c] + nu0 * E[k, c]) / (den * den)
+                dT[j, vcol + c] = -du * ds
+            dT[j, m - 1] = -du * (nu0 - nu1) / (den * den)
+
+
+@njit(cache=True)
+def _coeff_weight(c, theta, ns, corder, ckind):
+    """Analysis weight a_c(theta) and its derivative d a_c / d theta."""  # pragma: no cover
+    if ckind[c] == 0:
+        return 1.0 / ns, 0.0
+    n = corder[c]
+    if ckind[c] == 1:
+        return 2.0 / ns * np.cos(n * theta), -2.0 / ns * n * np.sin(n * theta)
+    return 2.0 / ns * np.sin(n * theta), 2.0 / ns * n * np.cos(n * theta)
+
+
+@njit(cache=True)
+def _slopes(c, theta, corder, ckind):
+    """d/dtheta and d2/dtheta2 of the basis function of coefficient c."""  # pragma: no cover
+    if ckind[c] == 0:
+        return 0.0, 0.0
+    n = corder[c]
+    if ckind[c] == 1:
+        return -n * np.sin(n * theta), -n * n * np.cos(n * theta)
+    return n * np.cos(n * theta), -n * n * np.sin(n * theta)
+
+
+@njit(cache=True)
+def _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
+           T_out, N_out, state_out, G, F_out, J_out):  # pragma: no cover
+    """Add the sub-sample kink corrections of one point's final period.
+
+    The periodic trapezoid rule across a slope jump J (per radian) at fraction
+    s of an interval errs by ``(s (1 - s) - 1/6) h^2 J / 2`` (Euler-Maclaurin);
+    that is subtracted. The kink is located on the linear interpolant of the
+    samples; J comes from the exact slopes of the trigonometric inputs there,
+    so the correction varies continuously as a kink crosses a sample.
+    g: (P, c, nc) input coefficients."""
+    d, ns = u.shape[1], u.shape[2]
+    nc = E.shape[1]
+    m = J_out.shape[3]
+    vcol = d * nc
+    h = 2.0 * np.pi / ns
+    rows = d + 1
+    last = rows if has_normal else d
+    jump = np.zeros(rows)
+    djump = np.zeros((rows, m))
+    ds = np.zeros(m)
+    a = np.zeros(d)
+    da = np.zeros((d, m))
+    nvec = np.zeros(d)
+    dn = np.zeros((d, m))
+    up = np.zeros(d)  # u'(theta_c)
+    dup = np.zeros((d, m))
+    dvp = np.zeros(m)
+    for k in range(ns):
+        kprev = k - 1 if k > 0 else ns - 1
+        s0, s1 = state_out[p, kprev], state_out[p, k]
+        kind = 0
+        if s0 == STICK and s1 == SLIP:
+            kind = 1
+        elif has_normal and s0 != OPEN and s1 == OPEN:
+            kind = 2
+        elif has_normal and s0 == OPEN and s1 != OPEN:
+            kind = 3
+        if kind == 0:
+            continue
+        if want_jac:
+            djump[:, :] = 0.0
+            ds[:] = 0.0
+            da[:, :] = 0.0
+            dn[:, :] = 0.0
+        for j in range(d):
+            a[j] = kt[p, j] * (u[p, j, k] - u[p, j, kprev])  # stick slope per unit s
+            if want_jac:
+                for c in range(nc):
+                    da[j, j * nc + c] = kt[p, j] * (E[k, c] - E[kprev, c])
+        if kind == 1:
+            s = _crossing(p, k, kprev, a, da, kn, mu, E, has_normal, want_jac, T_out, N_out,
+                          G, ds, nvec, dn)
+        else:
+            nu0 = n0[p] + kn[p] * v[p, kprev]
+            nu1 = n0[p] + kn[p] * v[p, k]
+            den = nu0 - nu1  # > 0 opening, < 0 closing
+            s = nu0 / den
+            if want_jac:
+                for c in range(nc):
+                    ds[vcol + c] = kn[p] * (-nu1 * E[kprev, c] + nu0 * E[k, c]) / (den * den)
+                ds[m - 1] = 1.0 / den
+        theta = ((kprev if k > 0 else -1) + s) * h
+        # exact slopes of the inputs at the kink, and their derivatives
+        vp, vpp = 0.0, 0.0
+        for j in range(d):
+            up[j] = 0.0
+        upp = np.zeros(d)
+        for c in range(nc):
+            d1, d2 = _slopes(c, theta, corder, ckind)
+            for j in range(d):
+                up[j] += g[p, j, c] * d1
+                upp[j] += g[p, j, c] * d2
+            if has_normal:
+                vp += g[p, d, c] * d1
+                vpp += g[p, d, c] * d2
+        if want_jac:
+            for col in range(m):
+                for j in range(d):
+                    dup[j, col] = upp[j] * h * ds[col]
+                dvp[col] = vpp * h * ds[col]
+            for c in range(nc):
+                d1, _ = _slopes(c, theta, corder, ckind)
+                for j in range(d):
+                    dup[j, j * nc + c] += d1
+                if has_normal:
+                    dvp[vcol + c] += d1
+        for r in range(rows):
+            jump[r] = 0.0
+        if kind == 1:
+            # stick slope kt u'; slip slope mu N' n + (I - n n^T) kt u' (slip flow)
+            # -> J = n (mu N' - n . kt u')
+            bp = mu[p] * kn[p] * vp if has_normal else 0.0
+            na = 0.0
+            for j in range(d):
+                na += nvec[j] * kt[p, j] * up[j]
+            for j in range(d):
+                jump[j] = nvec[j] * (bp - na)
+            if want_jac:
+                for col in range(m):
+                    dbp = mu[p] * kn[p] * dvp[col] if has_normal else 0.0
+                    dna = 0.0
+                    for j in range(d):
+                        dna += dn[j, col] * kt[p, j] * up[j] + nvec[j] * kt[p, j] * dup[j, col]
+                    for j in range(d):
+                        djump[j, col] = dn[j, col] * (bp - na) + nvec[j] * (dbp - dna)
+        else:
+            ref = kprev if kind == 2 else k
+            sgn = -1.0 if kind == 2 else 1.0  # N loses / gains its slope kn v'
+            jump[d] = sgn * kn[p] * vp
+            tn = 0.0
+            for j in range(d):
+                tn += T_out[p, j, ref] * T_out[p, j, ref]
+            tn = np.sqrt(tn)
+            for j in range(d):
+                nvec[j] = T_out[p, j, ref] / tn if tn > 0.0 else 0.0
+            stick_after = kind == 3 and state_out[p, k] == STICK
+            for j in range(d):
+                # T slides on mu N into an opening; sticks (kt u') or slides out of a closing
+                jump[j] = kt[p, j] * up[j] if stick_after else sgn * mu[p] * kn[p] * vp * nvec[j]
+            if want_jac:
+                for col in range(m):
+                    djump[d, col] = sgn * kn[p] * dvp[col]
+                    proj = 0.0
+                    for j in range(d):
+                        proj += nvec[j] * G[ref, j * m + col]
+                    for j in range(d):
+                        if stick_after:
+                            djump[j, col] = kt[p, j] * dup[j, col]
+                        else:
+                            dnj = (G[ref, j * m + col] - nvec[j] * proj) / tn if tn > 0.0 else 0.0
+                            djump[j, col] = sgn * mu[p] * kn[p] * (dvp[col] * nvec[j] + vp * dnj)
+        # integral correction h^2 J (1/6 - s (1 - s)) / 2 -> coefficients a_c(theta) / h times it
+        wk = h * (1.0 / 6.0 - s * (1.0 - s)) / 2.0
+        for c in range(nc):
+            wc, dwc = _coeff_weight(c, theta, ns, corder, ckind)
+            for j in range(last):
+                F_out[p, j, c] += wc * wk * jump[j]
+                if want_jac:
+                    for col in range(m):
+                        dwk = h * (2.0 * s - 1.0) / 2.0 * ds[col]
+                        J_out[p, j, c, col] += (
+                            wc * (wk * djump[j, col] + dwk * jump[j])
+                            + dwc * h * ds[col] * wk * jump[j]
+                        )
+
+
+@njit(cache=True)
+def _crossing(p, k, kprev, a, da, kn, mu, E, has_normal, want_jac, T_out, N_out,
+              G, ds, nvec, dn):  # pragma: no cover
+    """Fraction s of (kprev, k) where the linear predictor ``T_prev + s a``
+    from a stuck sample reaches the limit ``L0 + s b`` (b = mu (N_k - N_prev));
+    fills ds, the direction n = T_c / L_c there and dn."""
+    d = a.size
+    nc = E.shape[1]
+    m = ds.size
+    vcol = d * nc
+    L0 = mu[p] * N_out[p, kprev]
+    b = mu[p] * N_out[p, k] - L0
+    qa, qb, qc = -b * b, -L0 * b, -L0 * L0
+    for j in range(d):
+        t0 = T_out[p, j, kprev]
+        qa += a[j] * a[j]
+        qb += t0 * a[j]
+        qc += t0 * t0
+    # f(s) = qa s^2 + 2 qb s + qc: f(0) < 0 (stuck at kprev) < f(1) (slip at k),
+    # one root in (0, 1], in a cancellation-free form
+    den = qb + np.sqrt(max(qb * qb - qa * qc, 0.0))
+    s = min(max(-qc / den, 0.0), 1.0) if den > 0.0 else 1.0
+    lc = L0 + s * b
+    dfs = -lc * b
+    for j in range(d):
+        tc = T_out[p, j, kprev] + s * a[j]
+        dfs += tc * a[j]
+        nvec[j] = tc / lc if lc > 0.0 else 0.0
+    if not want_jac:
+        return s
+    for col in range(m):
+        dl0 = 0.0
+        dl1 = 0.0
+        if col == m - 1:
+            dl0 = mu[p] if N_out[p, kprev] > 0.0 else 0.0
+            dl1 = mu[p] if N_out[p, k] > 0.0 else 0.0
+        elif has_normal and vcol <= col < vcol + nc:
+            c = col - vcol
+            dl0 = mu[p] * kn[p] * E[kprev, c]
+            dl1 = mu[p] * kn[p] * E[k, c]
+        db = dl1 - dl0
+        # implicit derivative of the crossing |T_prev + s a|^2 = (L0 + s b)^2
+        num = -lc * (dl0 + s * db)
+        for j in range(d):
+            tc = T_out[p, j, kprev] + s * a[j]
+            num += tc * (G[kprev, j * m + col] + s * da[j, col])
+        ds[col] = -num / dfs if dfs != 0.0 else 0.0
+        dlc = dl0 + s * db + ds[col] * b
+        for j in range(d):
+            dtc = G[kprev, j * m + col] + s * da[j, col] + ds[col] * a[j]
+            dn[j, col] = (dtc - nvec[j] * dlc) / lc if lc > 0.0 else 0.0
+    return s

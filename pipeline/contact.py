@@ -48,6 +48,8 @@ LAWS: dict[str, tuple[int, bool]] = {  # law -> (tangential dimension, variable 
 # Per-point contact state over one period.
 STICK, STICK_SLIP, GROSS_SLIP, PARTIAL_LIFTOFF, OPEN = range(5)
 STATE_NAMES = ("stick", "stick-slip", "gross slip", "partial lift-off", "open")
+# Per-sample state in the time histories.
+SAMPLE_STICK, SAMPLE_SLIP, SAMPLE_OPEN = _returnmap.STICK, _returnmap.SLIP, _returnmap.OPEN
 
 
 def _per_point(name: str, value, shape: tuple[int, ...], *, positive=False, nonneg=False):
@@ -80,7 +82,12 @@ class ContactResponse:
     normal_work: (P,) work of the normal force per cycle, J: zero for an
         elastic normal spring up to the time discretisation (a check).
     periods: (P,) periods marched before the cycle repeated.
+    undersampled: (P,) stick arcs per period resolved by at most one sample (the
+        force reverses between two slipping samples, or through a single stuck
+        one): the sampling does not resolve the stick phase there and Newton may
+        stall; more samples help.
     T, N, u, v: time histories (P, d, ns), (P, ns), (P, d, ns), (P, ns) if asked.
+    flags: (P, ns) int8 per-sample state (SAMPLE_STICK, SAMPLE_SLIP, SAMPLE_OPEN) if asked.
     """
 
     forces: np.ndarray
@@ -91,10 +98,12 @@ class ContactResponse:
     dissipation: np.ndarray
     normal_work: np.ndarray
     periods: np.ndarray
+    undersampled: np.ndarray
     T: np.ndarray | None = None
     N: np.ndarray | None = None
     u: np.ndarray | None = None
     v: np.ndarray | None = None
+    flags: np.ndarray | None = None
 
     @property
     def state_names(self) -> list[str]:
@@ -217,6 +226,7 @@ class ContactElements:
         histories: bool = False,
         max_periods: int = 200,
         rtol: float = 1e-11,
+        corrections: bool = True,
     ) -> ContactResponse:
         """Forces (and their derivatives) for relative displacements ``g``.
 
@@ -250,23 +260,18 @@ class ContactElements:
         T = np.empty((P, d, ns))
         N = np.empty((P, ns))
         st = np.empty((P, ns), dtype=np.int8)
-        jT = np.empty((P, d, nc, m) if jacobian else (1, 1, 1, 1))
-        jN = np.empty((P, nc, m) if jacobian else (1, 1, 1))
+        F = np.empty((P, d + 1, nc))
+        full = np.empty((P, c, nc, m) if jacobian else (1, 1, 1, 1))
         periods = np.empty(P, dtype=np.int64)
         _returnmap.march(
-            u, v, self.kt, self.kn, self.mu, self.n0, E, A, self.variable_normal,
-            jacobian, int(max_periods), float(rtol), T, N, st, jT, jN, periods,
+            np.ascontiguousarray(g), u, v, self.kt, self.kn, self.mu, self.n0, E, A,
+            harmonics.coeff_order.astype(float), harmonics.coeff_kind, self.variable_normal,
+            jacobian, int(max_periods), float(rtol), bool(corrections), T, N, st, F, full,
+            periods,
         )
-        forces = np.empty((P, c, nc))
-        forces[:, :d] = T @ A.T
-        if self.variable_normal:
-            forces[:, d] = N @ A.T
+        forces = F[:, :c]
         jac = dn0 = None
         if jacobian:
-            full = np.empty((P, c, nc, m))
-            full[:, :d] = jT
-            if self.variable_normal:
-                full[:, d] = jN
             jac = full[..., :-1].reshape(P, c, nc, c, nc)
             dn0 = full[..., -1]
         if not self.coupled and static.any():
@@ -280,11 +285,17 @@ class ContactElements:
         normal_work = (
             harmonics.work(forces[:, d], g[:, d]) if self.variable_normal else np.zeros(P)
         )
+        slip = st == _returnmap.SLIP
+        before, after = np.roll(slip, 1, axis=1), np.roll(slip, -1, axis=1)
+        reverse = np.einsum("pjk,pjk->pk", T, np.roll(T, 1, axis=2)) < 0
+        single = (st == _returnmap.STICK) & before & after
+        undersampled = np.sum(slip & before & reverse, axis=1) + np.sum(single, axis=1)
         extra = {}
         if histories:
-            extra = {"T": T, "N": N, "u": u, "v": v}
+            extra = {"T": T, "N": N, "u": u, "v": v, "flags": st}
         return ContactResponse(
-            forces, jac, dn0, state, slip_fraction, dissipation, normal_work, periods, **extra
+            forces, jac, dn0, state, slip_fraction, dissipation, normal_work, periods,
+            undersampled, **extra
         )
 
 

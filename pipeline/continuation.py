@@ -50,6 +50,7 @@ class Branch:
     status: str = "complete"  # "complete" or "stopped"
     message: str = ""
     steps: int = 0  # predictor-corrector attempts, including rejected ones
+    failed: tuple[float, np.ndarray] | None = None  # (lam, x) of the last failed attempt
 
     @property
     def complete(self) -> bool:
@@ -123,27 +124,33 @@ def newton(
             dx = -_solve(J, R)
         except (np.linalg.LinAlgError, ValueError) as err:
             return NewtonResult(x, False, it, res, f"singular Jacobian ({err})")
-        x, R, J, res = _damped(fun, x, dx, lam, res, f_scale)
+        x, R, J = _damped(fun, x, dx, lam, R)
+        res = _norm(R, f_scale)
     return NewtonResult(
         x, False, settings.max_iter, res,
         f"no convergence in {settings.max_iter} iterations (||R|| = {res:.3g} * f_scale)",
     )
 
 
-def _damped(fun, x, dx, lam, res0, f_scale):
-    """Backtracking: halve the step until ||R|| decreases (at most 6 times)."""
+def _damped(fun, x, dx, lam, R0):
+    """Backtracking: halve the step until ||R||_2 decreases (at most 6 times).
+
+    The 2-norm, not the convergence test's max-norm, because the Newton step
+    is a descent direction of ||R||_2^2 wherever R is differentiable; on the
+    piecewise-smooth friction residual the max-norm can stall at a kink."""
     best = None
     alpha = 1.0
+    merit0 = np.linalg.norm(R0)
     for _ in range(7):
         xt = x + alpha * dx
         R, J, _ = fun(xt, lam, True)
-        res = _norm(R, f_scale)
-        if best is None or (np.isfinite(res) and res < best[3]):
-            best = (xt, R, J, res)
-        if np.isfinite(res) and res < res0:
+        merit = np.linalg.norm(R)
+        if best is None or (np.isfinite(merit) and merit < best[3]):
+            best = (xt, R, J, merit)
+        if np.isfinite(merit) and merit < merit0:
             break
         alpha *= 0.5
-    return best
+    return best[:3]
 
 
 def _norm(R: np.ndarray, f_scale: float) -> float:
@@ -190,6 +197,7 @@ def natural(
     first = newton(fun, x, lam, x_scale=x_scale, f_scale=f_scale, settings=settings)
     out.steps += 1
     if not first.converged:
+        out.failed = (lam, first.x)
         return out.finish("stopped", f"no solution at {parameter} = {lam:.6g}: {first.reason}")
     out.add(lam, first)
     if progress:
@@ -209,6 +217,7 @@ def natural(
             step = min(settings.step, step * 2)
             continue
         step /= 2
+        out.failed = (new, r.x)
         if step < settings.min_step:
             return out.finish(
                 "stopped",
@@ -244,6 +253,7 @@ def arclength(
     first = newton(fun, x0, start, x_scale=xs, f_scale=f_scale, settings=settings)
     out.steps += 1
     if not first.converged:
+        out.failed = (start, first.x)
         return out.finish("stopped", f"no solution at {parameter} = {start:.6g}: {first.reason}")
     out.add(start, first)
     if progress:
@@ -269,23 +279,25 @@ def arclength(
                     progress(len(out), stop, r.iterations)
                 return out.finish("complete", "")
             h /= 2
+            out.failed = (stop, r.x)
             if h < settings.min_step:
                 return out.finish("stopped", f"no solution at the end value {stop:.6g}: {r.reason}")
             continue
-        ok, y_new, its, res, reason = _correct(fun, pred, tangent, xs, lam_scale, f_scale,
-                                               settings)
+        ok, y_new, its, res, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale,
+                                             settings)
         out.steps += 1
         if not ok:
             h /= 2
+            out.failed = (y_new[-1] * lam_scale, y_new[:-1] * xs)
             if h < settings.min_step:
                 return out.finish(
                     "stopped",
-                    f"stopped near {parameter} = {lam:.6g}: corrector failed ({reason}) "
+                    f"stopped near {parameter} = {lam:.6g}: corrector failed ({info}) "
                     f"with step below min_step = {settings.min_step:g}",
                 )
             continue
         x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
-        t_new = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent, direction)
+        t_new = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent, direction, info)
         if t_new is None:
             return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_new:.6g}")
         out.add(lam_new, NewtonResult(x_new, True, its, res))
@@ -315,10 +327,11 @@ def arclength(
     return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")
 
 
-def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction):
+def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None):
     """Unit tangent of the scaled branch, oriented along the previous one
-    (or towards increasing progress at the first point)."""
-    R, J, dR = fun(x, lam, True)
+    (or towards increasing progress at the first point). ``jac``: (J, dR) at
+    (x, lam) if already known."""
+    J, dR = jac if jac is not None else fun(x, lam, True)[1:]
     Js = J * xs[None, :] / f_scale
     dRs = dR * lam_scale / f_scale
     n = x.size
@@ -343,18 +356,26 @@ def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction):
 
 
 def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
-    """Newton on [R(y) = 0; t . (y - y_pred) = 0] (seed eq. 56)."""
-    y = pred.copy()
-    n = y.size - 1
-    res = np.inf
-    for it in range(settings.max_iter + 1):
+    """Newton on [R(y) = 0; t . (y - y_pred) = 0] (seed eq. 56), damped like
+    :func:`newton`: near a stick/slip kink the full step can jump between two
+    linear pieces and cycle; halving it until the residual falls breaks that."""
+    n = pred.size - 1
+
+    def evaluate(y):
         x, lam = y[:-1] * xs, y[-1] * lam_scale
         R, J, dR = fun(x, lam, True)
-        res = _norm(R, f_scale)
+        # 2-norm merit for the line search (see _damped)
+        merit = np.hypot(np.linalg.norm(R) / f_scale, tangent @ (y - pred))
+        return R, J, dR, merit
+
+    y = pred.copy()
+    R, J, dR, merit = evaluate(y)
+    for it in range(settings.max_iter + 1):
+        res = max(_norm(R, f_scale), abs(tangent @ (y - pred)))
         if not np.isfinite(res):
             return False, y, it, res, "residual is NaN or Inf"
         if res <= settings.tol:
-            return True, y, it, res, ""
+            return True, y, it, res, (J, dR)
         if it == settings.max_iter:
             break
         A = np.empty((n + 1, n + 1))
@@ -363,9 +384,19 @@ def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
         A[n] = tangent
         rhs = np.append(R / f_scale, tangent @ (y - pred))
         try:
-            y = y - _solve(A, rhs)
+            step = -_solve(A, rhs)
         except (np.linalg.LinAlgError, ValueError) as err:
             return False, y, it, res, f"singular bordered Jacobian ({err})"
+        best = None
+        alpha = 1.0
+        for _ in range(7):
+            trial = evaluate(y + alpha * step)
+            if best is None or (np.isfinite(trial[3]) and trial[3] < best[1][3]):
+                best = (y + alpha * step, trial)
+            if np.isfinite(trial[3]) and trial[3] < merit:
+                break
+            alpha *= 0.5
+        y, (R, J, dR, merit) = best
     return False, y, settings.max_iter, res, f"no convergence (||R|| = {res:.3g} * f_scale)"
 
 
@@ -378,6 +409,7 @@ class _Collector:
         self.its: list[int] = []
         self.turning_points: list[int] = []
         self.steps = 0
+        self.failed: tuple[float, np.ndarray] | None = None
 
     def __len__(self) -> int:
         return len(self.values)
@@ -407,4 +439,5 @@ class _Collector:
             status,
             message,
             self.steps,
+            self.failed,
         )

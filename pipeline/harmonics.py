@@ -97,6 +97,14 @@ class Harmonics:
         return np.array(out, dtype=np.int64)
 
     @cached_property
+    def coeff_kind(self) -> np.ndarray:
+        """(n_coeffs,) int8: 0 for a0, 1 for a cosine, 2 for a sine coefficient."""
+        kind = np.zeros(self.n_coeffs, dtype=np.int8)
+        kind[self.cos_index] = 1
+        kind[self.sin_index] = 2
+        return kind
+
+    @cached_property
     def cos_index(self) -> np.ndarray:
         """(n_dyn,) int: position of a_n for each dynamic order."""
         return int(self.has_static) + 2 * np.arange(len(self.dynamic_orders))

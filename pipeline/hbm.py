@@ -200,6 +200,8 @@ class HarmonicBalance:
         contacts: Sequence[Contact],
         excitation: Excitation,
         harmonics: Harmonics,
+        *,
+        sub_sample: bool = True,
     ):
         if tuple(linear.orders) != harmonics.orders:
             raise ValueError(
@@ -208,6 +210,7 @@ class HarmonicBalance:
             )
         self.linear = linear
         self.harmonics = harmonics
+        self.sub_sample = bool(sub_sample)
         self.excitation = excitation
         self.contacts = tuple(contacts)
         n = linear.n_dof
@@ -346,7 +349,8 @@ class HarmonicBalance:
                 c.elements
             )
             g = (Br @ x).reshape(el.size, el.n_components, -1)
-            r = el.evaluate(g, self.harmonics, jacobian=jacobian or parameter == "preload")
+            r = el.evaluate(g, self.harmonics, jacobian=jacobian or parameter == "preload",
+                            corrections=self.sub_sample)
             R += Br.T @ r.forces.ravel()
             if jacobian:
                 J += _sandwich(Br, r.jacobian)
@@ -369,7 +373,8 @@ class HarmonicBalance:
         out = []
         for c, g in zip(self.contacts, self.relative_displacements(x)):
             el = c.elements.with_n0(c.elements.n0 * point.preload)
-            out.append(el.evaluate(g, self.harmonics, jacobian=False, histories=histories))
+            out.append(el.evaluate(g, self.harmonics, jacobian=False, histories=histories,
+                                   corrections=self.sub_sample))
         return out
 
     def recover(self, x: np.ndarray, point: OperatingPoint) -> np.ndarray:

@@ -58,6 +58,48 @@ class Response:
         """(n_points, n_dofs) max_t |x(t)| of the DOFs, m."""
         return self.model.harmonics.peak(self.coefficients(dofs), oversample)
 
+    def peak(self, dof: int, *, xtol: float = 1e-9) -> tuple[float, float]:
+        """(parameter value, max|x(t)|) at the largest response of one DOF.
+
+        The sampled maximum is refined by a golden-section search on the
+        parameter, solving the balance afresh at each trial value (warm start
+        from the nearest point). Where the maximum sits on a fold (the branch
+        turns back around it) the sampled maximum is returned unrefined.
+        ``xtol`` is relative to the bracket."""
+        amp = self.amplitude([dof])[:, 0]
+        i = int(np.argmax(amp))
+        lam = self.values
+        if i == 0 or i == len(self) - 1 or (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) <= 0:
+            return float(lam[i]), float(amp[i])
+        h = self.model.harmonics
+        settings = cont.Settings(tol=1e-11)
+
+        def amplitude_at(value: float) -> float:
+            j = int(np.argmin(np.abs(lam - value)))
+            r = solve_point(self.model, self.base.set(self.parameter, value),
+                            settings=settings, x0=self.branch.x[j])
+            if not r.converged:
+                return -np.inf
+            Q = self.model.recover(r.x, self.base.set(self.parameter, value))
+            return float(h.peak(Q[dof]))
+
+        a, b = sorted((lam[i - 1], lam[i + 1]))
+        g = (np.sqrt(5.0) - 1.0) / 2.0
+        c, d = b - g * (b - a), a + g * (b - a)
+        fc, fd = amplitude_at(c), amplitude_at(d)
+        span = b - a
+        while b - a > xtol * span:
+            if fc > fd:
+                b, d, fd = d, c, fc
+                c = b - g * (b - a)
+                fc = amplitude_at(c)
+            else:
+                a, c, fc = c, d, fd
+                d = a + g * (b - a)
+                fd = amplitude_at(d)
+        best = max((fc, c), (fd, d), (float(amp[i]), float(lam[i])))
+        return best[1], best[0]
+
     def contacts(self, i: int, histories: bool = False) -> list[ContactResponse]:
         """Contact forces, states and dissipation at point ``i``, per contact."""
         return self.model.contact_response(self.branch.x[i], self.point(i), histories)
@@ -141,7 +183,20 @@ def sweep(
     run = cont.arclength if method == "arclength" else cont.natural
     branch = run(fun, x0, start, stop, parameter=parameter, x_scale=xs, f_scale=fs,
                  settings=settings, progress=progress)
+    if not branch.complete and branch.failed is not None:
+        value, x = branch.failed
+        branch.message += sampling_hint(model, x, base.set(parameter, value))
     return Response(model, branch, base)
+
+
+def sampling_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
+    """A remedy for a stalled solve when stick arcs fall between samples."""
+    n = sum(int(np.sum(r.undersampled > 0)) for r in model.contact_response(x, point))
+    if n == 0:
+        return ""
+    return (f"; at {n} contact point(s) a whole stick arc falls between two of the "
+            f"{model.harmonics.n_samples} samples per period (contact stiffness high against "
+            "the motion): raise n_samples or lower kt")
 
 
 def solve_point(
@@ -159,4 +214,8 @@ def solve_point(
     def fun(x, lam, jac):
         return model.residual(x, point, None, jacobian=jac)
 
-    return cont.newton(fun, x0, 0.0, x_scale=xs, f_scale=fs, settings=settings)
+    r = cont.newton(fun, x0, 0.0, x_scale=xs, f_scale=fs, settings=settings)
+    if not r.converged:
+        r = cont.NewtonResult(r.x, False, r.iterations, r.residual,
+                              r.reason + sampling_hint(model, r.x, point))
+    return r

@@ -1,0 +1,32 @@
+"""Small teaching models of the reference text, built through the public API."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .contact import ContactElements
+from .harmonics import Harmonics
+from .hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+
+
+def jenkins_oscillator(
+    H: int = 7,
+    n_samples: int = 256,
+    *,
+    m: float = 1.0,
+    c: float = 0.02,
+    k: float = 1.0,
+    kt: float = 3.0,
+    fs: float = 0.05,
+    P: float = 0.1,
+) -> HarmonicBalance:
+    """A mass on a spring rubbing on a wall through a Jenkins element (law A,
+    seed Fig. 4): ``m x'' + c x' + k x + T = P cos(w t)``, slip force ``fs = mu N0``.
+
+    Defaults are issue 2's benchmark: m = 1 kg, c = 0.02 N s/m, k = 1 N/m,
+    kt = 3 N/m, mu N = 0.05 N, P = 0.1 N (peak near 1.841 m at 1.002 rad/s)."""
+    h = Harmonics.up_to(H, n_samples)
+    lin = LinearDynamics.create([[k]], [[m]], [[c]], harmonics=h)
+    wall = ContactElements.create("A", kt=kt, mu=1.0, n0=fs)
+    return HarmonicBalance(lin, [Contact("wall", wall, np.array([[1.0]]))],
+                           Excitation.single(1, 0, P), h)

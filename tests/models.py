@@ -1,0 +1,41 @@
+"""Small models shared by the tests (built through the public API only)."""
+
+import numpy as np
+
+from pipeline.contact import ContactElements
+from pipeline.demos import jenkins_oscillator  # noqa: F401  (re-exported for the tests)
+from pipeline.harmonics import Harmonics
+from pipeline.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+
+
+def normal_oscillator(n0, H=5, ns=256, *, kn=3.0, kt=3.0, mu=0.3, P=0.1, c=0.02):
+    """Single DOF moving normal to a wall and tangentially along it (law B):
+    the mass's motion is 45 deg to the wall, so u = v = x / sqrt(2)."""
+    h = Harmonics.up_to(H, ns)
+    lin = LinearDynamics.create([[1.0]], [[1.0]], [[c]], harmonics=h)
+    el = ContactElements.create("B", kt=kt, kn=kn, mu=mu, n0=n0)
+    B = np.array([[1.0], [1.0]]) / np.sqrt(2)
+    return HarmonicBalance(lin, [Contact("wall", el, B)], Excitation.single(1, 0, P), h)
+
+
+def three_dof_cyclic_like(h, coupled=True):
+    """Three DOFs with complex Hermitian matrices per harmonic (as a cyclic
+    sector would give), complex kinematics, a DOF that no contact touches (so
+    it is condensed), laws D and B together and a static load."""
+    rng = np.random.default_rng(11)
+    K, M, C, B = {}, {}, {}, {}
+    for o in h.orders:
+        A = rng.normal(size=(3, 3)) + (1j * rng.normal(size=(3, 3)) if o else 0)
+        K[o] = 3 * np.eye(3) + 0.3 * (A + A.conj().T)
+        M[o] = np.eye(3) + 0.05 * np.real(A + A.T)
+        C[o] = 0.02 * K[o]
+        ph = np.exp(1j * 0.7 * o) if o else 1.0
+        B[o] = np.array([[1.0, -0.3 * ph, 0.0], [0.2, 1.0 * ph, 0.0], [0.5, 0.0, 0.0]])
+    lin = LinearDynamics.create(K, M, C, harmonics=h, mass_part=np.diag([0.0, 0.5, 0.0]))
+    kw = dict(interference=0.05) if coupled else dict(n0=0.1)
+    d = ContactElements.create("D", kt=2.0, kn=4.0, mu=0.3, coupled=coupled, **kw)
+    b = ContactElements.create("B", kt=1.0, kn=3.0, mu=0.4, coupled=coupled, **kw)
+    Bb = {o: np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]) for o in h.orders}
+    forces = {0: np.array([0.0, 0.0, -0.1]), 1: np.array([0.0, 0.0, 0.3 + 0.1j])}
+    return HarmonicBalance(lin, [Contact("d", d, B), Contact("b", b, Bb)],
+                           Excitation(forces), h)
