@@ -20,7 +20,15 @@ from .quality import sicn
 from .root_joint import RootJointParameters, root_joint
 from .simple import AnnularSectorParameters, BeamParameters, annular_sector, beam
 
+MODELS = {  # name in a case file's [geometry] table -> builder(**parameters) -> Mesh
+    "blisk_sector": blisk_sector,
+    "root_joint": root_joint,
+    "beam": beam,
+    "annular_sector": annular_sector,
+}
+
 __all__ = [
+    "MODELS",
     "AnnularSectorParameters",
     "BeamParameters",
     "BliskParameters",

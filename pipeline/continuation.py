@@ -187,9 +187,14 @@ def natural(
     f_scale: float = 1.0,
     settings: Settings = DEFAULT,
     progress: Callable[[int, float, int], None] | None = None,
+    guesses: Callable[[float], list[np.ndarray]] | None = None,
 ) -> Branch:
     """Natural continuation from ``start`` to ``stop`` in steps of
-    ``settings.step * |stop - start|`` (halved down to ``min_step`` on failure)."""
+    ``settings.step * |stop - start|`` (halved down to ``min_step`` on failure).
+
+    Where the predictor fails, Newton restarts from the last solution and then
+    from ``guesses(lam)``: past a fold that lets the sweep jump to the other
+    branch, as a physical slow sweep does (seed Fig. 24)."""
     _check_range(start, stop, parameter)
     span = stop - start
     out = _Collector(parameter)
@@ -206,9 +211,18 @@ def natural(
     while (lam - stop) * np.sign(span) < 0 and len(out) < settings.max_points:
         step_now = min(step, abs(stop - lam) / abs(span))
         new = lam + np.sign(span) * step_now * abs(span)
-        guess = out.extrapolate(new)
-        r = newton(fun, guess, new, x_scale=x_scale, f_scale=f_scale, settings=settings)
+        r = newton(fun, out.extrapolate(new), new, x_scale=x_scale, f_scale=f_scale,
+                   settings=settings)
         out.steps += 1
+        if not r.converged:
+            # past a fold the secant points off the branch; the last solution or
+            # the caller's guesses let Newton fall onto the other branch
+            for guess in [out.xs[-1]] + (list(guesses(new)) if guesses else []):
+                r = newton(fun, guess, new, x_scale=x_scale, f_scale=f_scale,
+                           settings=settings)
+                out.steps += 1
+                if r.converged:
+                    break
         if r.converged:
             lam = new
             out.add(lam, r)
@@ -222,7 +236,8 @@ def natural(
             return out.finish(
                 "stopped",
                 f"stopped at {parameter} = {new:.6g} (last converged {lam:.6g}): "
-                f"{r.reason}; step fell below min_step = {settings.min_step:g}",
+                f"{r.reason}; step fell below min_step = {settings.min_step:g} (a fold "
+                "of the branch? arclength continuation follows turning points)",
             )
     if len(out) >= settings.max_points and (lam - stop) * np.sign(span) < 0:
         return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")

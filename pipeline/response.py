@@ -180,9 +180,17 @@ def sweep(
     def fun(x, lam, jac):
         return model.residual(x, base.set(parameter, lam), parameter, jacobian=jac)
 
-    run = cont.arclength if method == "arclength" else cont.natural
-    branch = run(fun, x0, start, stop, parameter=parameter, x_scale=xs, f_scale=fs,
-                 settings=settings, progress=progress)
+    if method == "arclength":
+        branch = cont.arclength(fun, x0, start, stop, parameter=parameter, x_scale=xs,
+                                f_scale=fs, settings=settings, progress=progress)
+    else:
+        def guesses(value):
+            p = base.set(parameter, value)
+            return [model.linear_guess(p), model.linear_guess(p, stuck=True)]
+
+        branch = cont.natural(fun, x0, start, stop, parameter=parameter, x_scale=xs,
+                              f_scale=fs, settings=settings, progress=progress,
+                              guesses=guesses)
     if not branch.complete and branch.failed is not None:
         value, x = branch.failed
         branch.message += sampling_hint(model, x, base.set(parameter, value))

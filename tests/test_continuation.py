@@ -1,0 +1,116 @@
+"""Continuation: folds, parameters other than frequency, failure reports."""
+
+import numpy as np
+import pytest
+from models import jenkins_oscillator, normal_oscillator
+
+from pipeline import continuation as cont
+from pipeline.hbm import OperatingPoint
+from pipeline.response import solve_point, sweep
+
+
+def s_curve(x, lam, jac=True):
+    """R = x^3 - x - lam: an S-shaped branch with folds at x = +-1/sqrt(3)."""
+    return (np.array([x[0] ** 3 - x[0] - lam]), np.array([[3 * x[0] ** 2 - 1]]),
+            np.array([-1.0]))
+
+
+def test_arclength_follows_both_folds_of_an_s_curve():
+    b = cont.arclength(s_curve, np.array([-1.5]), -2.0, 2.0, parameter="lam",
+                       settings=cont.Settings(tol=1e-12))
+    assert b.complete and b.values[-1] == 2.0
+    x = b.x[:, 0]
+    assert np.max(np.abs(x**3 - x - b.values)) <= 1e-12
+    # the folds at lam = -+2 / (3 sqrt 3), located to the local step size
+    fold = 2 / (3 * np.sqrt(3))
+    assert len(b.turning_points) == 2
+    assert b.values[b.turning_points[0]] == pytest.approx(fold, abs=0.02)
+    assert b.values[b.turning_points[1]] == pytest.approx(-fold, abs=0.02)
+    # three solutions at lam = 0: -1, 0, +1
+    at_zero = []
+    for i in np.flatnonzero(np.diff(np.sign(b.values)) != 0):
+        t = b.values[i] / (b.values[i] - b.values[i + 1])  # linear interpolation to lam = 0
+        at_zero.append(x[i] + t * (x[i + 1] - x[i]))
+    assert np.allclose(sorted(at_zero), [-1, 0, 1], atol=0.05)
+
+
+def test_natural_continuation_jumps_and_misses_the_middle_branch():
+    up = cont.natural(s_curve, np.array([-1.5]), -2.0, 2.0,
+                      settings=cont.Settings(tol=1e-12, step=0.01))
+    assert up.complete
+    # past the fold the sweep falls onto the upper branch: x never sits in (-1/sqrt3, 1/sqrt3)
+    middle = np.abs(up.x[:, 0]) < 1 / np.sqrt(3) - 0.05
+    assert not middle.any()
+    assert up.x[-1, 0] == pytest.approx(1.5214, abs=1e-3)
+
+
+def test_softening_fold_of_the_variable_normal_load_oscillator():
+    """Seed Fig. 8 / 24: a preload that lets the contact open softens the peak
+    into a fold; arclength follows it, natural continuation cannot."""
+    hb = normal_oscillator(0.3, H=5, ns=256)
+    arc = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5))
+    assert arc.branch.complete, arc.branch.message
+    assert len(arc.branch.turning_points) == 2
+    lo, hi = sorted(arc.values[arc.branch.turning_points])
+    w = 0.5 * (lo + hi)
+    # three solutions at a frequency inside the fold; each solves the balance
+    i = np.flatnonzero(np.diff(np.sign(arc.values - w)) != 0)
+    assert i.size == 3
+    amps = []
+    for j in i:
+        sol = solve_point(hb, OperatingPoint(w), x0=arc.branch.x[j])
+        assert sol.converged
+        amps.append(np.hypot(sol.x[1], sol.x[2]))
+    assert np.ptp(amps) > 0.1 and len(set(np.round(amps, 4))) == 3
+    # the upward natural sweep stops at the fold and says so
+    up = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5), method="natural")
+    assert not up.branch.complete and "fold" in up.branch.message
+    assert up.values[-1] == pytest.approx(hi, abs=0.01)
+    # the downward one jumps at the other fold: both miss the middle branch
+    down = sweep(hb, "frequency", 2.5, 0.5, OperatingPoint(2.5), method="natural")
+    assert down.branch.complete
+    a_down = down.amplitude([0])[:, 0]
+    inside = (down.omega > lo + 0.005) & (down.omega < hi - 0.005)
+    a_arc = arc.amplitude([0])[:, 0]
+    mid = a_arc[arc.branch.turning_points[0]:arc.branch.turning_points[1] + 1]
+    assert not np.any((a_down[inside] > mid.min() + 0.01) & (a_down[inside] < mid.max() - 0.01))
+
+
+@pytest.mark.parametrize("parameter,start,stop", [("preload", 0.01, 2.0),
+                                                  ("excitation", 0.05, 5.0),
+                                                  ("mass", 0.5, 1.5)])
+def test_parameter_continuation_matches_pointwise_solutions(parameter, start, stop):
+    hb = jenkins_oscillator(H=3, n_samples=128)
+    base = OperatingPoint(1.1)
+    r = sweep(hb, parameter, start, stop, base)
+    assert r.branch.complete, r.branch.message
+    for i in np.linspace(0, len(r) - 1, 5).astype(int):
+        sol = solve_point(hb, base.set(parameter, r.values[i]))
+        assert sol.converged
+        # the same solution (unique here), to the Newton tolerance
+        assert np.max(np.abs(sol.x - r.branch.x[i])) <= 1e-7 * np.max(np.abs(sol.x))
+
+
+def test_performance_curve_asymptotes():
+    """Amplitude over excitation (seed Fig. 6, right): stuck receptance at small
+    forces, free receptance at large ones."""
+    w = 0.7
+    hb = jenkins_oscillator(H=3, n_samples=128, P=1.0)
+    r = sweep(hb, "excitation", 1e-3, 50.0, OperatingPoint(w))
+    assert r.branch.complete
+    c = r.coefficients([0])[:, 0]
+    amp = np.hypot(c[:, 1], c[:, 2]) / r.values  # first-harmonic receptance
+    stuck = 1 / abs(4.0 - w**2 + 0.02j * w)
+    free = 1 / abs(1.0 - w**2 + 0.02j * w)
+    assert amp[0] == pytest.approx(stuck, rel=1e-9)  # mu N = 0.05 > kt x at P = 1e-3
+    assert amp[-1] == pytest.approx(free, rel=0.01)  # friction 0.05 N against 50 N
+
+
+def test_failure_is_reported_with_the_branch_kept():
+    hb = normal_oscillator(0.3, H=5, ns=256)
+    tight = cont.Settings(max_iter=2, min_step=1e-3)
+    r = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5), method="natural", settings=tight)
+    assert not r.branch.complete
+    assert len(r) > 0 and np.all(r.branch.residuals <= tight.tol)
+    assert "frequency =" in r.branch.message and "iterations" in r.branch.message
+    assert r.branch.failed is not None and np.all(np.isfinite(r.branch.failed[1]))
