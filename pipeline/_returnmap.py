@@ -56,136 +56,213 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
     F_out (P, d + 1, nc) force coefficients [T_1, ..., T_d, N],
     J_out (P, d + has_normal, nc, m) their derivatives, m = (d + has_normal) nc + 1
     columns [u_1 coeffs, ..., u_d coeffs, (v coeffs), n0]; periods_out (P,).
+
+    The cycle is found without derivatives. Derivatives then take one more
+    period from a sample that erases the memory of the march (open, or
+    slipping in 1D), where they are exact with no history; a point with no such
+    sample (stuck, or slipping in 2D without opening) repeats the march with
+    derivatives from the start.
     """
     P, d, ns = u.shape
     nc = E.shape[1]
     m = J_out.shape[3]
-    vcol = d * nc  # first v column
     for p in prange(P):
         G = np.zeros((ns, d * m)) if want_jac else np.zeros((1, 1))
         dT = np.zeros((d, m))
         T = np.empty(d)
         Tp = np.empty(d)
-        Tend = np.empty(d)
-        # Start: previous sample at k = ns - 1 with T = kt u (seed eq. 26), or open.
-        closed = n0[p] + kn[p] * v[p, ns - 1] > 0.0
-        for j in range(d):
-            T[j] = kt[p, j] * u[p, j, ns - 1] if closed else 0.0
-            if want_jac and closed:
-                for c in range(nc):
-                    dT[j, j * nc + c] = kt[p, j] * E[ns - 1, c]
-        for j in range(d):
-            Tend[j] = T[j]
-        was_open = not closed
-        kprev = ns - 1
-        periods = 0
-        for period in range(max_periods):
-            periods = period + 1
-            scale = 0.0
-            for k in range(ns):
-                N = n0[p] + kn[p] * v[p, k]
-                if was_open and N > 0.0:
-                    _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, m, Tp, dT)
-                else:
-                    # predictor; dT becomes dTp in place (a stuck sample touches nc columns)
-                    for j in range(d):
-                        Tp[j] = T[j] + kt[p, j] * (u[p, j, k] - u[p, j, kprev])
-                    if want_jac:
-                        for j in range(d):
-                            for c in range(nc):
-                                dT[j, j * nc + c] += kt[p, j] * (E[k, c] - E[kprev, c])
-                if N <= 0.0:
-                    N = 0.0
-                    for j in range(d):
-                        T[j] = 0.0
-                    if want_jac:
-                        dT[:, :] = 0.0
-                    state_out[p, k] = OPEN
-                else:
-                    norm = 0.0
-                    for j in range(d):
-                        norm += Tp[j] * Tp[j]
-                    norm = np.sqrt(norm)
-                    lim = mu[p] * N
-                    if norm <= lim:
-                        for j in range(d):
-                            T[j] = Tp[j]
-                        state_out[p, k] = STICK
-                    else:
-                        ratio = lim / norm
-                        for j in range(d):
-                            T[j] = ratio * Tp[j]
-                        if want_jac:
-                            # dT = ratio (I - n n^T) dTp + mu n dN,  n = Tp / |Tp|
-                            if d == 1:
-                                dT[0, :] = 0.0
-                            else:
-                                for col in range(m):
-                                    proj = 0.0
-                                    for j in range(d):
-                                        proj += Tp[j] * dT[j, col]
-                                    proj /= norm
-                                    for j in range(d):
-                                        dT[j, col] = ratio * (dT[j, col] - Tp[j] / norm * proj)
-                            for j in range(d):
-                                mun = mu[p] * Tp[j] / norm
-                                if has_normal:
-                                    for c in range(nc):
-                                        dT[j, vcol + c] += mun * kn[p] * E[k, c]
-                                dT[j, m - 1] += mun
-                        state_out[p, k] = SLIP
-                was_open = N == 0.0
-                N_out[p, k] = N
-                for j in range(d):
-                    T_out[p, j, k] = T[j]
-                    if abs(T[j]) > scale:
-                        scale = abs(T[j])
-                if mu[p] * N > scale:
-                    scale = mu[p] * N
-                if want_jac:
-                    for j in range(d):
-                        for col in range(m):
-                            G[k, j * m + col] = dT[j, col]
-                kprev = k
-            # periodic when the state at the period's end repeats
-            diff = 0.0
-            for j in range(d):
-                diff = max(diff, abs(T[j] - Tend[j]))
-                Tend[j] = T[j]
-            if diff <= rtol * scale or scale == 0.0:
-                break
-        periods_out[p] = periods
-        # trapezoid projection of the samples
-        for c in range(nc):
-            for j in range(d):
-                acc = 0.0
-                for k in range(ns):
-                    acc += A[c, k] * T_out[p, j, k]
-                F_out[p, j, c] = acc
-            acc = 0.0
-            for k in range(ns):
-                acc += A[c, k] * N_out[p, k]
-            F_out[p, d, c] = acc
+        periods = _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, False, max_periods, rtol,
+                         T, Tp, dT, G, T_out, N_out, state_out)
         if want_jac:
-            J = np.dot(A, G)  # (nc, d m)
-            for j in range(d):
-                for c in range(nc):
+            e = -1
+            for k in range(ns):
+                if state_out[p, k] == OPEN or (d == 1 and state_out[p, k] == SLIP):
+                    e = k
+                    break
+            if e >= 0:
+                _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT)
+                for j in range(d):
                     for col in range(m):
-                        J_out[p, j, c, col] = J[c, j * m + col]
-            if has_normal:
-                # normal force: dN_k = [N_k > 0] (kn E_k on v, 1 on n0)
-                for c in range(nc):
-                    for col in range(m):
-                        J_out[p, d, c, col] = 0.0
-                    for k in range(ns):
-                        if N_out[p, k] > 0.0:
-                            a = A[c, k]
-                            for c2 in range(nc):
-                                J_out[p, d, c, vcol + c2] += a * kn[p] * E[k, c2]
-                            J_out[p, d, c, m - 1] += a
+                        G[e, j * m + col] = dT[j, col]
+                _steps(p, e + 1, ns - 1, state_out[p, e] == OPEN, u, v, kt, kn, mu, n0, E,
+                       has_normal, True, T, Tp, dT, G, T_out, N_out, state_out)
+            else:
+                _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, True, periods, 0.0,
+                       T, Tp, dT, G, T_out, N_out, state_out)
+        periods_out[p] = periods
+        _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
+                 F_out, J_out)
         if corrections:
             _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
                    T_out, N_out, state_out, G, F_out, J_out)
+
+
+@njit(cache=True)
+def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
+           T, Tp, dT, G, T_out, N_out, state_out):  # pragma: no cover
+    """March whole periods from the start convention until the force at the end
+    of a period repeats (rtol > 0), or exactly ``max_periods`` (rtol = 0).
+    Returns the periods marched; the last one is left in the outputs."""
+    d, ns = u.shape[1], u.shape[2]
+    nc = E.shape[1]
+    # start: previous sample at k = ns - 1 with T = kt u (seed eq. 26), or open
+    closed = n0[p] + kn[p] * v[p, ns - 1] > 0.0
+    if want_jac:
+        dT[:, :] = 0.0
+    for j in range(d):
+        T[j] = kt[p, j] * u[p, j, ns - 1] if closed else 0.0
+        if want_jac and closed:
+            for c in range(nc):
+                dT[j, j * nc + c] = kt[p, j] * E[ns - 1, c]
+    Tend = T.copy()
+    periods = 0
+    for period in range(max_periods):
+        periods = period + 1
+        scale = _steps(p, 0, ns, not closed if period == 0 else state_out[p, ns - 1] == OPEN,
+                       u, v, kt, kn, mu, n0, E, has_normal, want_jac, T, Tp, dT, G,
+                       T_out, N_out, state_out)
+        diff = 0.0
+        for j in range(d):
+            diff = max(diff, abs(T[j] - Tend[j]))
+            Tend[j] = T[j]
+        if rtol > 0.0 and (diff <= rtol * scale or scale == 0.0):
+            break
+    return periods
+
+
+@njit(cache=True)
+def _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT):  # pragma: no cover
+    """State and derivative at a sample that erases the march's memory: open
+    (T = 0) or 1D slip (T = mu N sign, dT = mu sign dN)."""
+    d = T.size
+    nc = E.shape[1]
+    m = dT.shape[1]
+    dT[:, :] = 0.0
+    for j in range(d):
+        T[j] = T_out[p, j, e]
+    if state_out[p, e] == OPEN:
+        return
+    sgn = 1.0 if T[0] > 0.0 else -1.0
+    if has_normal:
+        for c in range(nc):
+            dT[0, d * nc + c] = sgn * mu[p] * kn[p] * E[e, c]
+    dT[0, m - 1] = sgn * mu[p]
+
+
+@njit(cache=True)
+def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
+           T, Tp, dT, G, T_out, N_out, state_out):  # pragma: no cover
+    """Advance the return map ``count`` samples from sample k0 (indices taken
+    modulo ns), T and dT holding the state at the sample before. Returns the
+    force scale met (max |T| and mu N), for the periodicity test."""
+    d, ns = u.shape[1], u.shape[2]
+    nc = E.shape[1]
+    m = dT.shape[1]
+    vcol = d * nc
+    scale = 0.0
+    kprev = (k0 - 1) % ns
+    for i in range(count):
+        k = (k0 + i) % ns
+        N = n0[p] + kn[p] * v[p, k]
+        if was_open and N > 0.0:
+            _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, m, Tp, dT)
+        else:
+            # predictor; dT becomes dTp in place (a stuck sample touches nc columns)
+            for j in range(d):
+                Tp[j] = T[j] + kt[p, j] * (u[p, j, k] - u[p, j, kprev])
+            if want_jac:
+                for j in range(d):
+                    for c in range(nc):
+                        dT[j, j * nc + c] += kt[p, j] * (E[k, c] - E[kprev, c])
+        if N <= 0.0:
+            N = 0.0
+            for j in range(d):
+                T[j] = 0.0
+            if want_jac:
+                dT[:, :] = 0.0
+            state_out[p, k] = OPEN
+        else:
+            norm = 0.0
+            for j in range(d):
+                norm += Tp[j] * Tp[j]
+            norm = np.sqrt(norm)
+            lim = mu[p] * N
+            if norm <= lim:
+                for j in range(d):
+                    T[j] = Tp[j]
+                state_out[p, k] = STICK
+            else:
+                ratio = lim / norm
+                for j in range(d):
+                    T[j] = ratio * Tp[j]
+                if want_jac:
+                    # dT = ratio (I - n n^T) dTp + mu n dN,  n = Tp / |Tp|
+                    if d == 1:
+                        dT[0, :] = 0.0
+                    else:
+                        for col in range(m):
+                            proj = 0.0
+                            for j in range(d):
+                                proj += Tp[j] * dT[j, col]
+                            proj /= norm
+                            for j in range(d):
+                                dT[j, col] = ratio * (dT[j, col] - Tp[j] / norm * proj)
+                    for j in range(d):
+                        mun = mu[p] * Tp[j] / norm
+                        if has_normal:
+                            for c in range(nc):
+                                dT[j, vcol + c] += mun * kn[p] * E[k, c]
+                        dT[j, m - 1] += mun
+                state_out[p, k] = SLIP
+        was_open = N == 0.0
+        N_out[p, k] = N
+        for j in range(d):
+            T_out[p, j, k] = T[j]
+            if abs(T[j]) > scale:
+                scale = abs(T[j])
+        if mu[p] * N > scale:
+            scale = mu[p] * N
+        if want_jac:
+            for j in range(d):
+                for col in range(m):
+                    G[k, j * m + col] = dT[j, col]
+        kprev = k
+    return scale
+
+
+@njit(cache=True)
+def _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
+             F_out, J_out):  # pragma: no cover
+    """Trapezoid projection of the final period's samples and derivatives."""
+    vcol = d * nc
+    for c in range(nc):
+        for j in range(d):
+            acc = 0.0
+            for k in range(ns):
+                acc += A[c, k] * T_out[p, j, k]
+            F_out[p, j, c] = acc
+        acc = 0.0
+        for k in range(ns):
+            acc += A[c, k] * N_out[p, k]
+        F_out[p, d, c] = acc
+    if not want_jac:
+        return
+    J = np.dot(A, G)  # (nc, d m)
+    for j in range(d):
+        for c in range(nc):
+            for col in range(m):
+                J_out[p, j, c, col] = J[c, j * m + col]
+    if has_normal:
+        # normal force: dN_k = [N_k > 0] (kn E_k on v, 1 on n0)
+        for c in range(nc):
+            for col in range(m):
+                J_out[p, d, c, col] = 0.0
+            for k in range(ns):
+                if N_out[p, k] > 0.0:
+                    a = A[c, k]
+                    for c2 in range(nc):
+                        J_out[p, d, c, vcol + c2] += a * kn[p] * E[k, c2]
+                    J_out[p, d, c, m - 1] += a
 
 
 @njit(cache=True)
