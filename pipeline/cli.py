@@ -42,6 +42,76 @@ def demo(argv: list[str]) -> int:
     return 0 if r.branch.complete else 1
 
 
+def run(argv: list[str]) -> int:
+    """Run a case end to end: results.h5 and PNG pictures in the output folder."""
+    from pathlib import Path
+
+    from . import case as cs
+    from .run import run_case
+
+    parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
+    parser.add_argument("case", type=Path, help="case file (TOML)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output folder (default: out/<case name>)")
+    args = parser.parse_args(argv)
+    try:
+        c = cs.load(args.case)
+    except cs.CaseError as err:
+        print(f"microslip run: {err}", file=sys.stderr)
+        return 2
+    out = args.out or Path("out") / args.case.stem
+    t = time.perf_counter()
+    try:
+        path = run_case(c, out, progress=lambda msg: print(msg, flush=True))
+    except KeyboardInterrupt:
+        print("microslip run: interrupted; the results file keeps what finished, marked "
+              "partial", file=sys.stderr)
+        return 130
+    from .results import summary
+
+    print(summary(path))
+    print(f"wrote {out} in {time.perf_counter() - t:.1f} s")
+    return 0
+
+
+def check(argv: list[str]) -> int:
+    """Validate a case file without running it."""
+    from pathlib import Path
+
+    from . import case as cs
+
+    parser = argparse.ArgumentParser(prog="microslip check", description=check.__doc__)
+    parser.add_argument("case", type=Path, nargs="+", help="case file(s) (TOML)")
+    args = parser.parse_args(argv)
+    bad = 0
+    for path in args.case:
+        try:
+            c = cs.load(path)
+            print(f"{path}: ok ({len(c.analyses)} analyses: "
+                  f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)})")
+        except cs.CaseError as err:
+            print(err, file=sys.stderr)
+            bad += 1
+    return 2 if bad else 0
+
+
+def show(argv: list[str]) -> int:
+    """Summarise a results file (or the results.h5 of an output folder)."""
+    from pathlib import Path
+
+    from .results import summary
+
+    parser = argparse.ArgumentParser(prog="microslip show", description=show.__doc__)
+    parser.add_argument("path", type=Path, help="results.h5 or its folder")
+    args = parser.parse_args(argv)
+    target = args.path / "results.h5" if args.path.is_dir() else args.path
+    if not target.is_file():
+        print(f"microslip show: no results file at {target}", file=sys.stderr)
+        return 2
+    print(summary(target))
+    return 0
+
+
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
     import tomllib
@@ -105,14 +175,18 @@ def bench(argv: list[str]) -> int:
     return importlib.import_module(BENCHES[argv[0]]).main(argv[1:])
 
 
-COMMANDS = {"demo": demo, "mesh": mesh, "bench": bench}
+COMMANDS = {"demo": demo, "run": run, "check": check, "show": show, "mesh": mesh,
+            "bench": bench}
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
-        print("usage: microslip {demo,mesh,bench} ...\n\n"
+        print("usage: microslip {demo,run,check,show,mesh,bench} ...\n\n"
               "  demo             frequency response of the single-DOF Jenkins oscillator\n"
+              "  run CASE.toml    run a case: results.h5 and pictures in out/<case>\n"
+              "  check CASE.toml  validate a case file without running it\n"
+              "  show DIR         summarise a results file\n"
               "  mesh CASE.toml   mesh a case's geometry: .msh, .vtu, PNG previews\n"
               "  bench core       speed and accuracy of the numerical core\n"
               "  bench mesh       meshing time and size over a mesh-size sweep", file=sys.stderr)

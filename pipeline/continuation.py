@@ -47,7 +47,7 @@ class Branch:
     residuals: np.ndarray  # (n_points,) scaled residual norm
     iterations: np.ndarray  # (n_points,) Newton iterations
     turning_points: list[int] = field(default_factory=list)  # indices into the points
-    status: str = "complete"  # "complete" or "stopped"
+    status: str = "complete"  # "complete", "stopped" or "interrupted"
     message: str = ""
     steps: int = 0  # predictor-corrector attempts, including rejected ones
     failed: tuple[float, np.ndarray] | None = None  # (lam, x) of the last failed attempt
@@ -208,6 +208,16 @@ def natural(
     if progress:
         progress(len(out), lam, first.iterations)
     step = settings.step
+    try:
+        return _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale,
+                              settings, progress, guesses, parameter)
+    except KeyboardInterrupt:
+        return out.finish("interrupted", f"interrupted by the user after {parameter} = "
+                          f"{out.values[-1]:.6g}")
+
+
+def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, settings,
+                   progress, guesses, parameter):
     while (lam - stop) * np.sign(span) < 0 and len(out) < settings.max_points:
         step_now = min(step, abs(stop - lam) / abs(span))
         new = lam + np.sign(span) * step_now * abs(span)
@@ -277,6 +287,16 @@ def arclength(
     tangent = _tangent(fun, x, lam, xs, lam_scale, f_scale, None, direction)
     if tangent is None:
         return out.finish("stopped", f"singular Jacobian at {parameter} = {lam:.6g}")
+    try:
+        return _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start,
+                                stop, f_scale, settings, progress, parameter)
+    except KeyboardInterrupt:
+        return out.finish("interrupted", f"interrupted by the user after {parameter} = "
+                          f"{out.values[-1]:.6g}")
+
+
+def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start, stop,
+                     f_scale, settings, progress, parameter):
     h = settings.step
     while len(out) < settings.max_points:
         y = np.append(x / xs, lam / lam_scale)

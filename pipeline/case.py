@@ -1,0 +1,606 @@
+"""Case files (TOML) for lumped models: parse, validate, build.
+
+A case names its DOFs and writes M, K, C directly; contacts give their law,
+form, parameters and the relative displacements as linear combinations of
+named DOFs (seed eqs. 21-23); loads are amplitude and phase per DOF and
+harmonic (order 0: static). Analyses (``[[analysis]]``) say what to compute:
+
+frf      a sweep of ``frequency`` | ``excitation`` | ``preload`` | ``mass`` by
+         arclength or natural continuation, optionally one curve per value of
+         a ``family`` key (any case key, e.g. ``contacts.wall.n0``)
+peak     the largest response over a frequency window against a parameter:
+         optimization (preload, mass) and performance (excitation) curves
+loops    hysteresis loops / 2D force trajectories of one contact law under a
+         prescribed relative motion, one per amplitude
+dti      direct time integration at given frequencies (the reference the
+         text compares against)
+
+Every fault found is reported, one line each, naming the key, the value and
+what is allowed, before anything is computed (:class:`CaseError`). The key
+reference with units and defaults is in the README.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .contact import LAWS, ContactElements
+from .continuation import Settings
+from .harmonics import Harmonics, default_samples
+from .hbm import PARAMETERS, Contact, Excitation, HarmonicBalance, LinearDynamics, OperatingPoint
+
+ANALYSES = ("frf", "peak", "loops", "dti")
+TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
+            "analysis"}
+MODEL_KEYS = {"dofs", "mass", "stiffness", "damping", "mass_part"}
+CONTACT_KEYS = {"name", "law", "form", "kt", "kn", "mu", "n0", "interference", "u", "u1", "u2",
+                "v", "enabled"}
+LOAD_KEYS = {"dof", "amplitude", "harmonic", "phase"}
+HARMONIC_KEYS = {"max", "orders", "samples"}
+SOLVER_KEYS = {"tol", "max_iter", "step", "min_step", "max_step", "max_turn", "target_iter",
+               "max_points", "sub_sample"}
+ANALYSIS_KEYS = {
+    "frf": {"type", "name", "parameter", "start", "stop", "method", "frequency", "outputs",
+            "family", "set"},
+    "peak": {"type", "name", "parameter", "start", "stop", "window", "output", "points", "set",
+             "family"},
+    "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
+    "dti": {"type", "name", "frequencies", "outputs", "steps_per_period", "ramp_periods",
+            "static_ramp", "max_periods", "set"},
+}
+FAMILY_KEYS = {"key", "values", "label", "sets"}
+
+
+class CaseError(ValueError):
+    """All faults found in a case file, one per line."""
+
+    def __init__(self, source: str, faults: list[str]):
+        self.faults = faults
+        super().__init__(f"{source}: {len(faults)} fault(s)\n" + "\n".join(
+            f"  - {f}" for f in faults))
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case: the raw table (as run) plus its content hash."""
+
+    data: dict
+    source: str
+
+    @property
+    def title(self) -> str:
+        return self.data.get("title", Path(self.source).stem)
+
+    @property
+    def analyses(self) -> list[dict]:
+        return self.data.get("analysis", [])
+
+    @property
+    def dofs(self) -> list[str]:
+        return list(self.data["model"]["dofs"])
+
+    @property
+    def content_hash(self) -> str:
+        blob = json.dumps(self.data, sort_keys=True, default=str).encode()
+        return hashlib.sha256(blob).hexdigest()
+
+    def with_value(self, key: str, value: Any) -> Case:
+        """A copy with one key set (dotted path; arrays of tables by name or index)."""
+        return self.with_values({key: value})
+
+    def with_values(self, values: dict[str, Any]) -> Case:
+        """A copy with keys set; validated again (a value may break a rule)."""
+        if not values:
+            return self
+        data = copy.deepcopy(self.data)
+        for key, value in values.items():
+            _set_path(data, key, value)
+        check(data, self.source)
+        return Case(data, self.source)
+
+
+# --------------------------------------------------------------------- loading
+def load(path: str | Path) -> Case:
+    """Read and validate a case file; raises CaseError listing every fault."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as err:
+        raise CaseError(str(path), [f"cannot read the file: {err.strerror}"]) from None
+    except tomllib.TOMLDecodeError as err:
+        raise CaseError(str(path), [f"not valid TOML: {err}"]) from None
+    check(data, str(path))
+    return Case(data, str(path))
+
+
+def check(data: dict, source: str = "case") -> None:
+    """Validate a case table; raises CaseError with one line per fault."""
+    faults: list[str] = []
+    _check(data, faults)
+    if faults:
+        raise CaseError(source, faults)
+
+
+def _check(data: dict, out: list[str]) -> None:
+    _unknown("", data, TOP_KEYS, out)
+    model = data.get("model")
+    if not isinstance(model, dict):
+        out.append("[model]: missing; give dofs, mass, stiffness (and damping)")
+        return
+    _unknown("model.", model, MODEL_KEYS, out)
+    dofs = model.get("dofs")
+    if not (isinstance(dofs, list) and dofs and all(isinstance(d, str) for d in dofs)):
+        out.append(f"model.dofs = {dofs!r}: expected a non-empty list of DOF names")
+        return
+    if len(set(dofs)) != len(dofs):
+        out.append(f"model.dofs = {dofs!r}: names must be unique")
+        return
+    n = len(dofs)
+    for key, required, positive in (("mass", True, True), ("stiffness", True, False),
+                                    ("damping", False, False), ("mass_part", False, False)):
+        if key not in model:
+            if required:
+                out.append(f"model.{key}: missing; give {n} diagonal values or a {n}x{n} matrix")
+            continue
+        _matrix(f"model.{key}", model[key], n, positive, out)
+    names = set(dofs)
+    contacts = data.get("contacts", [])
+    if not isinstance(contacts, list):
+        out.append("contacts: expected an array of tables [[contacts]]")
+        contacts = []
+    seen = set()
+    for i, c in enumerate(contacts):
+        _contact(i, c, names, seen, out)
+    for i, load in enumerate(data.get("loads", [])):
+        _load(i, load, names, out)
+    _harmonics(data.get("harmonics", {}), out)
+    _solver(data.get("solver", {}), out)
+    analyses = data.get("analysis", [])
+    if not isinstance(analyses, list) or not analyses:
+        out.append("analysis: missing; add at least one [[analysis]] with type in "
+                   f"{list(ANALYSES)}")
+        return
+    for i, a in enumerate(analyses):
+        _analysis(i, a, data, seen, names, out)
+
+
+def _unknown(prefix: str, table: dict, allowed: set[str], out: list[str]) -> None:
+    if not isinstance(table, dict):
+        out.append(f"{prefix.rstrip('.') or 'case'}: expected a table, got {table!r}")
+        return
+    for k in sorted(set(table) - allowed):
+        out.append(f"{prefix}{k}: unknown key; allowed: {sorted(allowed)}")
+
+
+def _number(key: str, value, out: list[str], *, positive=False, nonneg=False,
+            integer=False) -> bool:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if ok and integer:
+        ok = isinstance(value, int)
+    if not ok:
+        kind = "an integer" if integer else "a number"
+        out.append(f"{key} = {value!r}: expected {kind}")
+        return False
+    if not np.isfinite(value):
+        out.append(f"{key} = {value!r}: must be finite")
+        return False
+    if positive and value <= 0:
+        out.append(f"{key} = {value!r}: must be > 0")
+        return False
+    if nonneg and value < 0:
+        out.append(f"{key} = {value!r}: must be >= 0")
+        return False
+    return True
+
+
+def _matrix(key: str, value, n: int, positive: bool, out: list[str]) -> None:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        out.append(f"{key} = {value!r}: expected {n} numbers or a {n}x{n} matrix")
+        return
+    if arr.shape == (n,):
+        if not np.all(np.isfinite(arr)):
+            out.append(f"{key}: values must be finite")
+        elif positive and np.any(arr <= 0):
+            out.append(f"{key} = {value!r}: diagonal values must be > 0")
+        elif not positive and key != "model.mass_part" and np.any(arr < 0):
+            out.append(f"{key} = {value!r}: diagonal values must be >= 0")
+        return
+    if arr.shape != (n, n):
+        out.append(f"{key}: shape {arr.shape}, expected ({n},) or ({n}, {n}) for {n} DOFs")
+        return
+    if not np.all(np.isfinite(arr)):
+        out.append(f"{key}: values must be finite")
+        return
+    if not np.allclose(arr, arr.T, rtol=1e-12, atol=1e-12 * np.abs(arr).max()):
+        out.append(f"{key}: the matrix is not symmetric (max |A - A^T| = "
+                   f"{np.abs(arr - arr.T).max():.3g})")
+        return
+    eig = np.linalg.eigvalsh(arr)
+    if positive and eig.min() <= 0:
+        out.append(f"{key}: the matrix must be positive definite (smallest eigenvalue "
+                   f"{eig.min():.3g})")
+    elif not positive and key in ("model.stiffness", "model.damping") and \
+            eig.min() < -1e-12 * max(abs(eig).max(), 1e-300):
+        out.append(f"{key}: the matrix must be positive semi-definite (smallest eigenvalue "
+                   f"{eig.min():.3g})")
+
+
+def _combination(key: str, value, dofs: set[str], out: list[str]) -> None:
+    if not isinstance(value, dict) or not value:
+        out.append(f"{key} = {value!r}: expected a table {{dof = coefficient, ...}}")
+        return
+    for d, coef in value.items():
+        if d not in dofs:
+            out.append(f"{key}.{d}: unknown DOF; known: {sorted(dofs)}")
+        else:
+            _number(f"{key}.{d}", coef, out)
+
+
+def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
+    pre = f"contacts[{i}]"
+    if not isinstance(c, dict):
+        out.append(f"{pre}: expected a table")
+        return
+    name = c.get("name", f"contact{i}")
+    pre = f"contacts.{name}"
+    if name in seen:
+        out.append(f"{pre}: duplicate contact name")
+    seen.add(name)
+    _unknown(pre + ".", c, CONTACT_KEYS, out)
+    law = c.get("law")
+    if law not in LAWS:
+        out.append(f"{pre}.law = {law!r}: expected one of {sorted(LAWS)}")
+        return
+    d, variable = LAWS[law]
+    form = c.get("form", "uncoupled")
+    if form not in ("uncoupled", "coupled"):
+        out.append(f"{pre}.form = {form!r}: expected 'uncoupled' or 'coupled'")
+    kt = c.get("kt")
+    if isinstance(kt, list):
+        if len(kt) != d:
+            out.append(f"{pre}.kt = {kt!r}: expected one value or {d} (kt_x, kt_y)")
+        for j, k in enumerate(kt):
+            _number(f"{pre}.kt[{j}]", k, out, positive=True)
+    elif kt is None:
+        out.append(f"{pre}.kt: missing (tangential contact stiffness, N/m)")
+    else:
+        _number(f"{pre}.kt", kt, out, positive=True)
+    if "mu" not in c:
+        out.append(f"{pre}.mu: missing (friction coefficient)")
+    else:
+        _number(f"{pre}.mu", c["mu"], out, nonneg=True)
+    if variable:
+        if "kn" not in c:
+            out.append(f"{pre}.kn: missing (normal contact stiffness, N/m) for law {law}")
+        else:
+            _number(f"{pre}.kn", c["kn"], out, positive=True)
+    elif "kn" in c:
+        out.append(f"{pre}.kn: law {law} has a constant normal load; remove kn")
+    coupled_var = form == "coupled" and variable
+    if coupled_var:
+        if "n0" in c:
+            out.append(f"{pre}.n0: the coupled form of law {law} takes 'interference' (m), "
+                       "not n0")
+        if "interference" not in c:
+            out.append(f"{pre}.interference: missing (m, negative for a gap)")
+        else:
+            _number(f"{pre}.interference", c["interference"], out)
+    else:
+        if "interference" in c:
+            out.append(f"{pre}.interference: only the coupled form of laws B and D takes it")
+        if "n0" not in c:
+            out.append(f"{pre}.n0: missing (normal preload, N)")
+        else:
+            _number(f"{pre}.n0", c["n0"], out, nonneg=not variable)
+    if "enabled" in c and not isinstance(c["enabled"], bool):
+        out.append(f"{pre}.enabled = {c['enabled']!r}: expected true or false")
+    tangential = ["u"] if d == 1 else ["u1", "u2"]
+    wrong = ["u1", "u2"] if d == 1 else ["u"]
+    for k in tangential:
+        if k not in c:
+            out.append(f"{pre}.{k}: missing (tangential relative displacement as "
+                       "{dof = coefficient})")
+        else:
+            _combination(f"{pre}.{k}", c[k], dofs, out)
+    for k in wrong:
+        if k in c:
+            out.append(f"{pre}.{k}: law {law} is {d}D; use {tangential}")
+    if variable:
+        if "v" not in c:
+            out.append(f"{pre}.v: missing (normal relative displacement, positive on approach)")
+        else:
+            _combination(f"{pre}.v", c["v"], dofs, out)
+    elif "v" in c:
+        out.append(f"{pre}.v: law {law} has a constant normal load; remove v")
+
+
+def _load(i: int, load, dofs: set[str], out: list[str]) -> None:
+    pre = f"loads[{i}]"
+    if not isinstance(load, dict):
+        out.append(f"{pre}: expected a table")
+        return
+    _unknown(pre + ".", load, LOAD_KEYS, out)
+    if load.get("dof") not in dofs:
+        out.append(f"{pre}.dof = {load.get('dof')!r}: unknown DOF; known: {sorted(dofs)}")
+    if "amplitude" not in load:
+        out.append(f"{pre}.amplitude: missing (N)")
+    else:
+        _number(f"{pre}.amplitude", load["amplitude"], out)
+    _number(f"{pre}.harmonic", load.get("harmonic", 1), out, nonneg=True, integer=True)
+    _number(f"{pre}.phase", load.get("phase", 0.0), out)
+
+
+def _harmonics(h, out: list[str]) -> None:
+    _unknown("harmonics.", h, HARMONIC_KEYS, out)
+    if not isinstance(h, dict):
+        return
+    if "max" in h and "orders" in h:
+        out.append("harmonics: give either 'max' (orders 0..max) or 'orders', not both")
+    if "max" in h:
+        _number("harmonics.max", h["max"], out, nonneg=True, integer=True)
+    top = h.get("max", 1)
+    if "orders" in h:
+        o = h["orders"]
+        if not (isinstance(o, list) and o and all(isinstance(x, int) and x >= 0 for x in o)):
+            out.append(f"harmonics.orders = {o!r}: expected a list of integers >= 0")
+            return
+        top = max(o)
+    if "samples" in h and _number("harmonics.samples", h["samples"], out, positive=True,
+                                  integer=True):
+        if isinstance(top, int) and h["samples"] <= 2 * top:
+            out.append(f"harmonics.samples = {h['samples']}: too few for order {top}; need > "
+                       f"{2 * top}")
+
+
+def _solver(s, out: list[str]) -> None:
+    _unknown("solver.", s, SOLVER_KEYS, out)
+    if not isinstance(s, dict):
+        return
+    for k in ("tol", "step", "min_step", "max_step", "max_turn"):
+        if k in s:
+            _number(f"solver.{k}", s[k], out, positive=True)
+    for k in ("max_iter", "target_iter", "max_points"):
+        if k in s:
+            _number(f"solver.{k}", s[k], out, positive=True, integer=True)
+    if "sub_sample" in s and not isinstance(s["sub_sample"], bool):
+        out.append(f"solver.sub_sample = {s['sub_sample']!r}: expected true or false")
+
+
+def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
+              out: list[str]) -> None:
+    pre = f"analysis[{i}]"
+    if not isinstance(a, dict):
+        out.append(f"{pre}: expected a table")
+        return
+    kind = a.get("type")
+    if kind not in ANALYSES:
+        out.append(f"{pre}.type = {kind!r}: expected one of {list(ANALYSES)}")
+        return
+    pre = f"analysis.{a.get('name', i)}"
+    _unknown(pre + ".", a, ANALYSIS_KEYS[kind], out)
+    overrides = a.get("set", {})
+    if not isinstance(overrides, dict):
+        out.append(f"{pre}.set: expected a table {{\"key.path\" = value}}")
+        overrides = {}
+    for key, value in overrides.items():
+        try:
+            old = _get_path(data, key)
+        except (KeyError, IndexError, TypeError, ValueError):
+            out.append(f"{pre}.set.{key}: no such key in the case")
+            continue
+        if isinstance(old, (dict, list)) != isinstance(value, (dict, list)):
+            out.append(f"{pre}.set.{key} = {value!r}: replaces {old!r}, of another kind")
+    if kind in ("frf", "peak"):
+        par = a.get("parameter", "frequency")
+        allowed = PARAMETERS if kind == "frf" else ("excitation", "preload", "mass")
+        if par not in allowed:
+            out.append(f"{pre}.parameter = {par!r}: expected one of {list(allowed)}")
+        ok = all(_number(f"{pre}.{k}", a.get(k), out) for k in ("start", "stop"))
+        if ok and a["start"] == a["stop"]:
+            out.append(f"{pre}: start = stop = {a['start']}: the range has zero length")
+        if ok and (par == "frequency" or par == "mass") and min(a["start"], a["stop"]) <= 0:
+            out.append(f"{pre}: {par} range {a['start']}..{a['stop']} must be > 0")
+        if kind == "frf" and par != "frequency":
+            if not _number(f"{pre}.frequency", a.get("frequency"), out, positive=True):
+                out.append(f"{pre}.frequency: the fixed frequency (rad/s) of a {par} sweep")
+        if kind == "frf" and a.get("method", "arclength") not in ("arclength", "natural"):
+            out.append(f"{pre}.method = {a.get('method')!r}: expected 'arclength' or 'natural'")
+        if kind == "peak":
+            w = a.get("window")
+            if not (isinstance(w, list) and len(w) == 2 and all(
+                    isinstance(x, (int, float)) and x > 0 for x in w) and w[0] < w[1]):
+                out.append(f"{pre}.window = {w!r}: expected [w_low, w_high] in rad/s, "
+                           "0 < w_low < w_high")
+            if a.get("output") not in dofs:
+                out.append(f"{pre}.output = {a.get('output')!r}: unknown DOF; known: "
+                           f"{sorted(dofs)}")
+            if "points" in a:
+                _number(f"{pre}.points", a["points"], out, positive=True, integer=True)
+        fam = a.get("family")
+        if fam is not None:
+            _family(pre, fam, data, out)
+    if kind in ("frf", "dti"):
+        for o in a.get("outputs", []):
+            if o not in dofs:
+                out.append(f"{pre}.outputs: {o!r} is not a DOF; known: {sorted(dofs)}")
+    if kind == "loops":
+        if a.get("contact") not in contacts:
+            out.append(f"{pre}.contact = {a.get('contact')!r}: unknown contact; known: "
+                       f"{sorted(contacts)}")
+        amps = a.get("amplitudes")
+        if not (isinstance(amps, list) and amps and all(
+                isinstance(x, (int, float)) for x in amps)):
+            out.append(f"{pre}.amplitudes: expected a non-empty list of multipliers of the "
+                       "prescribed motion")
+        for k in ("u", "u2", "v"):
+            m = a.get(k)
+            if m is None:
+                if k == "u":
+                    out.append(f"{pre}.u: missing; the prescribed tangential motion as "
+                               "[cos amplitude, sin amplitude] (m)")
+                continue
+            if not (isinstance(m, list) and len(m) == 2 and all(
+                    isinstance(x, (int, float)) for x in m)):
+                out.append(f"{pre}.{k} = {m!r}: expected [cos amplitude, sin amplitude] (m)")
+        if a.get("scale", "all") not in ("all", "v"):
+            out.append(f"{pre}.scale = {a.get('scale')!r}: expected 'all' (the amplitudes "
+                       "multiply the whole motion) or 'v' (only the normal motion)")
+        if "samples" in a:
+            _number(f"{pre}.samples", a["samples"], out, positive=True, integer=True)
+    if kind == "dti":
+        f = a.get("frequencies")
+        if not (isinstance(f, list) and f and all(
+                isinstance(x, (int, float)) and x > 0 for x in f)):
+            out.append(f"{pre}.frequencies = {f!r}: expected a list of frequencies > 0 (rad/s)")
+
+
+def _family(pre: str, fam, data: dict, out: list[str]) -> None:
+    if not isinstance(fam, dict):
+        out.append(f"{pre}.family: expected a table with key and values")
+        return
+    _unknown(pre + ".family.", fam, FAMILY_KEYS, out)
+    vals = fam.get("values")
+    if not (isinstance(vals, list) and vals):
+        out.append(f"{pre}.family.values: expected a non-empty list")
+        return
+    if "sets" in fam:
+        # one curve per table of overrides; values are the curves' labels
+        sets = fam["sets"]
+        if "key" in fam:
+            out.append(f"{pre}.family: give 'key' or 'sets', not both")
+        if not (isinstance(sets, list) and len(sets) == len(vals)
+                and all(isinstance(x, dict) for x in sets)):
+            out.append(f"{pre}.family.sets: expected {len(vals)} tables of overrides, one per "
+                       "value")
+            return
+        for j, table in enumerate(sets):
+            for key in table:
+                try:
+                    _get_path(data, key)
+                except (KeyError, IndexError, TypeError, ValueError):
+                    out.append(f"{pre}.family.sets[{j}].{key}: no such key in the case")
+        return
+    key = fam.get("key")
+    try:
+        _get_path(data, key)
+    except (KeyError, IndexError, TypeError, ValueError):
+        out.append(f"{pre}.family.key = {key!r}: no such key in the case (use e.g. "
+                   "'contacts.<name>.n0' or 'loads.0.amplitude')")
+
+
+# --------------------------------------------------------------- key paths
+def _resolve(data, part: str):
+    if isinstance(data, list):
+        for item in data:
+            if isinstance(item, dict) and item.get("name") == part:
+                return item
+        return data[int(part)]
+    return data[part]
+
+
+def _get_path(data: dict, key: str):
+    if not isinstance(key, str) or not key or key.startswith("analysis"):
+        raise KeyError(key)
+    node = data
+    for part in key.split("."):
+        node = _resolve(node, part)
+    return node
+
+
+def _set_path(data: dict, key: str, value) -> None:
+    parts = key.split(".")
+    node = data
+    for part in parts[:-1]:
+        node = _resolve(node, part)
+    last = parts[-1]
+    if isinstance(node, list):
+        node[int(last)] = value
+    else:
+        if last not in node:
+            raise KeyError(key)
+        node[last] = value
+
+
+# --------------------------------------------------------------- building
+def harmonics(case: Case) -> Harmonics:
+    h = case.data.get("harmonics", {})
+    orders = h.get("orders", list(range(h.get("max", 1) + 1)))
+    return Harmonics(orders, h.get("samples", default_samples(max(orders))))
+
+
+def settings(case: Case) -> Settings:
+    s = {k: v for k, v in case.data.get("solver", {}).items() if k != "sub_sample"}
+    return Settings(**s)
+
+
+def _as_matrix(value, n: int) -> np.ndarray:
+    arr = np.array(value, dtype=float)
+    return np.diag(arr) if arr.ndim == 1 else arr
+
+
+def _row(combo: dict, index: dict[str, int], n: int) -> np.ndarray:
+    r = np.zeros(n)
+    for d, coef in combo.items():
+        r[index[d]] += coef
+    return r
+
+
+def contact_elements(c: dict) -> ContactElements:
+    """ContactElements of one [[contacts]] table (one point)."""
+    coupled = c.get("form", "uncoupled") == "coupled"
+    kw = dict(kt=np.atleast_1d(np.array(c["kt"], dtype=float))[None, :], mu=c["mu"],
+              coupled=coupled, kn=c.get("kn", 0.0), n_points=1)
+    if "interference" in c:
+        kw["interference"] = c["interference"]
+    else:
+        kw["n0"] = c["n0"]
+    return ContactElements.create(c["law"], **kw)
+
+
+def model(case: Case) -> HarmonicBalance:
+    """The harmonic-balance model of a lumped case."""
+    m = case.data["model"]
+    dofs = case.dofs
+    n = len(dofs)
+    index = {d: i for i, d in enumerate(dofs)}
+    h = harmonics(case)
+    lin = LinearDynamics.create(
+        _as_matrix(m["stiffness"], n), _as_matrix(m["mass"], n),
+        _as_matrix(m.get("damping", np.zeros(n)), n), harmonics=h,
+        mass_part=_as_matrix(m["mass_part"], n) if "mass_part" in m else None)
+    contacts = []
+    for i, c in enumerate(case.data.get("contacts", [])):
+        if not c.get("enabled", True):
+            continue
+        el = contact_elements(c)
+        keys = ["u"] if el.dim == 1 else ["u1", "u2"]
+        if el.variable_normal:
+            keys.append("v")
+        B = np.array([_row(c[k], index, n) for k in keys])
+        contacts.append(Contact(c.get("name", f"contact{i}"), el, B))
+    forces: dict[int, np.ndarray] = {}
+    for load in case.data.get("loads", []):
+        o = load.get("harmonic", 1)
+        f = forces.setdefault(o, np.zeros(n, dtype=complex))
+        f[index[load["dof"]]] += load["amplitude"] * np.exp(1j * np.deg2rad(load.get("phase",
+                                                                                     0.0)))
+    sub = case.data.get("solver", {}).get("sub_sample", True)
+    return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=sub)
+
+
+def operating_point(analysis: dict) -> OperatingPoint:
+    """The fixed values of the parameters an analysis does not sweep."""
+    par = analysis.get("parameter", "frequency")
+    omega = analysis["start"] if par == "frequency" else analysis["frequency"]
+    return OperatingPoint(float(omega))

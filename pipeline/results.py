@@ -1,0 +1,154 @@
+"""``results.h5``: what a run computed, safe to open (HDF5 via h5py, no pickle).
+
+Layout (documented in the README)::
+
+    /                       attrs: title, source, case_hash, status ("complete" |
+                            "partial" | "failed"), message, created, versions (JSON)
+    /case                   attrs: json (the case as run)
+    /<analysis>/            attrs: type, status, message, elapsed_s, + analysis keys
+      curve_000/ ...        one group per curve (one per family value), attrs:
+                            label, family_key, family_value, status, message,
+                            turning_points, elapsed_s; datasets by analysis type
+
+The file is written under a temporary name and renamed when closed, so a
+results file is never half written; a run that stops early (Ctrl-C, an error)
+still renames what it finished, marked ``partial`` or ``failed``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+from collections.abc import Mapping
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+
+def versions() -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    import numba
+    import scipy
+
+    try:
+        own = version("microslip")
+    except PackageNotFoundError:
+        own = "unknown"
+    return {"microslip": own, "python": platform.python_version(), "numpy": np.__version__,
+            "scipy": scipy.__version__, "numba": numba.__version__, "h5py": h5py.__version__}
+
+
+def _attr(value):
+    if isinstance(value, (dict, list, tuple)) and not (
+            isinstance(value, (list, tuple)) and value and all(
+                isinstance(v, (int, float)) for v in value)):
+        return json.dumps(value, default=str)
+    if value is None:
+        return ""
+    return value
+
+
+class ResultsWriter:
+    """Context manager writing ``path`` atomically (``path.tmp`` then rename)."""
+
+    def __init__(self, path: str | Path, *, title: str, source: str, case_hash: str,
+                 case: Mapping):
+        self.path = Path(path)
+        self.tmp = self.path.with_name(self.path.name + ".tmp")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.file = h5py.File(self.tmp, "w")
+        root = self.file.attrs
+        root["title"] = title
+        root["source"] = str(source)
+        root["case_hash"] = case_hash
+        root["status"] = "partial"
+        root["message"] = ""
+        root["created"] = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+        root["versions"] = json.dumps(versions())
+        self.file.create_group("case").attrs["json"] = json.dumps(case, default=str)
+
+    def __enter__(self) -> ResultsWriter:
+        return self
+
+    def analysis(self, name: str, attrs: Mapping) -> h5py.Group:
+        g = self.file.create_group(name)
+        for k, v in attrs.items():
+            g.attrs[k] = _attr(v)
+        g.attrs["status"] = "partial"
+        return g
+
+    @staticmethod
+    def write_group(parent: h5py.Group, name: str, datasets: Mapping, attrs: Mapping) -> None:
+        """One curve: datasets (arrays, or nested mappings as subgroups) and attrs."""
+        g = parent.create_group(name)
+        for k, v in attrs.items():
+            g.attrs[k] = _attr(v)
+        _datasets(g, datasets)
+
+    def flush(self) -> None:
+        self.file.flush()
+
+    def close(self, status: str, message: str = "") -> Path:
+        self.file.attrs["status"] = status
+        self.file.attrs["message"] = message
+        self.file.close()
+        os.replace(self.tmp, self.path)
+        return self.path
+
+    def __exit__(self, kind, err, tb) -> bool:
+        if not self.file:  # already closed
+            return False
+        if kind is None:
+            self.close("complete")
+        elif issubclass(kind, KeyboardInterrupt):
+            self.close("partial", "interrupted by the user")
+        else:
+            self.close("failed", f"{kind.__name__}: {err}")
+        return False
+
+
+def _datasets(g: h5py.Group, datasets: Mapping) -> None:
+    for k, v in datasets.items():
+        if isinstance(v, Mapping):
+            _datasets(g.create_group(k), v)
+        else:
+            arr = np.asarray(v)
+            if arr.dtype.kind in "UO":
+                arr = arr.astype("S")
+            g.create_dataset(k, data=arr)
+
+
+def summary(path: str | Path) -> str:
+    """A readable summary of a results file (``microslip show``)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "results.h5"
+    lines = []
+    with h5py.File(path, "r") as f:
+        a = f.attrs
+        lines.append(f"{a['title']}  [{a['status']}]  {a['message']}".rstrip())
+        lines.append(f"  source {a['source']}, case {a['case_hash'][:12]}, {a['created']}")
+        v = json.loads(a["versions"])
+        lines.append("  " + ", ".join(f"{k} {v[k]}" for k in sorted(v)))
+        for name, g in f.items():
+            if name == "case":
+                continue
+            ga = g.attrs
+            lines.append(f"{name}: {ga.get('type', '?')} [{ga.get('status', '?')}] "
+                         f"{ga.get('elapsed_s', 0.0):.2f} s {ga.get('message', '')}".rstrip())
+            for cname, c in g.items():
+                if not isinstance(c, h5py.Group):
+                    continue
+                ca = c.attrs
+                npts = next((c[k].shape[0] for k in ("parameter", "omega", "amplitude")
+                             if k in c), 0)
+                extra = ""
+                if "amplitude" in c and c["amplitude"].size:
+                    extra = f", max amplitude {np.max(c['amplitude'][()]):.6g}"
+                lines.append(f"  {cname} {ca.get('label', '')}: {npts} points "
+                             f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
+    return "\n".join(lines)

@@ -1,0 +1,222 @@
+"""Run a case end to end: every analysis, ``results.h5`` and the pictures.
+
+Progress goes to a callable (the CLI prints it). Ctrl-C stops the run after
+saving the branch computed so far; the results file is then marked partial.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from . import case as cs
+from . import plots
+from .contact import STATE_NAMES
+from .harmonics import Harmonics
+from .hbm import OperatingPoint
+from .response import Response, sweep
+from .results import ResultsWriter
+
+Progress = Callable[[str], None]
+
+
+def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> Path:
+    """Compute every analysis of ``case`` into ``out_dir``; returns results.h5."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
+                       case_hash=case.content_hash, case=case.data) as w:
+        stopped = ""
+        for i, a in enumerate(case.analyses):
+            name = str(a.get("name", f"analysis{i}"))
+            kind = a["type"]
+            t = time.perf_counter()
+            group = w.analysis(name, {k: v for k, v in a.items() if k != "family"}
+                               | {"family": a.get("family", {})})
+            progress(f"[{name}] {kind} ...")
+            status, message = RUNNERS[kind](case, a, name, w, group, out, progress)
+            group.attrs["status"] = status
+            group.attrs["message"] = message
+            group.attrs["elapsed_s"] = time.perf_counter() - t
+            w.flush()
+            progress(f"[{name}] {status} in {time.perf_counter() - t:.2f} s {message}".rstrip())
+            if status == "interrupted":
+                stopped = f"interrupted by the user in analysis {name}"
+                break
+        if stopped:
+            return w.close("partial", stopped)
+    return out / "results.h5"
+
+
+def _outputs(case: cs.Case, a: dict) -> tuple[list[str], list[int]]:
+    names = a.get("outputs", case.dofs)
+    return names, [case.dofs.index(n) for n in names]
+
+
+def _family(case: cs.Case, a: dict) -> list[tuple[cs.Case, str, object]]:
+    case = case.with_values(a.get("set", {}))
+    fam = a.get("family")
+    if not fam:
+        return [(case, "", None)]
+    if "sets" in fam:
+        return [(case.with_values(s), str(v), v) for v, s in zip(fam["values"], fam["sets"])]
+    label = fam.get("label", fam["key"])
+    return [(case.with_value(fam["key"], v), f"{label} = {v:g}", v) for v in fam["values"]]
+
+
+def _ticker(progress: Progress, prefix: str) -> Callable[[int, float, int], None]:
+    last = [0.0]
+
+    def tick(n: int, value: float, iterations: int) -> None:
+        now = time.perf_counter()
+        if now - last[0] > 1.0:
+            last[0] = now
+            progress(f"{prefix} point {n}, value {value:.6g}, {iterations} Newton iterations")
+
+    return tick
+
+
+def _contact_data(r: Response) -> dict:
+    """Per contact and point: state, dissipation, slip fraction, static forces."""
+    out = {}
+    for ci, c in enumerate(r.model.contacts):
+        rows = [r.contacts(i)[ci] for i in range(len(r))]
+        out[c.name] = {
+            "state": np.array([x.state[0] for x in rows], dtype=np.int8),
+            "dissipation": np.array([x.dissipation.sum() for x in rows]),
+            "slip_fraction": np.array([x.slip_fraction.mean() for x in rows]),
+            "static_force": np.array([x.forces[:, :, 0].ravel() for x in rows])
+            if r.model.harmonics.has_static else np.zeros((len(r), 0)),
+            "undersampled": np.array([x.undersampled.sum() for x in rows]),
+        }
+    return out
+
+
+def run_frf(case, a, name, w, group, out, progress):
+    par = a.get("parameter", "frequency")
+    names, idx = _outputs(case, a)
+    series = {n: [] for n in names}
+    statuses = []
+    for j, (c, label, value) in enumerate(_family(case, a)):
+        hb = cs.model(c)
+        t = time.perf_counter()
+        r = sweep(hb, par, a["start"], a["stop"], cs.operating_point(a),
+                  method=a.get("method", "arclength"), settings=cs.settings(c),
+                  progress=_ticker(progress, f"[{name}] curve {j + 1} {label}"))
+        elapsed = time.perf_counter() - t
+        b = r.branch
+        amp = r.amplitude(idx) if len(r) else np.zeros((0, len(idx)))
+        data = {
+            "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
+            "coefficients": r.coefficients(idx) if len(r) else np.zeros((0, len(idx), 0)),
+            "amplitude": amp, "residual": b.residuals, "iterations": b.iterations,
+            "contacts": _contact_data(r) if len(r) else {},
+        }
+        attrs = {"label": label, "family_key": (a.get("family") or {}).get("key", ""),
+                 "family_value": value if value is not None else "", "status": b.status,
+                 "message": b.message, "turning_points": b.turning_points,
+                 "elapsed_s": elapsed, "outputs": names,
+                 "harmonic_orders": list(hb.harmonics.orders),
+                 "samples": hb.harmonics.n_samples}
+        w.write_group(group, f"curve_{j:03d}", data, attrs)
+        w.flush()
+        statuses.append((b.status, b.message))
+        for k, n in enumerate(names):
+            series[n].append({"x": b.values, "y": amp[:, k], "label": label or None,
+                              "turning_points": b.turning_points})
+        progress(f"[{name}] curve {j + 1} {label}: {len(r)} points, {b.status} "
+                 f"({elapsed:.2f} s) {b.message}".rstrip())
+        if b.status == "interrupted":
+            break
+    for n in names:
+        plots.curves(out / f"{name}_{n}.png", f"{case.title}: {name}, {n}", plots.LABELS[par],
+                     series[n], f"max |{n}(t)|")
+    return _worst(statuses)
+
+
+def run_peak(case, a, name, w, group, out, progress):
+    par = a["parameter"]
+    values = np.linspace(a["start"], a["stop"], a.get("points", 25))
+    k = case.dofs.index(a["output"])
+    lo, hi = a["window"]
+    series, statuses = [], []
+    for j, (c, label, fvalue) in enumerate(_family(case, a)):
+        hb = cs.model(c)
+        omega, amp, done = [], [], []
+        t = time.perf_counter()
+        for v in values:
+            r = sweep(hb, "frequency", lo, hi, OperatingPoint(lo).set(par, v),
+                      settings=cs.settings(c))
+            if r.branch.status == "interrupted":
+                statuses.append(("interrupted", r.branch.message))
+                break
+            wk, ak = r.peak(k) if len(r) else (np.nan, np.nan)
+            omega.append(wk)
+            amp.append(ak)
+            done.append(r.branch.complete)
+            statuses.append((r.branch.status, r.branch.message))
+            progress(f"[{name}] {label} {par} = {v:.6g}: peak {ak:.6g} at w = {wk:.6g} rad/s")
+        n = len(amp)
+        data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
+                "complete": np.array(done)}
+        w.write_group(group, f"curve_{j:03d}", data, {
+            "label": label or f"peak of {a['output']}", "family_value": fvalue or "",
+            "status": _worst(statuses)[0], "message": _worst(statuses)[1],
+            "elapsed_s": time.perf_counter() - t})
+        w.flush()
+        series.append({"x": values[:n], "y": np.array(amp), "label": label or None})
+        if statuses and statuses[-1][0] == "interrupted":
+            break
+    wide = a["start"] > 0 and a["stop"] / a["start"] > 50
+    plots.curves(out / f"{name}.png", f"{case.title}: {name}", plots.LABELS[par], series,
+                 f"peak max |{a['output']}(t)| over w in [{lo:g}, {hi:g}] rad/s",
+                 logx=wide, logy=wide)
+    return _worst(statuses)
+
+
+def run_loops(case, a, name, w, group, out, progress):
+    table = next(c for c in case.data["contacts"] if c.get("name") == a["contact"])
+    amps = np.asarray(a["amplitudes"], dtype=float)
+    base = cs.contact_elements(table)
+    el = type(base)(base.law, np.repeat(base.kt, amps.size, 0), np.repeat(base.kn, amps.size),
+                    np.repeat(base.mu, amps.size), np.repeat(base.n0, amps.size), base.coupled)
+    h = Harmonics([0, 1], a.get("samples", 512))
+    motion = [a["u"]] + ([a["u2"]] if el.dim == 2 else []) + (
+        [a.get("v", [0.0, 0.0])] if el.variable_normal else [])
+    g = np.zeros((amps.size, el.n_components, 3))
+    scale_v_only = el.variable_normal and a.get("scale", "all") == "v"
+    for j, (ca, sa) in enumerate(motion):
+        is_v = el.variable_normal and j == el.n_components - 1
+        factor = amps if (is_v or not scale_v_only) else np.ones_like(amps)
+        g[:, j, 1], g[:, j, 2] = factor * ca, factor * sa
+    r = el.evaluate(g, h, jacobian=False, histories=True)
+    loops_ = []
+    for i, s in enumerate(amps):
+        label = f"x{s:g}: {STATE_NAMES[r.state[i]]}, W = {r.dissipation[i]:.3g} J"
+        loops_.append({"u": r.u[i, 0], "T": r.T[i] if el.dim == 2 else r.T[i, 0],
+                       "limit": el.mu[i] * r.N[i], "label": label})
+    data = {"amplitude": amps, "u": r.u, "v": r.v, "T": r.T, "N": r.N,
+            "dissipation": r.dissipation, "state": r.state.astype(np.int8)}
+    w.write_group(group, "curve_000", data, {"label": f"loops of {a['contact']}",
+                                             "status": "complete", "message": ""})
+    plots.loops(out / f"{name}.png", f"{case.title}: {name} (law {el.law})", loops_,
+                two_d=el.dim == 2)
+    return "complete", ""
+
+
+def run_dti(case, a, name, w, group, out, progress):
+    return "skipped", "time integration is not wired to case files yet"
+
+
+def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
+    for key in ("interrupted", "stopped", "failed"):
+        for s, m in statuses:
+            if s == key:
+                return s, m
+    return "complete", ""
+
+
+RUNNERS = {"frf": run_frf, "peak": run_peak, "loops": run_loops, "dti": run_dti}

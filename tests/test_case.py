@@ -1,0 +1,127 @@
+"""Case files: every fault named before any work; runs write what they promise."""
+
+import copy
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from pipeline import case as cs
+from pipeline.run import run_case
+
+CASES = Path(__file__).parents[1] / "cases"
+
+GOOD = {
+    "title": "t",
+    "model": {"dofs": ["x", "y"], "mass": [1.0, 2.0], "stiffness": [[2.0, -1.0], [-1.0, 2.0]],
+              "damping": [0.01, 0.01]},
+    "contacts": [{"name": "c", "law": "B", "kt": 1.0, "kn": 2.0, "mu": 0.3, "n0": 0.5,
+                  "u": {"x": 1.0}, "v": {"y": 1.0, "x": -0.5}}],
+    "loads": [{"dof": "x", "amplitude": 0.1, "harmonic": 1}],
+    "harmonics": {"max": 3, "samples": 64},
+    "analysis": [{"name": "a", "type": "frf", "start": 0.5, "stop": 2.0}],
+}
+
+
+def faults(mutate) -> list[str]:
+    data = copy.deepcopy(GOOD)
+    mutate(data)
+    with pytest.raises(cs.CaseError) as err:
+        cs.check(data)
+    return err.value.faults
+
+
+def test_good_case_builds_the_model_it_says():
+    cs.check(GOOD)
+    c = cs.Case(GOOD, "t.toml")
+    hb = cs.model(c)
+    assert hb.harmonics.orders == (0, 1, 2, 3) and hb.harmonics.n_samples == 64
+    assert np.allclose(hb.linear.K[0].real, [[2, -1], [-1, 2]])
+    assert np.allclose(hb.linear.M[1].real, np.diag([1.0, 2.0]))
+    B = hb.contacts[0].kinematics
+    assert np.allclose(B, [[1.0, 0.0], [-0.5, 1.0]])  # rows u, v from named DOFs
+    assert hb.F_ext[1][0] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize(
+    "mutate,expected",
+    [
+        (lambda d: d.update(colour=1), "colour: unknown key"),
+        (lambda d: d["model"].pop("mass"), "model.mass: missing"),
+        (lambda d: d["model"].update(mass=[1.0, -2.0]), "diagonal values must be > 0"),
+        (lambda d: d["model"].update(mass=[[1.0, 0.5], [0.0, 1.0]]), "not symmetric"),
+        (lambda d: d["model"].update(stiffness="stiff"), "model.stiffness = 'stiff'"),
+        (lambda d: d["contacts"][0].update(u={"z": 1.0}), "contacts.c.u.z: unknown DOF"),
+        (lambda d: d["contacts"][0].update(mu=-0.1), "contacts.c.mu = -0.1: must be >= 0"),
+        (lambda d: d["contacts"][0].update(law="E"), "contacts.c.law = 'E'"),
+        (lambda d: d["contacts"][0].pop("kn"), "contacts.c.kn: missing"),
+        (lambda d: d["contacts"][0].update(form="coupled"), "takes 'interference'"),
+        (lambda d: d["loads"][0].update(dof="q"), "loads[0].dof = 'q'"),
+        (lambda d: d["harmonics"].update(samples=5), "too few for order 3"),
+        (lambda d: d["analysis"][0].update(stop=0.5), "zero length"),
+        (lambda d: d["analysis"][0].update(type="fly"), "analysis[0].type = 'fly'"),
+        (lambda d: d["analysis"][0].update(family={"key": "contacts.c.zz", "values": [1]}),
+         "no such key"),
+        (lambda d: d.pop("analysis"), "analysis: missing"),
+    ],
+)
+def test_each_fault_is_named(mutate, expected):
+    found = faults(mutate)
+    assert any(expected in f for f in found), found
+
+
+def test_all_faults_reported_at_once():
+    def many(d):
+        d["model"]["mass"] = [1.0, 0.0]
+        d["contacts"][0]["mu"] = -1
+        d["loads"][0]["dof"] = "nope"
+    assert len(faults(many)) == 3
+
+
+def test_shipped_cases_are_valid():
+    paths = sorted(CASES.glob("*.toml"))
+    assert paths
+    for path in paths:
+        data = path.read_bytes()
+        if b"[[analysis]]" in data:
+            cs.load(path)
+
+
+def test_run_writes_results_and_pictures(tmp_path):
+    data = copy.deepcopy(GOOD)
+    data["analysis"].append({"name": "loops", "type": "loops", "contact": "c",
+                             "u": [1.0, 0.0], "v": [0.2, 0.0], "amplitudes": [0.5, 2.0]})
+    data["analysis"][0]["family"] = {"key": "contacts.c.n0", "values": [0.2, 0.5]}
+    path = run_case(cs.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
+    assert path == tmp_path / "results.h5" and not (tmp_path / "results.h5.tmp").exists()
+    with h5py.File(path) as f:
+        assert f.attrs["status"] == "complete"
+        assert set(f) == {"case", "a", "loops"}
+        for curve, n0 in (("curve_000", 0.2), ("curve_001", 0.5)):
+            g = f["a"][curve]
+            assert g.attrs["family_value"] == n0
+            n = g["parameter"].shape[0]
+            assert g["amplitude"].shape == (n, 2) and g["coefficients"].shape == (n, 2, 7)
+            assert np.all(g["residual"][()] <= 1e-9)
+            assert g["contacts/c/state"].shape == (n,)
+        assert f["loops/curve_000/T"].shape == (2, 1, 512)
+    assert (tmp_path / "a_x.png").stat().st_size > 0 and (tmp_path / "loops.png").exists()
+
+
+def test_interrupted_run_leaves_a_valid_partial_file(tmp_path):
+    data = copy.deepcopy(GOOD)
+    data["analysis"][0]["family"] = {"key": "contacts.c.n0", "values": [0.2, 0.5, 0.8]}
+    calls = []
+
+    def progress(msg):
+        calls.append(msg)
+        if "curve 1" in msg and ": " in msg and "points" in msg:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_case(cs.Case(data, "t.toml"), tmp_path, progress=progress)
+    assert not (tmp_path / "results.h5.tmp").exists()
+    with h5py.File(tmp_path / "results.h5") as f:
+        assert f.attrs["status"] == "partial"
+        assert "curve_000" in f["a"] and "curve_001" not in f["a"]
