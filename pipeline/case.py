@@ -38,8 +38,9 @@ from .harmonics import Harmonics, default_samples
 from .hbm import PARAMETERS, Contact, Excitation, HarmonicBalance, LinearDynamics, OperatingPoint
 
 ANALYSES = ("frf", "peak", "loops", "dti")
+METHODS = ("arclength", "natural", "natural-down")  # natural-down: from stop to start
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
-            "analysis"}
+            "analysis", "geometry"}
 MODEL_KEYS = {"dofs", "mass", "stiffness", "damping", "mass_part"}
 CONTACT_KEYS = {"name", "law", "form", "kt", "kn", "mu", "n0", "interference", "u", "u1", "u2",
                 "v", "enabled"}
@@ -54,7 +55,7 @@ ANALYSIS_KEYS = {
              "family"},
     "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
     "dti": {"type", "name", "frequencies", "outputs", "steps_per_period", "ramp_periods",
-            "static_ramp", "max_periods", "set"},
+            "ramp_time", "settle_time", "max_periods", "set", "compare"},
 }
 FAMILY_KEYS = {"key", "values", "label", "sets"}
 
@@ -92,6 +93,11 @@ class Case:
         blob = json.dumps(self.data, sort_keys=True, default=str).encode()
         return hashlib.sha256(blob).hexdigest()
 
+    def contacts_enabled(self) -> list[str]:
+        """Names of the contacts the model includes, in order."""
+        return [c.get("name", f"contact{i}") for i, c in enumerate(self.data.get("contacts", []))
+                if c.get("enabled", True)]
+
     def with_value(self, key: str, value: Any) -> Case:
         """A copy with one key set (dotted path; arrays of tables by name or index)."""
         return self.with_values({key: value})
@@ -102,7 +108,7 @@ class Case:
             return self
         data = copy.deepcopy(self.data)
         for key, value in values.items():
-            _set_path(data, key, value)
+            _set_path(data, key, value, create=True)
         check(data, self.source)
         return Case(data, self.source)
 
@@ -130,8 +136,12 @@ def check(data: dict, source: str = "case") -> None:
         raise CaseError(source, faults)
 
 
-def _check(data: dict, out: list[str]) -> None:
+def _check(data: dict, out: list[str], analyses: bool = True) -> None:
     _unknown("", data, TOP_KEYS, out)
+    if "geometry" in data:
+        _geometry(data["geometry"], out)
+        if "model" not in data and "analysis" not in data:
+            return  # a mesh-only case
     model = data.get("model")
     if not isinstance(model, dict):
         out.append("[model]: missing; give dofs, mass, stiffness (and damping)")
@@ -164,6 +174,8 @@ def _check(data: dict, out: list[str]) -> None:
         _load(i, load, names, out)
     _harmonics(data.get("harmonics", {}), out)
     _solver(data.get("solver", {}), out)
+    if not analyses:
+        return
     analyses = data.get("analysis", [])
     if not isinstance(analyses, list) or not analyses:
         out.append("analysis: missing; add at least one [[analysis]] with type in "
@@ -243,8 +255,19 @@ def _combination(key: str, value, dofs: set[str], out: list[str]) -> None:
     for d, coef in value.items():
         if d not in dofs:
             out.append(f"{key}.{d}: unknown DOF; known: {sorted(dofs)}")
+        elif isinstance(coef, dict):
+            # a delayed DOF: coef * x(t - lag T), a travelling motion (harmonic balance only)
+            _unknown(f"{key}.{d}.", coef, {"coef", "lag"}, out)
+            _number(f"{key}.{d}.coef", coef.get("coef", 1.0), out)
+            _number(f"{key}.{d}.lag", coef.get("lag", 0.0), out)
         else:
             _number(f"{key}.{d}", coef, out)
+
+
+def _has_lag(data: dict) -> bool:
+    return any(isinstance(coef, dict) for c in data.get("contacts", [])
+               for k in ("u", "u1", "u2", "v") if isinstance(c.get(k), dict)
+               for coef in c[k].values())
 
 
 def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
@@ -392,15 +415,8 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
     overrides = a.get("set", {})
     if not isinstance(overrides, dict):
         out.append(f"{pre}.set: expected a table {{\"key.path\" = value}}")
-        overrides = {}
-    for key, value in overrides.items():
-        try:
-            old = _get_path(data, key)
-        except (KeyError, IndexError, TypeError, ValueError):
-            out.append(f"{pre}.set.{key}: no such key in the case")
-            continue
-        if isinstance(old, (dict, list)) != isinstance(value, (dict, list)):
-            out.append(f"{pre}.set.{key} = {value!r}: replaces {old!r}, of another kind")
+    else:
+        _overrides(f"{pre}.set", data, overrides, out)
     if kind in ("frf", "peak"):
         par = a.get("parameter", "frequency")
         allowed = PARAMETERS if kind == "frf" else ("excitation", "preload", "mass")
@@ -414,8 +430,13 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if kind == "frf" and par != "frequency":
             if not _number(f"{pre}.frequency", a.get("frequency"), out, positive=True):
                 out.append(f"{pre}.frequency: the fixed frequency (rad/s) of a {par} sweep")
-        if kind == "frf" and a.get("method", "arclength") not in ("arclength", "natural"):
-            out.append(f"{pre}.method = {a.get('method')!r}: expected 'arclength' or 'natural'")
+        if kind == "frf":
+            methods = a.get("method", "arclength")
+            methods = methods if isinstance(methods, list) else [methods]
+            for m in methods:
+                if m not in METHODS:
+                    out.append(f"{pre}.method = {m!r}: expected one of {list(METHODS)} (or a "
+                               "list of them: one curve each)")
         if kind == "peak":
             w = a.get("window")
             if not (isinstance(w, list) and len(w) == 2 and all(
@@ -463,6 +484,25 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if not (isinstance(f, list) and f and all(
                 isinstance(x, (int, float)) and x > 0 for x in f)):
             out.append(f"{pre}.frequencies = {f!r}: expected a list of frequencies > 0 (rad/s)")
+        for k in ("steps_per_period", "max_periods"):
+            if k in a:
+                _number(f"{pre}.{k}", a[k], out, positive=True, integer=True)
+        if "ramp_periods" in a:
+            _number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True, integer=True)
+        for k in ("ramp_time", "settle_time"):
+            if k in a:
+                _number(f"{pre}.{k}", a[k], out, nonneg=True)
+        if _has_lag(data):
+            out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
+                       "with 'lag'); use harmonic balance")
+        orders = {ld.get("harmonic", 1) for ld in data.get("loads", [])}
+        if not orders <= {0, 1}:
+            out.append(f"{pre}: time integration takes loads of harmonic 0 and 1 only, the "
+                       f"case has {sorted(orders)}")
+        names = [x.get("name") for x in data.get("analysis", []) if isinstance(x, dict)]
+        if "compare" in a and a["compare"] not in names:
+            out.append(f"{pre}.compare = {a['compare']!r}: no analysis of that name; known: "
+                       f"{names}")
 
 
 def _family(pre: str, fam, data: dict, out: list[str]) -> None:
@@ -485,11 +525,7 @@ def _family(pre: str, fam, data: dict, out: list[str]) -> None:
                        "value")
             return
         for j, table in enumerate(sets):
-            for key in table:
-                try:
-                    _get_path(data, key)
-                except (KeyError, IndexError, TypeError, ValueError):
-                    out.append(f"{pre}.family.sets[{j}].{key}: no such key in the case")
+            _overrides(f"{pre}.family.sets[{j}]", data, table, out)
         return
     key = fam.get("key")
     try:
@@ -497,6 +533,38 @@ def _family(pre: str, fam, data: dict, out: list[str]) -> None:
     except (KeyError, IndexError, TypeError, ValueError):
         out.append(f"{pre}.family.key = {key!r}: no such key in the case (use e.g. "
                    "'contacts.<name>.n0' or 'loads.0.amplitude')")
+
+
+def _overrides(pre: str, data: dict, table: dict, out: list[str]) -> None:
+    """Apply overrides to a copy and validate it: a key may be new (e.g.
+    ``contacts.x.enabled``) if its table exists; what it breaks is reported."""
+    if not table:
+        return
+    trial = copy.deepcopy({k: v for k, v in data.items() if k != "analysis"})
+    base: list[str] = []
+    _check(trial, base, analyses=False)
+    for key, value in table.items():
+        try:
+            _set_path(trial, key, value, create=True)
+        except (KeyError, IndexError, TypeError, ValueError):
+            out.append(f"{pre}.{key}: no such table in the case")
+            return
+    found: list[str] = []
+    _check(trial, found, analyses=False)
+    out.extend(f"{pre}: {f}" for f in found if f not in base)  # only what the overrides break
+
+
+def _geometry(geo, out: list[str]) -> None:
+    import geometry
+
+    if not isinstance(geo, dict) or geo.get("model") not in geometry.MODELS:
+        out.append(f"geometry.model = {geo.get('model') if isinstance(geo, dict) else geo!r}: "
+                   f"expected one of {sorted(geometry.MODELS)}")
+        return
+    _unknown("geometry.", geo, {"model", "parameters"}, out)
+    params = geo.get("parameters", {})
+    if not isinstance(params, dict):
+        out.append("geometry.parameters: expected a table")
 
 
 # --------------------------------------------------------------- key paths
@@ -518,7 +586,7 @@ def _get_path(data: dict, key: str):
     return node
 
 
-def _set_path(data: dict, key: str, value) -> None:
+def _set_path(data: dict, key: str, value, create: bool = False) -> None:
     parts = key.split(".")
     node = data
     for part in parts[:-1]:
@@ -527,7 +595,7 @@ def _set_path(data: dict, key: str, value) -> None:
     if isinstance(node, list):
         node[int(last)] = value
     else:
-        if last not in node:
+        if last not in node and not create:
             raise KeyError(key)
         node[last] = value
 
@@ -549,10 +617,16 @@ def _as_matrix(value, n: int) -> np.ndarray:
     return np.diag(arr) if arr.ndim == 1 else arr
 
 
-def _row(combo: dict, index: dict[str, int], n: int) -> np.ndarray:
-    r = np.zeros(n)
+def _row(combo: dict, index: dict[str, int], n: int, order: int = 0) -> np.ndarray:
+    """Kinematic row at harmonic ``order``: a lag of a fraction of the period
+    multiplies harmonic n by exp(-2 pi i n lag)."""
+    r = np.zeros(n, dtype=complex)
     for d, coef in combo.items():
-        r[index[d]] += coef
+        if isinstance(coef, dict):
+            r[index[d]] += coef.get("coef", 1.0) * np.exp(-2j * np.pi * order
+                                                          * coef.get("lag", 0.0))
+        else:
+            r[index[d]] += coef
     return r
 
 
@@ -587,7 +661,10 @@ def model(case: Case) -> HarmonicBalance:
         keys = ["u"] if el.dim == 1 else ["u1", "u2"]
         if el.variable_normal:
             keys.append("v")
-        B = np.array([_row(c[k], index, n) for k in keys])
+        if _has_lag({"contacts": [c]}):
+            B = {o: np.array([_row(c[k], index, n, o) for k in keys]) for o in h.orders}
+        else:
+            B = np.array([_row(c[k], index, n).real for k in keys])
         contacts.append(Contact(c.get("name", f"contact{i}"), el, B))
     forces: dict[int, np.ndarray] = {}
     for load in case.data.get("loads", []):

@@ -114,10 +114,10 @@ def show(argv: list[str]) -> int:
 
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
-    import tomllib
     from pathlib import Path
 
-    import geometry
+    from . import case as cs
+    from .run import mesh_geometry
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML) with a [geometry] table")
@@ -126,42 +126,20 @@ def mesh(argv: list[str]) -> int:
     parser.add_argument("--no-pictures", action="store_true", help="skip the PNG previews")
     args = parser.parse_args(argv)
     try:
-        with open(args.case, "rb") as f:
-            case = tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError) as err:
-        print(f"microslip mesh: cannot read {args.case}: {err}", file=sys.stderr)
+        c = cs.load(args.case)
+    except cs.CaseError as err:
+        print(f"microslip mesh: {err}", file=sys.stderr)
         return 2
-    geo = case.get("geometry")
-    if not isinstance(geo, dict) or "model" not in geo:
-        print(f"microslip mesh: {args.case} has no [geometry] table with a 'model' key "
-              f"(one of {sorted(geometry.MODELS)})", file=sys.stderr)
-        return 2
-    unknown = set(geo) - {"model", "parameters"}
-    if unknown or geo["model"] not in geometry.MODELS:
-        bad = f"unknown keys {sorted(unknown)}" if unknown else f"model = {geo['model']!r}"
-        print(f"microslip mesh: [geometry] {bad}; allowed: model (one of "
-              f"{sorted(geometry.MODELS)}) and a [geometry.parameters] table", file=sys.stderr)
+    if "geometry" not in c.data:
+        print(f"microslip mesh: {args.case} has no [geometry] table", file=sys.stderr)
         return 2
     out = args.out or Path("out") / args.case.stem
     out.mkdir(parents=True, exist_ok=True)
-    t = time.perf_counter()
     try:
-        m = geometry.MODELS[geo["model"]](**geo.get("parameters", {}))
+        mesh_geometry(c.data["geometry"], out, progress=print, pictures=not args.no_pictures)
     except (TypeError, ValueError) as err:
         print(f"microslip mesh: [geometry.parameters]: {err}", file=sys.stderr)
         return 2
-    elapsed = time.perf_counter() - t
-    m.write_msh(out / "mesh.msh")
-    m.write(out / "mesh.vtu")
-    print(f"{m.model}: {m.points.shape[0]} nodes, {m.tetrahedra.shape[0]} tetrahedra, "
-          f"bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in {elapsed:.2f} s; "
-          f"hash {m.content_hash[:12]}")
-    print(f"wrote {out / 'mesh.msh'}, {out / 'mesh.vtu'}")
-    if not args.no_pictures:
-        from geometry.preview import render_previews
-
-        for path in render_previews(m, out):
-            print(f"wrote {path}")
     return 0
 
 

@@ -82,10 +82,10 @@ class ContactResponse:
     normal_work: (P,) work of the normal force per cycle, J: zero for an
         elastic normal spring up to the time discretisation (a check).
     periods: (P,) periods marched before the cycle repeated.
-    undersampled: (P,) stick arcs per period resolved by at most one sample (the
-        force reverses between two slipping samples, or through a single stuck
-        one): the sampling does not resolve the stick phase there and Newton may
-        stall; more samples help.
+    undersampled: (P,) stick arcs per period resolved by at most two samples (or
+        none: the force reverses between two slipping samples). The sampled
+        force then changes in steps as a transition crosses a sample, and Newton
+        may stall to a residual of that size; more samples help.
     T, N, u, v: time histories (P, d, ns), (P, ns), (P, d, ns), (P, ns) if asked.
     flags: (P, ns) int8 per-sample state (SAMPLE_STICK, SAMPLE_SLIP, SAMPLE_OPEN) if asked.
     """
@@ -285,11 +285,7 @@ class ContactElements:
         normal_work = (
             harmonics.work(forces[:, d], g[:, d]) if self.variable_normal else np.zeros(P)
         )
-        slip = st == _returnmap.SLIP
-        before, after = np.roll(slip, 1, axis=1), np.roll(slip, -1, axis=1)
-        reverse = np.einsum("pjk,pjk->pk", T, np.roll(T, 1, axis=2)) < 0
-        single = (st == _returnmap.STICK) & before & after
-        undersampled = np.sum(slip & before & reverse, axis=1) + np.sum(single, axis=1)
+        undersampled = _short_sticks(st, T)
         extra = {}
         if histories:
             extra = {"T": T, "N": N, "u": u, "v": v, "flags": st}
@@ -297,6 +293,21 @@ class ContactElements:
             forces, jac, dn0, state, slip_fraction, dissipation, normal_work, periods,
             undersampled, **extra
         )
+
+
+def _short_sticks(flags: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """(P,) stick arcs between slipping samples that span 0, 1 or 2 samples."""
+    slip = flags == _returnmap.SLIP
+    stick = flags == _returnmap.STICK
+
+    def at(a, shift):
+        return np.roll(a, -shift, axis=1)
+
+    reverse = np.einsum("pjk,pjk->pk", T, np.roll(T, 1, axis=2)) < 0  # T(k-1) . T(k) < 0
+    none = slip & at(slip, -1) & reverse
+    one = stick & at(slip, -1) & at(slip, 1)
+    two = stick & at(stick, 1) & at(slip, -1) & at(slip, 2)
+    return np.sum(none | one | two, axis=1)
 
 
 def _classify(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -81,6 +81,8 @@ class Settings:
     target_iter: int = 4
     max_turn: float = 0.15
     max_points: int = 5000
+    lower: float = -np.inf  # the parameter's admissible range (e.g. frequency > 0)
+    upper: float = np.inf
 
     def __post_init__(self):
         for name in ("tol", "step", "min_step", "max_step", "max_turn"):
@@ -98,6 +100,7 @@ class Settings:
 
 
 DEFAULT = Settings()
+MAX_CORNERS = 10  # fixed-parameter crossings of a non-smooth branch, per branch
 
 
 def newton(
@@ -298,6 +301,7 @@ def arclength(
 def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start, stop,
                      f_scale, settings, progress, parameter):
     h = settings.step
+    corners = 0
     while len(out) < settings.max_points:
         y = np.append(x / xs, lam / lam_scale)
         pred = y + h * tangent
@@ -321,20 +325,45 @@ def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start,
         ok, y_new, its, res, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale,
                                              settings)
         out.steps += 1
-        if not ok:
+        far = ok and np.linalg.norm(y_new - pred) > 10.0 * h  # on another branch
+        if not ok or far:
             h /= 2
-            out.failed = (y_new[-1] * lam_scale, y_new[:-1] * xs)
-            if h < settings.min_step:
-                return out.finish(
-                    "stopped",
-                    f"stopped near {parameter} = {lam:.6g}: corrector failed ({info}) "
-                    f"with step below min_step = {settings.min_step:g}",
-                )
+            if not ok:
+                out.failed = (y_new[-1] * lam_scale, y_new[:-1] * xs)
+            if h >= settings.min_step:
+                continue
+            # a corner of the branch (e.g. the whole orbit passing from stick to slip at
+            # once): the tangent is undefined there, but a step at fixed parameter
+            # crosses it; then arclength resumes
+            crossed = None
+            if corners < MAX_CORNERS:
+                corners += 1
+                crossed = _cross_corner(fun, x, lam, tangent[-1], lam_scale, xs, f_scale,
+                                        settings)
+            if crossed is None:
+                why = f"corrector failed ({info})" if not ok else \
+                    "the corrector keeps leaving the branch"
+                return out.finish("stopped", f"stopped near {parameter} = {lam:.6g}: {why} "
+                                  f"with step below min_step = {settings.min_step:g}")
+            lam_c, r = crossed
+            t_c = _tangent(fun, r.x, lam_c, xs, lam_scale, f_scale, tangent, direction)
+            if t_c is None:
+                return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_c:.6g}")
+            if t_c[-1] * (lam_c - lam) < 0:  # keep going the way the crossing went
+                t_c = -t_c
+            out.add(lam_c, r)
+            if progress:
+                progress(len(out), lam_c, r.iterations)
+            x, lam, tangent, h = r.x, lam_c, t_c, settings.step
             continue
         x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
         t_new = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent, direction, info)
         if t_new is None:
             return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_new:.6g}")
+        if not settings.lower < lam_new < settings.upper:
+            return out.finish("stopped", f"the branch left the admissible range "
+                              f"({settings.lower:g}, {settings.upper:g}) of {parameter} "
+                              f"after {lam:.6g}")
         out.add(lam_new, NewtonResult(x_new, True, its, res))
         if progress:
             progress(len(out), lam_new, its)
@@ -360,6 +389,20 @@ def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start,
         if (lam - start) * direction < -0.5 * lam_scale:
             return out.finish("stopped", f"branch turned back past the start ({lam:.6g})")
     return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")
+
+
+def _cross_corner(fun, x, lam, slope, lam_scale, xs, f_scale, settings):
+    """Newton at fixed parameter just past ``lam`` in the branch's direction
+    (from the last solution): (lam, NewtonResult) or None."""
+    sign = np.sign(slope) if slope != 0 else 1.0
+    for frac in (1e-4, 1e-3, 1e-2):
+        lam_c = lam + sign * frac * lam_scale
+        if not settings.lower < lam_c < settings.upper:
+            return None
+        r = newton(fun, x, lam_c, x_scale=xs, f_scale=f_scale, settings=settings)
+        if r.converged:
+            return lam_c, r
+    return None
 
 
 def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None):

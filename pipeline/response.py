@@ -8,6 +8,7 @@ contact states and dissipated energies point by point.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -170,6 +171,8 @@ def sweep(
         raise ValueError(f"sweep: mass multiplier range must be > 0, got {start}..{stop}")
     if x0 is not None and np.shape(x0) != (model.n_unknowns,):
         raise ValueError(f"sweep: 'x0' has shape {np.shape(x0)}, expected ({model.n_unknowns},)")
+    if parameter in ("frequency", "mass") and settings.lower < 0:
+        settings = dataclasses.replace(settings, lower=0.0)  # never through w = 0 or m = 0
     p0 = base.set(parameter, start)
     xs, fs = scales(model, p0)
     if x_scale is not None:
@@ -191,9 +194,16 @@ def sweep(
         branch = cont.natural(fun, x0, start, stop, parameter=parameter, x_scale=xs,
                               f_scale=fs, settings=settings, progress=progress,
                               guesses=guesses)
-    if not branch.complete and branch.failed is not None:
-        value, x = branch.failed
-        branch.message += sampling_hint(model, x, base.set(parameter, value))
+    if not branch.complete and branch.status != "interrupted":
+        # the failed iterate, else the last converged point, may show the cause
+        tries = [branch.failed] if branch.failed is not None else []
+        if len(branch):
+            tries.append((branch.values[-1], branch.x[-1]))
+        for value, x in tries:
+            hint = sampling_hint(model, x, base.set(parameter, value))
+            if hint:
+                branch.message += hint
+                break
     return Response(model, branch, base)
 
 

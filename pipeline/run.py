@@ -30,6 +30,15 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
                        case_hash=case.content_hash, case=case.data) as w:
         stopped = ""
+        if "geometry" in case.data:
+            t = time.perf_counter()
+            m = mesh_geometry(case.data["geometry"], out, progress)
+            w.write_group(w.file, "geometry", {}, {
+                "model": m.model, "content_hash": m.content_hash, "nodes": m.points.shape[0],
+                "tetrahedra": m.tetrahedra.shape[0], "bodies": sorted(m.bodies),
+                "contacts": sorted(m.contacts), "parameters": m.parameters, "status": "complete",
+                "elapsed_s": time.perf_counter() - t, "type": "geometry"})
+        drawn: dict[str, dict] = {}  # analysis -> {output: series}, for comparisons
         for i, a in enumerate(case.analyses):
             name = str(a.get("name", f"analysis{i}"))
             kind = a["type"]
@@ -37,7 +46,7 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
             group = w.analysis(name, {k: v for k, v in a.items() if k != "family"}
                                | {"family": a.get("family", {})})
             progress(f"[{name}] {kind} ...")
-            status, message = RUNNERS[kind](case, a, name, w, group, out, progress)
+            status, message = RUNNERS[kind](case, a, name, w, group, out, progress, drawn)
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t
@@ -49,6 +58,26 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
         if stopped:
             return w.close("partial", stopped)
     return out / "results.h5"
+
+
+def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bool = True):
+    """Build the [geometry] of a case; write mesh.msh, mesh.vtu and previews."""
+    import geometry
+
+    t = time.perf_counter()
+    m = geometry.MODELS[geo["model"]](**geo.get("parameters", {}))
+    elapsed = time.perf_counter() - t
+    m.write_msh(out / "mesh.msh")
+    m.write(out / "mesh.vtu")
+    progress(f"[geometry] {m.model}: {m.points.shape[0]} nodes, {m.tetrahedra.shape[0]} "
+             f"tetrahedra, bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in "
+             f"{elapsed:.2f} s; hash {m.content_hash[:12]}")
+    if pictures:
+        from geometry.preview import render_previews
+
+        for path in render_previews(m, out):
+            progress(f"[geometry] wrote {path}")
+    return m
 
 
 def _outputs(case: cs.Case, a: dict) -> tuple[list[str], list[int]]:
@@ -95,49 +124,65 @@ def _contact_data(r: Response) -> dict:
     return out
 
 
-def run_frf(case, a, name, w, group, out, progress):
+def run_frf(case, a, name, w, group, out, progress, drawn):
     par = a.get("parameter", "frequency")
     names, idx = _outputs(case, a)
+    methods = a.get("method", "arclength")
+    methods = methods if isinstance(methods, list) else [methods]
     series = {n: [] for n in names}
     statuses = []
-    for j, (c, label, value) in enumerate(_family(case, a)):
-        hb = cs.model(c)
-        t = time.perf_counter()
-        r = sweep(hb, par, a["start"], a["stop"], cs.operating_point(a),
-                  method=a.get("method", "arclength"), settings=cs.settings(c),
-                  progress=_ticker(progress, f"[{name}] curve {j + 1} {label}"))
-        elapsed = time.perf_counter() - t
-        b = r.branch
-        amp = r.amplitude(idx) if len(r) else np.zeros((0, len(idx)))
-        data = {
-            "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
-            "coefficients": r.coefficients(idx) if len(r) else np.zeros((0, len(idx), 0)),
-            "amplitude": amp, "residual": b.residuals, "iterations": b.iterations,
-            "contacts": _contact_data(r) if len(r) else {},
-        }
-        attrs = {"label": label, "family_key": (a.get("family") or {}).get("key", ""),
-                 "family_value": value if value is not None else "", "status": b.status,
-                 "message": b.message, "turning_points": b.turning_points,
-                 "elapsed_s": elapsed, "outputs": names,
-                 "harmonic_orders": list(hb.harmonics.orders),
-                 "samples": hb.harmonics.n_samples}
-        w.write_group(group, f"curve_{j:03d}", data, attrs)
-        w.flush()
-        statuses.append((b.status, b.message))
-        for k, n in enumerate(names):
-            series[n].append({"x": b.values, "y": amp[:, k], "label": label or None,
-                              "turning_points": b.turning_points})
-        progress(f"[{name}] curve {j + 1} {label}: {len(r)} points, {b.status} "
-                 f"({elapsed:.2f} s) {b.message}".rstrip())
-        if b.status == "interrupted":
+    j = 0
+    for c, label, value in _family(case, a):
+        for method in methods:
+            start, stop = a["start"], a["stop"]
+            if method == "natural-down":
+                start, stop = stop, start
+            tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
+            hb = cs.model(c)
+            t = time.perf_counter()
+            base = cs.operating_point(a).set(par, start)
+            r = sweep(hb, par, start, stop, base,
+                      method="natural" if method.startswith("natural") else method,
+                      settings=cs.settings(c),
+                      progress=_ticker(progress, f"[{name}] curve {j + 1} {tag}"))
+            elapsed = time.perf_counter() - t
+            b = r.branch
+            amp = r.amplitude(idx) if len(r) else np.zeros((0, len(idx)))
+            data = {
+                "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
+                "coefficients": r.coefficients(idx) if len(r) else np.zeros((0, len(idx), 0)),
+                "amplitude": amp, "residual": b.residuals, "iterations": b.iterations,
+                "contacts": _contact_data(r) if len(r) else {},
+            }
+            attrs = {"label": tag, "method": method,
+                     "family_key": (a.get("family") or {}).get("key", ""),
+                     "family_value": value if value is not None else "", "status": b.status,
+                     "message": b.message, "turning_points": b.turning_points,
+                     "elapsed_s": elapsed, "outputs": names,
+                     "harmonic_orders": list(hb.harmonics.orders),
+                     "samples": hb.harmonics.n_samples}
+            w.write_group(group, f"curve_{j:03d}", data, attrs)
+            w.flush()
+            j += 1
+            statuses.append((b.status, b.message))
+            style = {"natural": "--", "natural-down": ":"}.get(method, "-")
+            for k, n in enumerate(names):
+                series[n].append({"x": b.values, "y": amp[:, k], "label": tag or None,
+                                  "turning_points": b.turning_points, "ls": style})
+            progress(f"[{name}] curve {j} {tag}: {len(r)} points, {b.status} "
+                     f"({elapsed:.2f} s) {b.message}".rstrip())
+            if b.status == "interrupted":
+                break
+        if statuses and statuses[-1][0] == "interrupted":
             break
+    drawn[name] = {"parameter": par, "series": series}
     for n in names:
-        plots.curves(out / f"{name}_{n}.png", f"{case.title}: {name}, {n}", plots.LABELS[par],
+        plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}", plots.LABELS[par],
                      series[n], f"max |{n}(t)|")
     return _worst(statuses)
 
 
-def run_peak(case, a, name, w, group, out, progress):
+def run_peak(case, a, name, w, group, out, progress, drawn):
     par = a["parameter"]
     values = np.linspace(a["start"], a["stop"], a.get("points", 25))
     k = case.dofs.index(a["output"])
@@ -171,13 +216,14 @@ def run_peak(case, a, name, w, group, out, progress):
         if statuses and statuses[-1][0] == "interrupted":
             break
     wide = a["start"] > 0 and a["stop"] / a["start"] > 50
-    plots.curves(out / f"{name}.png", f"{case.title}: {name}", plots.LABELS[par], series,
+    plots.curves(out / f"{name}.png", f"{name}: peak response of {a['output']}",
+                 plots.LABELS[par], series,
                  f"peak max |{a['output']}(t)| over w in [{lo:g}, {hi:g}] rad/s",
                  logx=wide, logy=wide)
     return _worst(statuses)
 
 
-def run_loops(case, a, name, w, group, out, progress):
+def run_loops(case, a, name, w, group, out, progress, drawn):
     table = next(c for c in case.data["contacts"] if c.get("name") == a["contact"])
     amps = np.asarray(a["amplitudes"], dtype=float)
     base = cs.contact_elements(table)
@@ -202,13 +248,55 @@ def run_loops(case, a, name, w, group, out, progress):
             "dissipation": r.dissipation, "state": r.state.astype(np.int8)}
     w.write_group(group, "curve_000", data, {"label": f"loops of {a['contact']}",
                                              "status": "complete", "message": ""})
-    plots.loops(out / f"{name}.png", f"{case.title}: {name} (law {el.law})", loops_,
+    plots.loops(out / f"{name}.png", f"{name}: law {el.law}, contact {a['contact']}", loops_,
                 two_d=el.dim == 2)
     return "complete", ""
 
 
-def run_dti(case, a, name, w, group, out, progress):
-    return "skipped", "time integration is not wired to case files yet"
+def run_dti(case, a, name, w, group, out, progress, drawn):
+    from . import dti
+
+    c = case.with_values(a.get("set", {}))
+    hb = cs.model(c)
+    names, idx = _outputs(c, a)
+    tm = dti.TimeModel.from_harmonic_balance(hb)
+    loads = dti.LoadSteps.from_excitation(
+        hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
+        settle_time=a.get("settle_time", 0.0), ramp_periods=a.get("ramp_periods", 0))
+    H = max(hb.harmonics.orders)
+    spp = a.get("steps_per_period", 256)
+
+    def tick(i, n, omega, steady):
+        progress(f"[{name}] {i + 1}/{n} w = {omega:.6g} rad/s: {steady.periods} periods, "
+                 f"max|{names[0]}| = {steady.amplitude[idx[0]]:.6g}"
+                 + ("" if steady.converged else " (not periodic yet)"))
+
+    try:
+        fr = dti.frequency_response(tm, loads, a["frequencies"], steps_per_period=spp,
+                                    max_periods=a.get("max_periods", 3000),
+                                    harmonics=min(H, (spp - 1) // 2), progress=tick)
+    except KeyboardInterrupt:
+        return "interrupted", "time integration interrupted by the user"
+    contacts = {}
+    for ci, ct in enumerate(c.contacts_enabled()):
+        contacts[ct] = {"N0": fr.N0[ci], "T0": fr.T0[ci]}
+    data = {"omega": fr.omega, "amplitude": fr.amplitude[:, idx],
+            "coefficients": fr.coefficients[:, idx], "periods": fr.periods,
+            "converged": fr.converged, "seconds": fr.seconds, "contacts": contacts}
+    ok = bool(np.all(fr.converged))
+    message = "" if ok else f"{int(np.sum(~fr.converged))} frequencies not periodic yet"
+    w.write_group(group, "curve_000", data, {"label": "time integration",
+                                             "status": "complete" if ok else "stopped",
+                                             "message": message, "outputs": names,
+                                             "steps_per_period": spp})
+    ref = drawn.get(a.get("compare", ""), {})
+    for k, n in enumerate(names):
+        series = ref.get("series", {}).get(n, [])
+        plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}",
+                     plots.LABELS["frequency"], series, f"max |{n}(t)|",
+                     markers=[{"x": fr.omega, "y": fr.amplitude[:, idx[k]],
+                               "label": f"time integration ({spp} steps/period)"}])
+    return ("complete" if ok else "stopped"), message
 
 
 def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
