@@ -1,0 +1,296 @@
+"""Cyclic symmetry (seed 5.1.1, DESIGN.md §5): sector matrices per nodal diameter.
+
+Sector angle phi = 2 pi / Ns about the disk axis +z. The right-face nodes are the images of the
+left-face nodes under R(+phi) (``CyclicBoundary.right[i] = R(phi) left[i]``). For nodal diameter
+h the right-face DOFs are eliminated with
+
+    u_R = exp(i h phi) R(phi) u_L        (Cartesian DOFs, P2 edge DOFs included)
+
+so that u_body = P_h u_free and K_h = P_h^H K P_h, M_h = P_h^H M P_h: complex Hermitian, real for
+h = 0 and h = Ns/2. Sector s of the disk then carries exp(i h s phi) R(s phi) u (a forward
+travelling wave for a time factor exp(i w t)).
+
+Engine-order excitation EO: temporal harmonic n lives on nodal diameter n EO mod Ns, folded into
+0..Ns/2; a fold (residue > Ns/2) is a backward wave whose sector matrices are the complex
+conjugates of those of ND Ns - residue. The 0th harmonic is ND 0.
+
+Clamped node sets are removed after the cyclic elimination (their DOFs are zero).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from pipeline.fem import BodyModel, FloatArray, IntArray
+
+
+def rotation(angle: float) -> FloatArray:
+    """(3, 3) rotation by ``angle`` [rad] about +z."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _check_sectors(sectors: int) -> None:
+    if not (isinstance(sectors, int | np.integer) and sectors >= 2):
+        raise ValueError(f"sectors={sectors!r}: must be an integer >= 2")
+
+
+def check_nodal_diameter(nodal_diameter: int, sectors: int) -> None:
+    """ValueError unless 0 <= nodal_diameter <= sectors // 2."""
+    _check_sectors(sectors)
+    if not (
+        isinstance(nodal_diameter, int | np.integer) and 0 <= nodal_diameter <= sectors // 2
+    ):
+        raise ValueError(
+            f"nodal_diameter={nodal_diameter!r}: must be an integer in 0..{sectors // 2} "
+            f"(sectors={sectors})"
+        )
+
+
+def phase(nodal_diameter: int, sectors: int) -> complex | float:
+    """Inter-sector phase factor exp(i h phi); exactly +-1.0 (real) for h = 0 and h = Ns/2."""
+    check_nodal_diameter(nodal_diameter, sectors)
+    if nodal_diameter == 0:
+        return 1.0
+    if 2 * nodal_diameter == sectors:
+        return -1.0
+    return complex(np.exp(2j * np.pi * nodal_diameter / sectors))
+
+
+def harmonic_nodal_diameter(harmonic: int, engine_order: int, sectors: int) -> tuple[int, bool]:
+    """(nodal diameter, conjugate) on which temporal harmonic n of an EO excitation lives.
+
+    ``conjugate`` is True for a backward wave: use the complex conjugates of that ND's matrices.
+    """
+    _check_sectors(sectors)
+    if not (isinstance(harmonic, int | np.integer) and harmonic >= 0):
+        raise ValueError(f"harmonic={harmonic!r}: must be an integer >= 0")
+    if not isinstance(engine_order, int | np.integer):
+        raise ValueError(f"engine_order={engine_order!r}: must be an integer")
+    residue = (harmonic * engine_order) % sectors
+    if 2 * residue <= sectors:
+        return int(residue), False
+    return int(sectors - residue), True
+
+
+def nodal_diameters(harmonics: Iterable[int], engine_order: int, sectors: int) -> tuple[int, ...]:
+    """Sorted distinct nodal diameters a case with these harmonics and engine order needs."""
+    return tuple(
+        sorted({harmonic_nodal_diameter(n, engine_order, sectors)[0] for n in harmonics})
+    )
+
+
+def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
+    """Validate a CyclicBoundary against the body: pairs in the body, disjoint, rotated images.
+
+    The coordinate comparison only checks the given pairing; it never searches for partners.
+    """
+    left = np.asarray(boundary.left, dtype=np.int64)
+    right = np.asarray(boundary.right, dtype=np.int64)
+    _check_sectors(boundary.sectors)
+    if left.shape != right.shape or left.ndim != 1:
+        raise ValueError(
+            f"cyclic boundary: left {left.shape} and right {right.shape} must be equal 1-D shapes"
+        )
+    if np.intersect1d(left, right).size:
+        raise ValueError("cyclic boundary: a node is on both faces (a node on the axis?)")
+    pl = body.points[body.local_nodes(left, "cyclic boundary left")]
+    pr = body.points[body.local_nodes(right, "cyclic boundary right")]
+    R = rotation(2.0 * np.pi / boundary.sectors)
+    scale = max(float(np.abs(body.points).max()), 1e-300)
+    err = float(np.abs(pl @ R.T - pr).max()) if len(pl) else 0.0
+    if err > rtol * scale:
+        raise ValueError(
+            f"cyclic boundary: right nodes are not R(2 pi/{boundary.sectors}) images of the left "
+            f"nodes (max deviation {err:.3e} m)"
+        )
+
+
+def face_dof_pairs(body: BodyModel, boundary: Any) -> tuple[IntArray, IntArray]:
+    """(k, 3) right-face DOFs and the (k, 3) left-face DOFs they are images of.
+
+    Vertex DOFs from the node pairs; P2 edge DOFs from the edges of the right face's boundary
+    triangles, matched to the left edges through the vertex pairing (topology only).
+    """
+    left = np.asarray(boundary.left, dtype=np.int64)
+    right = np.asarray(boundary.right, dtype=np.int64)
+    right_dofs = [body.dofs_of_nodes(right, "cyclic boundary right")]
+    left_dofs = [body.dofs_of_nodes(left, "cyclic boundary left")]
+    if body.order == 2:
+        e_right = body.set_edges(right)
+        pairs = body.edges[e_right]
+        to_left = dict(zip(right.tolist(), left.tolist(), strict=True))
+        image = np.vectorize(to_left.__getitem__, otypes=[np.int64])(pairs)
+        e_left = body.edge_index(image)
+        if np.any(e_left < 0):
+            raise ValueError(
+                "cyclic boundary: right-face edges have no left-face counterpart "
+                "(faces are not periodic meshes)"
+            )
+        right_dofs.append(body.edge_dofs[e_right])
+        left_dofs.append(body.edge_dofs[e_left])
+    return np.concatenate(right_dofs), np.concatenate(left_dofs)
+
+
+@dataclass(frozen=True, eq=False)
+class SectorModel:
+    """Matrices of one body with constraints (and cyclic symmetry at one ND) applied.
+
+    stiffness, mass: (n_f, n_f) CSR over the free DOFs; float64, or complex128 Hermitian for
+    0 < h < Ns/2.
+    free_dofs: (n_f,) body DOF index of each free coordinate.
+    expansion: (N, n_f) CSR P_h, u_body = P_h u_free.
+    nodal_diameter, sectors: None for a body without cyclic symmetry (e.g. the damper).
+    clamped_nodes: global node indices held fixed.
+    """
+
+    body: BodyModel
+    stiffness: sp.csr_matrix
+    mass: sp.csr_matrix
+    free_dofs: IntArray
+    expansion: sp.csr_matrix
+    nodal_diameter: int | None
+    sectors: int | None
+    clamped_nodes: IntArray
+
+    @property
+    def n_free(self) -> int:
+        return int(self.stiffness.shape[0])
+
+    @property
+    def is_complex(self) -> bool:
+        return bool(np.iscomplexobj(self.stiffness.data))
+
+    def free_index(self, nodes: Sequence[int] | IntArray, what: str = "nodes") -> IntArray:
+        """(k, 3) positions in the free vector of the x, y, z DOFs of global vertices ``nodes``.
+
+        ValueError for a node that is clamped or on the eliminated right cyclic face.
+        """
+        dofs = self.body.dofs_of_nodes(nodes, what)
+        pos = np.searchsorted(self.free_dofs, dofs)
+        pos_c = np.minimum(pos, len(self.free_dofs) - 1)
+        ok = self.free_dofs[pos_c] == dofs
+        if not ok.all():
+            bad = np.asarray(nodes).ravel()[~ok.all(axis=1)]
+            raise ValueError(
+                f"{what}: node(s) {bad[:8].tolist()} have no free DOFs (clamped, or on the right "
+                "cyclic face whose DOFs are eliminated; use their left-face images)"
+            )
+        return pos_c
+
+
+def sector_model(
+    body: BodyModel,
+    clamped_nodes: Sequence[int] | IntArray = (),
+    boundary: Any = None,
+    nodal_diameter: int = 0,
+) -> SectorModel:
+    """Apply clamps and (if ``boundary`` is a CyclicBoundary) the ND-h cyclic condition."""
+    clamped_nodes = np.unique(np.asarray(clamped_nodes, dtype=np.int64))
+    clamped = body.set_dofs(clamped_nodes, "clamped nodes") if clamped_nodes.size else None
+    N = body.n_dofs
+    removed = np.zeros(N, dtype=bool)
+    if clamped is not None:
+        removed[clamped] = True
+    rows, cols, vals = [], [], []
+    if boundary is not None:
+        sectors = int(boundary.sectors)
+        check_nodal_diameter(nodal_diameter, sectors)
+        check_boundary(body, boundary)
+        right_dofs, left_dofs = face_dof_pairs(body, boundary)
+        removed[right_dofs.ravel()] = True
+    else:
+        sectors = None
+    free = np.flatnonzero(~removed).astype(np.int64)
+    index = np.full(N, -1, dtype=np.int64)
+    index[free] = np.arange(len(free))
+    rows.append(free)
+    cols.append(np.arange(len(free)))
+    vals.append(np.ones(len(free)))
+    dtype: type = np.float64
+    if boundary is not None:
+        T = phase(nodal_diameter, sectors) * rotation(2.0 * np.pi / sectors)
+        dtype = np.complex128 if np.iscomplexobj(T) else np.float64
+        # u_R[a] = sum_b T[a, b] u_L[b]; a clamped left DOF contributes nothing.
+        for a in range(3):
+            for b in range(3):
+                if T[a, b] == 0:
+                    continue
+                c = index[left_dofs[:, b]]
+                keep = c >= 0
+                rows.append(right_dofs[keep, a])
+                cols.append(c[keep])
+                vals.append(np.full(int(keep.sum()), T[a, b]))
+    P = sp.csr_matrix(
+        (np.concatenate(vals).astype(dtype), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(N, len(free)),
+    )
+    PH = P.conj().T.tocsr()
+    K = (PH @ body.stiffness @ P).tocsr()
+    M = (PH @ body.mass @ P).tocsr()
+    K = (0.5 * (K + K.conj().T)).tocsr()  # exactly Hermitian
+    M = (0.5 * (M + M.conj().T)).tocsr()
+    return SectorModel(
+        body=body,
+        stiffness=K,
+        mass=M,
+        free_dofs=free,
+        expansion=P,
+        nodal_diameter=int(nodal_diameter) if boundary is not None else None,
+        sectors=sectors,
+        clamped_nodes=clamped_nodes,
+    )
+
+
+# --- full disk: for pictures and for checking the sector model -----------------------------
+
+
+def expand_to_disk(displacement: NDArray, nodal_diameter: int, sectors: int) -> NDArray:
+    """Sector-by-sector displacement of the full disk from a sector solution at ND h.
+
+    displacement: (n, 3) complex amplitudes of the fundamental sector's nodes.
+    Returns (Ns, n, 3): sector s carries exp(i h s phi) R(s phi) u (same node order).
+    Take the real part (times exp(i w t)) for a picture.
+    """
+    check_nodal_diameter(nodal_diameter, sectors)
+    u = np.asarray(displacement)
+    phi = 2.0 * np.pi / sectors
+    out = np.empty((sectors, *u.shape), dtype=np.complex128)
+    for s in range(sectors):
+        out[s] = np.exp(1j * nodal_diameter * s * phi) * (u @ rotation(s * phi).T)
+    return out
+
+
+def replicate_sector(
+    points: FloatArray, tetrahedra: IntArray, boundary: Any
+) -> tuple[FloatArray, IntArray, IntArray]:
+    """Full-disk mesh from Ns rotated copies of a sector, faces merged through the node pairs.
+
+    points: (n, 3); tetrahedra: (m, 4) of the sector (the nodes they use); boundary: the
+    body's CyclicBoundary. Returns (points (n_full, 3), tetrahedra (Ns m, 4), node_map (Ns, n))
+    where node_map[s, i] is the full-disk index of sector node i in copy s.
+    The right face of copy s is the left face of copy s + 1 (mod Ns).
+    """
+    sectors = int(boundary.sectors)
+    _check_sectors(sectors)
+    left = np.asarray(boundary.left, dtype=np.int64)
+    right = np.asarray(boundary.right, dtype=np.int64)
+    n = len(points)
+    is_right = np.zeros(n, dtype=bool)
+    is_right[right] = True
+    own = np.flatnonzero(~is_right)  # nodes each copy contributes
+    node_map = np.full((sectors, n), -1, dtype=np.int64)
+    for s in range(sectors):
+        node_map[s, own] = s * len(own) + np.arange(len(own))
+    for s in range(sectors):
+        node_map[s, right] = node_map[(s + 1) % sectors, left]
+    phi = 2.0 * np.pi / sectors
+    full_points = np.concatenate([points[own] @ rotation(s * phi).T for s in range(sectors)])
+    full_tets = np.concatenate([node_map[s][tetrahedra] for s in range(sectors)])
+    return full_points, full_tets, node_map

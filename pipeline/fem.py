@@ -1,0 +1,340 @@
+"""Finite-element assembly: stiffness and mass of 3D isotropic linear elasticity per body.
+
+Quadratic tetrahedra by default: scikit-fem's ``ElementVector(ElementTetP2())`` on the order-1
+Gmsh mesh (the P2 element adds one DOF triple per mesh edge; loading a Gmsh ``tetra10`` mesh would
+drop the boundary tags, DESIGN.md §9). Linear tetrahedra (``order=1``) as an option.
+
+Quadrature is the cheapest exact rule for straight-sided (affine) tetrahedra: the stiffness
+integrand is a product of gradients (degree 2(p-1)) and the mass a product of shape functions
+(degree 2p), so P2 uses ``intorder=2`` / ``intorder=4`` and P1 ``intorder=0`` / ``intorder=2``.
+
+DOF numbering is scikit-fem's: for a vertex node the three DOFs (x, y, z) are
+``node_dofs[i]``; P2 edge DOFs follow. Contact and response nodes are mesh vertices and are mapped
+to DOFs through these explicit tables, never by a coordinate search.
+
+Units: SI (m, kg, Pa); matrices in N/m and kg.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import skfem as fe
+from numpy.typing import NDArray
+from skfem.helpers import dot
+from skfem.models.elasticity import linear_elasticity
+
+IntArray = NDArray[np.int64]
+FloatArray = NDArray[np.float64]
+
+# Quadrature order (exact polynomial degree) per element order: (stiffness, mass).
+_INTORDER = {1: (0, 2), 2: (2, 4)}
+
+
+class MeshLike(Protocol):
+    """The fields of ``geometry.mesh.Mesh`` this stage reads."""
+
+    points: FloatArray  # (n, 3) m
+    tetrahedra: IntArray  # (m, 4) linear tets
+    bodies: Mapping[str, IntArray]  # body -> tet indices
+    node_sets: Mapping[str, IntArray]  # name -> sorted node indices
+    cyclic: Mapping[str, Any]  # body -> CyclicBoundary
+    contacts: Mapping[str, Any]  # name -> ContactPatch
+    content_hash: str
+
+
+@dataclass(frozen=True)
+class Material:
+    """Isotropic linear-elastic material.
+
+    youngs_modulus: E [Pa]; poisson_ratio: nu [-], -1 < nu < 0.5; density: rho [kg/m^3].
+    """
+
+    youngs_modulus: float
+    poisson_ratio: float
+    density: float
+
+    def __post_init__(self) -> None:
+        E, nu, rho = self.youngs_modulus, self.poisson_ratio, self.density
+        if not (math.isfinite(E) and E > 0.0):
+            raise ValueError(f"youngs_modulus={E!r}: must be a finite positive number [Pa]")
+        if not (math.isfinite(nu) and -1.0 < nu < 0.5):
+            raise ValueError(
+                f"poisson_ratio={nu!r}: must satisfy -1 < nu < 0.5 "
+                "(nu = 0.5 is incompressible, outside displacement-based elasticity)"
+            )
+        if not (math.isfinite(rho) and rho > 0.0):
+            raise ValueError(f"density={rho!r}: must be a finite positive number [kg/m^3]")
+
+    @property
+    def shear_modulus(self) -> float:
+        """G = E / (2 (1 + nu)) [Pa]."""
+        return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))
+
+    @property
+    def lame_lambda(self) -> float:
+        """First Lame parameter [Pa]."""
+        E, nu = self.youngs_modulus, self.poisson_ratio
+        return E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+
+    def as_tuple(self) -> tuple[float, float, float]:
+        return (float(self.youngs_modulus), float(self.poisson_ratio), float(self.density))
+
+
+@dataclass(frozen=True, eq=False)
+class BodyModel:
+    """Assembled stiffness and mass of one body, with its node/DOF tables.
+
+    nodes: (n_v,) global mesh indices of the body's vertices (sorted).
+    points: (n_v, 3) their coordinates [m].
+    node_dofs: (n_v, 3) DOF indices of each vertex (x, y, z).
+    edges: (n_e, 2) global vertex pairs (sorted per row) of the mesh edges.
+    edge_dofs: (n_e, 3) DOF indices of the P2 edge nodes (empty for order 1).
+    boundary_facets: (n_f, 3) global vertex triples of the body's boundary triangles.
+    stiffness, mass: (N, N) CSR [N/m], [kg].
+    """
+
+    body: str
+    order: int
+    material: Material
+    mesh_hash: str
+    nodes: IntArray
+    points: FloatArray
+    node_dofs: IntArray
+    edges: IntArray
+    edge_dofs: IntArray
+    boundary_facets: IntArray
+    stiffness: sp.csr_matrix
+    mass: sp.csr_matrix
+
+    @property
+    def n_dofs(self) -> int:
+        return int(self.stiffness.shape[0])
+
+    def local_nodes(self, nodes: Sequence[int] | IntArray, what: str = "nodes") -> IntArray:
+        """Positions in ``self.nodes`` of global node indices; ValueError if one is not here."""
+        nodes = np.asarray(nodes, dtype=np.int64).ravel()
+        pos = np.searchsorted(self.nodes, nodes)
+        pos_c = np.minimum(pos, len(self.nodes) - 1)
+        bad = self.nodes[pos_c] != nodes
+        if np.any(bad):
+            raise ValueError(
+                f"{what}: node(s) {nodes[bad][:8].tolist()} are not vertices of body "
+                f"{self.body!r} (it has {len(self.nodes)} vertices)"
+            )
+        return pos_c
+
+    def dofs_of_nodes(self, nodes: Sequence[int] | IntArray, what: str = "nodes") -> IntArray:
+        """(k, 3) DOF indices (x, y, z) of global vertex indices ``nodes`` (k,)."""
+        return self.node_dofs[self.local_nodes(nodes, what)]
+
+    def edge_index(self, pairs: IntArray) -> IntArray:
+        """Indices into ``self.edges`` of vertex pairs (k, 2); -1 where no such edge exists."""
+        if len(self.edges) == 0 or len(pairs) == 0:
+            return np.full(len(pairs), -1, dtype=np.int64)
+        pairs = np.sort(np.asarray(pairs, dtype=np.int64), axis=1)
+        base = np.int64(self.nodes[-1] + 1)
+        keys = self.edges[:, 0] * base + self.edges[:, 1]
+        order = np.argsort(keys)
+        query = pairs[:, 0] * base + pairs[:, 1]
+        pos = np.minimum(np.searchsorted(keys, query, sorter=order), len(keys) - 1)
+        found = keys[order[pos]] == query
+        return np.where(found, order[pos], -1)
+
+    def set_facets(self, nodes: IntArray) -> IntArray:
+        """(k, 3) boundary triangles whose three vertices all belong to ``nodes``."""
+        inside = np.isin(self.boundary_facets, nodes).all(axis=1)
+        return self.boundary_facets[inside]
+
+    def set_edges(self, nodes: IntArray) -> IntArray:
+        """Indices of the edges of boundary triangles lying entirely in the node set.
+
+        Edges only touching the set, or crossing the interior between two of its vertices, are
+        not part of the surface the set describes and are left out.
+        """
+        facets = self.set_facets(nodes)
+        if len(facets) == 0 or len(self.edges) == 0:
+            return np.empty(0, dtype=np.int64)
+        pairs = np.concatenate([facets[:, [0, 1]], facets[:, [1, 2]], facets[:, [0, 2]]])
+        idx = self.edge_index(np.unique(np.sort(pairs, axis=1), axis=0))
+        return np.unique(idx[idx >= 0])
+
+    def set_dofs(self, nodes: Sequence[int] | IntArray, what: str = "nodes") -> IntArray:
+        """Sorted DOFs of a vertex set: its vertex DOFs plus the P2 edge DOFs on its surface."""
+        nodes = np.asarray(nodes, dtype=np.int64).ravel()
+        vertex = self.dofs_of_nodes(nodes, what).ravel()
+        if len(self.edge_dofs) == 0:  # linear elements: vertex DOFs only
+            return np.unique(vertex)
+        edge = self.edge_dofs[self.set_edges(nodes)].ravel()
+        return np.unique(np.concatenate([vertex, edge]))
+
+
+def node_set(mesh: MeshLike, name: str) -> IntArray:
+    """Sorted global node indices of the named node set; ValueError if it does not exist."""
+    if name not in mesh.node_sets:
+        raise ValueError(
+            f"node set {name!r} does not exist; available: {sorted(mesh.node_sets)}"
+        )
+    return np.asarray(mesh.node_sets[name], dtype=np.int64)
+
+
+def node_sets_union(mesh: MeshLike, names: Sequence[str]) -> IntArray:
+    """Sorted union of several named node sets (global indices)."""
+    if isinstance(names, str):
+        names = [names]
+    parts = [node_set(mesh, n) for n in names]
+    return np.unique(np.concatenate(parts)) if parts else np.empty(0, dtype=np.int64)
+
+
+def _check_order(order: int) -> None:
+    if order not in _INTORDER:
+        raise ValueError(f"order={order!r}: element order must be 1 (linear) or 2 (quadratic)")
+
+
+def body_tetrahedra(mesh: MeshLike, body: str) -> IntArray:
+    """(m_b, 4) global vertex indices of the body's tetrahedra."""
+    if body not in mesh.bodies:
+        raise ValueError(f"body={body!r} does not exist; available: {sorted(mesh.bodies)}")
+    return np.asarray(mesh.tetrahedra, dtype=np.int64)[np.asarray(mesh.bodies[body])]
+
+
+def _element(order: int) -> fe.ElementVector:
+    return fe.ElementVector(fe.ElementTetP2() if order == 2 else fe.ElementTetP1())
+
+
+@fe.BilinearForm
+def _mass_form(u, v, w):
+    return w["rho"] * dot(u, v)
+
+
+def skfem_mesh(points: FloatArray, tetrahedra: IntArray) -> tuple[fe.MeshTet, IntArray]:
+    """scikit-fem mesh of a tet subset, and the global index of each of its vertices."""
+    nodes, local = np.unique(tetrahedra, return_inverse=True)
+    local = local.reshape(tetrahedra.shape)
+    return fe.MeshTet(np.ascontiguousarray(points[nodes].T), np.ascontiguousarray(local.T)), nodes
+
+
+def stiffness(basis: fe.Basis, material: Material) -> sp.csr_matrix:
+    """Stiffness matrix K (N, N) [N/m] of isotropic linear elasticity on ``basis``."""
+    form = linear_elasticity(material.lame_lambda, material.shear_modulus)
+    return form.assemble(basis).tocsr()
+
+
+def mass(basis: fe.Basis, material: Material) -> sp.csr_matrix:
+    """Consistent mass matrix M (N, N) [kg] on ``basis``."""
+    return _mass_form.assemble(basis, rho=material.density).tocsr()
+
+
+def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> BodyModel:
+    """Assemble K and M of one body of ``mesh`` (see the module docstring for the choices)."""
+    _check_order(order)
+    if not isinstance(material, Material):
+        raise ValueError(f"material={material!r}: expected a fem.Material")
+    tets = body_tetrahedra(mesh, body)
+    if len(tets) == 0:
+        raise ValueError(f"body={body!r} has no tetrahedra")
+    points = np.asarray(mesh.points, dtype=np.float64)
+    skm, nodes = skfem_mesh(points, tets)
+    elem = _element(order)
+    k_order, m_order = _INTORDER[order]
+    basis_k = fe.Basis(skm, elem, intorder=k_order)
+    basis_m = fe.Basis(skm, elem, intorder=m_order)
+    K = stiffness(basis_k, material)
+    M = mass(basis_m, material)
+    K = ((K + K.T) * 0.5).tocsr()  # remove assembly round-off asymmetry
+    M = ((M + M.T) * 0.5).tocsr()
+    dofs = basis_k.dofs
+    edges = nodes[skm.edges.T]
+    edge_dofs = (
+        dofs.edge_dofs.T.astype(np.int64) if order == 2 else np.empty((0, 3), dtype=np.int64)
+    )
+    return BodyModel(
+        body=body,
+        order=order,
+        material=material,
+        mesh_hash=str(getattr(mesh, "content_hash", "")),
+        nodes=nodes.astype(np.int64),
+        points=points[nodes],
+        node_dofs=dofs.nodal_dofs.T.astype(np.int64),
+        edges=np.sort(edges, axis=1).astype(np.int64),
+        edge_dofs=edge_dofs,
+        boundary_facets=nodes[skm.facets[:, skm.boundary_facets()].T].astype(np.int64),
+        stiffness=K,
+        mass=M,
+    )
+
+
+# --- damping -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Damping:
+    """Linear (viscous) damping of the structure, added on top of friction.
+
+    rayleigh_alpha [1/s], rayleigh_beta [s]: C = alpha M + beta K.
+    modal_ratios: zeta per mode (scalar for all modes, or a sequence for the first modes; modes
+    beyond the sequence take its last value), C = M Phi diag(2 zeta omega) Phi^H M with Phi the
+    mass-normalised modes of the (reduced) model. Both parts add.
+    """
+
+    rayleigh_alpha: float = 0.0
+    rayleigh_beta: float = 0.0
+    modal_ratios: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("rayleigh_alpha", "rayleigh_beta"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name}={value!r}: must be finite and >= 0")
+        ratios = self.modal_ratios
+        if np.isscalar(ratios):
+            object.__setattr__(self, "modal_ratios", (float(ratios),))
+        ratios = np.asarray(self.modal_ratios, dtype=float)
+        if np.any(~np.isfinite(ratios)) or np.any(ratios < 0.0):
+            raise ValueError(f"modal_ratios={self.modal_ratios!r}: must be finite and >= 0")
+        object.__setattr__(self, "modal_ratios", tuple(float(r) for r in ratios))
+
+    @property
+    def is_zero(self) -> bool:
+        return self.rayleigh_alpha == 0 and self.rayleigh_beta == 0 and not any(self.modal_ratios)
+
+
+def rayleigh_damping(K: Any, M: Any, alpha: float, beta: float) -> Any:
+    """C = alpha M + beta K (sparse or dense, same shape as K)."""
+    return alpha * M + beta * K
+
+
+def modal_damping(K: NDArray, M: NDArray, ratios: Sequence[float]) -> NDArray:
+    """Dense damping matrix with modal damping ratios on (K, M) (r, r), Hermitian.
+
+    C = M Phi diag(2 zeta_j omega_j) Phi^H M, Phi mass-normalised; rigid-body modes (omega = 0)
+    get no damping. ``ratios`` as in ``Damping.modal_ratios``.
+    """
+    K = np.asarray(K)
+    M = np.asarray(M)
+    lam, phi = sla.eigh(K, M)
+    omega = np.sqrt(np.clip(lam, 0.0, None))
+    ratios = np.asarray(ratios, dtype=float).ravel()
+    if ratios.size == 0:
+        return np.zeros_like(K)
+    zeta = np.full(len(lam), ratios[-1])
+    zeta[: min(len(ratios), len(lam))] = ratios[: len(lam)]
+    mphi = M @ phi
+    return (mphi * (2.0 * zeta * omega)) @ mphi.conj().T
+
+
+def damping_matrix(K: NDArray, M: NDArray, damping: Damping | None) -> NDArray | None:
+    """Dense damping matrix of a (reduced) model from a ``Damping`` spec; None if no damping."""
+    if damping is None or damping.is_zero:
+        return None
+    C = rayleigh_damping(np.asarray(K), np.asarray(M), damping.rayleigh_alpha,
+                         damping.rayleigh_beta)
+    if any(damping.modal_ratios):
+        C = C + modal_damping(K, M, damping.modal_ratios)
+    return 0.5 * (C + C.conj().T)

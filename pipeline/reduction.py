@@ -1,0 +1,566 @@
+"""Craig-Bampton reduction per body and nodal diameter (seed 5.1.3, eqs. 37-44), and modal
+superposition (eqs. 33-36) as the alternative.
+
+Reduced coordinates q = [master DOFs ; fixed-interface modal amplitudes]. Master DOFs are the
+global Cartesian x, y, z displacements of the master nodes, node-major: coordinate 3 i + d is
+direction d of ``master_nodes[i]``. With K_h, M_h the sector matrices (``cyclic.SectorModel``)
+partitioned into masters m and slaves s:
+
+    u_s = Psi u_m + Phi_s eta,   Psi = -K_ss^-1 K_sm (static modes; eq. 39 as it should read),
+    K_ss Phi_s = M_ss Phi_s diag(lambda),  Phi_s^H M_ss Phi_s = I (fixed-interface modes),
+    k = T^H K_h T,  m = T^H M_h T  (eq. 44), evaluated blockwise without forming T:
+    k = [[K_mm + K_ms Psi, 0], [0, diag(lambda)]],
+    m = [[M_mm + M_ms Psi + Psi^H (M_sm + M_ss Psi), (M_ms + Psi^H M_ss) Phi_s], [.., I]].
+
+For 0 < h < Ns/2 all of these are complex Hermitian. One factorization of K_ss serves the static
+modes and the shift-invert eigen-solve. A free-free body (the damper) needs no special
+treatment: with every contact DOF a master, K_ss is non-singular and the rigid-body motion is
+carried by the static modes, so k has exactly six zero eigenvalues.
+
+The recovery matrix is kept only on the requested nodes. Models are stored in HDF5 (never
+pickle) and reused when the content hash of their inputs matches.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import h5py
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from pipeline import cyclic, fem, linalg
+from pipeline.fem import Damping, IntArray, Material, MeshLike
+
+#: Bump when the stored layout or the algorithm changes (invalidates caches).
+FORMAT_VERSION = 1
+#: Default number of fixed-interface modes (see the CB convergence table in the tests).
+DEFAULT_MODES = 30
+#: Master columns solved per block (bounds the dense right-hand-side memory).
+_BLOCK = 512
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedModel:
+    """Reduced model of one body at one nodal diameter.
+
+    stiffness, mass: (r, r) dense, float64 or complex128 Hermitian [N/m], [kg]
+        (modal block in mass-normalised units).
+    damping_spec: linear damping applied to the reduced model (``damping`` gives the matrix).
+    master_nodes: (n_m,) global mesh node indices; master_coordinates (n_m, 3) [m].
+    n_modes: fixed-interface (CB) or normal (modal) modes; r = 3 n_m + n_modes.
+    mode_frequencies: (n_modes,) [Hz] of those modes (at mass_scale 1).
+    patches: contact-patch name -> (k,) global node indices of that patch in this body
+        (a subset of master_nodes).
+    recovery_nodes: (p,) global node indices; recovery: (p, 3, r), u(node) = recovery @ q.
+    nodal_diameter, sectors: None for a body without cyclic symmetry.
+    mass_scale: factor applied to the mass (damper mass studies) relative to the reduction.
+    key: content hash of everything that produced the reduction (the mass scale and the
+        damping spec are separate fields, applied without re-reducing).
+    """
+
+    body: str
+    method: str
+    stiffness: NDArray
+    mass: NDArray
+    master_nodes: IntArray
+    master_coordinates: NDArray[np.float64]
+    n_modes: int
+    mode_frequencies: NDArray[np.float64]
+    recovery_nodes: IntArray
+    recovery: NDArray
+    nodal_diameter: int | None = None
+    sectors: int | None = None
+    patches: Mapping[str, IntArray] = field(default_factory=dict)
+    damping_spec: Damping | None = None
+    mass_scale: float = 1.0
+    key: str = ""
+
+    # --- sizes and maps the harmonic balance needs ---------------------------------------
+
+    @property
+    def n_masters(self) -> int:
+        """Number of master DOFs (3 per master node)."""
+        return 3 * len(self.master_nodes)
+
+    @property
+    def size(self) -> int:
+        return int(self.stiffness.shape[0])
+
+    @property
+    def master_dof_nodes(self) -> IntArray:
+        """(n_masters,) global node index of each master coordinate."""
+        return np.repeat(self.master_nodes, 3)
+
+    @property
+    def master_dof_directions(self) -> IntArray:
+        """(n_masters,) Cartesian direction 0/1/2 (x/y/z) of each master coordinate."""
+        return np.tile(np.arange(3, dtype=np.int64), len(self.master_nodes))
+
+    def dof_index(self, nodes: Sequence[int] | IntArray) -> IntArray:
+        """(k, 3) reduced-coordinate indices of the x, y, z DOFs of master ``nodes``."""
+        nodes = np.asarray(nodes, dtype=np.int64).ravel()
+        order = np.argsort(self.master_nodes)
+        pos = np.searchsorted(self.master_nodes, nodes, sorter=order)
+        pos = order[np.minimum(pos, len(order) - 1)] if len(order) else pos
+        if len(order) == 0 or np.any(self.master_nodes[pos] != nodes):
+            missing = nodes if len(order) == 0 else nodes[self.master_nodes[pos] != nodes]
+            raise ValueError(
+                f"nodes {missing[:8].tolist()} are not masters of the reduced model of "
+                f"{self.body!r}"
+            )
+        return 3 * pos[:, None] + np.arange(3)
+
+    def patch_dofs(self, name: str) -> IntArray:
+        """(k, 3) reduced-coordinate indices of a contact patch's nodes in this body."""
+        if name not in self.patches:
+            raise ValueError(f"patch {name!r} is not in this model; has {sorted(self.patches)}")
+        return self.dof_index(self.patches[name])
+
+    def recover(self, q: NDArray, nodes: Sequence[int] | IntArray | None = None) -> NDArray:
+        """Displacements (p, 3) (or (p, 3, k) for q (r, k)) of recovery nodes from q."""
+        R = self.recovery
+        if nodes is not None:
+            nodes = np.asarray(nodes, dtype=np.int64).ravel()
+            pos = np.searchsorted(self.recovery_nodes, nodes)
+            pos = np.minimum(pos, max(len(self.recovery_nodes) - 1, 0))
+            if len(self.recovery_nodes) == 0 or np.any(self.recovery_nodes[pos] != nodes):
+                raise ValueError(f"nodes={nodes[:8].tolist()}: not all are recovery nodes")
+            R = R[pos]
+        return R @ q
+
+    @property
+    def damping(self) -> NDArray | None:
+        """(r, r) damping matrix [N s/m] from ``damping_spec``, or None."""
+        return fem.damping_matrix(self.stiffness, self.mass, self.damping_spec)
+
+    def matrices(self, conjugate: bool = False) -> tuple[NDArray, NDArray, NDArray]:
+        """(K, M, C) dense; C zero if undamped; complex conjugates for a backward wave."""
+        C = self.damping
+        C = np.zeros_like(self.stiffness) if C is None else C
+        if conjugate:
+            return self.stiffness.conj(), self.mass.conj(), C.conj()
+        return self.stiffness, self.mass, C
+
+    # --- derived models ------------------------------------------------------------------
+
+    def with_mass_scale(self, factor: float) -> ReducedModel:
+        """Same reduction with every mass scaled by ``factor`` (damper mass m_d = n m_nom).
+
+        Exact: re-reducing with density n rho gives the same subspace; the modal amplitudes
+        differ only by the scaling sqrt(n), so scaling the reduced mass suffices.
+        """
+        if not (np.isfinite(factor) and factor > 0):
+            raise ValueError(f"factor={factor!r}: mass scale must be finite and > 0")
+        return replace(
+            self,
+            mass=self.mass * factor,
+            mass_scale=self.mass_scale * factor,
+        )
+
+    def with_damping(self, damping: Damping | None) -> ReducedModel:
+        """Same reduction with another linear damping spec (no re-reduction)."""
+        return replace(self, damping_spec=damping)
+
+    def frequencies(self, k: int | None = None) -> NDArray[np.float64]:
+        """Lowest natural frequencies [Hz] of the reduced model (free masters)."""
+        lam = np.linalg.eigvalsh(_generalized(self.stiffness, self.mass))
+        f = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+        return f if k is None else f[:k]
+
+    # --- HDF5 ----------------------------------------------------------------------------
+
+    def save(self, path: str | Path, group: str = "/") -> Path:
+        """Write to an HDF5 file (group ``group``), replacing what is there."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with h5py.File(path, "a") as f:
+            if group != "/" and group in f:
+                del f[group]
+            g = f.require_group(group)
+            for name in list(g):
+                del g[name]
+            for name in ("stiffness", "mass", "master_nodes", "master_coordinates",
+                         "mode_frequencies", "recovery_nodes", "recovery"):
+                g.create_dataset(name, data=np.asarray(getattr(self, name)))
+            pg = g.create_group("patches")
+            for name, nodes in self.patches.items():
+                pg.create_dataset(name, data=np.asarray(nodes, dtype=np.int64))
+            g.attrs["format_version"] = FORMAT_VERSION
+            g.attrs["body"] = self.body
+            g.attrs["method"] = self.method
+            g.attrs["n_modes"] = self.n_modes
+            g.attrs["nodal_diameter"] = -1 if self.nodal_diameter is None else self.nodal_diameter
+            g.attrs["sectors"] = -1 if self.sectors is None else self.sectors
+            g.attrs["mass_scale"] = self.mass_scale
+            g.attrs["key"] = self.key
+            spec = self.damping_spec
+            g.attrs["damping"] = json.dumps(
+                None if spec is None else [spec.rayleigh_alpha, spec.rayleigh_beta,
+                                           list(spec.modal_ratios)]
+            )
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, group: str = "/") -> ReducedModel:
+        """Read a model written by ``save``."""
+        with h5py.File(path, "r") as f:
+            g = f[group]
+            if int(g.attrs["format_version"]) != FORMAT_VERSION:
+                raise ValueError(f"{path}: format_version {g.attrs['format_version']} != "
+                                 f"{FORMAT_VERSION}")
+            arrays = {name: g[name][()] for name in (
+                "stiffness", "mass", "master_nodes", "master_coordinates",
+                "mode_frequencies", "recovery_nodes", "recovery")}
+            patches = {name: g["patches"][name][()] for name in g["patches"]}
+            spec = json.loads(g.attrs["damping"])
+            nd, ns = int(g.attrs["nodal_diameter"]), int(g.attrs["sectors"])
+            return cls(
+                body=str(g.attrs["body"]),
+                method=str(g.attrs["method"]),
+                n_modes=int(g.attrs["n_modes"]),
+                nodal_diameter=None if nd < 0 else nd,
+                sectors=None if ns < 0 else ns,
+                patches=patches,
+                damping_spec=None if spec is None else Damping(spec[0], spec[1], tuple(spec[2])),
+                mass_scale=float(g.attrs["mass_scale"]),
+                key=str(g.attrs["key"]),
+                **arrays,
+            )
+
+
+def _generalized(K: NDArray, M: NDArray) -> NDArray:
+    """L^-1 K L^-H with M = L L^H: the standard Hermitian form of (K, M)."""
+    L = np.linalg.cholesky(0.5 * (M + M.conj().T))
+    X = np.linalg.solve(L, 0.5 * (K + K.conj().T))
+    A = np.linalg.solve(L, X.conj().T)
+    return 0.5 * (A + A.conj().T)
+
+
+def _hash(obj: object) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _nodes_digest(nodes: NDArray) -> str:
+    a = np.ascontiguousarray(np.asarray(nodes, dtype=np.int64))
+    return hashlib.sha256(a.tobytes()).hexdigest()
+
+
+def reduction_key(
+    model: cyclic.SectorModel,
+    method: str,
+    master_nodes: IntArray,
+    n_modes: int,
+    recovery_nodes: IntArray,
+    patches: Mapping[str, IntArray] | None = None,
+) -> str:
+    """Content hash of the inputs of a reduction (mesh, body, material, order, constraints,
+    ND, masters, modes, recovery nodes, patches, format version)."""
+    body = model.body
+    return _key(body.mesh_hash, body.body, body.order, body.material, model.clamped_nodes,
+                model.nodal_diameter, method, master_nodes, n_modes, recovery_nodes, patches)
+
+
+def _key(mesh_hash: str, body: str, order: int, material: Material, clamped: IntArray,
+         nodal_diameter: int | None, method: str, master_nodes: IntArray, n_modes: int,
+         recovery_nodes: IntArray, patches: Mapping[str, IntArray] | None) -> str:
+    return _hash({
+        "format": FORMAT_VERSION,
+        "mesh": mesh_hash,
+        "body": body,
+        "order": int(order),
+        "material": material.as_tuple(),
+        "clamped": _nodes_digest(np.unique(clamped)),
+        "nd": nodal_diameter,
+        "method": method,
+        "masters": _nodes_digest(master_nodes),
+        "modes": int(n_modes),
+        "recovery": _nodes_digest(np.unique(recovery_nodes)),
+        "patches": {k: _nodes_digest(v) for k, v in (patches or {}).items()},
+    })
+
+
+# --- the reductions ---------------------------------------------------------------------
+
+
+def _check_nodes(nodes: Sequence[int] | IntArray, what: str) -> IntArray:
+    arr = np.asarray(nodes, dtype=np.int64).ravel()
+    if len(np.unique(arr)) != len(arr):
+        raise ValueError(f"{what}: node indices must be distinct")
+    return arr
+
+
+def _check_modes(n_modes: int, available: int, what: str) -> None:
+    if not (isinstance(n_modes, int | np.integer) and 0 <= n_modes <= available):
+        raise ValueError(
+            f"n_modes={n_modes!r}: must be an integer in 0..{available} "
+            f"(the {what} space has {available} DOFs)"
+        )
+
+
+def _recovery_rows(model: cyclic.SectorModel, nodes: IntArray) -> sp.csr_matrix:
+    """(3p, n_f) rows of the expansion P_h for the x, y, z DOFs of ``nodes``."""
+    dofs = model.body.dofs_of_nodes(nodes, "recovery nodes").ravel()
+    return model.expansion[dofs]
+
+
+def craig_bampton(
+    model: cyclic.SectorModel,
+    master_nodes: Sequence[int] | IntArray,
+    n_modes: int = DEFAULT_MODES,
+    recovery_nodes: Sequence[int] | IntArray = (),
+    patches: Mapping[str, Sequence[int] | IntArray] | None = None,
+    damping: Damping | None = None,
+    backend: str | None = None,
+    timings: dict | None = None,
+) -> ReducedModel:
+    """Craig-Bampton reduction of a sector model (one body, one ND).
+
+    master_nodes: (n_m,) global vertex indices; every contact node plus the excitation and
+        response nodes. The master list keeps the given order.
+    n_modes: fixed-interface modes kept (0 <= n_modes <= slave DOFs).
+    recovery_nodes: nodes on which the recovery matrix is kept (pictures, outputs).
+    patches: contact-patch name -> node indices (must be masters), stored for the HB stage.
+    timings: if a dict is given, filled with the step times [s].
+    All inputs are checked before any factorization.
+    """
+    masters = _check_nodes(master_nodes, "master_nodes")
+    recovery = np.unique(np.asarray(recovery_nodes, dtype=np.int64))
+    if len(masters) == 0:
+        raise ValueError("master_nodes: at least one master node is required for Craig-Bampton")
+    m_idx = model.free_index(masters, "master_nodes").ravel()
+    n_f = model.n_free
+    n_s = n_f - len(m_idx)
+    _check_modes(n_modes, n_s, "slave")
+    if len(recovery):
+        model.body.local_nodes(recovery, "recovery_nodes")
+    patches = {k: _check_nodes(v, f"patches[{k!r}]") for k, v in (patches or {}).items()}
+    for name, nodes in patches.items():
+        if not np.isin(nodes, masters).all():
+            raise ValueError(f"patches[{name!r}]: every patch node must be a master node")
+    backend = linalg.check_backend(backend, model.n_free)
+
+    is_master = np.zeros(n_f, dtype=bool)
+    is_master[m_idx] = True
+    s_idx = np.flatnonzero(~is_master)
+    K, M = model.stiffness, model.mass
+    K_s = K[s_idx]
+    M_s = M[s_idx]
+    K_ss, K_sm = K_s[:, s_idx].tocsr(), K_s[:, m_idx].tocsc()
+    M_ss, M_sm = M_s[:, s_idx].tocsr(), M_s[:, m_idx].tocsc()
+    K_mm = K[m_idx][:, m_idx].toarray()
+    M_mm = M[m_idx][:, m_idx].toarray()
+    dtype = np.result_type(K.dtype, M.dtype)
+
+    t0 = time.perf_counter()
+    factor = linalg.factorize(K_ss, backend=backend, positive_definite=True)
+    t1 = time.perf_counter()
+    n_m = len(m_idx)
+    Psi = np.empty((n_s, n_m), dtype=dtype)
+    for j in range(0, n_m, _BLOCK):
+        cols = slice(j, min(j + _BLOCK, n_m))
+        Psi[:, cols] = -factor.solve(K_sm[:, cols].toarray())
+    t2 = time.perf_counter()
+    if n_modes > 0:
+        lam, Phi = linalg.lowest_modes(K_ss, M_ss, int(n_modes), factor=factor)
+    else:
+        lam, Phi = np.empty(0), np.empty((n_s, 0), dtype=dtype)
+    factor.free()
+    t3 = time.perf_counter()
+
+    # Reduced stiffness: Schur complement (Hermitian part) and the modal diagonal.
+    K_hat = K_mm + (K_sm.conj().T @ Psi)
+    K_hat = 0.5 * (K_hat + K_hat.conj().T)
+    # Reduced mass, blockwise so that only Psi and one block are held.
+    M_hat = M_mm + M_sm.conj().T @ Psi
+    M_hat = M_hat + M_hat.conj().T - M_mm
+    for j in range(0, n_m, _BLOCK):
+        cols = slice(j, min(j + _BLOCK, n_m))
+        W = M_ss @ Psi[:, cols]
+        M_hat[:, cols] += (W.conj().T @ Psi).conj().T  # Psi^H W without copying Psi^H
+    M_hat = 0.5 * (M_hat + M_hat.conj().T)
+    M_SPhi = M_ss @ Phi
+    M_meta = M_sm.conj().T @ Phi + (M_SPhi.conj().T @ Psi).conj().T
+    M_eta = Phi.conj().T @ M_SPhi
+    M_eta = 0.5 * (M_eta + M_eta.conj().T)
+
+    r = n_m + n_modes
+    k_red = np.zeros((r, r), dtype=dtype)
+    m_red = np.zeros((r, r), dtype=dtype)
+    k_red[:n_m, :n_m] = K_hat
+    k_red[n_m:, n_m:] = np.diag(lam)
+    m_red[:n_m, :n_m] = M_hat
+    m_red[:n_m, n_m:] = M_meta
+    m_red[n_m:, :n_m] = M_meta.conj().T
+    m_red[n_m:, n_m:] = M_eta
+
+    # Recovery rows: u_body = P (u_free), u_free[m] = q_m, u_free[s] = Psi q_m + Phi eta.
+    if len(recovery):
+        rows = _recovery_rows(model, recovery)
+        R = np.zeros((rows.shape[0], r), dtype=np.result_type(dtype, rows.dtype))
+        R[:, :n_m] = rows[:, m_idx].toarray()
+        Rs = rows[:, s_idx]
+        R[:, :n_m] += Rs @ Psi
+        R[:, n_m:] = Rs @ Phi
+        R = R.reshape(len(recovery), 3, r)
+    else:
+        R = np.zeros((0, 3, r), dtype=dtype)
+    t4 = time.perf_counter()
+    if timings is not None:
+        timings.update(factorize=t1 - t0, static_modes=t2 - t1, eigen=t3 - t2,
+                       projection=t4 - t3, backend=backend)
+
+    return ReducedModel(
+        body=model.body.body,
+        method="craig-bampton",
+        stiffness=k_red,
+        mass=m_red,
+        master_nodes=masters,
+        master_coordinates=model.body.points[model.body.local_nodes(masters)],
+        n_modes=int(n_modes),
+        mode_frequencies=np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi),
+        recovery_nodes=recovery,
+        recovery=R,
+        nodal_diameter=model.nodal_diameter,
+        sectors=model.sectors,
+        patches=patches,
+        damping_spec=damping,
+        key=reduction_key(model, "craig-bampton", masters, n_modes, recovery, patches),
+    )
+
+
+def modal_reduction(
+    model: cyclic.SectorModel,
+    n_modes: int,
+    recovery_nodes: Sequence[int] | IntArray = (),
+    damping: Damping | None = None,
+    sigma: float = 0.0,
+    backend: str | None = None,
+) -> ReducedModel:
+    """Modal superposition (eqs. 33-36): q = eta, the amplitudes of the lowest n_modes modes.
+
+    k = diag(omega^2), m = I; no master coordinates: contact displacements come from the
+    recovery matrix (u = Psi eta on ``recovery_nodes``, which must include the contact nodes),
+    contact forces go back as Psi^H f (eq. 36). ``sigma`` [rad^2/s^2] is the shift; use a
+    negative one for a body with rigid-body modes.
+    """
+    recovery = np.unique(np.asarray(recovery_nodes, dtype=np.int64))
+    _check_modes(n_modes, model.n_free, "free")
+    if n_modes == 0:
+        raise ValueError("n_modes=0: modal superposition needs at least one mode")
+    if len(recovery):
+        model.body.local_nodes(recovery, "recovery_nodes")
+    lam, Phi = linalg.lowest_modes(model.stiffness, model.mass, int(n_modes), sigma=sigma,
+                                   backend=backend)
+    if len(recovery):
+        R = (_recovery_rows(model, recovery) @ Phi).reshape(len(recovery), 3, n_modes)
+    else:
+        R = np.zeros((0, 3, n_modes), dtype=Phi.dtype)
+    return ReducedModel(
+        body=model.body.body,
+        method="modal",
+        stiffness=np.diag(lam).astype(Phi.dtype),
+        mass=np.eye(n_modes, dtype=Phi.dtype),
+        master_nodes=np.empty(0, dtype=np.int64),
+        master_coordinates=np.empty((0, 3)),
+        n_modes=int(n_modes),
+        mode_frequencies=np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi),
+        recovery_nodes=recovery,
+        recovery=R,
+        nodal_diameter=model.nodal_diameter,
+        sectors=model.sectors,
+        damping_spec=damping,
+        key=reduction_key(model, "modal", np.empty(0, np.int64), n_modes, recovery),
+    )
+
+
+# --- stage function with the HDF5 cache --------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """What to reduce for one body of a mesh.
+
+    master_sets / recovery_sets / clamped_sets: node-set names (see the geometry models).
+    patches: contact-patch names whose nodes in this body are masters.
+    n_modes: fixed-interface modes. order: element order.
+    """
+
+    body: str
+    material: Material
+    master_sets: tuple[str, ...] = ()
+    patches: tuple[str, ...] = ()
+    recovery_sets: tuple[str, ...] = ()
+    clamped_sets: tuple[str, ...] = ()
+    n_modes: int = DEFAULT_MODES
+    order: int = 2
+    damping: Damping | None = None
+
+
+def patch_nodes(mesh: MeshLike, name: str, body: str) -> IntArray:
+    """Nodes of contact patch ``name`` that belong to ``body`` (either side), grid order."""
+    if name not in mesh.contacts:
+        raise ValueError(f"contact patch {name!r} does not exist; available: "
+                         f"{sorted(mesh.contacts)}")
+    patch = mesh.contacts[name]
+    if patch.body_a == body:
+        return np.asarray(patch.nodes_a, dtype=np.int64).ravel()
+    if patch.body_b == body:
+        return np.asarray(patch.nodes_b, dtype=np.int64).ravel()
+    raise ValueError(f"contact patch {name!r} joins {patch.body_a!r} and {patch.body_b!r}, "
+                     f"not body {body!r}")
+
+
+def _spec_nodes(mesh: MeshLike, spec: BodySpec) -> tuple[IntArray, dict, IntArray, IntArray]:
+    patches = {name: patch_nodes(mesh, name, spec.body) for name in spec.patches}
+    masters = [*patches.values(), fem.node_sets_union(mesh, list(spec.master_sets))]
+    master_nodes = np.unique(np.concatenate(masters)).astype(np.int64)
+    recovery = fem.node_sets_union(mesh, list(spec.recovery_sets))
+    clamped = fem.node_sets_union(mesh, list(spec.clamped_sets))
+    return master_nodes, patches, recovery, clamped
+
+
+def reduce_body(
+    mesh: MeshLike,
+    spec: BodySpec,
+    nodal_diameters: Sequence[int] = (0,),
+    cache_dir: str | Path | None = None,
+    backend: str | None = None,
+) -> dict[int, ReducedModel]:
+    """Craig-Bampton models of one body for each ND (a non-cyclic body: ND ignored, one model
+    reused for all). Cached in ``cache_dir/<key>.h5``; assembly happens only on a cache miss.
+    """
+    master_nodes, patches, recovery, clamped = _spec_nodes(mesh, spec)
+    boundary = mesh.cyclic.get(spec.body)
+    if boundary is not None:
+        for h in nodal_diameters:
+            cyclic.check_nodal_diameter(h, boundary.sectors)
+    nds = sorted(set(int(h) for h in nodal_diameters)) if boundary is not None else [0]
+    out: dict[int, ReducedModel] = {}
+    body_model = None
+    for h in nds:
+        path = None
+        if cache_dir is not None:
+            key = _key(mesh.content_hash, spec.body, spec.order, spec.material, clamped,
+                       h if boundary is not None else None, "craig-bampton", master_nodes,
+                       spec.n_modes, recovery, patches)
+            path = Path(cache_dir) / f"cb-{key[:32]}.h5"
+            if path.exists():
+                out[h] = ReducedModel.load(path).with_damping(spec.damping)
+                continue
+        if body_model is None:
+            body_model = fem.assemble(mesh, spec.body, spec.material, spec.order)
+        sector = cyclic.sector_model(body_model, clamped, boundary, h)
+        out[h] = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
+                               spec.damping, backend)
+        if path is not None:
+            out[h].save(path)
+    if boundary is None:
+        return {int(h): out[0] for h in nodal_diameters}
+    return out
