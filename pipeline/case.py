@@ -37,7 +37,7 @@ from .continuation import Settings
 from .harmonics import Harmonics, default_samples
 from .hbm import PARAMETERS, Contact, Excitation, HarmonicBalance, LinearDynamics, OperatingPoint
 
-ANALYSES = ("frf", "peak", "loops", "dti")
+ANALYSES = ("frf", "peak", "loops", "dti", "transient")
 METHODS = ("arclength", "natural", "natural-down")  # natural-down: from stop to start
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
             "analysis", "geometry"}
@@ -56,6 +56,8 @@ ANALYSIS_KEYS = {
     "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
     "dti": {"type", "name", "frequencies", "outputs", "steps_per_period", "ramp_periods",
             "ramp_time", "settle_time", "max_periods", "set", "compare"},
+    "transient": {"type", "name", "frequency", "outputs", "steps_per_period", "ramp_periods",
+                  "ramp_time", "settle_time", "set"},
 }
 FAMILY_KEYS = {"key", "values", "label", "sets"}
 
@@ -479,6 +481,18 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                        "multiply the whole motion) or 'v' (only the normal motion)")
         if "samples" in a:
             _number(f"{pre}.samples", a["samples"], out, positive=True, integer=True)
+    if kind == "transient":
+        _number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
+        for k in ("ramp_time", "settle_time"):
+            _number(f"{pre}.{k}", a.get(k, 0.0), out, nonneg=True)
+        _number(f"{pre}.ramp_periods", a.get("ramp_periods", 0), out, nonneg=True,
+                integer=True)
+        for o in a.get("outputs", []):
+            if o not in dofs:
+                out.append(f"{pre}.outputs: {o!r} is not a DOF; known: {sorted(dofs)}")
+        if _has_lag(data):
+            out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
+                       "with 'lag'); use harmonic balance")
     if kind == "dti":
         f = a.get("frequencies")
         if not (isinstance(f, list) and f and all(

@@ -80,3 +80,27 @@ def loops(path: Path, title: str, loops_: Sequence[dict], *, two_d: bool) -> Pat
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     return _save(fig, path)
+
+
+def transient(path: Path, title: str, steps: Sequence[dict]) -> Path:
+    """Load steps (seed Fig. 13): per step, the outputs over time (top) and a
+    contact's tangential force with the limits +-mu N (bottom)."""
+    fig, axes = plt.subplots(2, len(steps), figsize=(6 * len(steps), 6.5), squeeze=False)
+    for j, st in enumerate(steps):
+        ax = axes[0, j]
+        for name, q in st["outputs"].items():
+            ax.plot(st["t"], q, lw=0.8, label=name)
+        ax.set_title(f"{title}: {st['label']}", fontsize=10)
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("displacement [m]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        ax = axes[1, j]
+        ax.plot(st["t"], st["T"], lw=0.8, label="T")
+        ax.plot(st["t"], st["limit"], "k--", lw=0.8, label="+- mu N")
+        ax.plot(st["t"], -st["limit"], "k--", lw=0.8)
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel(f"contact {st['contact']} [N]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    return _save(fig, path)

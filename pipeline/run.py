@@ -130,6 +130,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
     methods = a.get("method", "arclength")
     methods = methods if isinstance(methods, list) else [methods]
     series = {n: [] for n in names}
+    static: dict[str, list] = {}  # contact -> lines of its static forces (order 0 kept)
     statuses = []
     j = 0
     for c, label, value in _family(case, a):
@@ -169,17 +170,32 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
             for k, n in enumerate(names):
                 series[n].append({"x": b.values, "y": amp[:, k], "label": tag or None,
                                   "turning_points": b.turning_points, "ls": style})
+            for cname, cd in data["contacts"].items():
+                sf = cd["static_force"]
+                for comp in range(sf.shape[1]):
+                    what = "N0" if comp == sf.shape[1] - 1 and _normal(hb, cname) else (
+                        f"T0_{comp + 1}" if sf.shape[1] > 2 else "T0")
+                    static.setdefault(cname, []).append({
+                        "x": b.values, "y": sf[:, comp], "ls": style,
+                        "label": ", ".join(x for x in (tag, what) if x)})
             progress(f"[{name}] curve {j} {tag}: {len(r)} points, {b.status} "
                      f"({elapsed:.2f} s) {b.message}".rstrip())
             if b.status == "interrupted":
                 break
         if statuses and statuses[-1][0] == "interrupted":
             break
-    drawn[name] = {"parameter": par, "series": series}
+    drawn[name] = {"parameter": par, "series": series, "static": static}
     for n in names:
         plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}", plots.LABELS[par],
                      series[n], f"max |{n}(t)|")
+    for cname, lines in static.items():
+        plots.curves(out / f"{name}_static_{cname}.png", f"{name}: static forces, contact "
+                     f"{cname}", plots.LABELS[par], lines, "static contact force [N]")
     return _worst(statuses)
+
+
+def _normal(hb, contact: str) -> bool:
+    return next(c for c in hb.contacts if c.name == contact).elements.variable_normal
 
 
 def run_peak(case, a, name, w, group, out, progress, drawn):
@@ -290,6 +306,17 @@ def run_dti(case, a, name, w, group, out, progress, drawn):
                                              "message": message, "outputs": names,
                                              "steps_per_period": spp})
     ref = drawn.get(a.get("compare", ""), {})
+    for ci, cname in enumerate(c.contacts_enabled()):
+        lines = ref.get("static", {}).get(cname, [])
+        if not lines:
+            continue
+        marks = [{"x": fr.omega, "y": fr.N0[ci][:, 0], "label": "N0, time integration",
+                  "style": "kD"}] if _normal(hb, cname) else []
+        marks.append({"x": fr.omega, "y": fr.T0[ci][:, 0, 0], "label": "T0, time integration",
+                      "style": "ks"})
+        plots.curves(out / f"{name}_static_{cname}.png", f"{name}: static forces, contact "
+                     f"{cname}", plots.LABELS["frequency"], lines, "static contact force [N]",
+                     markers=marks)
     for k, n in enumerate(names):
         series = ref.get("series", {}).get(n, [])
         plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}",
@@ -297,6 +324,42 @@ def run_dti(case, a, name, w, group, out, progress, drawn):
                      markers=[{"x": fr.omega, "y": fr.amplitude[:, idx[k]],
                                "label": f"time integration ({spp} steps/period)"}])
     return ("complete" if ok else "stopped"), message
+
+
+def run_transient(case, a, name, w, group, out, progress, drawn):
+    from . import dti
+
+    c = case.with_values(a.get("set", {}))
+    hb = cs.model(c)
+    names, idx = _outputs(c, a)
+    tm = dti.TimeModel.from_harmonic_balance(hb)
+    loads = dti.LoadSteps.from_excitation(
+        hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
+        settle_time=a.get("settle_time", 0.0), ramp_periods=a.get("ramp_periods", 0))
+    t0 = time.perf_counter()
+    steps = dti.load_steps(tm, loads, a["frequency"],
+                           steps_per_period=a.get("steps_per_period", 256))
+    progress(f"[{name}] load steps integrated in {time.perf_counter() - t0:.2f} s")
+    first = hb.contacts[0] if hb.contacts else None
+    pictures = []
+    for k, (label, tr) in enumerate(zip(("load step 1", "load step 2"), steps)):
+        if tr is None:
+            continue
+        data = {"t": tr.t, "q": tr.q[:, idx], "F": tr.F[:, idx],
+                "contacts": {ct.name: {"T": h.T, "N": h.N, "state": h.state}
+                             for ct, h in zip(hb.contacts, tr.contacts)}}
+        w.write_group(group, f"step_{k + 1}", data, {"label": label, "status": "complete",
+                                                     "message": "", "outputs": names})
+        entry = {"t": tr.t, "label": label,
+                 "outputs": {n: tr.q[:, i] for n, i in zip(names, idx)}}
+        if first is not None:
+            h = tr.contacts[0]
+            entry.update(T=h.T[:, 0, 0], limit=first.elements.mu[0] * h.N[:, 0],
+                         contact=first.name)
+        pictures.append(entry)
+    if pictures and first is not None:
+        plots.transient(out / f"{name}.png", name, pictures)
+    return "complete", ""
 
 
 def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
@@ -307,4 +370,5 @@ def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
     return "complete", ""
 
 
-RUNNERS = {"frf": run_frf, "peak": run_peak, "loops": run_loops, "dti": run_dti}
+RUNNERS = {"frf": run_frf, "peak": run_peak, "loops": run_loops, "dti": run_dti,
+           "transient": run_transient}
