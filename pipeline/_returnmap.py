@@ -43,7 +43,7 @@ STICK, SLIP, OPEN = 0, 1, 2
 
 @njit(cache=True, parallel=True, fastmath=False)
 def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, max_periods,
-          rtol, corrections, T_out, N_out, state_out, F_out, J_out,
+          rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
           periods_out):  # pragma: no cover
     """March the return map of every point to its periodic steady state.
 
@@ -54,8 +54,9 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
     2 sin) of each coefficient.
     Outputs: T_out (P, d, ns), N_out (P, ns), state_out (P, ns) int8,
     F_out (P, d + 1, nc) force coefficients [T_1, ..., T_d, N],
-    J_out (P, d + has_normal, nc, m) their derivatives, m = (d + has_normal) nc + 1
-    columns [u_1 coeffs, ..., u_d coeffs, (v coeffs), n0]; periods_out (P,).
+    J_out (P, d + has_normal, nc, m - 1) their derivatives by the inputs' coefficients
+    [u_1 coeffs, ..., u_d coeffs, (v coeffs)] and D_out (P, d + has_normal, nc) by
+    n0 (internally column m - 1, m = (d + has_normal) nc + 1); periods_out (P,).
 
     The cycle is found without derivatives. Derivatives then take one more
     period from a sample that erases the memory of the march (open, or
@@ -65,9 +66,9 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
     """
     P, d, ns = u.shape
     nc = E.shape[1]
-    m = J_out.shape[3]
+    m = J_out.shape[3] + 1
     for p in prange(P):
-        G = np.zeros((ns, d * m)) if want_jac else np.zeros((1, 1))
+        G = np.empty((ns, d * m)) if want_jac else np.empty((1, 1))  # every row written
         dT = np.zeros((d, m))
         T = np.empty(d)
         Tp = np.empty(d)
@@ -85,16 +86,22 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
                     for col in range(m):
                         G[e, j * m + col] = dT[j, col]
                 _steps(p, e + 1, ns - 1, state_out[p, e] == OPEN, u, v, kt, kn, mu, n0, E,
-                       has_normal, True, T, Tp, dT, G, T_out, N_out, state_out)
+                       has_normal, True, True, T, Tp, dT, G, T_out, N_out, state_out)
+            elif periods > 2:
+                _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G,
+                                     T_out, N_out, state_out)
             else:
                 _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, True, periods, 0.0,
                        T, Tp, dT, G, T_out, N_out, state_out)
         periods_out[p] = periods
         _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
-                 F_out, J_out)
+                 F_out, J_out, D_out)
         if corrections:
             _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
-                   T_out, N_out, state_out, G, F_out, J_out)
+                   T_out, N_out, state_out, G, F_out, J_out, D_out)
+
+
+SHOOT_AFTER = 4  # plain periods before Newton on the cycle's periodicity
 
 
 @njit(cache=True)
@@ -102,9 +109,14 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
            T, Tp, dT, G, T_out, N_out, state_out):  # pragma: no cover
     """March whole periods from the start convention until the force at the end
     of a period repeats (rtol > 0), or exactly ``max_periods`` (rtol = 0).
-    Returns the periods marched; the last one is left in the outputs."""
+
+    A cycle still drifting after SHOOT_AFTER periods (2D partial slip contracts
+    slowly) is found by Newton on periodicity, ``T_s += (I - Phi)^-1 (P(T_s) -
+    T_s)`` with Phi = dP/dT_s carried through each period. Returns the periods
+    marched; the last one is left in the outputs."""
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
+    m = (d + int(has_normal)) * nc + 1  # derivative columns (dT may be a placeholder)
     # start: previous sample at k = ns - 1 with T = kt u (seed eq. 26), or open
     closed = n0[p] + kn[p] * v[p, ns - 1] > 0.0
     if want_jac:
@@ -115,19 +127,76 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
             for c in range(nc):
                 dT[j, j * nc + c] = kt[p, j] * E[ns - 1, c]
     Tend = T.copy()
+    shoot = np.zeros((d, m + d))
     periods = 0
     for period in range(max_periods):
         periods = period + 1
-        scale = _steps(p, 0, ns, not closed if period == 0 else state_out[p, ns - 1] == OPEN,
-                       u, v, kt, kn, mu, n0, E, has_normal, want_jac, T, Tp, dT, G,
-                       T_out, N_out, state_out)
+        was_open = not closed if period == 0 else state_out[p, ns - 1] == OPEN
+        newton = rtol > 0.0 and not want_jac and period >= SHOOT_AFTER
+        if newton:
+            shoot[:, :] = 0.0
+            for j in range(d):
+                shoot[j, m + j] = 1.0
+            scale = _steps(p, 0, ns, was_open, u, v, kt, kn, mu, n0, E, has_normal, True,
+                           False, T, Tp, shoot, G, T_out, N_out, state_out, m - 1)
+        else:
+            scale = _steps(p, 0, ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
+                           want_jac, want_jac, T, Tp, dT, G, T_out, N_out, state_out)
         diff = 0.0
         for j in range(d):
             diff = max(diff, abs(T[j] - Tend[j]))
-            Tend[j] = T[j]
         if rtol > 0.0 and (diff <= rtol * scale or scale == 0.0):
             break
+        if newton:
+            # T_end = P(T_start): solve (I - Phi) dT_s = P(T_s) - T_s for the next start
+            a00 = 1.0 - shoot[0, m]
+            r0 = T[0] - Tend[0]
+            if d == 1:
+                if a00 != 0.0:
+                    T[0] = Tend[0] + r0 / a00
+            else:
+                a01, a10, a11 = -shoot[0, m + 1], -shoot[1, m], 1.0 - shoot[1, m + 1]
+                r1 = T[1] - Tend[1]
+                det = a00 * a11 - a01 * a10
+                if det != 0.0:
+                    T[0] = Tend[0] + (a11 * r0 - a01 * r1) / det
+                    T[1] = Tend[1] + (a00 * r1 - a10 * r0) / det
+        for j in range(d):
+            Tend[j] = T[j]
     return periods
+
+
+@njit(cache=True)
+def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T_out,
+                         N_out, state_out):  # pragma: no cover
+    """Derivatives of a slowly contracting cycle with no memory-erasing sample:
+    one period from the periodic state with d extra columns for the start
+    state gives b and Phi in dT_end = Phi dT_start + b; the periodic orbit has
+    dT_start = (I - Phi)^-1 b; a second period stores G from it. Two periods
+    instead of re-marching all of them."""
+    d, ns = u.shape[1], u.shape[2]
+    m = dT.shape[1]
+    ext = np.zeros((d, m + d))
+    T0 = np.empty(d)
+    for j in range(d):
+        T0[j] = T_out[p, j, ns - 1]
+        T[j] = T0[j]
+        ext[j, m + j] = 1.0
+    _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, False, T, Tp, ext,
+           G, T_out, N_out, state_out, m - 1)
+    A = np.eye(d) - ext[:, m:]
+    rhs = ext[:, :m].copy()
+    if d == 1:
+        dT[0, :] = rhs[0, :] / A[0, 0]
+    else:
+        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+        for col in range(m):
+            dT[0, col] = (A[1, 1] * rhs[0, col] - A[0, 1] * rhs[1, col]) / det
+            dT[1, col] = (A[0, 0] * rhs[1, col] - A[1, 0] * rhs[0, col]) / det
+    for j in range(d):
+        T[j] = T0[j]
+    _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, True, T, Tp, dT,
+           G, T_out, N_out, state_out)
 
 
 @njit(cache=True)
@@ -150,14 +219,17 @@ def _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT):  # pra
 
 
 @njit(cache=True)
-def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
-           T, Tp, dT, G, T_out, N_out, state_out):  # pragma: no cover
+def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac, store,
+           T, Tp, dT, G, T_out, N_out, state_out, cn0=-1):  # pragma: no cover
     """Advance the return map ``count`` samples from sample k0 (indices taken
-    modulo ns), T and dT holding the state at the sample before. Returns the
-    force scale met (max |T| and mu N), for the periodicity test."""
+    modulo ns), T and dT holding the state at the sample before; with ``store``
+    each sample's dT goes to G. Returns the force scale met (max |T| and mu N),
+    for the periodicity test. cn0: the n0 column of dT (default its last)."""
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = dT.shape[1]
+    if cn0 < 0:
+        cn0 = m - 1
     vcol = d * nc
     scale = 0.0
     kprev = (k0 - 1) % ns
@@ -165,7 +237,7 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
         k = (k0 + i) % ns
         N = n0[p] + kn[p] * v[p, k]
         if was_open and N > 0.0:
-            _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, m, Tp, dT)
+            _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, cn0, Tp, dT)
         else:
             # predictor; dT becomes dTp in place (a stuck sample touches nc columns)
             for j in range(d):
@@ -212,7 +284,7 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                         if has_normal:
                             for c in range(nc):
                                 dT[j, vcol + c] += mun * kn[p] * E[k, c]
-                        dT[j, m - 1] += mun
+                        dT[j, cn0] += mun
                 state_out[p, k] = SLIP
         was_open = N == 0.0
         N_out[p, k] = N
@@ -222,7 +294,7 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                 scale = abs(T[j])
         if mu[p] * N > scale:
             scale = mu[p] * N
-        if want_jac:
+        if store:
             for j in range(d):
                 for col in range(m):
                     G[k, j * m + col] = dT[j, col]
@@ -232,7 +304,7 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
 
 @njit(cache=True)
 def _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
-             F_out, J_out):  # pragma: no cover
+             F_out, J_out, D_out):  # pragma: no cover
     """Trapezoid projection of the final period's samples and derivatives."""
     vcol = d * nc
     for c in range(nc):
@@ -250,23 +322,25 @@ def _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
     J = np.dot(A, G)  # (nc, d m)
     for j in range(d):
         for c in range(nc):
-            for col in range(m):
+            for col in range(m - 1):
                 J_out[p, j, c, col] = J[c, j * m + col]
+            D_out[p, j, c] = J[c, j * m + m - 1]
     if has_normal:
         # normal force: dN_k = [N_k > 0] (kn E_k on v, 1 on n0)
         for c in range(nc):
-            for col in range(m):
+            for col in range(m - 1):
                 J_out[p, d, c, col] = 0.0
+            D_out[p, d, c] = 0.0
             for k in range(ns):
                 if N_out[p, k] > 0.0:
                     a = A[c, k]
                     for c2 in range(nc):
                         J_out[p, d, c, vcol + c2] += a * kn[p] * E[k, c2]
-                    J_out[p, d, c, m - 1] += a
+                    D_out[p, d, c] += a
 
 
 @njit(cache=True)
-def _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, m, Tp, dT):
+def _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, cn0, Tp, dT):
     """Predictor of a contact that closes inside (kprev, k): T was 0 and sticking
     starts where the normal gap closes, ``Tp = kt (1 - s) (u_k - u_kprev)`` with
     ``s = Nu_prev / (Nu_prev - Nu_k)``, ``Nu = n0 + kn v``. dT (zero while open)
@@ -286,7 +360,7 @@ def _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, m, Tp, dT):
                 dT[j, j * nc + c] = (1.0 - s) * kt[p, j] * (E[k, c] - E[kprev, c])
                 ds = kn[p] * (-nu1 * E[kprev, c] + nu0 * E[k, c]) / (den * den)
                 dT[j, vcol + c] = -du * ds
-            dT[j, m - 1] = -du * (nu0 - nu1) / (den * den)
+            dT[j, cn0] = -du * (nu0 - nu1) / (den * den)
 
 
 @njit(cache=True)
@@ -313,7 +387,7 @@ def _slopes(c, theta, corder, ckind):
 
 @njit(cache=True)
 def _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
-           T_out, N_out, state_out, G, F_out, J_out):  # pragma: no cover
+           T_out, N_out, state_out, G, F_out, J_out, D_out):  # pragma: no cover
     """Add the sub-sample kink corrections of one point's final period.
 
     The periodic trapezoid rule across a slope jump J (per radian) at fraction
@@ -324,7 +398,7 @@ def _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
     g: (P, c, nc) input coefficients."""
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
-    m = J_out.shape[3]
+    m = J_out.shape[3] + 1
     vcol = d * nc
     h = 2.0 * np.pi / ns
     rows = d + 1
@@ -452,10 +526,12 @@ def _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
                 if want_jac:
                     for col in range(m):
                         dwk = h * (2.0 * s - 1.0) / 2.0 * ds[col]
-                        J_out[p, j, c, col] += (
-                            wc * (wk * djump[j, col] + dwk * jump[j])
-                            + dwc * h * ds[col] * wk * jump[j]
-                        )
+                        val = (wc * (wk * djump[j, col] + dwk * jump[j])
+                               + dwc * h * ds[col] * wk * jump[j])
+                        if col == m - 1:
+                            D_out[p, j, c] += val
+                        else:
+                            J_out[p, j, c, col] += val
 
 
 @njit(cache=True)

@@ -256,24 +256,23 @@ class ContactElements:
             if self.variable_normal
             else np.zeros((P, ns))
         )
-        m = c * nc + 1
         T = np.empty((P, d, ns))
         N = np.empty((P, ns))
         st = np.empty((P, ns), dtype=np.int8)
         F = np.empty((P, d + 1, nc))
-        full = np.empty((P, c, nc, m) if jacobian else (1, 1, 1, 1))
+        jac = np.empty((P, c, nc, c, nc) if jacobian else (1, 1, 1, 1, 1))
+        dn0 = np.empty((P, c, nc) if jacobian else (1, 1, 1))
         periods = np.empty(P, dtype=np.int64)
         _returnmap.march(
             np.ascontiguousarray(g), u, v, self.kt, self.kn, self.mu, self.n0, E, A,
             harmonics.coeff_order.astype(float), harmonics.coeff_kind, self.variable_normal,
-            jacobian, int(max_periods), float(rtol), bool(corrections), T, N, st, F, full,
-            periods,
+            jacobian, int(max_periods), float(rtol), bool(corrections), T, N, st, F,
+            jac.reshape(jac.shape[0], c, nc, -1) if jacobian else jac.reshape(1, 1, 1, 1),
+            dn0, periods,
         )
         forces = F[:, :c]
-        jac = dn0 = None
-        if jacobian:
-            jac = full[..., :-1].reshape(P, c, nc, c, nc)
-            dn0 = full[..., -1]
+        if not jacobian:
+            jac = dn0 = None
         if not self.coupled and static.any():
             forces[..., static] = 0.0
             if jacobian:

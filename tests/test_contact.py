@@ -265,3 +265,22 @@ def test_bad_displacement_shape():
     el = ContactElements.create("A", kt=1, mu=0.1, n0=1, n_points=3)
     with pytest.raises(ValueError, match=r"expected \(P, c, nc\)"):
         el.evaluate(np.zeros((3, 2, 3)), Harmonics.up_to(1))
+
+
+def test_jacobian_of_slowly_contracting_2d_cycles():
+    """Law C on ellipses in partial slip: no sample erases the memory, the
+    cycle contracts over many periods and the derivative of the periodic orbit
+    comes from the one-period fixed point (I - Phi) dT = b."""
+    h = Harmonics.up_to(3, 128)
+    rng = np.random.default_rng(3)
+    P = 12
+    el = ContactElements.create("C", kt=1.0, mu=1.0, n0=1.0, n_points=P)
+    g = np.zeros((P, 2, h.n_coeffs))
+    g[:, 0, 1] = rng.uniform(0.8, 1.6, P)
+    g[:, 1, 2] = rng.uniform(0.3, 1.0, P)
+    g += 0.05 * rng.normal(size=g.shape)
+    r = el.evaluate(g, h)
+    assert np.sum(r.periods > 5) >= 5  # the case this test is about
+    J = r.jacobian.reshape(P, g[0].size, g[0].size)
+    # same bound and reasoning as the central-difference test above
+    assert np.max(np.abs(J - fd_jacobian(el, g, h))) <= 1e-6 * np.max(np.abs(J))
