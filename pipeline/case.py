@@ -52,7 +52,7 @@ ANALYSIS_KEYS = {
     "frf": {"type", "name", "parameter", "start", "stop", "method", "frequency", "outputs",
             "family", "set"},
     "peak": {"type", "name", "parameter", "start", "stop", "window", "output", "points", "set",
-             "family"},
+             "family", "spacing"},
     "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
     "dti": {"type", "name", "frequencies", "outputs", "steps_per_period", "ramp_periods",
             "ramp_time", "settle_time", "max_periods", "set", "compare"},
@@ -450,6 +450,11 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                            f"{sorted(dofs)}")
             if "points" in a:
                 _number(f"{pre}.points", a["points"], out, positive=True, integer=True)
+            sp = a.get("spacing", "linear")
+            if sp not in ("linear", "log"):
+                out.append(f"{pre}.spacing = {sp!r}: expected 'linear' or 'log'")
+            elif sp == "log" and ok and min(a["start"], a["stop"]) <= 0:
+                out.append(f"{pre}.spacing = 'log' needs start and stop > 0")
         fam = a.get("family")
         if fam is not None:
             _family(pre, fam, data, out)

@@ -11,6 +11,8 @@ import numpy as np
 BENCHES = {
     "core": "pipeline.bench",
     "mesh": "pipeline.bench_mesh",
+    "reduction": "pipeline.bench_reduction",
+    "teaching": "pipeline.bench_teaching",
 }
 
 
@@ -167,7 +169,10 @@ def main(argv: list[str] | None = None) -> int:
               "  show DIR         summarise a results file\n"
               "  mesh CASE.toml   mesh a case's geometry: .msh, .vtu, PNG previews\n"
               "  bench core       speed and accuracy of the numerical core\n"
-              "  bench mesh       meshing time and size over a mesh-size sweep", file=sys.stderr)
+              "  bench mesh       meshing time and size over a mesh-size sweep\n"
+              "  bench reduction  assembly, cyclic matrices and Craig-Bampton: time, memory\n"
+              "  bench teaching   harmonic balance against time integration; the teaching set",
+              file=sys.stderr)
         return 0 if argv and argv[0] in ("-h", "--help") else 2
     return COMMANDS[argv[0]](argv[1:])
 

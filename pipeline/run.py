@@ -200,7 +200,8 @@ def _normal(hb, contact: str) -> bool:
 
 def run_peak(case, a, name, w, group, out, progress, drawn):
     par = a["parameter"]
-    values = np.linspace(a["start"], a["stop"], a.get("points", 25))
+    space = np.geomspace if a.get("spacing", "linear") == "log" else np.linspace
+    values = space(a["start"], a["stop"], a.get("points", 25))
     k = case.dofs.index(a["output"])
     lo, hi = a["window"]
     series, statuses = [], []
