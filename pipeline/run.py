@@ -270,7 +270,8 @@ def run_loops(case, a, name, w, group, out, progress, drawn):
     return "complete", ""
 
 
-def run_dti(case, a, name, w, group, out, progress, drawn):
+def _time_model(case: cs.Case, a: dict):
+    """(case as set, HB model, output names, indices, time model, load steps)."""
     from . import dti
 
     c = case.with_values(a.get("set", {}))
@@ -280,6 +281,13 @@ def run_dti(case, a, name, w, group, out, progress, drawn):
     loads = dti.LoadSteps.from_excitation(
         hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
         settle_time=a.get("settle_time", 0.0), ramp_periods=a.get("ramp_periods", 0))
+    return c, hb, names, idx, tm, loads
+
+
+def run_dti(case, a, name, w, group, out, progress, drawn):
+    from . import dti
+
+    c, hb, names, idx, tm, loads = _time_model(case, a)
     H = max(hb.harmonics.orders)
     spp = a.get("steps_per_period", 256)
 
@@ -330,13 +338,7 @@ def run_dti(case, a, name, w, group, out, progress, drawn):
 def run_transient(case, a, name, w, group, out, progress, drawn):
     from . import dti
 
-    c = case.with_values(a.get("set", {}))
-    hb = cs.model(c)
-    names, idx = _outputs(c, a)
-    tm = dti.TimeModel.from_harmonic_balance(hb)
-    loads = dti.LoadSteps.from_excitation(
-        hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
-        settle_time=a.get("settle_time", 0.0), ramp_periods=a.get("ramp_periods", 0))
+    c, hb, names, idx, tm, loads = _time_model(case, a)
     t0 = time.perf_counter()
     steps = dti.load_steps(tm, loads, a["frequency"],
                            steps_per_period=a.get("steps_per_period", 256))

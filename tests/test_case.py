@@ -125,3 +125,33 @@ def test_interrupted_run_leaves_a_valid_partial_file(tmp_path):
     with h5py.File(tmp_path / "results.h5") as f:
         assert f.attrs["status"] == "partial"
         assert "curve_000" in f["a"] and "curve_001" not in f["a"]
+
+
+def test_transient_and_dti_analyses(tmp_path):
+    """A mass pressed on a wall by a static load (law B, no preload): after the
+    quasi-static step N equals the load; time integration runs from a case."""
+    data = {
+        "title": "pressed mass",
+        "model": {"dofs": ["x", "y"], "mass": [1.0, 1.0], "stiffness": [1.0, 1.0],
+                  "damping": [0.05, 2.0]},  # y settles in ~1 s (zeta 0.14)
+        "contacts": [{"name": "wall", "law": "B", "kt": 5.0, "kn": 50.0, "mu": 0.5, "n0": 0.0,
+                      "u": {"x": 1.0}, "v": {"y": 1.0}}],
+        "loads": [{"dof": "y", "amplitude": 2.0, "harmonic": 0},
+                  {"dof": "x", "amplitude": 0.2, "harmonic": 1}],
+        "harmonics": {"max": 1, "samples": 64},
+        "analysis": [
+            {"name": "steps", "type": "transient", "frequency": 2.0, "ramp_time": 3.0,
+             "settle_time": 20.0, "ramp_periods": 2, "steps_per_period": 64},
+            {"name": "time", "type": "dti", "frequencies": [1.5, 2.5], "ramp_time": 3.0,
+             "settle_time": 20.0, "ramp_periods": 2, "steps_per_period": 64},
+        ],
+    }
+    run_case(cs.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
+    with h5py.File(tmp_path / "results.h5") as f:
+        assert f.attrs["status"] == "complete"
+        N = f["steps/step_1/contacts/wall/N"][()]
+        # static balance of y: (k + kn) y = 2 N with the wall's kn: N = kn y = 2 kn / (1 + kn)
+        assert N[-1, 0] == pytest.approx(2.0 * 50.0 / 51.0, rel=1e-4)
+        assert f["time/curve_000/amplitude"].shape == (2, 2)
+        assert np.all(f["time/curve_000/converged"][()])
+    assert (tmp_path / "steps.png").exists() and (tmp_path / "time_x.png").exists()
