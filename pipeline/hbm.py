@@ -479,6 +479,4 @@ def _condense(D, F, c, i, dD=None, dF=None) -> Condensed:
             dS = dcc - dci @ Y - L @ dic + L @ dii @ Y
             # dF_eff = -(dDci - L dDii) z
             dFe = dFe - np.einsum("kab,kb->ka", dci - L @ dii, z)
-        elif dF is None:
-            dFe = np.zeros_like(Fe)
     return Condensed(S, Fe, Y, z, dS, dFe)
