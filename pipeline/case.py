@@ -39,6 +39,8 @@ from .hbm import PARAMETERS, Contact, Excitation, HarmonicBalance, LinearDynamic
 
 ANALYSES = ("frf", "peak", "loops", "dti", "transient")
 METHODS = ("arclength", "natural", "natural-down")  # natural-down: from stop to start
+# peak: max_t |x(t)|; vibration: max_t |x(t) - x0| (static part removed); harmonic: |X_1|
+MEASURES = ("peak", "vibration", "harmonic")
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
             "analysis", "geometry"}
 MODEL_KEYS = {"dofs", "mass", "stiffness", "damping", "mass_part"}
@@ -50,12 +52,12 @@ SOLVER_KEYS = {"tol", "max_iter", "step", "min_step", "max_step", "max_turn", "t
                "max_points", "sub_sample"}
 ANALYSIS_KEYS = {
     "frf": {"type", "name", "parameter", "start", "stop", "method", "frequency", "outputs",
-            "family", "set"},
+            "family", "set", "measure"},
     "peak": {"type", "name", "parameter", "start", "stop", "window", "output", "points", "set",
              "family", "spacing"},
     "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
     "dti": {"type", "name", "frequencies", "outputs", "steps_per_period", "ramp_periods",
-            "ramp_time", "settle_time", "max_periods", "set", "compare"},
+            "ramp_time", "settle_time", "max_periods", "set", "compare", "restart", "measure"},
     "transient": {"type", "name", "frequency", "outputs", "steps_per_period", "ramp_periods",
                   "ramp_time", "settle_time", "set"},
 }
@@ -459,6 +461,10 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if fam is not None:
             _family(pre, fam, data, out)
     if kind in ("frf", "dti"):
+        if a.get("measure", "peak") not in MEASURES:
+            out.append(f"{pre}.measure = {a.get('measure')!r}: expected one of {list(MEASURES)}")
+        if "restart" in a and not isinstance(a["restart"], bool):
+            out.append(f"{pre}.restart = {a['restart']!r}: expected true or false")
         for o in a.get("outputs", []):
             if o not in dofs:
                 out.append(f"{pre}.outputs: {o!r} is not a DOF; known: {sorted(dofs)}")

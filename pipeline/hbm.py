@@ -417,6 +417,8 @@ class HarmonicBalance:
         lin = self.condensed(point)
         S = self.harmonics.real_matrix(lin.S)
         F = self.harmonics.real_vector(lin.F).ravel()
+        if S.size == 0:
+            return np.zeros(0)
         if not stuck:
             with np.errstate(all="ignore"):
                 if np.linalg.cond(S) < 1e12:

@@ -19,6 +19,7 @@ from .contact import ContactResponse
 from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
 
 METHODS = ("arclength", "natural")
+LINEAR_SAMPLES = 801  # parameter samples of a sweep with no contact DOF
 
 
 @dataclass
@@ -124,7 +125,8 @@ def scales(model: HarmonicBalance, point: OperatingPoint) -> tuple[float, float]
             default=0.0,
         )
     f = f if f > 0 else 1.0
-    x = float(np.max(np.abs(model.linear_guess(point, stuck=True))))
+    guess = model.linear_guess(point, stuck=True)
+    x = float(np.max(np.abs(guess))) if guess.size else 0.0
     return (x if x > 0 else 1.0), f
 
 
@@ -173,6 +175,14 @@ def sweep(
         raise ValueError(f"sweep: 'x0' has shape {np.shape(x0)}, expected ({model.n_unknowns},)")
     if parameter in ("frequency", "mass") and settings.lower < 0:
         settings = dataclasses.replace(settings, lower=0.0)  # never through w = 0 or m = 0
+    if model.n_unknowns == 0:
+        # no contact DOF: the response is linear and recovered exactly at every DOF;
+        # sample the parameter (Response.peak refines a resonance between samples)
+        values = np.linspace(start, stop, LINEAR_SAMPLES)
+        branch = cont.Branch(parameter, values, np.zeros((values.size, 0)),
+                             np.zeros(values.size), np.zeros(values.size, dtype=int),
+                             message="linear: no contact DOF, sampled")
+        return Response(model, branch, base)
     p0 = base.set(parameter, start)
     xs, fs = scales(model, p0)
     if x_scale is not None:

@@ -108,17 +108,36 @@ def _ticker(progress: Progress, prefix: str) -> Callable[[int, float, int], None
     return tick
 
 
+def _measure(coefficients: np.ndarray, h: Harmonics, how: str) -> np.ndarray:
+    """(n, outputs) response measure of coefficient rows (n, outputs, nc)."""
+    c = np.array(coefficients, dtype=float)
+    if how == "harmonic":
+        k = h.dynamic_orders.index(min(h.dynamic_orders))
+        return np.hypot(c[..., h.cos_index[k]], c[..., h.sin_index[k]])
+    if how == "vibration" and h.has_static:
+        c[..., 0] = 0.0
+    return h.peak(c)
+
+
 def _contact_data(r: Response) -> dict:
     """Per contact and point: state, dissipation, slip fraction, static forces."""
     out = {}
     for ci, c in enumerate(r.model.contacts):
         rows = [r.contacts(i)[ci] for i in range(len(r))]
+        el = c.elements
+        if el.coupled and r.model.harmonics.has_static:
+            static = np.array([x.forces[:, :, 0].ravel() for x in rows])
+        elif el.variable_normal:
+            # uncoupled: the static forces assumed a priori, N0 (T0 not modelled: NaN)
+            n0 = np.array([el.n0 * r.point(i).preload for i in range(len(r))])
+            static = np.concatenate([np.full((len(r), el.size * el.dim), np.nan), n0], axis=1)
+        else:
+            static = np.zeros((len(r), 0))
         out[c.name] = {
             "state": np.array([x.state[0] for x in rows], dtype=np.int8),
             "dissipation": np.array([x.dissipation.sum() for x in rows]),
             "slip_fraction": np.array([x.slip_fraction.mean() for x in rows]),
-            "static_force": np.array([x.forces[:, :, 0].ravel() for x in rows])
-            if r.model.harmonics.has_static else np.zeros((len(r), 0)),
+            "static_force": static,
             "undersampled": np.array([x.undersampled.sum() for x in rows]),
         }
     return out
@@ -129,6 +148,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
     names, idx = _outputs(case, a)
     methods = a.get("method", "arclength")
     methods = methods if isinstance(methods, list) else [methods]
+    measure = a.get("measure", "peak")
     series = {n: [] for n in names}
     static: dict[str, list] = {}  # contact -> lines of its static forces (order 0 kept)
     statuses = []
@@ -148,14 +168,17 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
                       progress=_ticker(progress, f"[{name}] curve {j + 1} {tag}"))
             elapsed = time.perf_counter() - t
             b = r.branch
-            amp = r.amplitude(idx) if len(r) else np.zeros((0, len(idx)))
+            coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx),
+                                                                hb.harmonics.n_coeffs))
+            amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
+            shown = _measure(coef, hb.harmonics, measure) if len(r) else amp
             data = {
                 "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
-                "coefficients": r.coefficients(idx) if len(r) else np.zeros((0, len(idx), 0)),
-                "amplitude": amp, "residual": b.residuals, "iterations": b.iterations,
+                "coefficients": coef, "amplitude": amp, "response": shown,
+                "residual": b.residuals, "iterations": b.iterations,
                 "contacts": _contact_data(r) if len(r) else {},
             }
-            attrs = {"label": tag, "method": method,
+            attrs = {"label": tag, "method": method, "measure": measure,
                      "family_key": (a.get("family") or {}).get("key", ""),
                      "family_value": value if value is not None else "", "status": b.status,
                      "message": b.message, "turning_points": b.turning_points,
@@ -168,7 +191,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
             statuses.append((b.status, b.message))
             style = {"natural": "--", "natural-down": ":"}.get(method, "-")
             for k, n in enumerate(names):
-                series[n].append({"x": b.values, "y": amp[:, k], "label": tag or None,
+                series[n].append({"x": b.values, "y": shown[:, k], "label": tag or None,
                                   "turning_points": b.turning_points, "ls": style})
             for cname, cd in data["contacts"].items():
                 sf = cd["static_force"]
@@ -187,11 +210,15 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
     drawn[name] = {"parameter": par, "series": series, "static": static}
     for n in names:
         plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}", plots.LABELS[par],
-                     series[n], f"max |{n}(t)|")
+                     series[n], _MEASURE_LABEL[measure].format(n))
     for cname, lines in static.items():
         plots.curves(out / f"{name}_static_{cname}.png", f"{name}: static forces, contact "
                      f"{cname}", plots.LABELS[par], lines, "static contact force [N]")
     return _worst(statuses)
+
+
+_MEASURE_LABEL = {"peak": "max |{}(t)|", "vibration": "max |{0}(t) - {0}0|",
+                  "harmonic": "first-harmonic amplitude of {}"}
 
 
 def _normal(hb, contact: str) -> bool:
@@ -296,16 +323,32 @@ def run_dti(case, a, name, w, group, out, progress, drawn):
                  f"max|{names[0]}| = {steady.amplitude[idx[0]]:.6g}"
                  + ("" if steady.converged else " (not periodic yet)"))
 
+    kw = dict(steps_per_period=spp, max_periods=a.get("max_periods", 3000),
+              harmonics=min(H, (spp - 1) // 2))
     try:
-        fr = dti.frequency_response(tm, loads, a["frequencies"], steps_per_period=spp,
-                                    max_periods=a.get("max_periods", 3000),
-                                    harmonics=min(H, (spp - 1) // 2), progress=tick)
+        if a.get("restart", False):
+            # every frequency from fresh load steps: a stuck contact keeps the static
+            # state of its history, so a sweep would carry it from one point to the next
+            parts = []
+            for i, wk in enumerate(a["frequencies"]):
+                part = dti.frequency_response(tm, loads, [wk], **kw)
+                parts.append(part)
+                progress(f"[{name}] {i + 1}/{len(a['frequencies'])} w = {wk:.6g} rad/s: "
+                         f"{part.periods[0]} periods")
+            fr = _join_responses(parts)
+        else:
+            fr = dti.frequency_response(tm, loads, a["frequencies"], progress=tick, **kw)
     except KeyboardInterrupt:
         return "interrupted", "time integration interrupted by the user"
     contacts = {}
     for ci, ct in enumerate(c.contacts_enabled()):
         contacts[ct] = {"N0": fr.N0[ci], "T0": fr.T0[ci]}
-    data = {"omega": fr.omega, "amplitude": fr.amplitude[:, idx],
+    measure = a.get("measure", "peak")
+    shown = fr.amplitude[:, idx]
+    if measure != "peak":
+        hh = Harmonics(range(fr.coefficients.shape[2] // 2 + 1), spp)
+        shown = _measure(fr.coefficients[:, idx], hh, measure)
+    data = {"omega": fr.omega, "amplitude": fr.amplitude[:, idx], "response": shown,
             "coefficients": fr.coefficients[:, idx], "periods": fr.periods,
             "converged": fr.converged, "seconds": fr.seconds, "contacts": contacts}
     ok = bool(np.all(fr.converged))
@@ -329,10 +372,23 @@ def run_dti(case, a, name, w, group, out, progress, drawn):
     for k, n in enumerate(names):
         series = ref.get("series", {}).get(n, [])
         plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}",
-                     plots.LABELS["frequency"], series, f"max |{n}(t)|",
-                     markers=[{"x": fr.omega, "y": fr.amplitude[:, idx[k]],
+                     plots.LABELS["frequency"], series, _MEASURE_LABEL[measure].format(n),
+                     markers=[{"x": fr.omega, "y": shown[:, k],
                                "label": f"time integration ({spp} steps/period)"}])
     return ("complete" if ok else "stopped"), message
+
+
+def _join_responses(parts):
+    """One FrequencyResponse from single-frequency ones."""
+    first = parts[0]
+    cat = {f: np.concatenate([getattr(p, f) for p in parts])
+           for f in ("omega", "amplitude", "coefficients", "periods", "converged",
+                     "dissipation", "seconds")}
+    n0 = tuple(np.concatenate([p.N0[c] for p in parts]) for c in range(len(first.N0)))
+    t0 = tuple(np.concatenate([p.T0[c] for p in parts]) for c in range(len(first.T0)))
+    return type(first)(cat["omega"], cat["amplitude"], cat["coefficients"], cat["periods"],
+                       cat["converged"], n0, t0, cat["dissipation"], cat["seconds"],
+                       parts[-1].end)
 
 
 def run_transient(case, a, name, w, group, out, progress, drawn):

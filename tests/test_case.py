@@ -155,3 +155,22 @@ def test_transient_and_dti_analyses(tmp_path):
         assert f["time/curve_000/amplitude"].shape == (2, 2)
         assert np.all(f["time/curve_000/converged"][()])
     assert (tmp_path / "steps.png").exists() and (tmp_path / "time_x.png").exists()
+
+
+def test_linear_model_and_response_measures(tmp_path):
+    """No contact: the sweep samples the linear FRF; its peak sits on an
+    eigenfrequency of (K, M); 'vibration' removes the static deflection."""
+    data = copy.deepcopy(GOOD)
+    data["contacts"][0]["enabled"] = False
+    data["loads"].append({"dof": "x", "amplitude": 0.5, "harmonic": 0})
+    data["analysis"][0]["measure"] = "vibration"
+    run_case(cs.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
+    K, M = np.array([[2.0, -1.0], [-1.0, 2.0]]), np.diag([1.0, 2.0])
+    w_modes = np.sqrt(np.linalg.eigvals(np.linalg.solve(M, K)).real)
+    with h5py.File(tmp_path / "results.h5") as f:
+        g = f["a/curve_000"]
+        w, peak, vib = g["omega"][()], g["amplitude"][:, 0], g["response"][:, 0]
+        x0 = np.linalg.solve(K, [0.5, 0.0])[0]  # static deflection of x
+        # grid spacing 1.5 / 800: the sampled resonance within two steps of a mode
+        assert np.min(np.abs(w[np.argmax(vib)] - w_modes)) < 2 * 1.5 / 800
+        assert np.allclose(peak, vib + abs(x0), rtol=1e-9)  # harmonic 1 only: |x| = |x0| + |x1|
