@@ -44,11 +44,12 @@ STICK, SLIP, OPEN = 0, 1, 2
 @njit(cache=True, parallel=True, fastmath=False)
 def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, max_periods,
           rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
-          periods_out):  # pragma: no cover
+          periods_out, counts_out):  # pragma: no cover
     """March the return map of every point to its periodic steady state.
 
-    g: (P, d + has_normal, nc) input coefficients; u: (P, d, ns) tangential
-    samples; v: (P, ns) normal samples (the synthesis of g);
+    g: (P, d + has_normal, nc) input coefficients; u: (P, d, ns) and v: (P, ns)
+    receive the tangential and normal samples (the synthesis of g; v = 0 for
+    the constant-load laws);
     kt: (P, d); kn, mu, n0: (P,); E: (ns, nc) synthesis; A: (nc, ns) analysis;
     corder (nc,) float harmonic order and ckind (nc,) int (0 constant, 1 cos,
     2 sin) of each coefficient.
@@ -68,6 +69,7 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
     nc = E.shape[1]
     m = J_out.shape[3] + 1
     for p in prange(P):
+        _synthesis(p, g, E, has_normal, u, v)
         G = np.empty((ns, d * m)) if want_jac else np.empty((1, 1))  # every row written
         dT = np.zeros((d, m))
         T = np.empty(d)
@@ -99,6 +101,53 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
         if corrections:
             _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
                    T_out, N_out, state_out, G, F_out, J_out, D_out)
+        _count(p, state_out, T_out, counts_out)
+
+
+@njit(cache=True)
+def _synthesis(p, g, E, has_normal, u, v):  # pragma: no cover
+    """Time samples of one point's relative displacements from coefficients."""
+    d, ns = u.shape[1], u.shape[2]
+    nc = E.shape[1]
+    for k in range(ns):
+        for j in range(d):
+            acc = 0.0
+            for c in range(nc):
+                acc += g[p, j, c] * E[k, c]
+            u[p, j, k] = acc
+        acc = 0.0
+        if has_normal:
+            for c in range(nc):
+                acc += g[p, d, c] * E[k, c]
+        v[p, k] = acc
+
+
+@njit(cache=True)
+def _count(p, state_out, T_out, counts_out):  # pragma: no cover
+    """Open and slipping samples, and stick arcs of 0 to 2 samples between slips
+    (0: the force reverses between two slipping samples)."""
+    d, ns = T_out.shape[1], T_out.shape[2]
+    n_open = n_slip = short = 0
+    for k in range(ns):
+        s = state_out[p, k]
+        prev = state_out[p, (k - 1) % ns]
+        if s == OPEN:
+            n_open += 1
+        elif s == SLIP:
+            n_slip += 1
+            if prev == SLIP:
+                dot = 0.0
+                for j in range(d):
+                    dot += T_out[p, j, k] * T_out[p, j, (k - 1) % ns]
+                if dot < 0.0:
+                    short += 1
+        elif prev == SLIP:  # a stick arc starts: 1 or 2 samples long?
+            nxt = state_out[p, (k + 1) % ns]
+            if nxt == SLIP or (nxt == STICK and state_out[p, (k + 2) % ns] == SLIP):
+                short += 1
+    counts_out[p, 0] = n_open
+    counts_out[p, 1] = n_slip
+    counts_out[p, 2] = short
 
 
 SHOOT_AFTER = 4  # plain periods before Newton on the cycle's periodicity

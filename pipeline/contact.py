@@ -249,13 +249,8 @@ class ContactElements:
             g[..., static] = 0.0
         d, ns = self.dim, harmonics.n_samples
         E, A = harmonics.synthesis, harmonics.analysis
-        samples = g @ E.T  # (P, c, ns)
-        u = np.ascontiguousarray(samples[:, :d])
-        v = (
-            np.ascontiguousarray(samples[:, d])
-            if self.variable_normal
-            else np.zeros((P, ns))
-        )
+        u = np.empty((P, d, ns))
+        v = np.empty((P, ns))
         T = np.empty((P, d, ns))
         N = np.empty((P, ns))
         st = np.empty((P, ns), dtype=np.int8)
@@ -263,12 +258,13 @@ class ContactElements:
         jac = np.empty((P, c, nc, c, nc) if jacobian else (1, 1, 1, 1, 1))
         dn0 = np.empty((P, c, nc) if jacobian else (1, 1, 1))
         periods = np.empty(P, dtype=np.int64)
+        counts = np.empty((P, 3), dtype=np.int64)
         _returnmap.march(
             np.ascontiguousarray(g), u, v, self.kt, self.kn, self.mu, self.n0, E, A,
             harmonics.coeff_order.astype(float), harmonics.coeff_kind, self.variable_normal,
             jacobian, int(max_periods), float(rtol), bool(corrections), T, N, st, F,
             jac.reshape(jac.shape[0], c, nc, -1) if jacobian else jac.reshape(1, 1, 1, 1),
-            dn0, periods,
+            dn0, periods, counts,
         )
         forces = F[:, :c]
         if not jacobian:
@@ -279,42 +275,24 @@ class ContactElements:
                 jac[:, :, static] = 0.0
                 jac[..., static] = 0.0
                 dn0[..., static] = 0.0
-        state, slip_fraction = _classify(st)
+        state, slip_fraction = _classify(counts, ns)
         dissipation = harmonics.work(forces[:, :d], g[:, :d]).sum(axis=1)
         normal_work = (
             harmonics.work(forces[:, d], g[:, d]) if self.variable_normal else np.zeros(P)
         )
-        undersampled = _short_sticks(st, T)
         extra = {}
         if histories:
             extra = {"T": T, "N": N, "u": u, "v": v, "flags": st}
         return ContactResponse(
             forces, jac, dn0, state, slip_fraction, dissipation, normal_work, periods,
-            undersampled, **extra
+            counts[:, 2], **extra
         )
 
 
-def _short_sticks(flags: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """(P,) stick arcs between slipping samples that span 0, 1 or 2 samples."""
-    slip = flags == _returnmap.SLIP
-    stick = flags == _returnmap.STICK
-
-    def at(a, shift):
-        return np.roll(a, -shift, axis=1)
-
-    reverse = np.einsum("pjk,pjk->pk", T, np.roll(T, 1, axis=2)) < 0  # T(k-1) . T(k) < 0
-    none = slip & at(slip, -1) & reverse
-    one = stick & at(slip, -1) & at(slip, 1)
-    two = stick & at(stick, 1) & at(slip, -1) & at(slip, 2)
-    return np.sum(none | one | two, axis=1)
-
-
-def _classify(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-point state over the period from per-sample stick/slip/open flags."""
-    n_open = np.sum(samples == _returnmap.OPEN, axis=1)
-    n_slip = np.sum(samples == _returnmap.SLIP, axis=1)
-    ns = samples.shape[1]
-    state = np.full(samples.shape[0], STICK)
+def _classify(counts: np.ndarray, ns: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-point state over the period from (open, slipping) sample counts."""
+    n_open, n_slip = counts[:, 0], counts[:, 1]
+    state = np.full(counts.shape[0], STICK)
     state[n_slip > 0] = STICK_SLIP
     state[(n_slip > 0) & (n_slip + n_open == ns)] = GROSS_SLIP
     state[n_open > 0] = PARTIAL_LIFTOFF
