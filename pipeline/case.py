@@ -54,7 +54,7 @@ ANALYSIS_KEYS = {
     "frf": {"type", "name", "parameter", "start", "stop", "method", "frequency", "outputs",
             "family", "set", "measure"},
     "peak": {"type", "name", "parameter", "start", "stop", "window", "output", "points", "set",
-             "family", "spacing"},
+             "family", "spacing", "tracking"},
     "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
     "dti": {"type", "name", "frequencies", "outputs", "steps_per_period", "ramp_periods",
             "ramp_time", "settle_time", "max_periods", "set", "compare", "restart", "measure"},
@@ -452,6 +452,10 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                            f"{sorted(dofs)}")
             if "points" in a:
                 _number(f"{pre}.points", a["points"], out, positive=True, integer=True)
+            if a.get("tracking", "continuation") not in ("continuation", "sweep"):
+                out.append(f"{pre}.tracking = {a.get('tracking')!r}: expected 'continuation' "
+                           "(the peak followed from value to value) or 'sweep' (a full FRF "
+                           "per value)")
             sp = a.get("spacing", "linear")
             if sp not in ("linear", "log"):
                 out.append(f"{pre}.spacing = {sp!r}: expected 'linear' or 'log'")

@@ -17,7 +17,7 @@ from . import plots
 from .contact import STATE_NAMES
 from .harmonics import Harmonics
 from .hbm import OperatingPoint
-from .response import Response, sweep
+from .response import Response, peak_curve, sweep
 from .results import ResultsWriter
 
 Progress = Callable[[str], None]
@@ -225,6 +225,13 @@ def _normal(hb, contact: str) -> bool:
     return next(c for c in hb.contacts if c.name == contact).elements.variable_normal
 
 
+def _peak_ticker(progress: Progress, name: str, label: str, par: str):
+    def tick(i, value, omega, amplitude, how):
+        progress(f"[{name}] {label} {par} = {value:.6g}: peak {amplitude:.6g} at w = "
+                 f"{omega:.6g} rad/s ({how})")
+    return tick
+
+
 def run_peak(case, a, name, w, group, out, progress, drawn):
     par = a["parameter"]
     space = np.geomspace if a.get("spacing", "linear") == "log" else np.linspace
@@ -234,23 +241,37 @@ def run_peak(case, a, name, w, group, out, progress, drawn):
     series, statuses = [], []
     for j, (c, label, fvalue) in enumerate(_family(case, a)):
         hb = cs.model(c)
-        omega, amp, done = [], [], []
         t = time.perf_counter()
-        for v in values:
-            r = sweep(hb, "frequency", lo, hi, OperatingPoint(lo).set(par, v),
-                      settings=cs.settings(c))
-            if r.branch.status == "interrupted":
-                statuses.append(("interrupted", r.branch.message))
+        tick = _peak_ticker(progress, name, label, par)
+        if a.get("tracking", "continuation") == "continuation":
+            try:
+                pc = peak_curve(hb, par, values, k, (lo, hi), OperatingPoint(lo),
+                                settings=cs.settings(c), progress=tick)
+            except KeyboardInterrupt:
+                statuses.append(("interrupted", "interrupted by the user"))
                 break
-            wk, ak = r.peak(k) if len(r) else (np.nan, np.nan)
-            omega.append(wk)
-            amp.append(ak)
-            done.append(r.branch.complete)
-            statuses.append((r.branch.status, r.branch.message))
-            progress(f"[{name}] {label} {par} = {v:.6g}: peak {ak:.6g} at w = {wk:.6g} rad/s")
+            omega, amp, how = list(pc.omega), list(pc.amplitude), pc.how
+            done = [bool(np.isfinite(x)) for x in amp]
+            statuses.append(("complete", "") if all(done) else
+                            ("stopped", "no solution at some values"))
+        else:
+            omega, amp, done, how = [], [], [], []
+            for i, v in enumerate(values):
+                r = sweep(hb, "frequency", lo, hi, OperatingPoint(lo).set(par, v),
+                          settings=cs.settings(c))
+                if r.branch.status == "interrupted":
+                    statuses.append(("interrupted", r.branch.message))
+                    break
+                wk, ak = r.peak(k) if len(r) else (np.nan, np.nan)
+                omega.append(wk)
+                amp.append(ak)
+                done.append(r.branch.complete)
+                how.append("swept")
+                statuses.append((r.branch.status, r.branch.message))
+                tick(i, v, wk, ak, "swept")
         n = len(amp)
         data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
-                "complete": np.array(done)}
+                "complete": np.array(done), "how": np.array(how)}
         w.write_group(group, f"curve_{j:03d}", data, {
             "label": label or f"peak of {a['output']}", "family_value": fvalue or "",
             "status": _worst(statuses)[0], "message": _worst(statuses)[1],
