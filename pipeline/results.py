@@ -144,7 +144,7 @@ def summary(path: str | Path) -> str:
                 if not isinstance(c, h5py.Group):
                     continue
                 ca = c.attrs
-                npts = next((c[k].shape[0] for k in ("parameter", "omega", "amplitude")
+                npts = next((c[k].shape[0] for k in ("parameter", "omega", "amplitude", "t")
                              if k in c), 0)
                 extra = ""
                 if "amplitude" in c and c["amplitude"].size:
