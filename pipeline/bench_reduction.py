@@ -2,8 +2,11 @@
 and the speed/accuracy table of mesh size and element order (DESIGN.md §7).
 
     python -m pipeline.bench_reduction                      # default blisk sector
-    python -m pipeline.bench_reduction --refine 0.5         # finer mesh (sizes x 0.5)
-    python -m pipeline.bench_reduction --accuracy           # mesh size / order vs error
+    python -m pipeline.bench_reduction --refine 0.36 --modes 30 --nds 0,1 --backends pardiso
+                                                            # ~150,000 DOFs per ND
+    python -m pipeline.bench_reduction --accuracy --nds 0,1 # mesh size / order vs error
+    python -m pipeline.bench_reduction --cb blisk --nds 0,1,12,24   # CB error vs modes/cut-off
+Peak memory is the process's ru_maxrss: run one backend per process to compare backends.
 Performance figures live here, never in timed tests.
 """
 
@@ -59,12 +62,18 @@ def _table(title: str, header: Sequence[str], rows: list[Sequence[object]]) -> N
         print(_row(r, widths))
 
 
-def bench_reduction(mesh, nds: Sequence[int], n_modes: int, backends: Sequence[str],
-                    order: int = 2) -> None:
+def _modes(text: str) -> int | str:
+    return text if text == "auto" else int(text)
+
+
+def bench_reduction(mesh, nds: Sequence[int], n_modes: int | str, backends: Sequence[str],
+                    order: int = 2, eigen: str = "block", bodies: Sequence[str] = ("blisk",
+                                                                                   "damper")
+                    ) -> None:
     """Assembly table and the per-ND cyclic + CB table for every backend."""
-    bodies = blisk_bodies(mesh)
+    specs = {k: v for k, v in blisk_bodies(mesh).items() if k in bodies}
     models, rows = {}, []
-    for name in bodies:
+    for name in specs:
         t = time.perf_counter()
         models[name] = fem.assemble(mesh, name, STEEL, order)
         rows.append([name, order, models[name].n_dofs, f"{time.perf_counter() - t:.2f}",
@@ -74,7 +83,7 @@ def bench_reduction(mesh, nds: Sequence[int], n_modes: int, backends: Sequence[s
     rows = []
     boundary = mesh.cyclic["blisk"]
     for backend in backends:
-        for name, spec in bodies.items():
+        for name, spec in specs.items():
             for h in (nds if name == "blisk" else [0]):
                 t0 = time.perf_counter()
                 model = cyclic.sector_model(models[name], spec["clamped"],
@@ -82,66 +91,139 @@ def bench_reduction(mesh, nds: Sequence[int], n_modes: int, backends: Sequence[s
                 t1 = time.perf_counter()
                 tm: dict = {}
                 red = reduction.craig_bampton(model, spec["masters"], n_modes, backend=backend,
-                                              timings=tm)
+                                              timings=tm, eigen_method=eigen)
                 t2 = time.perf_counter()
-                rows.append([backend, name, h, model.n_free, red.n_masters, n_modes,
+                rows.append([backend, name, h, model.n_free, red.n_masters, red.n_modes,
                              f"{t1 - t0:.2f}", f"{tm['factorize']:.2f}",
                              f"{tm['static_modes']:.2f}", f"{tm['eigen']:.2f}",
                              f"{tm['projection']:.2f}", f"{t2 - t0:.2f}",
                              f"{peak_memory_mb():.0f}", f"{red.frequencies(7)[-1]:.1f}"])
-    _table("cyclic matrices + Craig-Bampton per ND (times in s; peak RSS is the process's)",
+                print(*rows[-1], flush=True)
+    _table(f"cyclic matrices + Craig-Bampton per ND (eigen: {eigen}; times in s; peak RSS is "
+           "the process's)",
            ["backend", "body", "ND", "free DOFs", "masters", "modes", "cyclic", "factor",
             "static", "eigen", "project", "total", "peak MB", "f7 [Hz]"], rows)
 
 
-def bench_accuracy(refines: Sequence[float], nd: int, n_freq: int = 6) -> None:
+def bench_cb(model_name: str, nds: Sequence[int], cutoffs: Sequence[float],
+             counts: Sequence[int] = (10, 30)) -> None:
+    """CB error of the first ten frequencies per ND against fixed counts and cut-offs.
+
+    model_name: "blisk" (default blisk sector, masters = contact + excitation + response
+    nodes) or "annular" (the test model of tests/test_reduction.py). Reference: the
+    unreduced sector model.
+    """
+    import geometry
+
+    if model_name == "annular":
+        sectors = 6
+        mesh = geometry.annular_sector(sectors=sectors, r_inner=0.05, r_outer=0.12, width=0.01,
+                                       size=0.015)
+        body = fem.assemble(mesh, "disk", fem.Material(2.1e11, 0.3, 7800.0))
+        rim = fem.node_set(mesh, "disk/rim")
+        theta = np.arctan2(mesh.points[rim, 1], mesh.points[rim, 0])
+        masters = rim[np.abs(theta) < np.pi / sectors / 3]
+        clamped, boundary = fem.node_set(mesh, "disk/bore"), mesh.cyclic["disk"]
+    else:
+        mesh = blisk_mesh(1.0)
+        spec = blisk_bodies(mesh)["blisk"]
+        body = fem.assemble(mesh, "blisk", STEEL)
+        masters, clamped, boundary = spec["masters"], spec["clamped"], mesh.cyclic["blisk"]
+    rows = []
+    for h in nds:
+        model = cyclic.sector_model(body, clamped, boundary, h)
+        lam, _ = linalg.lowest_modes(model.stiffness, model.mass, 10)
+        f_ref = np.sqrt(lam) / (2 * np.pi)
+        runs: list[tuple[str, dict]] = [(f"{n} modes", {"n_modes": n}) for n in counts]
+        runs += [(f"cutoff {c:g}", {"n_modes": "auto", "cutoff": c}) for c in cutoffs]
+        for label, kwargs in runs:
+            t = time.perf_counter()
+            red = reduction.craig_bampton(model, masters, **kwargs)
+            err = np.abs(red.frequencies(10) / f_ref - 1)
+            rows.append([h, label, red.n_modes, f"{err.max():.1e}",
+                         " ".join(f"{e:.0e}" for e in err), f"{time.perf_counter() - t:.1f}"])
+            print(*rows[-1], flush=True)
+    _table(f"Craig-Bampton error of the first ten frequencies per ND ({model_name}; cutoff c: "
+           f"modes below c x the 10th fixed-interface frequency; default "
+           f"{reduction.DEFAULT_MODES!r}, c = {reduction.CUTOFF:g})",
+           ["ND", "selection", "modes", "max error", "errors f1..f10", "time [s]"], rows)
+
+
+def bench_accuracy(refines: Sequence[float], nds: Sequence[int], n_freq: int = 6,
+                   reference: float | None = None) -> None:
     """Mesh size and element order against the error of the first blisk frequencies.
 
-    Reference: the finest P2 mesh of the list. Unreduced sector, clamped bore, damper absent.
+    Reference: P2 on the mesh with size factor ``reference`` (default: the finest of the list).
+    Unreduced sector, clamped bore, damper absent; time = assembly + cyclic + eigen-solve.
     """
-    results = []
-    for refine in refines:
+    ref_factor = reference if reference is not None else min(refines)
+    cases = sorted(set(refines) | {ref_factor}, reverse=True)
+    results = {}
+    for refine in cases:
         mesh = blisk_mesh(refine)
         clamped = fem.node_set(mesh, "blisk/bore")
-        for order in (1, 2):
+        for order in (1, 2) if refine in refines else (2,):
             t = time.perf_counter()
             body = fem.assemble(mesh, "blisk", STEEL, order)
-            model = cyclic.sector_model(body, clamped, mesh.cyclic["blisk"], nd)
-            lam, _ = linalg.lowest_modes(model.stiffness, model.mass, n_freq)
-            results.append((refine, order, body.n_dofs, np.sqrt(lam) / (2 * np.pi),
-                            time.perf_counter() - t))
-    ref = min((r for r in results if r[1] == 2), key=lambda r: r[0])[3]
-    rows = [[f"{r:g}", o, n, f"{np.abs(f / ref - 1).max():.2e}", f"{t:.2f}"]
-            for r, o, n, f, t in results]
-    _table(f"speed/accuracy (blisk sector, ND {nd}, first {n_freq} frequencies vs the finest "
-           f"P2 mesh; f_ref = {np.array2string(ref, precision=1)} Hz)",
-           ["size factor", "order", "DOFs", "max rel error", "time [s]"], rows)
+            t_asm = time.perf_counter() - t
+            for h in nds:
+                t = time.perf_counter()
+                model = cyclic.sector_model(body, clamped, mesh.cyclic["blisk"], h)
+                lam, _ = linalg.lowest_modes(model.stiffness, model.mass, n_freq)
+                results[refine, order, h] = (body.n_dofs, np.sqrt(lam) / (2 * np.pi),
+                                             t_asm + time.perf_counter() - t)
+                print(refine, order, h, results[refine, order, h], flush=True)
+    rows = []
+    for (refine, order, h), (n, f, t) in results.items():
+        if refine not in refines:
+            continue
+        err = np.abs(f / results[ref_factor, 2, h][1] - 1)
+        rows.append([f"{refine:g}", f"P{order}", h, n, f"{err.max():.1e}",
+                     " ".join(f"{e:.0e}" for e in err), f"{t:.1f}"])
+    refs = "; ".join(f"ND {h}: " + np.array2string(results[ref_factor, 2, h][1], precision=0)
+                     for h in nds)
+    _table(f"speed/accuracy (blisk sector, first {n_freq} frequencies vs P2 at size factor "
+           f"{ref_factor:g}, {results[ref_factor, 2, nds[0]][0]} DOFs; f_ref [Hz] {refs})",
+           ["size factor", "order", "ND", "DOFs", "max rel error", "errors", "time [s]"], rows)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="bench_reduction", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--refine", type=float, default=1.0,
-                        help="scale of the blisk tet sizes (0.5: twice finer)")
+                        help="scale of the blisk tet sizes (0.36: about 150,000 DOFs)")
     parser.add_argument("--nds", default="0,1,2,3",
                         help="nodal diameters, comma-separated (default: 0..3)")
-    parser.add_argument("--modes", type=int, default=reduction.DEFAULT_MODES)
+    parser.add_argument("--modes", type=_modes, default=reduction.DEFAULT_MODES,
+                        help="fixed-interface modes: an integer or 'auto' (cut-off, default)")
+    parser.add_argument("--eigen", default="block", choices=("block", "arpack"))
     parser.add_argument("--backends", default=",".join(linalg.available_backends()))
+    parser.add_argument("--bodies", default="blisk,damper")
     parser.add_argument("--order", type=int, default=2)
     parser.add_argument("--accuracy", action="store_true",
                         help="print the mesh-size/order speed-accuracy table instead")
     parser.add_argument("--accuracy-refines", default="2,1.4,1,0.7")
+    parser.add_argument("--accuracy-reference", type=float, default=None,
+                        help="size factor of the P2 reference (default: the finest)")
+    parser.add_argument("--cb", choices=("blisk", "annular"), default=None,
+                        help="print the CB error table (modes / cut-off per ND) instead")
+    parser.add_argument("--cutoffs", default="3,3.5,4,5")
     args = parser.parse_args(argv)
+    nds = [int(x) for x in args.nds.split(",")]
     if args.accuracy:
-        bench_accuracy([float(x) for x in args.accuracy_refines.split(",")], nd=1)
+        bench_accuracy([float(x) for x in args.accuracy_refines.split(",")], nds,
+                       reference=args.accuracy_reference)
+        return 0
+    if args.cb:
+        bench_cb(args.cb, nds, [float(x) for x in args.cutoffs.split(",")])
         return 0
     backends = [linalg.check_backend(b) for b in args.backends.split(",")]
     t = time.perf_counter()
     mesh = blisk_mesh(args.refine)
     print(f"blisk sector, size factor {args.refine:g}: {len(mesh.points)} nodes, "
           f"{len(mesh.tetrahedra)} tets, meshed in {time.perf_counter() - t:.2f} s")
-    nds = [int(x) for x in args.nds.split(",")]
-    bench_reduction(mesh, nds, args.modes, backends, args.order)
+    bench_reduction(mesh, nds, args.modes, backends, args.order, args.eigen,
+                    args.bodies.split(","))
     return 0
 
 
