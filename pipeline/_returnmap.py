@@ -11,6 +11,13 @@ components) and of the normal one ``v``, the normal force is
     stick       |Tp| <= mu N_k    ->  T_k = Tp
     slip        otherwise         ->  T_k = mu N_k Tp / |Tp|   (radial return)
 
+In 2D a slip that continues from a slipping sample is integrated exactly over
+the step instead (:func:`_slip_flow`: the force direction relaxes towards the
+predictor's increment, tan(a/2) ~ exp(-kt |du| int ds / mu N)); radial return,
+its backward-Euler step, is first order in the sample spacing, the exact flow
+second order (measured on the circle's closed form: 1.1e-3, 6.7e-5, 4.2e-6 at
+64, 256, 1024 samples).
+
 The march starts as if the previous sample had ``T = kt u_{N-1}``, so the
 first predictor is ``kt u_0`` (the static part included: seed eqs. 26-28), and
 repeats periods until the force at the end of a period repeats.
@@ -88,7 +95,8 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
                     for col in range(m):
                         G[e, j * m + col] = dT[j, col]
                 _steps(p, e + 1, ns - 1, state_out[p, e] == OPEN, u, v, kt, kn, mu, n0, E,
-                       has_normal, True, True, T, Tp, dT, G, T_out, N_out, state_out)
+                       has_normal, True, True, T, Tp, dT, G, T_out, N_out, state_out, -1,
+                       state_out[p, e] == SLIP)
             elif periods > 2:
                 _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G,
                                      T_out, N_out, state_out)
@@ -182,15 +190,17 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
         periods = period + 1
         was_open = not closed if period == 0 else state_out[p, ns - 1] == OPEN
         newton = rtol > 0.0 and not want_jac and period >= SHOOT_AFTER
+        slipped = period > 0 and state_out[p, ns - 1] == SLIP
         if newton:
             shoot[:, :] = 0.0
             for j in range(d):
                 shoot[j, m + j] = 1.0
             scale = _steps(p, 0, ns, was_open, u, v, kt, kn, mu, n0, E, has_normal, True,
-                           False, T, Tp, shoot, G, T_out, N_out, state_out, m - 1)
+                           False, T, Tp, shoot, G, T_out, N_out, state_out, m - 1, slipped)
         else:
             scale = _steps(p, 0, ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
-                           want_jac, want_jac, T, Tp, dT, G, T_out, N_out, state_out)
+                           want_jac, want_jac, T, Tp, dT, G, T_out, N_out, state_out, -1,
+                           slipped)
         diff = 0.0
         for j in range(d):
             diff = max(diff, abs(T[j] - Tend[j]))
@@ -231,8 +241,9 @@ def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T
         T0[j] = T_out[p, j, ns - 1]
         T[j] = T0[j]
         ext[j, m + j] = 1.0
+    last_slip = state_out[p, ns - 1] == SLIP
     _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, False, T, Tp, ext,
-           G, T_out, N_out, state_out, m - 1)
+           G, T_out, N_out, state_out, m - 1, last_slip)
     A = np.eye(d) - ext[:, m:]
     rhs = ext[:, :m].copy()
     if d == 1:
@@ -245,7 +256,7 @@ def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T
     for j in range(d):
         T[j] = T0[j]
     _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, True, T, Tp, dT,
-           G, T_out, N_out, state_out)
+           G, T_out, N_out, state_out, -1, last_slip)
 
 
 @njit(cache=True)
@@ -269,11 +280,12 @@ def _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT):  # pra
 
 @njit(cache=True)
 def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac, store,
-           T, Tp, dT, G, T_out, N_out, state_out, cn0=-1):  # pragma: no cover
+           T, Tp, dT, G, T_out, N_out, state_out, cn0=-1, prev_slip=False):  # pragma: no cover
     """Advance the return map ``count`` samples from sample k0 (indices taken
     modulo ns), T and dT holding the state at the sample before; with ``store``
     each sample's dT goes to G. Returns the force scale met (max |T| and mu N),
-    for the periodicity test. cn0: the n0 column of dT (default its last)."""
+    for the periodicity test. cn0: the n0 column of dT (default its last);
+    prev_slip: the sample before slipped (2D slip then follows the exact flow)."""
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = dT.shape[1]
@@ -312,6 +324,9 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                 for j in range(d):
                     T[j] = Tp[j]
                 state_out[p, k] = STICK
+            elif d == 2 and prev_slip and _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal,
+                                                      want_jac, lim, T, Tp, dT, cn0):
+                state_out[p, k] = SLIP
             else:
                 ratio = lim / norm
                 for j in range(d):
@@ -336,6 +351,7 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                         dT[j, cn0] += mun
                 state_out[p, k] = SLIP
         was_open = N == 0.0
+        prev_slip = state_out[p, k] == SLIP
         N_out[p, k] = N
         for j in range(d):
             T_out[p, j, k] = T[j]
@@ -386,6 +402,85 @@ def _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
                     for c2 in range(nc):
                         J_out[p, d, c, vcol + c2] += a * kn[p] * E[k, c2]
                     D_out[p, d, c] += a
+
+
+@njit(cache=True)
+def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
+               cn0):  # pragma: no cover
+    """2D slip continued from a slipping sample, integrated exactly over the step.
+
+    With the predictor's increment q = kt du (linear in the step) and the limit
+    L(s) linear from L0 = |T_prev| to L1, slip keeps T = L t on the circle and
+    turns t towards q: dt/ds = (I - t t^T) q / L(s), so the angle a between t and
+    q obeys tan(a / 2) ~ exp(-|q| int ds / L). Radial return is the one-step
+    backward Euler of this flow (first order in the sample spacing). Applies
+    while the motion pushes outwards (t . q >= L1 - L0, the slip rate >= 0) and
+    the start angle is below 120 deg; returns False to leave the sample to
+    radial return. T and dT (holding dTp on entry) receive the new state."""
+    nc = E.shape[1]
+    m = dT.shape[1]
+    vcol = 2 * nc
+    q0, q1 = Tp[0] - T[0], Tp[1] - T[1]
+    L0 = np.sqrt(T[0] * T[0] + T[1] * T[1])
+    nq = np.sqrt(q0 * q0 + q1 * q1)
+    if L0 <= 0.0 or L1 <= 0.0 or nq <= 1e-14 * L1:
+        return False
+    t0, t1 = T[0] / L0, T[1] / L0
+    if t0 * q0 + t1 * q1 < L1 - L0:
+        return False
+    h0, h1 = q0 / nq, q1 / nq
+    c0 = t0 * h0 + t1 * h1
+    if c0 <= -0.5:
+        return False
+    p0, p1 = t0 - c0 * h0, t1 - c0 * h1
+    np_ = np.sqrt(p0 * p0 + p1 * p1)
+    tau0 = np_ / (1.0 + c0)
+    dL = L1 - L0
+    general = abs(dL) > 1e-8 * (L0 + L1)
+    Iint = (np.log(L1) - np.log(L0)) / dL if general else 2.0 / (L0 + L1)
+    Ex = np.exp(-nq * Iint)
+    tau1 = tau0 * Ex
+    den = 1.0 + tau1 * tau1
+    C = (1.0 - tau1 * tau1) / den
+    beta = 2.0 * Ex / ((1.0 + c0) * den)
+    r0, r1 = C * h0 + beta * p0, C * h1 + beta * p1
+    T[0], T[1] = L1 * r0, L1 * r1
+    if not want_jac:
+        return True
+    for col in range(m):
+        # derivatives of q (u columns) and of T_prev (dT holds dTp = dT_prev + dq)
+        dq0 = dq1 = 0.0
+        if col < nc:
+            dq0 = kt[p, 0] * (E[k, col] - E[kprev, col])
+        elif col < 2 * nc:
+            dq1 = kt[p, 1] * (E[k, col - nc] - E[kprev, col - nc])
+        dT0, dT1 = dT[0, col] - dq0, dT[1, col] - dq1
+        dL0 = t0 * dT0 + t1 * dT1
+        dt0, dt1 = (dT0 - t0 * dL0) / L0, (dT1 - t1 * dL0) / L0
+        dL1 = 0.0
+        if col == cn0:
+            dL1 = mu[p]
+        elif has_normal and vcol <= col < vcol + nc:
+            dL1 = mu[p] * kn[p] * E[k, col - vcol]
+        dnq = h0 * dq0 + h1 * dq1
+        dh0, dh1 = (dq0 - h0 * dnq) / nq, (dq1 - h1 * dnq) / nq
+        dc0 = dt0 * h0 + dt1 * h1 + t0 * dh0 + t1 * dh1
+        dp0, dp1 = dt0 - dc0 * h0 - c0 * dh0, dt1 - dc0 * h1 - c0 * dh1
+        dnp = (p0 * dp0 + p1 * dp1) / np_ if np_ > 0.0 else 0.0
+        dtau0 = dnp / (1.0 + c0) - np_ * dc0 / (1.0 + c0) ** 2
+        if general:
+            dI = (Iint - 1.0 / L0) / dL * dL0 + (1.0 / L1 - Iint) / dL * dL1
+        else:
+            dI = -2.0 / (L0 + L1) ** 2 * (dL0 + dL1)
+        dEx = -Ex * (Iint * dnq + nq * dI)
+        dtau1 = dtau0 * Ex + tau0 * dEx
+        dC = -4.0 * tau1 / (den * den) * dtau1
+        dbeta = beta * (dEx / Ex - dc0 / (1.0 + c0) - 2.0 * tau1 * dtau1 / den)
+        dr0 = dC * h0 + C * dh0 + dbeta * p0 + beta * dp0
+        dr1 = dC * h1 + C * dh1 + dbeta * p1 + beta * dp1
+        dT[0, col] = dL1 * r0 + L1 * dr0
+        dT[1, col] = dL1 * r1 + L1 * dr1
+    return True
 
 
 @njit(cache=True)
