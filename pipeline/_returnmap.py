@@ -437,7 +437,7 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
     tau0 = np_ / (1.0 + c0)
     dL = L1 - L0
     general = abs(dL) > 1e-8 * (L0 + L1)
-    Iint = (np.log(L1) - np.log(L0)) / dL if general else 2.0 / (L0 + L1)
+    Iint = np.log(L1 / L0) / dL if general else 2.0 / (L0 + L1)
     Ex = np.exp(-nq * Iint)
     tau1 = tau0 * Ex
     den = 1.0 + tau1 * tau1
@@ -447,6 +447,18 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
     T[0], T[1] = L1 * r0, L1 * r1
     if not want_jac:
         return True
+    # the update depends on five numbers (T_prev, q, L1; L0 = |T_prev|): its local
+    # Jacobian once per sample, then applied to every column (as cheap as radial return)
+    a00, a10 = _flow_derivative(1.0, 0.0, 0.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
+                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+    a01, a11 = _flow_derivative(0.0, 1.0, 0.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
+                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+    b00, b10 = _flow_derivative(0.0, 0.0, 1.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
+                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+    b01, b11 = _flow_derivative(0.0, 0.0, 0.0, 1.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
+                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+    e0, e1 = _flow_derivative(0.0, 0.0, 0.0, 0.0, 1.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
+                              p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
     for col in range(m):
         # derivatives of q (u columns) and of T_prev (dT holds dTp = dT_prev + dq)
         dq0 = dq1 = 0.0
@@ -455,32 +467,41 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
         elif col < 2 * nc:
             dq1 = kt[p, 1] * (E[k, col - nc] - E[kprev, col - nc])
         dT0, dT1 = dT[0, col] - dq0, dT[1, col] - dq1
-        dL0 = t0 * dT0 + t1 * dT1
-        dt0, dt1 = (dT0 - t0 * dL0) / L0, (dT1 - t1 * dL0) / L0
         dL1 = 0.0
         if col == cn0:
             dL1 = mu[p]
         elif has_normal and vcol <= col < vcol + nc:
             dL1 = mu[p] * kn[p] * E[k, col - vcol]
-        dnq = h0 * dq0 + h1 * dq1
-        dh0, dh1 = (dq0 - h0 * dnq) / nq, (dq1 - h1 * dnq) / nq
-        dc0 = dt0 * h0 + dt1 * h1 + t0 * dh0 + t1 * dh1
-        dp0, dp1 = dt0 - dc0 * h0 - c0 * dh0, dt1 - dc0 * h1 - c0 * dh1
-        dnp = (p0 * dp0 + p1 * dp1) / np_ if np_ > 0.0 else 0.0
-        dtau0 = dnp / (1.0 + c0) - np_ * dc0 / (1.0 + c0) ** 2
-        if general:
-            dI = (Iint - 1.0 / L0) / dL * dL0 + (1.0 / L1 - Iint) / dL * dL1
-        else:
-            dI = -2.0 / (L0 + L1) ** 2 * (dL0 + dL1)
-        dEx = -Ex * (Iint * dnq + nq * dI)
-        dtau1 = dtau0 * Ex + tau0 * dEx
-        dC = -4.0 * tau1 / (den * den) * dtau1
-        dbeta = beta * (dEx / Ex - dc0 / (1.0 + c0) - 2.0 * tau1 * dtau1 / den)
-        dr0 = dC * h0 + C * dh0 + dbeta * p0 + beta * dp0
-        dr1 = dC * h1 + C * dh1 + dbeta * p1 + beta * dp1
-        dT[0, col] = dL1 * r0 + L1 * dr0
-        dT[1, col] = dL1 * r1 + L1 * dr1
+        dT[0, col] = a00 * dT0 + a01 * dT1 + b00 * dq0 + b01 * dq1 + e0 * dL1
+        dT[1, col] = a10 * dT0 + a11 * dT1 + b10 * dq0 + b11 * dq1 + e1 * dL1
     return True
+
+
+@njit(cache=True)
+def _flow_derivative(dT0, dT1, dq0, dq1, dL1, t0, t1, L0, L1, h0, h1, nq, c0, p0, p1, np_,
+                     Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1):  # pragma: no cover
+    """Directional derivative of the exact 2D slip update (see _slip_flow) along
+    (dT_prev, dq, dL1); returns the change of the new force (2 components)."""
+    dL0 = t0 * dT0 + t1 * dT1
+    dt0, dt1 = (dT0 - t0 * dL0) / L0, (dT1 - t1 * dL0) / L0
+    dnq = h0 * dq0 + h1 * dq1
+    dh0, dh1 = (dq0 - h0 * dnq) / nq, (dq1 - h1 * dnq) / nq
+    dc0 = dt0 * h0 + dt1 * h1 + t0 * dh0 + t1 * dh1
+    dp0, dp1 = dt0 - dc0 * h0 - c0 * dh0, dt1 - dc0 * h1 - c0 * dh1
+    dnp = (p0 * dp0 + p1 * dp1) / np_ if np_ > 0.0 else 0.0
+    dtau0 = dnp / (1.0 + c0) - np_ * dc0 / (1.0 + c0) ** 2
+    if general:
+        dL = L1 - L0
+        dI = (Iint - 1.0 / L0) / dL * dL0 + (1.0 / L1 - Iint) / dL * dL1
+    else:
+        dI = -2.0 / (L0 + L1) ** 2 * (dL0 + dL1)
+    dEx = -Ex * (Iint * dnq + nq * dI)
+    dtau1 = dtau0 * Ex + tau0 * dEx
+    dC = -4.0 * tau1 / (den * den) * dtau1
+    dbeta = beta * (dEx / Ex - dc0 / (1.0 + c0) - 2.0 * tau1 * dtau1 / den)
+    dr0 = dC * h0 + C * dh0 + dbeta * p0 + beta * dp0
+    dr1 = dC * h1 + C * dh1 + dbeta * p1 + beta * dp1
+    return dL1 * r0 + L1 * dr0, dL1 * r1 + L1 * dr1
 
 
 @njit(cache=True)

@@ -225,7 +225,7 @@ class ContactElements:
         jacobian: bool = True,
         histories: bool = False,
         max_periods: int = 200,
-        rtol: float = 1e-11,
+        rtol: float = 1e-13,
         corrections: bool = True,
     ) -> ContactResponse:
         """Forces (and their derivatives) for relative displacements ``g``.
