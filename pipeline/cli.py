@@ -44,11 +44,21 @@ def demo(argv: list[str]) -> int:
     return 0 if r.branch.complete else 1
 
 
+def _load_case(command: str, path):
+    """The validated case, or None after printing its faults."""
+    from . import case as cs
+
+    try:
+        return cs.load(path)
+    except cs.CaseError as err:
+        print(f"microslip {command}: {err}", file=sys.stderr)
+        return None
+
+
 def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
     from pathlib import Path
 
-    from . import case as cs
     from .run import run_case
 
     parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
@@ -56,10 +66,8 @@ def run(argv: list[str]) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="output folder (default: out/<case name>)")
     args = parser.parse_args(argv)
-    try:
-        c = cs.load(args.case)
-    except cs.CaseError as err:
-        print(f"microslip run: {err}", file=sys.stderr)
+    c = _load_case("run", args.case)
+    if c is None:
         return 2
     out = args.out or Path("out") / args.case.stem
     t = time.perf_counter()
@@ -118,7 +126,6 @@ def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
     from pathlib import Path
 
-    from . import case as cs
     from .run import mesh_geometry
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
@@ -127,10 +134,8 @@ def mesh(argv: list[str]) -> int:
                         "out/<case name>)")
     parser.add_argument("--no-pictures", action="store_true", help="skip the PNG previews")
     args = parser.parse_args(argv)
-    try:
-        c = cs.load(args.case)
-    except cs.CaseError as err:
-        print(f"microslip mesh: {err}", file=sys.stderr)
+    c = _load_case("mesh", args.case)
+    if c is None:
         return 2
     if "geometry" not in c.data:
         print(f"microslip mesh: {args.case} has no [geometry] table", file=sys.stderr)

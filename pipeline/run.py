@@ -122,8 +122,9 @@ def _measure(coefficients: np.ndarray, h: Harmonics, how: str) -> np.ndarray:
 def _contact_data(r: Response) -> dict:
     """Per contact and point: state, dissipation, slip fraction, static forces."""
     out = {}
+    per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
     for ci, c in enumerate(r.model.contacts):
-        rows = [r.contacts(i)[ci] for i in range(len(r))]
+        rows = [contacts[ci] for contacts in per_point]
         el = c.elements
         if el.coupled and r.model.harmonics.has_static:
             static = np.array([x.forces[:, :, 0].ravel() for x in rows])
