@@ -209,6 +209,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="print the CB error table (modes / cut-off per ND) instead")
     parser.add_argument("--cutoffs", default="3,3.5,4,5")
     args = parser.parse_args(argv)
+    linalg.retain_freed_memory()
     nds = [int(x) for x in args.nds.split(",")]
     if args.accuracy:
         bench_accuracy([float(x) for x in args.accuracy_refines.split(",")], nds,

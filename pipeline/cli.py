@@ -179,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
               "  bench teaching   harmonic balance against time integration; the teaching set",
               file=sys.stderr)
         return 0 if argv and argv[0] in ("-h", "--help") else 2
+    from pipeline.linalg import retain_freed_memory
+
+    retain_freed_memory()  # a command is one process doing large numerical work
     return COMMANDS[argv[0]](argv[1:])
 
 

