@@ -42,7 +42,7 @@ METHODS = ("arclength", "natural", "natural-down")  # natural-down: from stop to
 # peak: max_t |x(t)|; vibration: max_t |x(t) - x0| (static part removed); harmonic: |X_1|
 MEASURES = ("peak", "vibration", "harmonic")
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
-            "analysis", "geometry"}
+            "analysis", "geometry", "reduction"}
 MODEL_KEYS = {"dofs", "mass", "stiffness", "damping", "mass_part"}
 CONTACT_KEYS = {"name", "law", "form", "kt", "kn", "mu", "n0", "interference", "u", "u1", "u2",
                 "v", "enabled"}
@@ -144,8 +144,12 @@ def _check(data: dict, out: list[str], analyses: bool = True) -> None:
     _unknown("", data, TOP_KEYS, out)
     if "geometry" in data:
         _geometry(data["geometry"], out)
-        if "model" not in data and "analysis" not in data:
-            return  # a mesh-only case
+    if "reduction" in data:
+        from .structure import check as check_reduction
+
+        check_reduction(data["reduction"], data, out)
+    if "geometry" in data and "model" not in data and "analysis" not in data:
+        return  # a mesh (and reduction) case
     model = data.get("model")
     if not isinstance(model, dict):
         out.append("[model]: missing; give dofs, mass, stiffness (and damping)")

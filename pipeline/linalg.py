@@ -63,10 +63,10 @@ def available_backends() -> tuple[str, ...]:
     return tuple(found)
 
 
-#: Above this many unknowns PARDISO's faster factorization wins; below it SuperLU's lower
-#: per-solve overhead does (blisk sector, 20k DOFs: SuperLU 0.7 s factor + 10 ms/solve,
-#: PARDISO 1.8 s + 27 ms; 112k DOFs cantilever: SuperLU ~150 s, PARDISO 6 s to factorize).
-PARDISO_MIN_SIZE = 50_000
+#: Above this many unknowns PARDISO wins; below it SuperLU's lower fixed costs do (whole CB of
+#: a blisk sector, ND 0 / ND 1, SuperLU vs PARDISO: 8.7k DOFs 1.5 / 3.2 s vs 2.1 / 3.0 s;
+#: 13k DOFs 2.1 / 4.5 s vs 2.8 / 3.6 s; 20k DOFs 3.7 / 7.7 s vs 3.0 / 5.0 s).
+PARDISO_MIN_SIZE = 15_000
 
 
 def default_backend(n: int | None = None) -> str:
@@ -409,12 +409,12 @@ def _bound(upper: float | Callable[[NDArray], float] | None, lam_k: NDArray) -> 
     return float(upper(lam_k)) if callable(upper) else float(upper)
 
 
-#: Default block size of the block Krylov solver (right-hand sides per solve). Measured, blisk
-#: sector, 30 modes: b = 4 / 8 / 16 need 100 / 144 / 224 solved vectors (ARPACK: 78 single
-#: ones), but per vector a block solve costs 1/3 (SuperLU, 20k DOFs) to 1/4 (PARDISO real, 150k
-#: DOFs: 350 ms single, 85 ms per vector in blocks of 8) of a single solve. 8 was fastest; on
-#: 20k DOFs with SuperLU block and ARPACK take the same time, on 150k DOFs with PARDISO the
-#: block solver needs about half the solve time ARPACK's single solves would.
+#: Default block size of the block Krylov solver (right-hand sides per solve). The number of
+#: block steps hardly falls with the block size (150k-DOF blisk sector, 30 modes: 20 / 18 / 16 /
+#: 14 / 12 steps for b = 6 / 8 / 12 / 16 / 24) while each step's solve is memory-bound (reads the
+#: whole factor) and its orthogonalization grows with b; eigen time, real ND 0: 7.5 / 6.2 / 7.1 /
+#: 7.1 / 7.2 s, complex ND 1 (b = 8 / 12 / 16): 14.1 / 15.1 / 16.0 s. ARPACK (single vectors)
+#: needs ~80 solves.
 BLOCK = 8
 #: Basis size before a thick restart: _BASIS x wanted + 3 blocks (3: fewest solves per mode
 #: for the blisk sector, measured against 2 and 4).

@@ -594,13 +594,26 @@ def patch_nodes(mesh: MeshLike, name: str, body: str) -> IntArray:
                      f"not body {body!r}")
 
 
-def _spec_nodes(mesh: MeshLike, spec: BodySpec) -> tuple[IntArray, dict, IntArray, IntArray]:
+def spec_nodes(mesh: MeshLike, spec: BodySpec) -> tuple[IntArray, dict, IntArray, IntArray]:
+    """(masters, patch name -> nodes, recovery nodes, clamped nodes) of a BodySpec; ValueError
+    naming any node set or patch the mesh does not have."""
     patches = {name: patch_nodes(mesh, name, spec.body) for name in spec.patches}
     masters = [*patches.values(), fem.node_sets_union(mesh, list(spec.master_sets))]
     master_nodes = np.unique(np.concatenate(masters)).astype(np.int64)
     recovery = fem.node_sets_union(mesh, list(spec.recovery_sets))
     clamped = fem.node_sets_union(mesh, list(spec.clamped_sets))
     return master_nodes, patches, recovery, clamped
+
+
+def model_path(mesh: MeshLike, spec: BodySpec, nodal_diameter: int | None,
+               cache_dir: str | Path) -> Path:
+    """Where ``reduce_body`` stores (and looks for) the model of ``spec`` at an ND (None for a
+    body without cyclic symmetry): ``cache_dir/cb-<content hash>.h5``."""
+    master_nodes, patches, recovery, clamped = spec_nodes(mesh, spec)
+    key = _key(mesh.content_hash, spec.body, spec.order, spec.material, clamped,
+               nodal_diameter, "craig-bampton", master_nodes, spec.n_modes, recovery, patches,
+               spec.cutoff, spec.f_max)
+    return Path(cache_dir) / f"cb-{key[:32]}.h5"
 
 
 def reduce_body(
@@ -613,7 +626,7 @@ def reduce_body(
     """Craig-Bampton models of one body for each ND (a non-cyclic body: ND ignored, one model
     reused for all). Cached in ``cache_dir/<key>.h5``; assembly happens only on a cache miss.
     """
-    master_nodes, patches, recovery, clamped = _spec_nodes(mesh, spec)
+    master_nodes, patches, recovery, clamped = spec_nodes(mesh, spec)
     boundary = mesh.cyclic.get(spec.body)
     if boundary is not None:
         for h in nodal_diameters:
@@ -624,10 +637,7 @@ def reduce_body(
     for h in nds:
         path = None
         if cache_dir is not None:
-            key = _key(mesh.content_hash, spec.body, spec.order, spec.material, clamped,
-                       h if boundary is not None else None, "craig-bampton", master_nodes,
-                       spec.n_modes, recovery, patches, spec.cutoff, spec.f_max)
-            path = Path(cache_dir) / f"cb-{key[:32]}.h5"
+            path = model_path(mesh, spec, h if boundary is not None else None, cache_dir)
             if path.exists():
                 out[h] = ReducedModel.load(path).with_damping(spec.damping)
                 continue
@@ -637,7 +647,16 @@ def reduce_body(
         out[h] = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
                                spec.damping, backend, cutoff=spec.cutoff, f_max=spec.f_max)
         if path is not None:
-            out[h].save(path)
+            _save_atomically(out[h], path)
     if boundary is None:
         return {int(h): out[0] for h in nodal_diameters}
     return out
+
+
+def _save_atomically(model: ReducedModel, path: Path) -> None:
+    """Write to a temporary name and rename: an interrupted run leaves no half-written model
+    that a later run would take for a cache hit."""
+    tmp = path.with_name(path.name + ".part")
+    tmp.unlink(missing_ok=True)
+    model.save(tmp)
+    tmp.replace(path)

@@ -140,6 +140,9 @@ def summary(path: str | Path) -> str:
             ga = g.attrs
             lines.append(f"{name}: {ga.get('type', '?')} [{ga.get('status', '?')}] "
                          f"{ga.get('elapsed_s', 0.0):.2f} s {ga.get('message', '')}".rstrip())
+            if ga.get("type") == "reduction":
+                lines.extend(_reduction_lines(g))
+                continue
             for cname, c in g.items():
                 if not isinstance(c, h5py.Group):
                     continue
@@ -152,3 +155,22 @@ def summary(path: str | Path) -> str:
                 lines.append(f"  {cname} {ca.get('label', '')}: {npts} points "
                              f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
     return "\n".join(lines)
+
+
+def _reduction_lines(g: h5py.Group) -> list[str]:
+    """Per body and ND: model size and the first natural frequencies of the reduced model."""
+    nds = [int(h) for h in g.attrs["nodal_diameters"]]
+    lines = [f"  nodal diameters {nds}, {len(json.loads(g.attrs['cached']))} models from the "
+             "cache"]
+    for body, b in g.items():
+        if body == "contact_stiffness":
+            for patch, p in b.items():
+                lines.append(f"  contact {patch}: kn {np.sum(p['normal_n_per_m'][()]):.4g} N/m, "
+                             f"kt {np.sum(p['tangential_n_per_m'][()]):.4g} N/m over "
+                             f"{p['normal_n_per_m'].size} node pairs")
+            continue
+        for nd, m in b.items():
+            f = " ".join(f"{x:.0f}" for x in m["frequencies_hz"][()][:7])
+            lines.append(f"  {body} {nd}: {m.attrs['n_master_dofs']} master DOFs + "
+                         f"{m.attrs['n_modes']} modes; f [Hz] {f}")
+    return lines

@@ -38,6 +38,8 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
                 "tetrahedra": m.tetrahedra.shape[0], "bodies": sorted(m.bodies),
                 "contacts": sorted(m.contacts), "parameters": m.parameters, "status": "complete",
                 "elapsed_s": time.perf_counter() - t, "type": "geometry"})
+            if "reduction" in case.data:
+                write_structure(w, m, case, out, progress)
         drawn: dict[str, dict] = {}  # analysis -> {output: series}, for comparisons
         for i, a in enumerate(case.analyses):
             name = str(a.get("name", f"analysis{i}"))
@@ -78,6 +80,39 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
         for path in render_previews(m, out):
             progress(f"[geometry] wrote {path}")
     return m
+
+
+def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
+                    progress: Progress = print) -> None:
+    """The [reduction] stage: reduced models in out/models (reused when unchanged) and their
+    summary in results.h5 /reduction/<body>/nd<h> (frequencies of the reduced model with free
+    masters, fixed-interface mode frequencies, master nodes; attrs: model file, sizes) and
+    /reduction/contact_stiffness/<patch> (kn, kt per node pair [N/m])."""
+    from .structure import reduce_structure
+
+    t = time.perf_counter()
+    top = case.data.get("harmonics", {}).get("max")
+    result = reduce_structure(mesh, case.data["reduction"], out / "models", top, progress)
+    datasets: dict = {body: {f"nd{h}": {
+        "frequencies_hz": m.frequencies(10), "mode_frequencies_hz": m.mode_frequencies,
+        "master_nodes": m.master_nodes} for h, m in models.items()}
+        for body, models in result.models.items()}
+    datasets["contact_stiffness"] = {
+        name: {"normal_n_per_m": s.normal, "tangential_n_per_m": s.tangential}
+        for name, s in result.stiffness.items()}
+    w.write_group(w.file, "reduction", datasets, {
+        "nodal_diameters": list(result.nodal_diameters), "status": "complete",
+        "f_max_hz": -1.0 if result.f_max is None else result.f_max,
+        "cached": [f"{b} ND {h}" for b, h in result.cached], "type": "reduction",
+        "elapsed_s": time.perf_counter() - t})
+    for body, models in result.models.items():
+        for h, m in models.items():
+            attrs = w.file["reduction"][body][f"nd{h}"].attrs
+            attrs["n_modes"], attrs["n_master_dofs"] = m.n_modes, m.n_masters
+            path = result.files.get((body, h), result.files.get((body, result.nodal_diameters[0])))
+            attrs["file"] = "" if path is None else str(path.relative_to(out))
+    progress(f"[reduction] {len(result.cached)} of {len(result.seconds)} models from the "
+             f"cache; stage {time.perf_counter() - t:.1f} s")
 
 
 def _outputs(case: cs.Case, a: dict) -> tuple[list[str], list[int]]:

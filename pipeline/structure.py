@@ -1,0 +1,301 @@
+"""The structural stage of a case: from the meshed geometry to the reduced model of every body
+at every nodal diameter the case needs, and the contact stiffness of every patch.
+
+A case's [reduction] table (all keys optional but one of ``nodal_diameters`` or
+``engine_order``):
+
+    nodal_diameters = [0, 1, 2, 3]   # explicit, or:
+    engine_order = 3                 # with harmonics = H: the NDs of harmonics 0..H (DESIGN §5)
+    harmonics = 3                    # default: the case's [harmonics] max, else 1
+    order = 2                        # element order (1: linear tets, a trade, see the bench)
+    modes = "auto"                   # fixed-interface modes: "auto" (cut-off) or a count
+    cutoff = 4.0                     # "auto": modes below cutoff x f_max
+    f_max = 12000.0                  # [Hz] highest frequency of interest, for EVERY body
+    backend = "auto"                 # "pardiso", "superlu" or "auto" (by size)
+    [reduction.material]             # default for every body: steel
+    youngs_modulus = 2.0e11          # [Pa]
+    poisson_ratio = 0.3
+    density = 7850.0                 # [kg/m^3]
+    [reduction.bodies.<body>]        # per body: material, modes, clamped, masters, recovery
+    [reduction.contact_stiffness.<patch>]  # normal, tangential per unit area [N/m^3]
+
+Conventions from the geometry models' node-set names: a body is clamped on ``<body>/bore``
+or ``<body>/clamp``; its masters are every contact-patch node it owns plus ``<body>/excitation``
+and ``<body>/response``; the recovery matrix is kept on the masters plus ``<body>/response``,
+``<body>/tip`` and ``<body>/blade_tip`` (what outputs and pictures use).
+
+Without ``f_max``, the cyclic bodies choose their modes by their own 10th fixed-interface
+frequency and the other bodies (the free damper, whose fixed-interface modes are all far above
+the disk's) get as f_max the highest frequency the cyclic bodies resolve: the damper keeps a
+few modes instead of every mode below 4x its own 10th (249 for the default blisk's damper).
+
+Reduced models are cached in ``<out>/models/cb-<hash>.h5``: a re-run reuses every body and ND
+whose mesh, material, constraints, masters and mode selection have not changed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import contact_stiffness, cyclic, linalg, reduction
+from .fem import Material
+from .reduction import BodySpec, ReducedModel
+
+Progress = Callable[[str], None]
+
+STEEL = Material(2.0e11, 0.3, 7850.0)
+KEYS = {"nodal_diameters", "engine_order", "harmonics", "order", "modes", "cutoff", "f_max",
+        "backend", "material", "bodies", "contact_stiffness"}
+BODY_KEYS = {"material", "modes", "clamped", "masters", "recovery"}
+MATERIAL_KEYS = {"youngs_modulus", "poisson_ratio", "density"}
+STIFFNESS_KEYS = {"normal", "tangential"}
+BACKENDS = ("auto", *linalg.BACKENDS)
+_CLAMP_SETS = ("bore", "clamp")
+_MASTER_SETS = ("excitation", "response")
+_RECOVERY_SETS = ("response", "tip", "blade_tip")
+
+
+@dataclass
+class StructureResult:
+    """What the stage produced.
+
+    models: body -> ND -> ReducedModel (a body without cyclic symmetry: the same model under
+        every ND).
+    stiffness: patch -> PatchStiffness (per node pair kn, kt [N/m]).
+    nodal_diameters: the NDs reduced; f_max: the frequency given to the non-cyclic bodies [Hz].
+    cached: (body, ND) pairs that were read from the cache instead of reduced.
+    files: (body, ND) -> the model's HDF5 file (with a cache directory).
+    """
+
+    models: dict[str, dict[int, ReducedModel]]
+    stiffness: dict[str, contact_stiffness.PatchStiffness]
+    nodal_diameters: tuple[int, ...]
+    f_max: float | None
+    cached: list[tuple[str, int]] = field(default_factory=list)
+    seconds: dict[tuple[str, int], float] = field(default_factory=dict)
+    files: dict[tuple[str, int], Path] = field(default_factory=dict)
+
+
+# --- validation of the [reduction] table (before any meshing or factorization) --------------
+
+
+def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
+    """Append one line per fault of a case's [reduction] table to ``out``."""
+    if not isinstance(red, dict):
+        out.append(f"reduction: expected a table, got {red!r}")
+        return
+    for k in sorted(set(red) - KEYS):
+        out.append(f"reduction.{k}: unknown key; allowed: {sorted(KEYS)}")
+    if "geometry" not in data:
+        out.append("reduction: needs a [geometry] table (the mesh to reduce)")
+    if ("nodal_diameters" in red) == ("engine_order" in red):
+        out.append("reduction: give either nodal_diameters = [...] or engine_order (with "
+                   "harmonics), exactly one")
+    nds = red.get("nodal_diameters")
+    if nds is not None and not (isinstance(nds, list) and nds and all(
+            isinstance(h, int) and not isinstance(h, bool) and h >= 0 for h in nds)):
+        out.append(f"reduction.nodal_diameters = {nds!r}: expected a non-empty list of "
+                   "integers >= 0 (each at most sectors / 2)")
+    for key, ok, allowed in (
+        ("engine_order", lambda v: _is_int(v), "an integer"),
+        ("harmonics", lambda v: _is_int(v) and v >= 0, "an integer >= 0 (orders 0..H)"),
+        ("order", lambda v: v in (1, 2), "1 or 2"),
+        ("modes", lambda v: v == "auto" or (_is_int(v) and v >= 0), "'auto' or an integer >= 0"),
+        ("cutoff", lambda v: _is_number(v) and v >= 1.0, "a number >= 1"),
+        ("f_max", lambda v: _is_number(v) and v > 0.0, "a frequency > 0 [Hz]"),
+        ("backend", lambda v: v in BACKENDS, f"one of {list(BACKENDS)}"),
+    ):
+        if key in red and not ok(red[key]):
+            out.append(f"reduction.{key} = {red[key]!r}: expected {allowed}")
+    _check_material("reduction.material", red.get("material"), out)
+    bodies = red.get("bodies", {})
+    if not isinstance(bodies, dict):
+        out.append("reduction.bodies: expected a table of bodies")
+        bodies = {}
+    for name, b in bodies.items():
+        pre = f"reduction.bodies.{name}"
+        if not isinstance(b, dict):
+            out.append(f"{pre}: expected a table")
+            continue
+        for k in sorted(set(b) - BODY_KEYS):
+            out.append(f"{pre}.{k}: unknown key; allowed: {sorted(BODY_KEYS)}")
+        _check_material(f"{pre}.material", b.get("material"), out)
+        if "modes" in b and not (b["modes"] == "auto" or (_is_int(b["modes"])
+                                                          and b["modes"] >= 0)):
+            out.append(f"{pre}.modes = {b['modes']!r}: expected 'auto' or an integer >= 0")
+        for k in ("clamped", "masters", "recovery"):
+            if k in b and not (isinstance(b[k], list) and all(isinstance(s, str)
+                                                              for s in b[k])):
+                out.append(f"{pre}.{k} = {b[k]!r}: expected a list of node-set names")
+    stiff = red.get("contact_stiffness", {})
+    if not isinstance(stiff, dict):
+        out.append("reduction.contact_stiffness: expected a table of patches")
+        stiff = {}
+    for name, s in stiff.items():
+        pre = f"reduction.contact_stiffness.{name}"
+        if not isinstance(s, dict) or set(s) != STIFFNESS_KEYS:
+            out.append(f"{pre}: expected a table with exactly {sorted(STIFFNESS_KEYS)} "
+                       "[N/m^3]")
+            continue
+        for k in sorted(STIFFNESS_KEYS):
+            if not (_is_number(s[k]) and s[k] > 0.0):
+                out.append(f"{pre}.{k} = {s[k]!r}: expected a stiffness per area > 0 [N/m^3]")
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and bool(np.isfinite(v))
+
+
+def _check_material(pre: str, m: Any, out: list[str]) -> None:
+    if m is None:
+        return
+    if not isinstance(m, dict) or set(m) != MATERIAL_KEYS:
+        out.append(f"{pre}: expected a table with exactly {sorted(MATERIAL_KEYS)}")
+        return
+    try:
+        Material(*(float(m[k]) for k in ("youngs_modulus", "poisson_ratio", "density")))
+    except (TypeError, ValueError) as e:
+        out.append(f"{pre}: {e}")
+
+
+# --- the stage ------------------------------------------------------------------------------
+
+
+def material(table: Mapping[str, Any] | None, default: Material = STEEL) -> Material:
+    """Material from a case table (keys youngs_modulus, poisson_ratio, density)."""
+    if table is None:
+        return default
+    return Material(float(table["youngs_modulus"]), float(table["poisson_ratio"]),
+                    float(table["density"]))
+
+
+def needed_nodal_diameters(red: Mapping[str, Any], sectors: int,
+                           case_harmonics: int | None = None) -> tuple[int, ...]:
+    """The NDs of a [reduction] table: explicit, or those of harmonics 0..H under the engine
+    order (DESIGN §5; backward waves fold onto 0..Ns/2)."""
+    if "nodal_diameters" in red:
+        nds = tuple(sorted(set(int(h) for h in red["nodal_diameters"])))
+        for h in nds:
+            cyclic.check_nodal_diameter(h, sectors)
+        return nds
+    top = int(red.get("harmonics", case_harmonics if case_harmonics is not None else 1))
+    return cyclic.nodal_diameters(range(top + 1), int(red["engine_order"]), sectors)
+
+
+def _existing(mesh: Any, body: str, suffixes: Sequence[str]) -> tuple[str, ...]:
+    return tuple(f"{body}/{s}" for s in suffixes if f"{body}/{s}" in mesh.node_sets)
+
+
+def body_specs(mesh: Any, red: Mapping[str, Any]) -> list[BodySpec]:
+    """One BodySpec per body of the mesh, by the naming conventions and the case's overrides."""
+    base = material(red.get("material"))
+    specs = []
+    for body in sorted(mesh.bodies):
+        b = red.get("bodies", {}).get(body, {})
+        patches = tuple(sorted(name for name, p in mesh.contacts.items()
+                               if body in (p.body_a, p.body_b)))
+        specs.append(BodySpec(
+            body=body,
+            material=material(b.get("material"), base),
+            master_sets=tuple(b.get("masters", _existing(mesh, body, _MASTER_SETS))),
+            patches=patches,
+            recovery_sets=tuple(b.get("recovery", _existing(mesh, body, _RECOVERY_SETS))),
+            clamped_sets=tuple(b.get("clamped", _existing(mesh, body, _CLAMP_SETS))),
+            n_modes=b.get("modes", red.get("modes", reduction.DEFAULT_MODES)),
+            cutoff=float(red.get("cutoff", reduction.CUTOFF)),
+            f_max=None if "f_max" not in red else float(red["f_max"]),
+            order=int(red.get("order", 2)),
+        ))
+    unknown = sorted(set(red.get("bodies", {})) - set(mesh.bodies))
+    if unknown:
+        raise ValueError(f"reduction.bodies: {unknown} are not bodies of this mesh; it has "
+                         f"{sorted(mesh.bodies)}")
+    return specs
+
+
+def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec], red: Mapping[str, Any]
+                      ) -> dict[str, contact_stiffness.PatchStiffness]:
+    """Flat-punch (or per-area, from the case) stiffness of every contact patch."""
+    materials = {s.body: s.material for s in specs}
+    given = red.get("contact_stiffness", {})
+    unknown = sorted(set(given) - set(mesh.contacts))
+    if unknown:
+        raise ValueError(f"reduction.contact_stiffness: {unknown} are not contact patches of "
+                         f"this mesh; it has {sorted(mesh.contacts)}")
+    out = {}
+    for name, patch in sorted(mesh.contacts.items()):
+        per_area = None
+        if name in given:
+            per_area = (float(given[name]["normal"]), float(given[name]["tangential"]))
+        out[name] = contact_stiffness.patch_stiffness(
+            patch, materials[patch.body_a], materials[patch.body_b], per_area)
+    return out
+
+
+def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | None,
+                     case_harmonics: int | None = None, progress: Progress = print
+                     ) -> StructureResult:
+    """Reduce every body of ``mesh`` for the NDs the [reduction] table asks (see the module).
+
+    Everything the table names (node sets, bodies, patches, NDs) is checked before the first
+    assembly. Cyclic bodies go first; without f_max, the others get the highest 10th
+    fixed-interface frequency of the cyclic bodies as theirs.
+    """
+    specs = body_specs(mesh, red)
+    sectors = {b.sectors for b in mesh.cyclic.values()}
+    if not sectors:
+        nds: tuple[int, ...] = (0,)
+    else:
+        nds = needed_nodal_diameters(red, max(sectors), case_harmonics)
+    for spec in specs:  # names and node sets, before any heavy work
+        reduction.spec_nodes(mesh, spec)
+    stiffness = patch_stiffnesses(mesh, specs, red)
+    backend = red.get("backend", "auto")
+    backend = None if backend == "auto" else backend
+    result = StructureResult({}, stiffness, nds, None)
+    cyclic_first = sorted(specs, key=lambda s: s.body not in mesh.cyclic)
+    for spec in cyclic_first:
+        is_cyclic = spec.body in mesh.cyclic
+        if not is_cyclic and spec.f_max is None and spec.n_modes == "auto":
+            f_ref = [m.mode_frequencies[reduction.INTEREST - 1]
+                     for models in result.models.values() for m in models.values()
+                     if len(m.mode_frequencies) >= reduction.INTEREST]
+            if f_ref:
+                result.f_max = float(max(f_ref))
+                spec = _with_f_max(spec, result.f_max)
+        result.models[spec.body] = {}
+        for h in (nds if is_cyclic else (nds[0],)):
+            t = time.perf_counter()
+            cached = False
+            if cache_dir is not None:
+                path = reduction.model_path(mesh, spec, h if is_cyclic else None, cache_dir)
+                cached = path.exists()
+                result.files[spec.body, h] = path
+            model = reduction.reduce_body(mesh, spec, [h], cache_dir, backend)[h]
+            dt = time.perf_counter() - t
+            result.seconds[spec.body, h] = dt
+            if cached:
+                result.cached.append((spec.body, h))
+            f = model.frequencies(7)
+            progress(f"[reduction] {spec.body}" + (f" ND {h}" if is_cyclic else "")
+                     + f": {model.n_masters} master DOFs + {model.n_modes} modes, "
+                     + ("from cache" if cached else f"{dt:.1f} s") + "; f [Hz] "
+                     + " ".join(f"{x:.0f}" for x in f))
+            result.models[spec.body][h] = model
+        if not is_cyclic:
+            result.models[spec.body] = {h: result.models[spec.body][nds[0]] for h in nds}
+    return result
+
+
+def _with_f_max(spec: BodySpec, f_max: float) -> BodySpec:
+    return replace(spec, f_max=f_max)
