@@ -338,3 +338,18 @@ def test_bad_input_before_factorization(disk, monkeypatch):
     spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/rim",))
     with pytest.raises(ValueError, match="nodal_diameter"):
         reduction.reduce_body(mesh, spec, [NS // 2 + 1])
+
+
+def test_bench_reduction_prints_its_tables(capsys):
+    """`microslip bench reduction` on a coarse sector: both tables, one row per body and ND,
+    and the reduced model's f7 matching the unreduced sector's to the CB tolerance."""
+    from pipeline import bench_reduction
+
+    assert bench_reduction.main(["--refine", "2", "--nds", "0", "--backends", "superlu"]) == 0
+    out = capsys.readouterr().out
+    assert "assembly" in out and "cyclic matrices + Craig-Bampton per ND" in out
+    rows = [line.split() for line in out.splitlines() if line.startswith("superlu ")]
+    assert rows[:2] == rows[2:]  # the progress lines, then the table
+    assert [r[1:3] for r in rows[2:]] == [["blisk", "0"], ["damper", "0"]]
+    # The damper keeps only modes below 4 x the disk's 10th fixed-interface frequency.
+    assert int(rows[1][5]) < 10
