@@ -16,7 +16,11 @@ A case's [reduction] table (all keys optional but one of ``nodal_diameters`` or
     youngs_modulus = 2.0e11          # [Pa]
     poisson_ratio = 0.3
     density = 7850.0                 # [kg/m^3]
-    [reduction.bodies.<body>]        # per body: material, modes, clamped, masters, recovery
+    [reduction.damping]              # linear damping of every body, applied to the reduced
+    modal_ratios = 0.001             # models (no re-reduction): zeta (one, or per mode) and/or
+    rayleigh_alpha = 0.0             # C = alpha M + beta K  [1/s], [s]
+    [reduction.bodies.<body>]        # per body: material, damping, modes, clamped, masters,
+                                     # recovery
     [reduction.contact_stiffness.<patch>]  # normal, tangential per unit area [N/m^3]
 
 Conventions from the geometry models' node-set names: a body is clamped on ``<body>/bore``
@@ -44,15 +48,16 @@ from typing import Any
 import numpy as np
 
 from . import contact_stiffness, cyclic, linalg, reduction
-from .fem import Material
+from .fem import Damping, Material
 from .reduction import BodySpec, ReducedModel
 
 Progress = Callable[[str], None]
 
 STEEL = Material(2.0e11, 0.3, 7850.0)
 KEYS = {"nodal_diameters", "engine_order", "harmonics", "order", "modes", "cutoff", "f_max",
-        "backend", "material", "bodies", "contact_stiffness"}
-BODY_KEYS = {"material", "modes", "clamped", "masters", "recovery"}
+        "backend", "material", "damping", "bodies", "contact_stiffness"}
+BODY_KEYS = {"material", "damping", "modes", "clamped", "masters", "recovery"}
+DAMPING_KEYS = {"rayleigh_alpha", "rayleigh_beta", "modal_ratios"}
 MATERIAL_KEYS = {"youngs_modulus", "poisson_ratio", "density"}
 STIFFNESS_KEYS = {"normal", "tangential"}
 BACKENDS = ("auto", *linalg.BACKENDS)
@@ -114,6 +119,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         if key in red and not ok(red[key]):
             out.append(f"reduction.{key} = {red[key]!r}: expected {allowed}")
     _check_material("reduction.material", red.get("material"), out)
+    _check_damping("reduction.damping", red.get("damping"), out)
     bodies = red.get("bodies", {})
     if not isinstance(bodies, dict):
         out.append("reduction.bodies: expected a table of bodies")
@@ -126,6 +132,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         for k in sorted(set(b) - BODY_KEYS):
             out.append(f"{pre}.{k}: unknown key; allowed: {sorted(BODY_KEYS)}")
         _check_material(f"{pre}.material", b.get("material"), out)
+        _check_damping(f"{pre}.damping", b.get("damping"), out)
         if "modes" in b and not (b["modes"] == "auto" or (_is_int(b["modes"])
                                                           and b["modes"] >= 0)):
             out.append(f"{pre}.modes = {b['modes']!r}: expected 'auto' or an integer >= 0")
@@ -168,7 +175,30 @@ def _check_material(pre: str, m: Any, out: list[str]) -> None:
         out.append(f"{pre}: {e}")
 
 
+def _check_damping(pre: str, d: Any, out: list[str]) -> None:
+    if d is None:
+        return
+    if not isinstance(d, dict) or not d or set(d) - DAMPING_KEYS:
+        out.append(f"{pre}: expected a table with some of {sorted(DAMPING_KEYS)}")
+        return
+    try:
+        damping(d)
+    except (TypeError, ValueError) as e:
+        out.append(f"{pre}: {e}")
+
+
 # --- the stage ------------------------------------------------------------------------------
+
+
+def damping(table: Mapping[str, Any] | None) -> Damping | None:
+    """Damping from a case table (rayleigh_alpha [1/s], rayleigh_beta [s], modal_ratios: one
+    zeta or a list per mode)."""
+    if table is None:
+        return None
+    ratios = table.get("modal_ratios", ())
+    ratios = (ratios,) if isinstance(ratios, int | float) else tuple(ratios)
+    return Damping(float(table.get("rayleigh_alpha", 0.0)),
+                   float(table.get("rayleigh_beta", 0.0)), tuple(float(z) for z in ratios))
 
 
 def material(table: Mapping[str, Any] | None, default: Material = STEEL) -> Material:
@@ -207,6 +237,7 @@ def body_specs(mesh: Any, red: Mapping[str, Any]) -> list[BodySpec]:
         specs.append(BodySpec(
             body=body,
             material=material(b.get("material"), base),
+            damping=damping(b.get("damping", red.get("damping"))),
             master_sets=tuple(b.get("masters", _existing(mesh, body, _MASTER_SETS))),
             patches=patches,
             recovery_sets=tuple(b.get("recovery", _existing(mesh, body, _RECOVERY_SETS))),

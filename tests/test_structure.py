@@ -8,7 +8,9 @@ import json
 import h5py
 import numpy as np
 import pytest
+import scipy.linalg as sla
 
+import geometry
 from pipeline import case as cs
 from pipeline import cyclic, fem, linalg, reduction, structure
 from pipeline.contact_stiffness import flat_punch_stiffness
@@ -48,6 +50,9 @@ def faults(mutate) -> list[str]:
     (lambda d: d["reduction"]["contact_stiffness"]["damper_left"].update(normal=0.0),
      "damper_left.normal = 0.0"),
     (lambda d: d["reduction"].update(sweep=1), "reduction.sweep: unknown key"),
+    (lambda d: d["reduction"].update(damping={"modal_ratios": [0.01, -0.1]}),
+     "reduction.damping: modal_ratios"),
+    (lambda d: d["reduction"].update(damping={"zeta": 0.01}), "reduction.damping: expected"),
     (lambda d: d.pop("geometry"), "needs a [geometry] table"),
 ])
 def test_bad_reduction_tables_are_named(mutate, expected):
@@ -66,8 +71,6 @@ def test_nodal_diameters_of_an_engine_order():
 
 
 def test_unknown_sets_bodies_and_patches_fail_before_assembly(monkeypatch):
-    import geometry
-
     mesh = geometry.blisk_sector(**CASE["geometry"]["parameters"])
     monkeypatch.setattr(fem, "assemble", lambda *a, **k: pytest.fail("assembled"))
     for red, message in (
@@ -89,8 +92,6 @@ def stage(tmp_path_factory):
 
 
 def test_stage_reduces_every_body_at_every_nd(stage):
-    import geometry
-
     case, out, path = stage
     with h5py.File(path, "r") as f:
         assert f.attrs["status"] == "complete"
@@ -131,9 +132,23 @@ def test_stage_reduces_every_body_at_every_nd(stage):
 
 
 def test_rerun_reuses_unchanged_models(stage, monkeypatch):
+    """A re-run, even with another damping (applied to the reduced matrices, not part of the
+    reduction), reads every model back instead of assembling anything."""
     case, out, _ = stage
     monkeypatch.setattr(fem, "assemble", lambda *a, **k: pytest.fail("re-assembled"))
-    path = run_case(case, out, progress=lambda s: None)
+    data = copy.deepcopy(case.data)
+    data["reduction"]["damping"] = {"modal_ratios": 0.002}
+    path = run_case(cs.Case(data, "coarse.toml"), out, progress=lambda s: None)
     with h5py.File(path, "r") as f:
         assert f.attrs["status"] == "complete"
         assert len(json.loads(f["reduction"].attrs["cached"])) == 3  # blisk ND 0, 5; damper
+    mesh = geometry.blisk_sector(**CASE["geometry"]["parameters"])
+    result = structure.reduce_structure(mesh, data["reduction"], out / "models",
+                                        progress=lambda s: None)
+    model = result.models["blisk"][5]
+    assert model.damping_spec == fem.Damping(modal_ratios=(0.002,))
+    # Modal damping of the reduced model: Phi^H C Phi = diag(2 zeta omega) (the modes of the
+    # reduced model itself, computed here independently).
+    lam, Phi = sla.eigh(model.stiffness, model.mass)
+    C = Phi.conj().T @ model.damping @ Phi
+    np.testing.assert_allclose(np.diag(C).real[:10], 2 * 0.002 * np.sqrt(lam[:10]), rtol=1e-6)
