@@ -149,6 +149,7 @@ def _check(data: dict, out: list[str], analyses: bool = True) -> None:
 
         check_reduction(data["reduction"], data, out)
     if "geometry" in data and "model" not in data and "analysis" not in data:
+        _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
         return  # a mesh (and reduction) case
     model = data.get("model")
     if not isinstance(model, dict):

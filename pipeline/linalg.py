@@ -93,16 +93,19 @@ def check_backend(backend: str | None, n: int | None = None) -> str:
 def retain_freed_memory() -> bool:
     """Make glibc keep freed memory in the process for reuse (large blocks from the heap, not
     from fresh mmap'd pages, and no trimming). Process-wide, so only the command-line entry
-    points call it.
+    point calls it; MICROSLIP_RETAIN_MEMORY=0 in the environment turns it off.
 
     Each large NumPy array otherwise gets fresh pages whose first touch faults: ~11 us per 4 KB
     page on this project's VMs (the host takes back freed pages), 49 ms to fill 18 MB. Measured
-    on a 150k-DOF Craig-Bampton: ND 0 14.0 -> 11.3 s, complex ND 1 28.9 -> 26.4 s. The cost is
-    a peak resident size that is not given back until the process ends. Returns False where
-    mallopt is unavailable (not glibc).
+    on a 150k-DOF Craig-Bampton: ND 0 14.0 -> 11.3 s, complex ND 1 28.9 -> 26.4 s. The cost:
+    memory is not given back until the process ends, and the peak can rise where ever larger
+    arrays cannot reuse earlier holes (the same run, ND 0 then ND 1: 4.6 -> 4.9 GB). Returns
+    False where it is off or mallopt is unavailable (not glibc).
     """
     import ctypes.util
 
+    if os.environ.get("MICROSLIP_RETAIN_MEMORY", "1") == "0":
+        return False
     name = ctypes.util.find_library("c")
     try:
         libc = ctypes.CDLL(name) if name else None
@@ -111,7 +114,7 @@ def retain_freed_memory() -> bool:
         return False
     if mallopt is None:
         return False
-    m_trim_threshold, m_mmap_max = -1, -4  # glibc's mallopt parameter numbers
+    m_trim_threshold, m_mmap_max = -1, -4  # glibc's mallopt parameter numbers (malloc.h)
     return bool(mallopt(m_mmap_max, 0)) and bool(mallopt(m_trim_threshold, 2**31 - 1))
 
 
@@ -139,6 +142,8 @@ def spmm(A: sp.spmatrix, X: NDArray) -> NDArray:
     X = np.asarray(X)
     if X.ndim == 1 or not sp.issparse(A) or A.nnz * X.shape[1] < _SPMM_MIN_WORK:
         return A @ X
+    if A.shape[1] != X.shape[0]:  # the compiled kernel does not check bounds
+        raise ValueError(f"spmm: A is {A.shape}, X is {X.shape}: inner dimensions differ")
     A = A.tocsr()
     dtype = np.result_type(A.dtype, X.dtype)
     order = "F" if X.flags.f_contiguous and X.shape[1] <= 16 else "C"
@@ -207,7 +212,10 @@ def _pardiso_solver_class() -> type:
             self.iparm[:] = 0
             self.iparm[0] = 1  # the settings below, not the defaults
             self.iparm[1] = 2  # METIS nested dissection
-            self.iparm[7] = 0  # refinement only when pivots were perturbed (indefinite)
+            # Iterative refinement: none on the SPD / HPD Cholesky factors (residuals ~1e-15
+            # without), two steps on Bunch-Kaufman ones, whose restricted pivoting loses ~3
+            # digits otherwise (measured: 4e-12 vs 4e-15 on a shifted real matrix).
+            self.iparm[7] = 2 if mtype < 0 else 0
             self.iparm[9] = 8  # pivot perturbation 1e-8 (indefinite types)
             self.iparm[17] = -1  # report the factor's non-zeros
             self.iparm[20] = 1  # Bunch-Kaufman pivoting (indefinite types)
@@ -215,7 +223,7 @@ def _pardiso_solver_class() -> type:
             # defaults (150k DOFs, 2 threads; most of it the refinement steps removed).
             self.iparm[24] = 2
             self.iparm[34] = 1  # zero-based indexing
-            self._csr: tuple[int, NDArray, NDArray] | None = None
+            self._csr: tuple[sp.csr_matrix, NDArray, NDArray] | None = None
 
         def _check_A(self, A: sp.csr_matrix) -> None:  # CSR, sorted, float64 or complex128
             self._solve_transposed = False
@@ -224,8 +232,11 @@ def _pardiso_solver_class() -> type:
             return np.asfortranarray(b, dtype=A.dtype)
 
         def _call_pardiso(self, A: sp.csr_matrix, b: NDArray) -> NDArray:
-            if self._csr is None or self._csr[0] != id(A):
-                self._csr = (id(A), A.indptr.astype(np.int32), A.indices.astype(np.int32))
+            if self._csr is None or self._csr[0] is not A:
+                if A.nnz >= 2**31:
+                    raise ValueError(f"matrix with {A.nnz} non-zeros: beyond PARDISO's 32-bit "
+                                     "indices")
+                self._csr = (A, A.indptr.astype(np.int32), A.indices.astype(np.int32))
             _, ia, ja = self._csr
             x = np.zeros_like(b, order="F")
             error = ctypes.c_int32(0)
@@ -416,6 +427,8 @@ def _bound(upper: float | Callable[[NDArray], float] | None, lam_k: NDArray) -> 
 #: 7.1 / 7.2 s, complex ND 1 (b = 8 / 12 / 16): 14.1 / 15.1 / 16.0 s. ARPACK (single vectors)
 #: needs ~80 solves.
 BLOCK = 8
+#: Thick restarts after which the block Krylov solver gives up (converging problems need 1-3).
+MAX_RESTARTS = 20
 #: Basis size before a thick restart: _BASIS x wanted + 3 blocks (3: fewest solves per mode
 #: for the blisk sector, measured against 2 and 4).
 _BASIS = 3
@@ -458,13 +471,12 @@ def _block_krylov(
     W, MW, *_ = _m_orthogonalize(W.astype(dtype), V[:, :0], MV[:, :0], M)
     W, MW = _svqb(W, MW)
     wanted, bound = k, None
+    restarts = 0
     for _ in range(max(200, 4 * n // b)):
         j = W.shape[1]
         if m + j > cap:  # a cut-off asked for more modes: grow the basis storage
             cap = min(n, max(m + j, _BASIS * wanted + 3 * b))
-            V, MV, SV = (np.asfortranarray(np.hstack([A[:, :m], np.empty((n, cap - m),
-                                                                         dtype=dtype)]))
-                         for A in (V, MV, SV))
+            V, MV, SV = (_grown(A, m, cap) for A in (V, MV, SV))
             H = np.pad(H[:m, :m], ((0, cap - m), (0, cap - m)))
         SW = factor.solve(MW).astype(dtype, copy=False)
         V[:, m : m + j], MV[:, m : m + j], SV[:, m : m + j] = W, MW, SW
@@ -494,8 +506,8 @@ def _block_krylov(
                 err = np.sqrt(np.abs(np.einsum("ij,ij->j", R.conj(), spmm(M, R)))) / nu[:wanted]
                 # The explicit residual can sit above tol at the round-off floor of an
                 # ill-conditioned K (the computed S is self-adjoint only to ~eps cond(K); a
-                # slender P2 beam: 1e-9). Past 1e-6 something is broken.
-                if m < n and err.max() > max(1e3 * tol, 1e-6):
+                # slender P2 beam: 1e-9). Past 10 tol (and 1e-6) something is broken.
+                if m < n and err.max() > max(10 * tol, 1e-6):
                     raise RuntimeError(f"block Krylov: residual {err.max():.2e} > {tol:.1e} "
                                        "after convergence (loss of orthogonality)")
                 return rayleigh_ritz(K, M, X)
@@ -512,7 +524,23 @@ def _block_krylov(
                 A[:, :keep] = _fmul(A[:, :m], Y[:, :keep])
             H[:keep, :keep] = np.diag(nu[:keep])
             m = keep
+            restarts += 1
+            worst = float(res[:wanted].max())
+            if restarts > MAX_RESTARTS:
+                # Converging problems need 1-3 restarts (blisk sectors); a tol below the
+                # round-off floor eps cond(K) would otherwise spin for thousands of steps.
+                raise RuntimeError(
+                    f"block Krylov: {wanted} modes not converged after {MAX_RESTARTS} restarts "
+                    f"(worst residual {worst:.1e} > tol {tol:.1e}; a tol near eps cond(K) "
+                    "cannot be met: raise it)")
     raise RuntimeError(f"block Krylov: no convergence for k={k} (tol={tol})")
+
+
+def _grown(A: NDArray, m: int, cap: int) -> NDArray:
+    """A column-major (n, cap) array holding the first m columns of A."""
+    out = np.empty((A.shape[0], cap), dtype=A.dtype, order="F")
+    out[:, :m] = A[:, :m]
+    return out
 
 
 def _m_orthogonalize(
@@ -522,8 +550,8 @@ def _m_orthogonalize(
     pass only where the first cancelled more than half of a column's M-norm squared (the DGKS
     criterion: "twice is enough", and once is when little cancels).
 
-    Returns (Z, M Z, Z^H M Z, C) with C = V^H M Z of the first pass (m, k); Z (n, k) and
-    M Z column-major, like the basis.
+    Returns (Z, M Z, Z^H M Z, C) with C = V^H M Z of the first pass (m, k); Z (n, k)
+    column-major, like the basis.
     """
     Z = np.asfortranarray(Z)
     MZ = spmm(M, Z)

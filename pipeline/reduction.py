@@ -639,8 +639,11 @@ def reduce_body(
         if cache_dir is not None:
             path = model_path(mesh, spec, h if boundary is not None else None, cache_dir)
             if path.exists():
-                out[h] = ReducedModel.load(path).with_damping(spec.damping)
-                continue
+                try:
+                    out[h] = ReducedModel.load(path).with_damping(spec.damping)
+                    continue
+                except (OSError, KeyError, ValueError):
+                    pass  # unreadable (older format, damaged): reduce again and replace it
         if body_model is None:
             body_model = fem.assemble(mesh, spec.body, spec.material, spec.order)
         sector = cyclic.sector_model(body_model, clamped, boundary, h)

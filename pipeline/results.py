@@ -169,7 +169,7 @@ def _reduction_lines(g: h5py.Group) -> list[str]:
                              f"kt {np.sum(p['tangential_n_per_m'][()]):.4g} N/m over "
                              f"{p['normal_n_per_m'].size} node pairs")
             continue
-        for nd, m in b.items():
+        for nd, m in sorted(b.items(), key=lambda item: int(item[0][2:])):
             f = " ".join(f"{x:.0f}" for x in m["frequencies_hz"][()][:7])
             lines.append(f"  {body} {nd}: {m.attrs['n_master_dofs']} master DOFs + "
                          f"{m.attrs['n_modes']} modes; f [Hz] {f}")

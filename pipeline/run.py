@@ -91,8 +91,8 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
     from .structure import reduce_structure
 
     t = time.perf_counter()
-    top = case.data.get("harmonics", {}).get("max")
-    result = reduce_structure(mesh, case.data["reduction"], out / "models", top, progress)
+    orders = cs.harmonics(case).orders if "harmonics" in case.data else None
+    result = reduce_structure(mesh, case.data["reduction"], out / "models", orders, progress)
     datasets: dict = {body: {f"nd{h}": {
         "frequencies_hz": m.frequencies(10), "mode_frequencies_hz": m.mode_frequencies,
         "master_nodes": m.master_nodes} for h, m in models.items()}

@@ -40,7 +40,7 @@ whose mesh, material, constraints, masters and mode selection have not changed.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -73,7 +73,8 @@ class StructureResult:
     models: body -> ND -> ReducedModel (a body without cyclic symmetry: the same model under
         every ND).
     stiffness: patch -> PatchStiffness (per node pair kn, kt [N/m]).
-    nodal_diameters: the NDs reduced; f_max: the frequency given to the non-cyclic bodies [Hz].
+    nodal_diameters: the NDs reduced; f_max: the case's f_max, or the one inferred for the
+        non-cyclic bodies [Hz] (None: neither).
     cached: (body, ND) pairs that were read from the cache instead of reduced.
     files: (body, ND) -> the model's HDF5 file (with a cache directory).
     """
@@ -99,14 +100,29 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         out.append(f"reduction.{k}: unknown key; allowed: {sorted(KEYS)}")
     if "geometry" not in data:
         out.append("reduction: needs a [geometry] table (the mesh to reduce)")
-    if ("nodal_diameters" in red) == ("engine_order" in red):
+    sectors = _sectors(data.get("geometry"))
+    if sectors is None:
+        for k in ("nodal_diameters", "engine_order", "harmonics"):
+            if k in red:
+                out.append(f"reduction.{k}: the geometry model has no cyclic symmetry; remove "
+                           "it")
+    elif ("nodal_diameters" in red) == ("engine_order" in red):
         out.append("reduction: give either nodal_diameters = [...] or engine_order (with "
                    "harmonics), exactly one")
+    elif "harmonics" in red and "engine_order" not in red:
+        out.append("reduction.harmonics: only with engine_order (the NDs of harmonics 0..H)")
     nds = red.get("nodal_diameters")
     if nds is not None and not (isinstance(nds, list) and nds and all(
-            isinstance(h, int) and not isinstance(h, bool) and h >= 0 for h in nds)):
+            _is_int(h) and h >= 0 for h in nds)):
         out.append(f"reduction.nodal_diameters = {nds!r}: expected a non-empty list of "
                    "integers >= 0 (each at most sectors / 2)")
+    elif nds is not None and sectors is not None and max(nds) > sectors // 2:
+        out.append(f"reduction.nodal_diameters = {nds!r}: at most sectors / 2 = "
+                   f"{sectors // 2} (the geometry has {sectors} sectors)")
+    if red.get("backend", "auto") in linalg.BACKENDS and red["backend"] not in \
+            linalg.available_backends():
+        out.append(f"reduction.backend = {red['backend']!r}: not installed here; available: "
+                   f"{list(linalg.available_backends())} or 'auto'")
     for key, ok, allowed in (
         ("engine_order", lambda v: _is_int(v), "an integer"),
         ("harmonics", lambda v: _is_int(v) and v >= 0, "an integer >= 0 (orders 0..H)"),
@@ -155,6 +171,22 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
                 out.append(f"{pre}.{k} = {s[k]!r}: expected a stiffness per area > 0 [N/m^3]")
 
 
+def _sectors(geo: Any) -> int | None:
+    """Sectors of a [geometry] table's model (given or the model's default); None for a model
+    without cyclic symmetry or an invalid table (reported elsewhere)."""
+    import geometry
+
+    defaults = {"blisk_sector": geometry.BliskParameters,
+                "root_joint": geometry.RootJointParameters,
+                "annular_sector": geometry.AnnularSectorParameters}
+    if not isinstance(geo, dict) or geo.get("model") not in defaults:
+        return None
+    given = geo.get("parameters", {}).get("sectors") if isinstance(geo.get("parameters"),
+                                                                   dict) else None
+    value = given if given is not None else defaults[geo["model"]]().sectors
+    return int(value) if _is_int(value) and value >= 3 else None
+
+
 def _is_int(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
@@ -169,9 +201,13 @@ def _check_material(pre: str, m: Any, out: list[str]) -> None:
     if not isinstance(m, dict) or set(m) != MATERIAL_KEYS:
         out.append(f"{pre}: expected a table with exactly {sorted(MATERIAL_KEYS)}")
         return
+    bad = [k for k in sorted(MATERIAL_KEYS) if not _is_number(m[k])]
+    if bad:
+        out.append(f"{pre}: {', '.join(f'{k} = {m[k]!r}' for k in bad)}: expected numbers")
+        return
     try:
-        Material(*(float(m[k]) for k in ("youngs_modulus", "poisson_ratio", "density")))
-    except (TypeError, ValueError) as e:
+        material(m)
+    except ValueError as e:
         out.append(f"{pre}: {e}")
 
 
@@ -180,6 +216,12 @@ def _check_damping(pre: str, d: Any, out: list[str]) -> None:
         return
     if not isinstance(d, dict) or not d or set(d) - DAMPING_KEYS:
         out.append(f"{pre}: expected a table with some of {sorted(DAMPING_KEYS)}")
+        return
+    ratios = d.get("modal_ratios", 0.0)
+    ratios = ratios if isinstance(ratios, list) else [ratios]
+    if not all(_is_number(v) for v in [d.get("rayleigh_alpha", 0.0),
+                                       d.get("rayleigh_beta", 0.0), *ratios]):
+        out.append(f"{pre} = {d!r}: expected numbers (modal_ratios: a number or a list)")
         return
     try:
         damping(d)
@@ -210,16 +252,23 @@ def material(table: Mapping[str, Any] | None, default: Material = STEEL) -> Mate
 
 
 def needed_nodal_diameters(red: Mapping[str, Any], sectors: int,
-                           case_harmonics: int | None = None) -> tuple[int, ...]:
-    """The NDs of a [reduction] table: explicit, or those of harmonics 0..H under the engine
-    order (DESIGN §5; backward waves fold onto 0..Ns/2)."""
+                           case_orders: Iterable[int] | None = None) -> tuple[int, ...]:
+    """The NDs of a [reduction] table: explicit, or those of the harmonic orders under the
+    engine order (DESIGN §5; backward waves fold onto 0..Ns/2). Orders: 0..``harmonics`` of
+    the table, else the case's harmonic orders (``case_orders``), else 0..1; order 0 (the
+    static part, ND 0) always."""
     if "nodal_diameters" in red:
         nds = tuple(sorted(set(int(h) for h in red["nodal_diameters"])))
         for h in nds:
-            cyclic.check_nodal_diameter(h, sectors)
+            if not 0 <= h <= sectors // 2:
+                raise ValueError(f"reduction.nodal_diameters = {list(nds)}: ND {h} outside "
+                                 f"0..{sectors // 2} (sectors = {sectors})")
         return nds
-    top = int(red.get("harmonics", case_harmonics if case_harmonics is not None else 1))
-    return cyclic.nodal_diameters(range(top + 1), int(red["engine_order"]), sectors)
+    if "harmonics" in red:
+        orders = set(range(int(red["harmonics"]) + 1))
+    else:
+        orders = set(case_orders) if case_orders is not None else {0, 1}
+    return cyclic.nodal_diameters(sorted(orders | {0}), int(red["engine_order"]), sectors)
 
 
 def _existing(mesh: Any, body: str, suffixes: Sequence[str]) -> tuple[str, ...]:
@@ -274,7 +323,7 @@ def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec], red: Mapping[str, An
 
 
 def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | None,
-                     case_harmonics: int | None = None, progress: Progress = print
+                     case_orders: Iterable[int] | None = None, progress: Progress = print
                      ) -> StructureResult:
     """Reduce every body of ``mesh`` for the NDs the [reduction] table asks (see the module).
 
@@ -287,13 +336,14 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | 
     if not sectors:
         nds: tuple[int, ...] = (0,)
     else:
-        nds = needed_nodal_diameters(red, max(sectors), case_harmonics)
+        nds = needed_nodal_diameters(red, max(sectors), case_orders)
     for spec in specs:  # names and node sets, before any heavy work
         reduction.spec_nodes(mesh, spec)
     stiffness = patch_stiffnesses(mesh, specs, red)
     backend = red.get("backend", "auto")
     backend = None if backend == "auto" else backend
-    result = StructureResult({}, stiffness, nds, None)
+    result = StructureResult({}, stiffness, nds, None if "f_max" not in red
+                             else float(red["f_max"]))
     cyclic_first = sorted(specs, key=lambda s: s.body not in mesh.cyclic)
     for spec in cyclic_first:
         is_cyclic = spec.body in mesh.cyclic

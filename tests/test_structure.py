@@ -13,7 +13,6 @@ import scipy.linalg as sla
 import geometry
 from pipeline import case as cs
 from pipeline import cyclic, fem, linalg, reduction, structure
-from pipeline.contact_stiffness import flat_punch_stiffness
 from pipeline.run import run_case
 
 # The default blisk sector meshed twice as coarse: the stage end to end in a few seconds.
@@ -53,10 +52,25 @@ def faults(mutate) -> list[str]:
     (lambda d: d["reduction"].update(damping={"modal_ratios": [0.01, -0.1]}),
      "reduction.damping: modal_ratios"),
     (lambda d: d["reduction"].update(damping={"zeta": 0.01}), "reduction.damping: expected"),
+    (lambda d: d["reduction"].update(damping={"modal_ratios": True}), "expected numbers"),
+    (lambda d: d["reduction"].update(material={"youngs_modulus": "2e11", "poisson_ratio": 0.3,
+                                               "density": 7850.0}),
+     "youngs_modulus = '2e11': expected numbers"),
+    (lambda d: d["reduction"].update(nodal_diameters=[0, 13]), "at most sectors / 2 = 12"),
+    (lambda d: d["reduction"].update(harmonics=3), "reduction.harmonics: only with"),
+    (lambda d: d.update(harmonics=3), "harmonics: expected a table"),
+    (lambda d: d.update(harmonics={"max": -2}), "harmonics.max = -2"),
+    (lambda d: d.update(geometry={"model": "beam"}), "reduction.nodal_diameters: the geometry"),
     (lambda d: d.pop("geometry"), "needs a [geometry] table"),
 ])
 def test_bad_reduction_tables_are_named(mutate, expected):
     assert any(expected in f for f in faults(mutate)), faults(mutate)
+
+
+def test_backend_not_installed_is_named(monkeypatch):
+    monkeypatch.setattr(linalg, "available_backends", lambda: ("superlu",))
+    found = faults(lambda d: d["reduction"].update(backend="pardiso"))
+    assert any("reduction.backend = 'pardiso': not installed" in f for f in found)
 
 
 def test_nodal_diameters_of_an_engine_order():
@@ -64,7 +78,11 @@ def test_nodal_diameters_of_an_engine_order():
     # 40 -> 8, 60 -> 12).
     assert structure.needed_nodal_diameters({"engine_order": 20, "harmonics": 3}, 48) == (
         0, 8, 12, 20)
-    assert structure.needed_nodal_diameters({"engine_order": 3}, 48, 3) == (0, 3, 6, 9)
+    assert structure.needed_nodal_diameters({"engine_order": 3}, 48, range(4)) == (0, 3, 6, 9)
+    # The case's odd orders 1, 3, 5 under EO 3: 3, 9, 15, and 0 for the static part.
+    assert structure.needed_nodal_diameters({"engine_order": 3}, 48, [1, 3, 5]) == (
+        0, 3, 9, 15)
+    assert structure.needed_nodal_diameters({"engine_order": 3}, 48) == (0, 3)  # orders 0, 1
     assert structure.needed_nodal_diameters({"nodal_diameters": [2, 0, 2]}, 48) == (0, 2)
     with pytest.raises(ValueError, match="nodal_diameter"):
         structure.needed_nodal_diameters({"nodal_diameters": [13]}, 24)
@@ -101,6 +119,9 @@ def test_stage_reduces_every_body_at_every_nd(stage):
         f_red = {h: g["blisk"][f"nd{h}"]["frequencies_hz"][()] for h in (0, 5)}
         damper_modes = int(g["damper"]["nd0"].attrs["n_modes"])
         f_max = float(g.attrs["f_max_hz"])
+        fixed_interface = {h: g["blisk"][f"nd{h}"]["mode_frequencies_hz"][()] for h in (0, 5)}
+        damper_fixed_interface = g["damper"]["nd0"]["mode_frequencies_hz"][()]
+        damper_masters = g["damper"]["nd0"]["master_nodes"][()]
         files = {h: out / g["blisk"][f"nd{h}"].attrs["file"] for h in (0, 5)}
         kn_left = g["contact_stiffness"]["damper_left"]["normal_n_per_m"][()]
         kn_right = g["contact_stiffness"]["damper_right"]["normal_n_per_m"][()]
@@ -114,21 +135,37 @@ def test_stage_reduces_every_body_at_every_nd(stage):
         lam, _ = linalg.lowest_modes(sector.stiffness, sector.mass, 10)
         f_full = np.sqrt(lam) / (2 * np.pi)
         np.testing.assert_allclose(f_red[h], f_full, rtol=1e-3)
+        assert np.all(f_red[h] >= f_full * (1 - 1e-9))  # a Ritz projection: from above
         assert files[h].exists()
         # The stored model is the one summarised.
         stored = reduction.ReducedModel.load(files[h])
         np.testing.assert_allclose(stored.frequencies(10), f_red[h], rtol=1e-12)
     # The free damper takes the disk's frequency range: f_max = the highest 10th
-    # fixed-interface frequency of the blisk NDs, and keeps only its modes below 4 f_max.
-    assert f_max > f_red[0][-1]
-    assert damper_modes <= 5
-    # Per-area stiffness from the case on the left patch, flat punch on the right.
+    # fixed-interface frequency of the blisk NDs, and keeps exactly its modes below 4 f_max
+    # (at least one), which a direct eigen-solve of the held damper confirms.
+    assert f_max == max(fixed_interface[h][9] for h in (0, 5))
+    damper_full = _fixed_interface_frequencies(mesh, "damper", damper_masters, 10)
+    assert damper_modes == max(1, np.sum(damper_full < reduction.CUTOFF * f_max)) < 10
+    # (eigen tolerance 1e-6 on the residual: eigenvalues to ~1e-12)
+    np.testing.assert_allclose(damper_fixed_interface, damper_full[:damper_modes], rtol=1e-8)
+    # Per-area stiffness from the case on the left patch; flat punch on the right, by hand:
+    # kn = 2 a E*, a = sqrt(A / pi), E* = E / (2 (1 - nu^2)) for two steel bodies.
     area = mesh.contacts["damper_left"].area
     assert np.isclose(kn_left.sum(), 2.0e13 * area, rtol=1e-12)
-    kn_punch, _ = flat_punch_stiffness(mesh.contacts["damper_right"].area, structure.STEEL,
-                                       structure.STEEL)
-    assert np.isclose(kn_right.sum(), kn_punch, rtol=1e-12)
+    a = np.sqrt(mesh.contacts["damper_right"].area / np.pi)
+    assert np.isclose(kn_right.sum(), 2 * a * 2.0e11 / (2 * (1 - 0.3**2)), rtol=1e-12)
     assert np.allclose(kn_right, kn_right.flat[0])  # spread evenly
+
+
+def _fixed_interface_frequencies(mesh, body, masters, k):
+    """The lowest k frequencies [Hz] of a non-cyclic body with its master vertices held (the
+    P2 edge DOFs between them stay free, as in Craig-Bampton), by a direct eigen-solve."""
+    model = fem.assemble(mesh, body, structure.STEEL)
+    held = model.dofs_of_nodes(masters, "masters").ravel()
+    free = np.setdiff1d(np.arange(model.stiffness.shape[0]), held)
+    K, M = model.stiffness[free][:, free], model.mass[free][:, free]
+    lam, _ = linalg.lowest_modes(K, M, k)
+    return np.sqrt(lam) / (2 * np.pi)
 
 
 def test_rerun_reuses_unchanged_models(stage, monkeypatch):
@@ -152,3 +189,15 @@ def test_rerun_reuses_unchanged_models(stage, monkeypatch):
     lam, Phi = sla.eigh(model.stiffness, model.mass)
     C = Phi.conj().T @ model.damping @ Phi
     np.testing.assert_allclose(np.diag(C).real[:10], 2 * 0.002 * np.sqrt(lam[:10]), rtol=1e-6)
+
+
+def test_show_summarises_the_stage(stage):
+    from pipeline.results import summary
+
+    _, _, path = stage
+    text = summary(path)
+    assert "nodal diameters [0, 5]" in text
+    lines = [line for line in text.splitlines() if line.startswith("  blisk nd")]
+    assert [line.split()[1] for line in lines] == ["nd0:", "nd5:"]
+    assert all("master DOFs +" in line and "f [Hz]" in line for line in lines)
+    assert any(line.startswith("  contact damper_left: kn") for line in text.splitlines())
