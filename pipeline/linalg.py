@@ -238,7 +238,7 @@ def _pardiso_solver_class() -> type:
                                      "indices")
                 self._csr = (A, A.indptr.astype(np.int32), A.indices.astype(np.int32))
             _, ia, ja = self._csr
-            x = np.zeros_like(b, order="F")
+            x = np.empty_like(b, order="F")  # PARDISO writes every entry
             error = ctypes.c_int32(0)
             int_p, pt_type = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(self._pt_type[0])
             one = ctypes.byref(ctypes.c_int32(1))

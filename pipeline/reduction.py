@@ -424,10 +424,10 @@ def craig_bampton(
     factor = linalg.factorize(K_ss, backend=backend, positive_definite=True)
     t1 = time.perf_counter()
     n_m = len(m_idx)
-    Psi = np.empty((n_s, n_m), dtype=dtype)
+    Psi = np.empty((n_s, n_m), dtype=dtype, order="F")
     for j in range(0, n_m, _BLOCK):
         cols = slice(j, min(j + _BLOCK, n_m))
-        Psi[:, cols] = -factor.solve(K_sm[:, cols].toarray())
+        Psi[:, cols] = factor.solve((-K_sm[:, cols]).toarray())  # negated while sparse
     t2 = time.perf_counter()
     if n_modes == "auto" and n_s > 0:
         if f_max is None:
