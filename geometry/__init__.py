@@ -3,6 +3,7 @@
 Public API
 ----------
 Mesh, CyclicBoundary, ContactPatch       the mesh contract (geometry.mesh)
+MODELS, PARAMETERS                       case-file model names -> builders / parameter classes
 beam, annular_sector                     reference models for FE checks (geometry.simple)
 blisk_sector, BliskParameters            blisk sector + wedge damper (geometry.blisk)
 root_joint, RootJointParameters          dovetail disk sector + blade (geometry.root_joint)
@@ -26,9 +27,16 @@ MODELS = {  # name in a case file's [geometry] table -> builder(**parameters) ->
     "beam": beam,
     "annular_sector": annular_sector,
 }
+PARAMETERS = {  # the same names -> their parameter dataclasses (units, defaults, ranges)
+    "blisk_sector": BliskParameters,
+    "root_joint": RootJointParameters,
+    "beam": BeamParameters,
+    "annular_sector": AnnularSectorParameters,
+}
 
 __all__ = [
     "MODELS",
+    "PARAMETERS",
     "AnnularSectorParameters",
     "BeamParameters",
     "BliskParameters",

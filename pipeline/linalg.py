@@ -202,7 +202,9 @@ def _pardiso_solver_class() -> type:
       every setting to its defaults on each call, which include two steps of iterative
       refinement per solve (three solves and two products for one) and the sequential solve;
     - zero-based CSR arrays converted once, not on every call, and the solution returned in the
-      Fortran order PARDISO writes (no copy).
+      Fortran order PARDISO writes (no copy);
+    - no hashing or comparing of the matrix on every solve: the caller solves only with the
+      matrix it factorized.
     """
     import pypardiso
 
@@ -225,11 +227,15 @@ def _pardiso_solver_class() -> type:
             self.iparm[34] = 1  # zero-based indexing
             self._csr: tuple[sp.csr_matrix, NDArray, NDArray] | None = None
 
-        def _check_A(self, A: sp.csr_matrix) -> None:  # CSR, sorted, float64 or complex128
-            self._solve_transposed = False
+        def factorize(self, A: sp.csr_matrix) -> None:
+            """Analysis and numerical factorization of A (CSR, sorted, upper triangle)."""
+            self.set_phase(12)
+            self._call_pardiso(A, np.zeros((A.shape[0], 1), dtype=A.dtype))
 
-        def _check_b(self, A: sp.csr_matrix, b: NDArray) -> NDArray:
-            return np.asfortranarray(b, dtype=A.dtype)
+        def solve(self, A: sp.csr_matrix, b: NDArray) -> NDArray:
+            """Solution of A x = b with the factor of A (the matrix factorize was given)."""
+            self.set_phase(33)
+            return self._call_pardiso(A, np.asfortranarray(b, dtype=A.dtype))
 
         def _call_pardiso(self, A: sp.csr_matrix, b: NDArray) -> NDArray:
             if self._csr is None or self._csr[0] is not A:
@@ -282,10 +288,6 @@ class _PardisoFactor:
         # memory and a quarter of the time of the doubled real form, measured).
         mtype = (4 if self.complex_matrix else 2) * (1 if positive_definite else -1)
         self._solver = _pardiso_solver_class()(mtype=mtype)
-        # Hash the matrix once at factorization, and recognise it by identity afterwards
-        # (pypardiso would otherwise compare or hash the whole matrix on every solve).
-        self._solver.size_limit_storage = 0
-        self._solver._is_already_factorized = lambda M: M is self._A
         self._solver.factorize(self._A)
 
     @property

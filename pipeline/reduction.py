@@ -30,7 +30,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -609,11 +609,24 @@ def model_path(mesh: MeshLike, spec: BodySpec, nodal_diameter: int | None,
                cache_dir: str | Path) -> Path:
     """Where ``reduce_body`` stores (and looks for) the model of ``spec`` at an ND (None for a
     body without cyclic symmetry): ``cache_dir/cb-<content hash>.h5``."""
-    master_nodes, patches, recovery, clamped = spec_nodes(mesh, spec)
+    return _path(cache_dir, mesh, spec, *spec_nodes(mesh, spec), nodal_diameter)
+
+
+def _path(cache_dir: str | Path, mesh: MeshLike, spec: BodySpec, master_nodes: IntArray,
+          patches: dict, recovery: IntArray, clamped: IntArray,
+          nodal_diameter: int | None) -> Path:
     key = _key(mesh.content_hash, spec.body, spec.order, spec.material, clamped,
                nodal_diameter, "craig-bampton", master_nodes, spec.n_modes, recovery, patches,
                spec.cutoff, spec.f_max)
     return Path(cache_dir) / f"cb-{key[:32]}.h5"
+
+
+def reference_frequency(models: Iterable[ReducedModel]) -> float | None:
+    """The highest INTEREST-th (10th) fixed-interface frequency [Hz] among ``models`` (None if
+    none has that many modes): the top of the range they resolve, the f_max to give a body whose
+    own modes lie far above it (the free damper beside the disk)."""
+    f = [m.mode_frequencies[INTEREST - 1] for m in models if m.n_modes >= INTEREST]
+    return float(max(f)) if f else None
 
 
 def reduce_body(
@@ -622,9 +635,14 @@ def reduce_body(
     nodal_diameters: Sequence[int] = (0,),
     cache_dir: str | Path | None = None,
     backend: str | None = None,
+    report: Callable[[int, ReducedModel, Path | None, bool, float], None] | None = None,
 ) -> dict[int, ReducedModel]:
     """Craig-Bampton models of one body for each ND (a non-cyclic body: ND ignored, one model
-    reused for all). Cached in ``cache_dir/<key>.h5``; assembly happens only on a cache miss.
+    reused for all). Cached in ``cache_dir/<key>.h5``; the body is assembled once, and only on
+    a cache miss.
+
+    report: called after each model as report(ND, model, file or None, from cache, seconds);
+        a non-cyclic body reports once, as ND 0.
     """
     master_nodes, patches, recovery, clamped = spec_nodes(mesh, spec)
     boundary = mesh.cyclic.get(spec.body)
@@ -635,25 +653,37 @@ def reduce_body(
     out: dict[int, ReducedModel] = {}
     body_model = None
     for h in nds:
-        path = None
-        if cache_dir is not None:
-            path = model_path(mesh, spec, h if boundary is not None else None, cache_dir)
-            if path.exists():
-                try:
-                    out[h] = ReducedModel.load(path).with_damping(spec.damping)
-                    continue
-                except (OSError, KeyError, ValueError):
-                    pass  # unreadable (older format, damaged): reduce again and replace it
-        if body_model is None:
-            body_model = fem.assemble(mesh, spec.body, spec.material, spec.order)
-        sector = cyclic.sector_model(body_model, clamped, boundary, h)
-        out[h] = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
-                               spec.damping, backend, cutoff=spec.cutoff, f_max=spec.f_max)
-        if path is not None:
-            _save_atomically(out[h], path)
+        t = time.perf_counter()
+        path = None if cache_dir is None else _path(cache_dir, mesh, spec, master_nodes, patches,
+                                                   recovery, clamped,
+                                                   h if boundary is not None else None)
+        model = _load(path, spec.damping)
+        cached = model is not None
+        if not cached:
+            if body_model is None:
+                body_model = fem.assemble(mesh, spec.body, spec.material, spec.order)
+            sector = cyclic.sector_model(body_model, clamped, boundary, h)
+            model = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
+                                  spec.damping, backend, cutoff=spec.cutoff, f_max=spec.f_max)
+            if path is not None:
+                _save_atomically(model, path)
+        out[h] = model
+        if report is not None:
+            report(h, model, path, cached, time.perf_counter() - t)
     if boundary is None:
         return {int(h): out[0] for h in nodal_diameters}
     return out
+
+
+def _load(path: Path | None, damping: Damping | None) -> ReducedModel | None:
+    """The cached model at ``path`` with ``damping``, or None (absent, or unreadable: an older
+    format or a damaged file, reduced again and replaced)."""
+    if path is None or not path.exists():
+        return None
+    try:
+        return ReducedModel.load(path).with_damping(damping)
+    except (OSError, KeyError, ValueError):
+        return None
 
 
 def _save_atomically(model: ReducedModel, path: Path) -> None:

@@ -94,7 +94,7 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
     orders = cs.harmonics(case).orders if "harmonics" in case.data else None
     result = reduce_structure(mesh, case.data["reduction"], out / "models", orders, progress)
     datasets: dict = {body: {f"nd{h}": {
-        "frequencies_hz": m.frequencies(10), "mode_frequencies_hz": m.mode_frequencies,
+        "frequencies_hz": result.frequencies[body, h], "mode_frequencies_hz": m.mode_frequencies,
         "master_nodes": m.master_nodes} for h, m in models.items()}
         for body, models in result.models.items()}
     datasets["contact_stiffness"] = {
@@ -109,7 +109,7 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
         for h, m in models.items():
             attrs = w.file["reduction"][body][f"nd{h}"].attrs
             attrs["n_modes"], attrs["n_master_dofs"] = m.n_modes, m.n_masters
-            path = result.files.get((body, h), result.files.get((body, result.nodal_diameters[0])))
+            path = result.files.get((body, h))
             attrs["file"] = "" if path is None else str(path.relative_to(out))
     progress(f"[reduction] {len(result.cached)} of {len(result.seconds)} models from the "
              f"cache; stage {time.perf_counter() - t:.1f} s")

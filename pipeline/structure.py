@@ -39,15 +39,16 @@ whose mesh, material, constraints, masters and mode selection have not changed.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from . import contact_stiffness, cyclic, linalg, reduction
+from .case import _unknown
 from .fem import Damping, Material
 from .reduction import BodySpec, ReducedModel
 
@@ -77,6 +78,8 @@ class StructureResult:
         non-cyclic bodies [Hz] (None: neither).
     cached: (body, ND) pairs that were read from the cache instead of reduced.
     files: (body, ND) -> the model's HDF5 file (with a cache directory).
+    frequencies: (body, ND) -> the first ten natural frequencies of the reduced model (free
+        masters) [Hz].
     """
 
     models: dict[str, dict[int, ReducedModel]]
@@ -86,6 +89,7 @@ class StructureResult:
     cached: list[tuple[str, int]] = field(default_factory=list)
     seconds: dict[tuple[str, int], float] = field(default_factory=dict)
     files: dict[tuple[str, int], Path] = field(default_factory=dict)
+    frequencies: dict[tuple[str, int], NDArray] = field(default_factory=dict)
 
 
 # --- validation of the [reduction] table (before any meshing or factorization) --------------
@@ -96,8 +100,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
     if not isinstance(red, dict):
         out.append(f"reduction: expected a table, got {red!r}")
         return
-    for k in sorted(set(red) - KEYS):
-        out.append(f"reduction.{k}: unknown key; allowed: {sorted(KEYS)}")
+    _unknown("reduction.", red, KEYS, out)
     if "geometry" not in data:
         out.append("reduction: needs a [geometry] table (the mesh to reduce)")
     sectors = _sectors(data.get("geometry"))
@@ -127,7 +130,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         ("engine_order", lambda v: _is_int(v), "an integer"),
         ("harmonics", lambda v: _is_int(v) and v >= 0, "an integer >= 0 (orders 0..H)"),
         ("order", lambda v: v in (1, 2), "1 or 2"),
-        ("modes", lambda v: v == "auto" or (_is_int(v) and v >= 0), "'auto' or an integer >= 0"),
+        ("modes", _is_modes, "'auto' or an integer >= 0"),
         ("cutoff", lambda v: _is_number(v) and v >= 1.0, "a number >= 1"),
         ("f_max", lambda v: _is_number(v) and v > 0.0, "a frequency > 0 [Hz]"),
         ("backend", lambda v: v in BACKENDS, f"one of {list(BACKENDS)}"),
@@ -142,15 +145,12 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         bodies = {}
     for name, b in bodies.items():
         pre = f"reduction.bodies.{name}"
+        _unknown(f"{pre}.", b, BODY_KEYS, out)
         if not isinstance(b, dict):
-            out.append(f"{pre}: expected a table")
             continue
-        for k in sorted(set(b) - BODY_KEYS):
-            out.append(f"{pre}.{k}: unknown key; allowed: {sorted(BODY_KEYS)}")
         _check_material(f"{pre}.material", b.get("material"), out)
         _check_damping(f"{pre}.damping", b.get("damping"), out)
-        if "modes" in b and not (b["modes"] == "auto" or (_is_int(b["modes"])
-                                                          and b["modes"] >= 0)):
+        if "modes" in b and not _is_modes(b["modes"]):
             out.append(f"{pre}.modes = {b['modes']!r}: expected 'auto' or an integer >= 0")
         for k in ("clamped", "masters", "recovery"):
             if k in b and not (isinstance(b[k], list) and all(isinstance(s, str)
@@ -176,19 +176,21 @@ def _sectors(geo: Any) -> int | None:
     without cyclic symmetry or an invalid table (reported elsewhere)."""
     import geometry
 
-    defaults = {"blisk_sector": geometry.BliskParameters,
-                "root_joint": geometry.RootJointParameters,
-                "annular_sector": geometry.AnnularSectorParameters}
-    if not isinstance(geo, dict) or geo.get("model") not in defaults:
+    if not isinstance(geo, dict) or geo.get("model") not in geometry.PARAMETERS:
         return None
-    given = geo.get("parameters", {}).get("sectors") if isinstance(geo.get("parameters"),
-                                                                   dict) else None
-    value = given if given is not None else defaults[geo["model"]]().sectors
+    params = geo.get("parameters", {})
+    given = params.get("sectors") if isinstance(params, dict) else None
+    value = given if given is not None else getattr(geometry.PARAMETERS[geo["model"]](),
+                                                    "sectors", None)
     return int(value) if _is_int(value) and value >= 3 else None
 
 
 def _is_int(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_modes(v: Any) -> bool:
+    return v == "auto" or (_is_int(v) and v >= 0)
 
 
 def _is_number(v: Any) -> bool:
@@ -344,38 +346,43 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | 
     backend = None if backend == "auto" else backend
     result = StructureResult({}, stiffness, nds, None if "f_max" not in red
                              else float(red["f_max"]))
-    cyclic_first = sorted(specs, key=lambda s: s.body not in mesh.cyclic)
-    for spec in cyclic_first:
+    for spec in sorted(specs, key=lambda s: s.body not in mesh.cyclic):  # cyclic bodies first
         is_cyclic = spec.body in mesh.cyclic
         if not is_cyclic and spec.f_max is None and spec.n_modes == "auto":
-            f_ref = [m.mode_frequencies[reduction.INTEREST - 1]
-                     for models in result.models.values() for m in models.values()
-                     if len(m.mode_frequencies) >= reduction.INTEREST]
-            if f_ref:
-                result.f_max = float(max(f_ref))
-                spec = _with_f_max(spec, result.f_max)
-        result.models[spec.body] = {}
-        for h in (nds if is_cyclic else (nds[0],)):
-            t = time.perf_counter()
-            cached = False
-            if cache_dir is not None:
-                path = reduction.model_path(mesh, spec, h if is_cyclic else None, cache_dir)
-                cached = path.exists()
-                result.files[spec.body, h] = path
-            model = reduction.reduce_body(mesh, spec, [h], cache_dir, backend)[h]
-            dt = time.perf_counter() - t
-            result.seconds[spec.body, h] = dt
-            if cached:
-                result.cached.append((spec.body, h))
-            f = model.frequencies(7)
-            progress(f"[reduction] {spec.body}" + (f" ND {h}" if is_cyclic else "")
-                     + f": {model.n_masters} master DOFs + {model.n_modes} modes, "
-                     + ("from cache" if cached else f"{dt:.1f} s") + "; f [Hz] "
-                     + " ".join(f"{x:.0f}" for x in f))
-            result.models[spec.body][h] = model
-        if not is_cyclic:
-            result.models[spec.body] = {h: result.models[spec.body][nds[0]] for h in nds}
+            f_ref = reduction.reference_frequency(
+                m for models in result.models.values() for m in models.values())
+            if f_ref is not None:
+                result.f_max = f_ref
+                spec = replace(spec, f_max=f_ref)
+
+        report = _recorder(result, spec.body, None if is_cyclic else nds, progress)
+        result.models[spec.body] = reduction.reduce_body(mesh, spec, nds, cache_dir, backend,
+                                                         report)
     return result
+
+
+def _recorder(result: StructureResult, body: str, serves: tuple[int, ...] | None,
+              progress: Progress) -> Callable[..., None]:
+    """The ``report`` of reduce_body for one body: records each model (under every ND in
+    ``serves`` for a non-cyclic body, whose one model serves them all) and prints a line."""
+
+    def report(h: int, model: ReducedModel, path: Path | None, cached: bool,
+               seconds: float) -> None:
+        nds = (h,) if serves is None else serves
+        f = model.frequencies(10)
+        result.seconds[body, nds[0]] = seconds
+        if cached:
+            result.cached.append((body, nds[0]))
+        for nd in nds:
+            result.frequencies[body, nd] = f
+            if path is not None:
+                result.files[body, nd] = path
+        progress(f"[reduction] {body}" + (f" ND {h}" if serves is None else "")
+                 + f": {model.n_masters} master DOFs + {model.n_modes} modes, "
+                 + ("from cache" if cached else f"{seconds:.1f} s") + "; f [Hz] "
+                 + " ".join(f"{x:.0f}" for x in f[:7]))
+
+    return report
 
 
 def _with_f_max(spec: BodySpec, f_max: float) -> BodySpec:
