@@ -139,11 +139,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
             out.append(f"reduction.{key} = {red[key]!r}: expected {allowed}")
     _check_material("reduction.material", red.get("material"), out)
     _check_damping("reduction.damping", red.get("damping"), out)
-    bodies = red.get("bodies", {})
-    if not isinstance(bodies, dict):
-        out.append("reduction.bodies: expected a table of bodies")
-        bodies = {}
-    for name, b in bodies.items():
+    for name, b in _table_of(red, "bodies", out).items():
         pre = f"reduction.bodies.{name}"
         _unknown(f"{pre}.", b, BODY_KEYS, out)
         if not isinstance(b, dict):
@@ -156,11 +152,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
             if k in b and not (isinstance(b[k], list) and all(isinstance(s, str)
                                                               for s in b[k])):
                 out.append(f"{pre}.{k} = {b[k]!r}: expected a list of node-set names")
-    stiff = red.get("contact_stiffness", {})
-    if not isinstance(stiff, dict):
-        out.append("reduction.contact_stiffness: expected a table of patches")
-        stiff = {}
-    for name, s in stiff.items():
+    for name, s in _table_of(red, "contact_stiffness", out).items():
         pre = f"reduction.contact_stiffness.{name}"
         if not isinstance(s, dict) or set(s) != STIFFNESS_KEYS:
             out.append(f"{pre}: expected a table with exactly {sorted(STIFFNESS_KEYS)} "
@@ -187,6 +179,15 @@ def _sectors(geo: Any) -> int | None:
 
 def _is_int(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _table_of(red: Mapping[str, Any], key: str, out: list[str]) -> dict:
+    """red[key] if it is a table (of bodies, of patches), else {} and a fault."""
+    value = red.get(key, {})
+    if isinstance(value, dict):
+        return value
+    out.append(f"reduction.{key} = {value!r}: expected a table of named tables")
+    return {}
 
 
 def _is_modes(v: Any) -> bool:
