@@ -9,18 +9,18 @@ import time
 import numpy as np
 
 BENCHES = {
-    "core": "pipeline.bench",
-    "mesh": "pipeline.bench_mesh",
-    "reduction": "pipeline.bench_reduction",
-    "teaching": "pipeline.bench_teaching",
+    "core": "microslip.pipeline.bench.core",
+    "mesh": "microslip.pipeline.bench.meshing",
+    "reduction": "microslip.pipeline.bench.reduction",
+    "teaching": "microslip.pipeline.bench.teaching",
 }
 
 
 def demo(argv: list[str]) -> int:
     """Frequency response of the single-DOF Jenkins oscillator, as a table."""
-    from .demos import jenkins_oscillator
-    from .hbm import OperatingPoint
-    from .response import sweep
+    from microslip.pipeline.bench.demos import jenkins_oscillator
+    from microslip.pipeline.solve.hbm import OperatingPoint
+    from microslip.pipeline.solve.response import sweep
 
     parser = argparse.ArgumentParser(prog="microslip demo", description=demo.__doc__)
     parser.add_argument("--harmonics", type=int, default=7, help="highest harmonic H (>= 1)")
@@ -46,7 +46,7 @@ def demo(argv: list[str]) -> int:
 
 def _load_case(command: str, path):
     """The validated case, or None after printing its faults."""
-    from . import case as cs
+    from microslip.pipeline.app import case as cs
 
     try:
         return cs.load(path)
@@ -59,7 +59,7 @@ def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
     from pathlib import Path
 
-    from .run import run_case
+    from microslip.pipeline.app.run import run_case
 
     parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML)")
@@ -77,7 +77,7 @@ def run(argv: list[str]) -> int:
         print("microslip run: interrupted; the results file keeps what finished, marked "
               "partial", file=sys.stderr)
         return 130
-    from .results import summary
+    from microslip.pipeline.app.results import summary
 
     print(summary(path))
     print(f"wrote {out} in {time.perf_counter() - t:.1f} s")
@@ -88,7 +88,7 @@ def check(argv: list[str]) -> int:
     """Validate a case file without running it."""
     from pathlib import Path
 
-    from . import case as cs
+    from microslip.pipeline.app import case as cs
 
     parser = argparse.ArgumentParser(prog="microslip check", description=check.__doc__)
     parser.add_argument("case", type=Path, nargs="+", help="case file(s) (TOML)")
@@ -109,7 +109,7 @@ def show(argv: list[str]) -> int:
     """Summarise a results file (or the results.h5 of an output folder)."""
     from pathlib import Path
 
-    from .results import summary
+    from microslip.pipeline.app.results import summary
 
     parser = argparse.ArgumentParser(prog="microslip show", description=show.__doc__)
     parser.add_argument("path", type=Path, help="results.h5 or its folder")
@@ -126,7 +126,7 @@ def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
     from pathlib import Path
 
-    from .run import mesh_geometry
+    from microslip.pipeline.app.run import mesh_geometry
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML) with a [geometry] table")
@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
               "  bench teaching   harmonic balance against time integration; the teaching set",
               file=sys.stderr)
         return 0 if argv and argv[0] in ("-h", "--help") else 2
-    from pipeline.linalg import retain_freed_memory
+    from microslip.pipeline.fe.linalg import retain_freed_memory
 
     retain_freed_memory()  # a command is one process doing large numerical work
     return COMMANDS[argv[0]](argv[1:])

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.contact import ContactElements
-from pipeline.dti import LoadSteps, TimeModel
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.solve.dti import LoadSteps, TimeModel
 
 
 def blade_damper_blade(

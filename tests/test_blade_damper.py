@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from pipeline import case as cs
-from pipeline import dti
-from pipeline.contact import SAMPLE_SLIP
-from pipeline.hbm import OperatingPoint
-from pipeline.response import solve_point, sweep
+from microslip.pipeline.app import case as cs
+from microslip.pipeline.friction.laws import SAMPLE_SLIP
+from microslip.pipeline.solve import dti
+from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import solve_point, sweep
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 X2L = 2  # DOF index of the left airfoil tip x2_l

@@ -7,8 +7,8 @@ import h5py
 import numpy as np
 import pytest
 
-from pipeline import case as cs
-from pipeline.run import run_case
+from microslip.pipeline.app import case as cs
+from microslip.pipeline.app.run import run_case
 
 CASES = Path(__file__).parents[1] / "cases"
 

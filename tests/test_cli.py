@@ -2,7 +2,7 @@
 
 import pytest
 
-from pipeline.cli import main
+from microslip.pipeline.cli import main
 
 
 def test_demo_prints_the_peak(capsys):

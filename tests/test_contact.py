@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from pipeline.contact import (
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.friction.laws import (
     GROSS_SLIP,
     OPEN,
     PARTIAL_LIFTOFF,
@@ -13,7 +14,6 @@ from pipeline.contact import (
     STICK,
     ContactElements,
 )
-from pipeline.harmonics import Harmonics
 
 
 def jenkins_first_harmonic(U, kt, fs):

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from models import jenkins_oscillator, normal_oscillator
 
-from pipeline import continuation as cont
-from pipeline.hbm import OperatingPoint
-from pipeline.response import solve_point, sweep
+from microslip.pipeline.solve import continuation as cont
+from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import solve_point, sweep
 
 
 def s_curve(x, lam, jac=True):
@@ -119,7 +119,7 @@ def test_failure_is_reported_with_the_branch_kept():
 def test_peak_tracking_matches_full_sweeps():
     """The optimization curve traced by continuation of the peak equals the
     peaks of full FRFs (where the peak is single-humped), with fewer solves."""
-    from pipeline.response import peak_curve
+    from microslip.pipeline.solve.response import peak_curve
 
     hb = jenkins_oscillator(H=1, n_samples=128, fs=1.0)  # the preload multiplier is N0
     values = np.linspace(0.0, 1.5, 16)

@@ -5,8 +5,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import geometry
-from pipeline import cyclic, fem, linalg
+from microslip import geometry
+from microslip.pipeline.fe import cyclic, fem, linalg
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 NS = 4  # ND 0 and 2 real, ND 1 complex with mode pairs

@@ -1,4 +1,4 @@
-"""Direct time integration (pipeline.dti) against independent references:
+"""Direct time integration (microslip.pipeline.solve.dti) against independent references:
 an event-driven integration (tests/jenkins_dti.py), harmonic balance, closed
 forms of the energy per cycle, hand-computed static equilibria, and its own
 convergence in the time step."""
@@ -8,12 +8,18 @@ import pytest
 from dti_models import blade_damper_blade
 from jenkins_dti import steady_peak
 
-from pipeline import dti
-from pipeline.contact import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK, ContactElements
-from pipeline.demos import jenkins_oscillator
-from pipeline.harmonics import Harmonics
-from pipeline.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics, OperatingPoint
-from pipeline.response import solve_point
+from microslip.pipeline.bench.demos import jenkins_oscillator
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.friction.laws import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK, ContactElements
+from microslip.pipeline.solve import dti
+from microslip.pipeline.solve.hbm import (
+    Contact,
+    Excitation,
+    HarmonicBalance,
+    LinearDynamics,
+    OperatingPoint,
+)
+from microslip.pipeline.solve.response import solve_point
 
 W_PEAK = 1.00192  # rad/s, peak of the Jenkins oscillator's FRF (issue 2, H = 7)
 JENKINS = dict(m=1.0, c=0.02, k=1.0, kt=3.0, fs=0.05, P=0.1)

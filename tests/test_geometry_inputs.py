@@ -3,11 +3,11 @@
 import gmsh
 import pytest
 
-import geometry
-from geometry import GeometryBuildError, GeometryParameterError
-from geometry.blisk import BliskParameters, blisk_sector
-from geometry.params import describe
-from geometry.root_joint import RootJointParameters, root_joint
+from microslip import geometry
+from microslip.geometry import GeometryBuildError, GeometryParameterError
+from microslip.geometry.blisk import BliskParameters, blisk_sector
+from microslip.geometry.params import describe
+from microslip.geometry.root_joint import RootJointParameters, root_joint
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ import meshio
 import numpy as np
 import pytest
 
-from geometry.mesh import (
+from microslip.geometry.mesh import (
     ContactPatch,
     CyclicBoundary,
     Mesh,
@@ -14,7 +14,7 @@ from geometry.mesh import (
     rotation_z,
     signed_volumes,
 )
-from geometry.quality import sicn
+from microslip.geometry.quality import sicn
 
 UNIT_TET = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
 

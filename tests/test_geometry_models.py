@@ -4,12 +4,12 @@ import gmsh
 import numpy as np
 import pytest
 
-import geometry
-from geometry.blisk import BliskParameters, blisk_sector
-from geometry.full_disk import full_disk
-from geometry.mesh import rotation_z
-from geometry.quality import sicn
-from geometry.root_joint import RootJointParameters, root_joint
+from microslip import geometry
+from microslip.geometry.blisk import BliskParameters, blisk_sector
+from microslip.geometry.full_disk import full_disk
+from microslip.geometry.mesh import rotation_z
+from microslip.geometry.quality import sicn
+from microslip.geometry.root_joint import RootJointParameters, root_joint
 
 # Minimum SICN accepted. Gmsh's optimiser works on tets below 0.3 (Mesh.OptimizeThreshold);
 # 0.1 (condition number <= 10) keeps P2 stiffness well conditioned while allowing the few
@@ -257,7 +257,7 @@ def test_writes_msh_and_vtu(tmp_path, root):
 @pytest.mark.parametrize("build", [blisk_sector, root_joint])
 def test_size_sweep_keeps_every_guarantee(build, factor):
     """Coarse to fine meshes (bench sweep): validated contract, quality, CAD volume."""
-    from pipeline.bench_mesh import scaled
+    from microslip.pipeline.bench.meshing import scaled
 
     defaults = BliskParameters() if build is blisk_sector else RootJointParameters()
     m = build(scaled(defaults, factor))  # Mesh validation: periodic + coincident grids

@@ -3,9 +3,9 @@
 import matplotlib.image as mpimg
 import numpy as np
 
-from geometry.preview import render_previews
-from geometry.root_joint import root_joint
-from pipeline.bench_mesh import main as bench_main
+from microslip.geometry.preview import render_previews
+from microslip.geometry.root_joint import root_joint
+from microslip.pipeline.bench.meshing import main as bench_main
 
 
 def test_previews_are_written_and_not_blank(tmp_path):

@@ -5,10 +5,16 @@ import pytest
 from jenkins_dti import steady_peak
 from models import jenkins_oscillator, normal_oscillator, three_dof_cyclic_like
 
-from pipeline.continuation import Settings
-from pipeline.harmonics import Harmonics
-from pipeline.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics, OperatingPoint
-from pipeline.response import solve_point, sweep
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.solve.continuation import Settings
+from microslip.pipeline.solve.hbm import (
+    Contact,
+    Excitation,
+    HarmonicBalance,
+    LinearDynamics,
+    OperatingPoint,
+)
+from microslip.pipeline.solve.response import solve_point, sweep
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-import geometry
-from pipeline import cyclic, fem, linalg, reduction
+from microslip import geometry
+from microslip.pipeline.fe import cyclic, fem, linalg, reduction
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 NS = 6
@@ -88,7 +88,7 @@ def test_craig_bampton_default_within_a_tenth_of_a_percent(disk, h):
 
 
 # Same on the default blisk sector (masters: contact patches, excitation, response), ND 0 / 1 /
-# 12 / 24 (python -m pipeline.bench_reduction --cb blisk --nds 0,1,12,24):
+# 12 / 24 (microslip bench reduction --cb blisk --nds 0,1,12,24):
 #   30 modes 3.7e-4 5.3e-4 2.7e-3 1.6e-3;  default (40 / 40 / 51 / 45 modes) 2.3e-4 3.4e-4
 #   6.4e-4 6.2e-4 (the tightest margin, 1.6, is at ND 12).
 @pytest.mark.parametrize("h", [0, 1, pytest.param(12, marks=pytest.mark.slow),
@@ -357,7 +357,7 @@ def test_bad_input_before_factorization(disk, monkeypatch):
 def test_bench_reduction_prints_its_tables(capsys):
     """`microslip bench reduction` on a coarse sector: both tables, one row per body and ND,
     and the reduced model's f7 matching the unreduced sector's to the CB tolerance."""
-    from pipeline import bench_reduction
+    from microslip.pipeline.bench import reduction as bench_reduction
 
     assert bench_reduction.main(["--refine", "2", "--nds", "0", "--backends", "superlu"]) == 0
     out = capsys.readouterr().out

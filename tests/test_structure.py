@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-import geometry
-from pipeline import case as cs
-from pipeline import cyclic, fem, linalg, reduction, structure
-from pipeline.run import run_case
+from microslip import geometry
+from microslip.pipeline.app import case as cs
+from microslip.pipeline.app import structure
+from microslip.pipeline.app.run import run_case
+from microslip.pipeline.fe import cyclic, fem, linalg, reduction
 
 # The default blisk sector meshed twice as coarse: the stage end to end in a few seconds.
 CASE = {
@@ -192,7 +193,7 @@ def test_rerun_reuses_unchanged_models(stage, monkeypatch):
 
 
 def test_show_summarises_the_stage(stage):
-    from pipeline.results import summary
+    from microslip.pipeline.app.results import summary
 
     _, _, path = stage
     text = summary(path)

@@ -47,10 +47,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import contact_stiffness, cyclic, linalg, reduction
+from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
+from microslip.pipeline.fe.fem import Damping, Material
+from microslip.pipeline.fe.reduction import BodySpec, ReducedModel
+
 from .case import _unknown
-from .fem import Damping, Material
-from .reduction import BodySpec, ReducedModel
 
 Progress = Callable[[str], None]
 
@@ -166,7 +167,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
 def _sectors(geo: Any) -> int | None:
     """Sectors of a [geometry] table's model (given or the model's default); None for a model
     without cyclic symmetry or an invalid table (reported elsewhere)."""
-    import geometry
+    from microslip import geometry
 
     if not isinstance(geo, dict) or geo.get("model") not in geometry.PARAMETERS:
         return None

@@ -1,6 +1,6 @@
 """Meshing benchmark: nodes, tets and meshing time per model over a mesh-size factor sweep.
 
-    python -m pipeline.bench_mesh [--factors 2 1.5 1 0.75 0.5] [--repeats 3]
+    microslip bench mesh [--factors 2 1.5 1 0.75 0.5] [--repeats 3]
 
 A factor f multiplies every tet size of the model's defaults and divides the contact
 grid spacing (n -> round((n - 1) / f) + 1 nodes per direction), so f < 1 is finer.
@@ -16,10 +16,10 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 
-from geometry.blisk import BliskParameters, blisk_sector
-from geometry.mesh import Mesh
-from geometry.quality import sicn
-from geometry.root_joint import RootJointParameters, root_joint
+from microslip.geometry.blisk import BliskParameters, blisk_sector
+from microslip.geometry.mesh import Mesh
+from microslip.geometry.quality import sicn
+from microslip.geometry.root_joint import RootJointParameters, root_joint
 
 SIZE_FIELDS = ("size", "blade_size")
 GRID_FIELDS = ("contact_n_axial", "contact_n_flank")

@@ -15,11 +15,12 @@ from collections.abc import Callable
 import numpy as np
 import scipy.linalg as sla
 
-from .contact import ContactElements
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import sweep
+
 from .demos import jenkins_oscillator
-from .harmonics import Harmonics
-from .hbm import OperatingPoint
-from .response import sweep
 
 
 def median_time(fn: Callable[[], object], repeat: int) -> float:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact import ContactElements
-from .harmonics import Harmonics
-from .hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
 
 
 def jenkins_oscillator(

@@ -12,12 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.friction.laws import STATE_NAMES
+from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import Response, peak_curve, sweep
+
 from . import case as cs
 from . import plots
-from .contact import STATE_NAMES
-from .harmonics import Harmonics
-from .hbm import OperatingPoint
-from .response import Response, peak_curve, sweep
 from .results import ResultsWriter
 
 Progress = Callable[[str], None]
@@ -64,7 +65,7 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
 
 def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bool = True):
     """Build the [geometry] of a case; write mesh.msh, mesh.vtu and previews."""
-    import geometry
+    from microslip import geometry
 
     t = time.perf_counter()
     m = geometry.MODELS[geo["model"]](**geo.get("parameters", {}))
@@ -75,7 +76,7 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
              f"tetrahedra, bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in "
              f"{elapsed:.2f} s; hash {m.content_hash[:12]}")
     if pictures:
-        from geometry.preview import render_previews
+        from microslip.geometry.preview import render_previews
 
         for path in render_previews(m, out):
             progress(f"[geometry] wrote {path}")
@@ -356,7 +357,7 @@ def run_loops(case, a, name, w, group, out, progress, drawn):
 
 def _time_model(case: cs.Case, a: dict):
     """(case as set, HB model, output names, indices, time model, load steps)."""
-    from . import dti
+    from microslip.pipeline.solve import dti
 
     c = case.with_values(a.get("set", {}))
     hb = cs.model(c)
@@ -369,7 +370,7 @@ def _time_model(case: cs.Case, a: dict):
 
 
 def run_dti(case, a, name, w, group, out, progress, drawn):
-    from . import dti
+    from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)
     H = max(hb.harmonics.orders)
@@ -449,7 +450,7 @@ def _join_responses(parts):
 
 
 def run_transient(case, a, name, w, group, out, progress, drawn):
-    from . import dti
+    from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)
     t0 = time.perf_counter()

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from microslip.pipeline.friction.laws import ContactResponse
+
 from . import continuation as cont
-from .contact import ContactResponse
 from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
 
 METHODS = ("arclength", "natural")

@@ -39,15 +39,15 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from pipeline import cyclic, fem, linalg
-from pipeline.fem import Damping, IntArray, Material, MeshLike
+from . import cyclic, fem, linalg
+from .fem import Damping, IntArray, Material, MeshLike
 
 #: Bump when the stored layout or the algorithm changes (invalidates caches).
 FORMAT_VERSION = 1
 #: Default fixed-interface mode selection: "auto" keeps every mode below CUTOFF x f_ref, with
 #: f_ref the INTEREST-th fixed-interface frequency (or a given f_max). An integer keeps that many.
 DEFAULT_MODES = "auto"
-#: Cut-off multiplier, chosen from measurement (``python -m pipeline.bench_reduction --cb``): the
+#: Cut-off multiplier, chosen from measurement (``microslip bench reduction --cb``): the
 #: CB error of the first ten frequencies behaves like (f_10 / f_cut)^2. Max error over the first
 #: ten per ND, cut-off at c x the 10th fixed-interface frequency:
 #:   c      annular sector (test model, ND 0-3)    blisk sector (default, ND 0/1/12/24)

@@ -32,10 +32,17 @@ from typing import Any
 
 import numpy as np
 
-from .contact import LAWS, ContactElements
-from .continuation import Settings
-from .harmonics import Harmonics, default_samples
-from .hbm import PARAMETERS, Contact, Excitation, HarmonicBalance, LinearDynamics, OperatingPoint
+from microslip.pipeline.friction.harmonics import Harmonics, default_samples
+from microslip.pipeline.friction.laws import LAWS, ContactElements
+from microslip.pipeline.solve.continuation import Settings
+from microslip.pipeline.solve.hbm import (
+    PARAMETERS,
+    Contact,
+    Excitation,
+    HarmonicBalance,
+    LinearDynamics,
+    OperatingPoint,
+)
 
 ANALYSES = ("frf", "peak", "loops", "dti", "transient")
 METHODS = ("arclength", "natural", "natural-down")  # natural-down: from stop to start
@@ -589,7 +596,7 @@ def _overrides(pre: str, data: dict, table: dict, out: list[str]) -> None:
 
 
 def _geometry(geo, out: list[str]) -> None:
-    import geometry
+    from microslip import geometry
 
     if not isinstance(geo, dict) or geo.get("model") not in geometry.MODELS:
         out.append(f"geometry.model = {geo.get('model') if isinstance(geo, dict) else geo!r}: "

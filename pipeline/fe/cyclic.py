@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from pipeline.fem import BodyModel, FloatArray, IntArray
+from .fem import BodyModel, FloatArray, IntArray
 
 
 def rotation(angle: float) -> FloatArray:

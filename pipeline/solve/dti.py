@@ -5,7 +5,7 @@ motion (seed eq. 20)
 
     M q'' + C q' + K q = F(t) - sum_c B_c^T f_c(B_c q)
 
-are marched in time with the contact laws of :mod:`pipeline.contact` held as
+are marched in time with the contact laws of :mod:`microslip.pipeline.friction.laws` held as
 internal state (stick, slip, lift-off), and the load is applied in the text's
 two load steps (Fig. 13): a quasi-static ramp of the static load (centrifugal
 force) with the dynamic load off, then a harmonic excitation whose amplitude
@@ -71,7 +71,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from .contact import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK, ContactElements
+from microslip.pipeline.friction.laws import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK, ContactElements
 
 __all__ = [
     "ContactHistory",
@@ -191,7 +191,7 @@ class TimeModel:
     M, C, K: (n_dof, n_dof) in kg, N s/m, N/m; M symmetric positive definite.
     contacts: pairs (ContactElements, B) with B the real (P * c, n_dof)
     kinematics (rows point-major, components ``[u_1, ..., u_d, (v)]``) as in
-    :class:`pipeline.hbm.Contact`.
+    :class:`microslip.pipeline.solve.hbm.Contact`.
     """
 
     M: np.ndarray
@@ -242,7 +242,7 @@ class TimeModel:
 
     @classmethod
     def from_harmonic_balance(cls, model) -> TimeModel:
-        """The time-domain twin of a lumped :class:`pipeline.hbm.HarmonicBalance`
+        """The time-domain twin of a lumped :class:`microslip.pipeline.solve.hbm.HarmonicBalance`
         (the same K, M, C for every harmonic order and real kinematics)."""
         lin = model.linear
         for name, mats in (("K", lin.K), ("M", lin.M), ("C", lin.C)):
@@ -303,7 +303,7 @@ class LoadSteps:
 
     @classmethod
     def from_excitation(cls, excitation, n_dof: int, **steps) -> LoadSteps:
-        """From a :class:`pipeline.hbm.Excitation` with orders 0 and 1 only."""
+        """From a :class:`microslip.pipeline.solve.hbm.Excitation` with orders 0 and 1 only."""
         orders = set(excitation.forces)
         if not orders <= {0, 1}:
             raise ValueError(f"dti: excitation orders {sorted(orders)} are not supported; "
@@ -811,7 +811,7 @@ class ContactHistory:
     T: (n + 1, P, d) tangential forces, N; N: (n + 1, P) normal forces, N;
     u: (n + 1, P, d), v: (n + 1, P) relative displacements, m (v = 0 for the
     constant-load laws); state: (n + 1, P) int8 STICK/SLIP/OPEN codes
-    (:data:`pipeline.contact.SAMPLE_STICK` ...)."""
+    (:data:`microslip.pipeline.friction.laws.SAMPLE_STICK` ...)."""
 
     T: np.ndarray
     N: np.ndarray

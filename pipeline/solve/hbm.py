@@ -9,7 +9,7 @@ held only by its contacts is fine. Every other DOF is recovered afterwards
 (seed eq. 9).
 
 Unknowns ``x`` are real, DOF-major: ``x[dof, coeff]`` in the layout of
-:class:`~pipeline.harmonics.Harmonics`. The residual is
+:class:`~microslip.pipeline.friction.harmonics.Harmonics`. The residual is
 
     R(x) = S x - F + B^T f(B x)
 
@@ -30,8 +30,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from .contact import ContactElements, ContactResponse
-from .harmonics import Harmonics
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.friction.laws import ContactElements, ContactResponse
 
 PARAMETERS = ("frequency", "excitation", "mass", "preload")
 _DENSE_LIMIT = 400_000  # entries of the real kinematic map kept dense

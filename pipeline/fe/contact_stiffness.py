@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from pipeline.fem import Material
+from .fem import Material
 
 
 def equivalent_radius(area: float) -> float:

@@ -1,11 +1,11 @@
 """Benchmark of assembly, cyclic matrices and Craig-Bampton: times, peak memory, backends,
 and the speed/accuracy table of mesh size and element order (DESIGN.md §7).
 
-    python -m pipeline.bench_reduction                      # default blisk sector
-    python -m pipeline.bench_reduction --refine 0.36 --modes 30 --nds 0,1 --backends pardiso
+    microslip bench reduction                      # default blisk sector
+    microslip bench reduction --refine 0.36 --modes 30 --nds 0,1 --backends pardiso
                                                             # ~150,000 DOFs per ND
-    python -m pipeline.bench_reduction --accuracy --nds 0,1 # mesh size / order vs error
-    python -m pipeline.bench_reduction --cb blisk --nds 0,1,12,24   # CB error vs modes/cut-off
+    microslip bench reduction --accuracy --nds 0,1 # mesh size / order vs error
+    microslip bench reduction --cb blisk --nds 0,1,12,24   # CB error vs modes/cut-off
 Peak memory is the process's ru_maxrss: run one backend per process to compare backends.
 Performance figures live here, never in timed tests.
 """
@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pipeline import cyclic, fem, linalg, reduction
+from microslip.pipeline.fe import cyclic, fem, linalg, reduction
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 
@@ -31,7 +31,7 @@ def peak_memory_mb() -> float:
 
 def blisk_mesh(refine: float):
     """The default blisk sector, tet sizes scaled by ``refine`` (< 1: finer)."""
-    from geometry.blisk import BliskParameters, blisk_sector
+    from microslip.geometry.blisk import BliskParameters, blisk_sector
 
     p = BliskParameters()
     return blisk_sector(size=p.size * refine, blade_size=p.blade_size * refine)
@@ -123,7 +123,7 @@ def bench_cb(model_name: str, nds: Sequence[int], cutoffs: Sequence[float],
     nodes) or "annular" (the test model of tests/test_reduction.py). Reference: the
     unreduced sector model.
     """
-    import geometry
+    from microslip import geometry
 
     if model_name == "annular":
         sectors = 6

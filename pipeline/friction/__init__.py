@@ -1,0 +1,7 @@
+"""Friction contact laws in the frequency domain.
+
+harmonics    the real coefficient layout, time samples and DFT of the harmonic balance
+laws         contact laws A-D (1D/2D, constant/variable normal load, coupled or not):
+             forces, exact Jacobians, states and dissipation per point
+_returnmap   the compiled (numba) return map over the sampled period
+"""
