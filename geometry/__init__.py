@@ -7,14 +7,14 @@ MODELS, PARAMETERS                       case-file model names -> builders / par
 beam, annular_sector                     reference models for FE checks (geometry.simple)
 blisk_sector, BliskParameters            blisk sector + wedge damper (geometry.blisk)
 root_joint, RootJointParameters          dovetail disk sector + blade (geometry.root_joint)
-full_disk                                Ns rotated copies joined at the cyclic faces
+full_disk, disk_node_map                 Ns rotated copies joined at the cyclic faces
 sicn                                     element quality (geometry.quality)
 GeometryParameterError, GeometryBuildError
 Previews: geometry.preview.render_previews(mesh, out_dir) (imports pyvista).
 """
 
 from .blisk import BliskParameters, blisk_sector
-from .full_disk import full_disk
+from .full_disk import disk_node_map, full_disk
 from .mesh import ContactPatch, CyclicBoundary, Mesh, MeshValidationError, rotation_z
 from .params import GeometryBuildError, GeometryParameterError
 from .quality import sicn
@@ -50,6 +50,7 @@ __all__ = [
     "annular_sector",
     "beam",
     "blisk_sector",
+    "disk_node_map",
     "full_disk",
     "rotation_z",
     "root_joint",

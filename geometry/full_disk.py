@@ -7,6 +7,36 @@ import numpy as np
 from .mesh import ContactPatch, Mesh, rotation_z
 
 
+def sector_count(sector: Mesh) -> int:
+    """Ns, the one sector count of a sector mesh's cyclic bodies (ValueError otherwise)."""
+    counts = {c.sectors for c in sector.cyclic.values()}
+    if len(counts) != 1:
+        raise ValueError(f"full_disk needs exactly one sector count, got {sorted(counts)}")
+    return counts.pop()
+
+
+def disk_node_map(sector: Mesh) -> np.ndarray:
+    """(Ns, n) int64: full-disk index of sector node i in copy k (-1: a node no element uses).
+
+    Copy k is the sector rotated by k phi about +z; its left cyclic face is copy k-1's right
+    face, so those nodes share one index. The numbering is the one :func:`full_disk` uses.
+    """
+    ns = sector_count(sector)
+    n = len(sector.points)
+    node_map = np.full((ns, n), -1, dtype=np.int64)
+    shared_left = np.zeros(n, dtype=bool)
+    for cyc in sector.cyclic.values():
+        shared_left[cyc.left] = True
+    used = np.zeros(n, dtype=bool)
+    used[sector.tetrahedra.ravel()] = True
+    own = np.flatnonzero(used & ~shared_left)
+    node_map[:, own] = np.arange(ns * len(own)).reshape(ns, len(own))
+    for cyc in sector.cyclic.values():
+        for k in range(ns):  # copy k's left face is copy k-1's right face
+            node_map[k, cyc.left] = node_map[(k - 1) % ns, cyc.right]
+    return node_map
+
+
 def full_disk(sector: Mesh) -> Mesh:
     """Assemble Ns rotated copies of a sector mesh into a full-disk mesh.
 
@@ -21,28 +51,13 @@ def full_disk(sector: Mesh) -> Mesh:
 
     Shapes: points (Ns * n_unique, 3), tetrahedra (Ns * n_tets, 4). Needs one common Ns.
     """
-    counts = {c.sectors for c in sector.cyclic.values()}
-    if len(counts) != 1:
-        raise ValueError(f"full_disk needs exactly one sector count, got {sorted(counts)}")
-    ns = counts.pop()
+    ns = sector_count(sector)
     phi = 2 * np.pi / ns
-    n = len(sector.points)
-    # node_map[k, i]: full-disk index of sector node i in copy k (-1 = not used)
-    node_map = np.full((ns, n), -1, dtype=np.int64)
-    next_id = 0
-    shared_left = np.zeros(n, dtype=bool)
+    node_map = disk_node_map(sector)
+    own = node_map[0] >= 0  # the nodes each copy places (its left face is the previous copy's)
     for cyc in sector.cyclic.values():
-        shared_left[cyc.left] = True
-    used = np.zeros(n, dtype=bool)
-    used[sector.tetrahedra.ravel()] = True
-    own = np.flatnonzero(used & ~shared_left)
-    for k in range(ns):
-        node_map[k, own] = np.arange(next_id, next_id + len(own))
-        next_id += len(own)
-    for cyc in sector.cyclic.values():
-        for k in range(ns):  # copy k's left face is copy k-1's right face
-            node_map[k, cyc.left] = node_map[(k - 1) % ns, cyc.right]
-    points = np.zeros((next_id, 3))
+        own[cyc.left] = False
+    points = np.zeros((int(node_map.max()) + 1, 3))
     for k in range(ns):
         points[node_map[k, own]] = sector.points[own] @ rotation_z(k * phi).T
 

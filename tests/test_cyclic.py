@@ -1,11 +1,10 @@
 """Cyclic symmetry: the sector over ND 0..Ns/2 is exactly the full disk built from copies."""
 
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
 
 from microslip import geometry
+from microslip.geometry.mesh import rotation_z
 from microslip.pipeline.fe import cyclic, fem, linalg
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
@@ -22,11 +21,8 @@ def sector():
 @pytest.fixture(scope="module")
 def full_disk(sector):
     mesh, _ = sector
-    tets = fem.body_tetrahedra(mesh, "disk")
-    points, full_tets, node_map = cyclic.replicate_sector(mesh.points, tets, mesh.cyclic["disk"])
-    disk = SimpleNamespace(points=points, tetrahedra=full_tets,
-                           bodies={"disk": np.arange(len(full_tets))}, content_hash="full")
-    body = fem.assemble(disk, "disk", STEEL)
+    node_map = geometry.disk_node_map(mesh)
+    body = fem.assemble(geometry.full_disk(mesh), "disk", STEEL)
     bore = np.unique(node_map[:, fem.node_set(mesh, "disk/bore")])
     model = cyclic.sector_model(body, bore)
     return model, node_map
@@ -97,7 +93,7 @@ def test_expanded_sector_mode_is_a_full_disk_mode(sector, full_disk):
     x = np.zeros(full_body.n_dofs, dtype=complex)
     x[full_body.node_dofs] = u_full
     for s in range(NS):
-        R = np.exp(1j * h * s * 2 * np.pi / NS) * cyclic.rotation(s * 2 * np.pi / NS)
+        R = np.exp(1j * h * s * 2 * np.pi / NS) * rotation_z(s * 2 * np.pi / NS)
         e_full = full_body.edge_index(node_map[s][body.edges])
         assert np.all(e_full >= 0)
         x[full_body.edge_dofs[e_full]] = u_body[body.edge_dofs] @ R.T

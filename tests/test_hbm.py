@@ -85,7 +85,7 @@ def test_recovery_satisfies_every_equation():
     """Seed eq. 9: the recovered DOFs satisfy D_n Q_n = F_n + F_nl at all DOFs."""
     h = Harmonics.up_to(3, 128)
     hb = three_dof_cyclic_like(h)
-    p = OperatingPoint(1.3, mass=1.4)
+    p = OperatingPoint(1.3, mass_multiplier=1.4)
     sol = solve_point(hb, p)
     Q = hb.recover(sol.x, p)
     D = hb.linear.dynamic_stiffness(p)
@@ -106,7 +106,7 @@ def test_recovery_satisfies_every_equation():
 def test_residual_derivatives_match_central_differences(coupled, parameter):
     h = Harmonics.up_to(3, 128)
     hb = three_dof_cyclic_like(h, coupled)
-    p = OperatingPoint(1.3, excitation=1.2, mass=1.5, preload=1.1)
+    p = OperatingPoint(1.3, excitation=1.2, mass_multiplier=1.5, preload=1.1)
     rng = np.random.default_rng(5)
     x = hb.linear_guess(p) + 0.05 * rng.normal(size=hb.n_unknowns)
     R, J, dR = hb.residual(x, p, parameter)

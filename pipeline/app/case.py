@@ -44,6 +44,9 @@ from microslip.pipeline.solve.hbm import (
     OperatingPoint,
 )
 
+from .checks import number, unknown_keys
+from .structure import check as check_reduction
+
 ANALYSES = ("frf", "peak", "loops", "dti", "transient")
 METHODS = ("arclength", "natural", "natural-down")  # natural-down: from stop to start
 # peak: max_t |x(t)|; vibration: max_t |x(t) - x0| (static part removed); harmonic: |X_1|
@@ -148,12 +151,10 @@ def check(data: dict, source: str = "case") -> None:
 
 
 def _check(data: dict, out: list[str], analyses: bool = True) -> None:
-    _unknown("", data, TOP_KEYS, out)
+    unknown_keys("", data, TOP_KEYS, out)
     if "geometry" in data:
         _geometry(data["geometry"], out)
     if "reduction" in data:
-        from .structure import check as check_reduction
-
         check_reduction(data["reduction"], data, out)
     if "geometry" in data and "model" not in data and "analysis" not in data:
         _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
@@ -162,7 +163,7 @@ def _check(data: dict, out: list[str], analyses: bool = True) -> None:
     if not isinstance(model, dict):
         out.append("[model]: missing; give dofs, mass, stiffness (and damping)")
         return
-    _unknown("model.", model, MODEL_KEYS, out)
+    unknown_keys("model.", model, MODEL_KEYS, out)
     dofs = model.get("dofs")
     if not (isinstance(dofs, list) and dofs and all(isinstance(d, str) for d in dofs)):
         out.append(f"model.dofs = {dofs!r}: expected a non-empty list of DOF names")
@@ -199,35 +200,6 @@ def _check(data: dict, out: list[str], analyses: bool = True) -> None:
         return
     for i, a in enumerate(analyses):
         _analysis(i, a, data, seen, names, out)
-
-
-def _unknown(prefix: str, table: dict, allowed: set[str], out: list[str]) -> None:
-    if not isinstance(table, dict):
-        out.append(f"{prefix.rstrip('.') or 'case'}: expected a table, got {table!r}")
-        return
-    for k in sorted(set(table) - allowed):
-        out.append(f"{prefix}{k}: unknown key; allowed: {sorted(allowed)}")
-
-
-def _number(key: str, value, out: list[str], *, positive=False, nonneg=False,
-            integer=False) -> bool:
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if ok and integer:
-        ok = isinstance(value, int)
-    if not ok:
-        kind = "an integer" if integer else "a number"
-        out.append(f"{key} = {value!r}: expected {kind}")
-        return False
-    if not np.isfinite(value):
-        out.append(f"{key} = {value!r}: must be finite")
-        return False
-    if positive and value <= 0:
-        out.append(f"{key} = {value!r}: must be > 0")
-        return False
-    if nonneg and value < 0:
-        out.append(f"{key} = {value!r}: must be >= 0")
-        return False
-    return True
 
 
 def _matrix(key: str, value, n: int, positive: bool, out: list[str]) -> None:
@@ -273,11 +245,11 @@ def _combination(key: str, value, dofs: set[str], out: list[str]) -> None:
             out.append(f"{key}.{d}: unknown DOF; known: {sorted(dofs)}")
         elif isinstance(coef, dict):
             # a delayed DOF: coef * x(t - lag T), a travelling motion (harmonic balance only)
-            _unknown(f"{key}.{d}.", coef, {"coef", "lag"}, out)
-            _number(f"{key}.{d}.coef", coef.get("coef", 1.0), out)
-            _number(f"{key}.{d}.lag", coef.get("lag", 0.0), out)
+            unknown_keys(f"{key}.{d}.", coef, {"coef", "lag"}, out)
+            number(f"{key}.{d}.coef", coef.get("coef", 1.0), out)
+            number(f"{key}.{d}.lag", coef.get("lag", 0.0), out)
         else:
-            _number(f"{key}.{d}", coef, out)
+            number(f"{key}.{d}", coef, out)
 
 
 def _has_lag(data: dict) -> bool:
@@ -296,7 +268,7 @@ def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
     if name in seen:
         out.append(f"{pre}: duplicate contact name")
     seen.add(name)
-    _unknown(pre + ".", c, CONTACT_KEYS, out)
+    unknown_keys(pre + ".", c, CONTACT_KEYS, out)
     law = c.get("law")
     if law not in LAWS:
         out.append(f"{pre}.law = {law!r}: expected one of {sorted(LAWS)}")
@@ -310,20 +282,20 @@ def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
         if len(kt) != d:
             out.append(f"{pre}.kt = {kt!r}: expected one value or {d} (kt_x, kt_y)")
         for j, k in enumerate(kt):
-            _number(f"{pre}.kt[{j}]", k, out, positive=True)
+            number(f"{pre}.kt[{j}]", k, out, positive=True)
     elif kt is None:
         out.append(f"{pre}.kt: missing (tangential contact stiffness, N/m)")
     else:
-        _number(f"{pre}.kt", kt, out, positive=True)
+        number(f"{pre}.kt", kt, out, positive=True)
     if "mu" not in c:
         out.append(f"{pre}.mu: missing (friction coefficient)")
     else:
-        _number(f"{pre}.mu", c["mu"], out, nonneg=True)
+        number(f"{pre}.mu", c["mu"], out, nonneg=True)
     if variable:
         if "kn" not in c:
             out.append(f"{pre}.kn: missing (normal contact stiffness, N/m) for law {law}")
         else:
-            _number(f"{pre}.kn", c["kn"], out, positive=True)
+            number(f"{pre}.kn", c["kn"], out, positive=True)
     elif "kn" in c:
         out.append(f"{pre}.kn: law {law} has a constant normal load; remove kn")
     coupled_var = form == "coupled" and variable
@@ -334,14 +306,14 @@ def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
         if "interference" not in c:
             out.append(f"{pre}.interference: missing (m, negative for a gap)")
         else:
-            _number(f"{pre}.interference", c["interference"], out)
+            number(f"{pre}.interference", c["interference"], out)
     else:
         if "interference" in c:
             out.append(f"{pre}.interference: only the coupled form of laws B and D takes it")
         if "n0" not in c:
             out.append(f"{pre}.n0: missing (normal preload, N)")
         else:
-            _number(f"{pre}.n0", c["n0"], out, nonneg=not variable)
+            number(f"{pre}.n0", c["n0"], out, nonneg=not variable)
     if "enabled" in c and not isinstance(c["enabled"], bool):
         out.append(f"{pre}.enabled = {c['enabled']!r}: expected true or false")
     tangential = ["u"] if d == 1 else ["u1", "u2"]
@@ -369,25 +341,25 @@ def _load(i: int, load, dofs: set[str], out: list[str]) -> None:
     if not isinstance(load, dict):
         out.append(f"{pre}: expected a table")
         return
-    _unknown(pre + ".", load, LOAD_KEYS, out)
+    unknown_keys(pre + ".", load, LOAD_KEYS, out)
     if load.get("dof") not in dofs:
         out.append(f"{pre}.dof = {load.get('dof')!r}: unknown DOF; known: {sorted(dofs)}")
     if "amplitude" not in load:
         out.append(f"{pre}.amplitude: missing (N)")
     else:
-        _number(f"{pre}.amplitude", load["amplitude"], out)
-    _number(f"{pre}.harmonic", load.get("harmonic", 1), out, nonneg=True, integer=True)
-    _number(f"{pre}.phase", load.get("phase", 0.0), out)
+        number(f"{pre}.amplitude", load["amplitude"], out)
+    number(f"{pre}.harmonic", load.get("harmonic", 1), out, nonneg=True, integer=True)
+    number(f"{pre}.phase", load.get("phase", 0.0), out)
 
 
 def _harmonics(h, out: list[str]) -> None:
-    _unknown("harmonics.", h, HARMONIC_KEYS, out)
+    unknown_keys("harmonics.", h, HARMONIC_KEYS, out)
     if not isinstance(h, dict):
         return
     if "max" in h and "orders" in h:
         out.append("harmonics: give either 'max' (orders 0..max) or 'orders', not both")
     if "max" in h:
-        _number("harmonics.max", h["max"], out, nonneg=True, integer=True)
+        number("harmonics.max", h["max"], out, nonneg=True, integer=True)
     top = h.get("max", 1)
     if "orders" in h:
         o = h["orders"]
@@ -395,7 +367,7 @@ def _harmonics(h, out: list[str]) -> None:
             out.append(f"harmonics.orders = {o!r}: expected a list of integers >= 0")
             return
         top = max(o)
-    if "samples" in h and _number("harmonics.samples", h["samples"], out, positive=True,
+    if "samples" in h and number("harmonics.samples", h["samples"], out, positive=True,
                                   integer=True):
         if isinstance(top, int) and h["samples"] <= 2 * top:
             out.append(f"harmonics.samples = {h['samples']}: too few for order {top}; need > "
@@ -403,15 +375,15 @@ def _harmonics(h, out: list[str]) -> None:
 
 
 def _solver(s, out: list[str]) -> None:
-    _unknown("solver.", s, SOLVER_KEYS, out)
+    unknown_keys("solver.", s, SOLVER_KEYS, out)
     if not isinstance(s, dict):
         return
     for k in ("tol", "step", "min_step", "max_step", "max_turn"):
         if k in s:
-            _number(f"solver.{k}", s[k], out, positive=True)
+            number(f"solver.{k}", s[k], out, positive=True)
     for k in ("max_iter", "target_iter", "max_points"):
         if k in s:
-            _number(f"solver.{k}", s[k], out, positive=True, integer=True)
+            number(f"solver.{k}", s[k], out, positive=True, integer=True)
     if "sub_sample" in s and not isinstance(s["sub_sample"], bool):
         out.append(f"solver.sub_sample = {s['sub_sample']!r}: expected true or false")
 
@@ -427,7 +399,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         out.append(f"{pre}.type = {kind!r}: expected one of {list(ANALYSES)}")
         return
     pre = f"analysis.{a.get('name', i)}"
-    _unknown(pre + ".", a, ANALYSIS_KEYS[kind], out)
+    unknown_keys(pre + ".", a, ANALYSIS_KEYS[kind], out)
     overrides = a.get("set", {})
     if not isinstance(overrides, dict):
         out.append(f"{pre}.set: expected a table {{\"key.path\" = value}}")
@@ -438,13 +410,13 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         allowed = PARAMETERS if kind == "frf" else ("excitation", "preload", "mass")
         if par not in allowed:
             out.append(f"{pre}.parameter = {par!r}: expected one of {list(allowed)}")
-        ok = all(_number(f"{pre}.{k}", a.get(k), out) for k in ("start", "stop"))
+        ok = all(number(f"{pre}.{k}", a.get(k), out) for k in ("start", "stop"))
         if ok and a["start"] == a["stop"]:
             out.append(f"{pre}: start = stop = {a['start']}: the range has zero length")
         if ok and (par == "frequency" or par == "mass") and min(a["start"], a["stop"]) <= 0:
             out.append(f"{pre}: {par} range {a['start']}..{a['stop']} must be > 0")
         if kind == "frf" and par != "frequency":
-            if not _number(f"{pre}.frequency", a.get("frequency"), out, positive=True):
+            if not number(f"{pre}.frequency", a.get("frequency"), out, positive=True):
                 out.append(f"{pre}.frequency: the fixed frequency (rad/s) of a {par} sweep")
         if kind == "frf":
             methods = a.get("method", "arclength")
@@ -463,7 +435,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                 out.append(f"{pre}.output = {a.get('output')!r}: unknown DOF; known: "
                            f"{sorted(dofs)}")
             if "points" in a:
-                _number(f"{pre}.points", a["points"], out, positive=True, integer=True)
+                number(f"{pre}.points", a["points"], out, positive=True, integer=True)
             if a.get("tracking", "continuation") not in ("continuation", "sweep"):
                 out.append(f"{pre}.tracking = {a.get('tracking')!r}: expected 'continuation' "
                            "(the peak followed from value to value) or 'sweep' (a full FRF "
@@ -507,12 +479,12 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
             out.append(f"{pre}.scale = {a.get('scale')!r}: expected 'all' (the amplitudes "
                        "multiply the whole motion) or 'v' (only the normal motion)")
         if "samples" in a:
-            _number(f"{pre}.samples", a["samples"], out, positive=True, integer=True)
+            number(f"{pre}.samples", a["samples"], out, positive=True, integer=True)
     if kind == "transient":
-        _number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
+        number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
         for k in ("ramp_time", "settle_time"):
-            _number(f"{pre}.{k}", a.get(k, 0.0), out, nonneg=True)
-        _number(f"{pre}.ramp_periods", a.get("ramp_periods", 0), out, nonneg=True,
+            number(f"{pre}.{k}", a.get(k, 0.0), out, nonneg=True)
+        number(f"{pre}.ramp_periods", a.get("ramp_periods", 0), out, nonneg=True,
                 integer=True)
         for o in a.get("outputs", []):
             if o not in dofs:
@@ -527,12 +499,12 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
             out.append(f"{pre}.frequencies = {f!r}: expected a list of frequencies > 0 (rad/s)")
         for k in ("steps_per_period", "max_periods"):
             if k in a:
-                _number(f"{pre}.{k}", a[k], out, positive=True, integer=True)
+                number(f"{pre}.{k}", a[k], out, positive=True, integer=True)
         if "ramp_periods" in a:
-            _number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True, integer=True)
+            number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True, integer=True)
         for k in ("ramp_time", "settle_time"):
             if k in a:
-                _number(f"{pre}.{k}", a[k], out, nonneg=True)
+                number(f"{pre}.{k}", a[k], out, nonneg=True)
         if _has_lag(data):
             out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
                        "with 'lag'); use harmonic balance")
@@ -550,7 +522,7 @@ def _family(pre: str, fam, data: dict, out: list[str]) -> None:
     if not isinstance(fam, dict):
         out.append(f"{pre}.family: expected a table with key and values")
         return
-    _unknown(pre + ".family.", fam, FAMILY_KEYS, out)
+    unknown_keys(pre + ".family.", fam, FAMILY_KEYS, out)
     vals = fam.get("values")
     if not (isinstance(vals, list) and vals):
         out.append(f"{pre}.family.values: expected a non-empty list")
@@ -602,7 +574,7 @@ def _geometry(geo, out: list[str]) -> None:
         out.append(f"geometry.model = {geo.get('model') if isinstance(geo, dict) else geo!r}: "
                    f"expected one of {sorted(geometry.MODELS)}")
         return
-    _unknown("geometry.", geo, {"model", "parameters"}, out)
+    unknown_keys("geometry.", geo, {"model", "parameters"}, out)
     params = geo.get("parameters", {})
     if not isinstance(params, dict):
         out.append("geometry.parameters: expected a table")

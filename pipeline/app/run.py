@@ -100,7 +100,7 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
         for body, models in result.models.items()}
     datasets["contact_stiffness"] = {
         name: {"normal_n_per_m": s.normal, "tangential_n_per_m": s.tangential}
-        for name, s in result.stiffness.items()}
+        for name, s in result.patch_stiffness.items()}
     w.write_group(w.file, "reduction", datasets, {
         "nodal_diameters": list(result.nodal_diameters), "status": "complete",
         "f_max_hz": -1.0 if result.f_max is None else result.f_max,

@@ -5,7 +5,7 @@ A case's [reduction] table (all keys optional but one of ``nodal_diameters`` or
 ``engine_order``):
 
     nodal_diameters = [0, 1, 2, 3]   # explicit, or:
-    engine_order = 3                 # with harmonics = H: the NDs of harmonics 0..H (DESIGN §5)
+    engine_order = 3                 # with harmonics = H: the NDs of harmonics 0..H
     harmonics = 3                    # default: the case's [harmonics] max, else 1
     order = 2                        # element order (1: linear tets, a trade, see the bench)
     modes = "auto"                   # fixed-interface modes: "auto" (cut-off) or a count
@@ -44,14 +44,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from numpy.typing import NDArray
 
 from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
 from microslip.pipeline.fe.fem import Damping, Material
 from microslip.pipeline.fe.reduction import BodySpec, ReducedModel
 
-from .case import _unknown
+from .checks import is_int, is_number, unknown_keys
 
 Progress = Callable[[str], None]
 
@@ -74,7 +73,7 @@ class StructureResult:
 
     models: body -> ND -> ReducedModel (a body without cyclic symmetry: the same model under
         every ND).
-    stiffness: patch -> PatchStiffness (per node pair kn, kt [N/m]).
+    patch_stiffness: contact patch -> PatchStiffness (kn, kt per node pair [N/m]).
     nodal_diameters: the NDs reduced; f_max: the case's f_max, or the one inferred for the
         non-cyclic bodies [Hz] (None: neither).
     cached: (body, ND) pairs that were read from the cache instead of reduced.
@@ -84,7 +83,7 @@ class StructureResult:
     """
 
     models: dict[str, dict[int, ReducedModel]]
-    stiffness: dict[str, contact_stiffness.PatchStiffness]
+    patch_stiffness: dict[str, contact_stiffness.PatchStiffness]
     nodal_diameters: tuple[int, ...]
     f_max: float | None
     cached: list[tuple[str, int]] = field(default_factory=list)
@@ -101,7 +100,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
     if not isinstance(red, dict):
         out.append(f"reduction: expected a table, got {red!r}")
         return
-    _unknown("reduction.", red, KEYS, out)
+    unknown_keys("reduction.", red, KEYS, out)
     if "geometry" not in data:
         out.append("reduction: needs a [geometry] table (the mesh to reduce)")
     sectors = _sectors(data.get("geometry"))
@@ -117,7 +116,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         out.append("reduction.harmonics: only with engine_order (the NDs of harmonics 0..H)")
     nds = red.get("nodal_diameters")
     if nds is not None and not (isinstance(nds, list) and nds and all(
-            _is_int(h) and h >= 0 for h in nds)):
+            is_int(h) and h >= 0 for h in nds)):
         out.append(f"reduction.nodal_diameters = {nds!r}: expected a non-empty list of "
                    "integers >= 0 (each at most sectors / 2)")
     elif nds is not None and sectors is not None and max(nds) > sectors // 2:
@@ -128,12 +127,12 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         out.append(f"reduction.backend = {red['backend']!r}: not installed here; available: "
                    f"{list(linalg.available_backends())} or 'auto'")
     for key, ok, allowed in (
-        ("engine_order", lambda v: _is_int(v), "an integer"),
-        ("harmonics", lambda v: _is_int(v) and v >= 0, "an integer >= 0 (orders 0..H)"),
+        ("engine_order", is_int, "an integer"),
+        ("harmonics", lambda v: is_int(v) and v >= 0, "an integer >= 0 (orders 0..H)"),
         ("order", lambda v: v in (1, 2), "1 or 2"),
         ("modes", _is_modes, "'auto' or an integer >= 0"),
-        ("cutoff", lambda v: _is_number(v) and v >= 1.0, "a number >= 1"),
-        ("f_max", lambda v: _is_number(v) and v > 0.0, "a frequency > 0 [Hz]"),
+        ("cutoff", lambda v: is_number(v) and v >= 1.0, "a number >= 1"),
+        ("f_max", lambda v: is_number(v) and v > 0.0, "a frequency > 0 [Hz]"),
         ("backend", lambda v: v in BACKENDS, f"one of {list(BACKENDS)}"),
     ):
         if key in red and not ok(red[key]):
@@ -142,7 +141,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
     _check_damping("reduction.damping", red.get("damping"), out)
     for name, b in _table_of(red, "bodies", out).items():
         pre = f"reduction.bodies.{name}"
-        _unknown(f"{pre}.", b, BODY_KEYS, out)
+        unknown_keys(f"{pre}.", b, BODY_KEYS, out)
         if not isinstance(b, dict):
             continue
         _check_material(f"{pre}.material", b.get("material"), out)
@@ -160,7 +159,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
                        "[N/m^3]")
             continue
         for k in sorted(STIFFNESS_KEYS):
-            if not (_is_number(s[k]) and s[k] > 0.0):
+            if not (is_number(s[k]) and s[k] > 0.0):
                 out.append(f"{pre}.{k} = {s[k]!r}: expected a stiffness per area > 0 [N/m^3]")
 
 
@@ -175,11 +174,8 @@ def _sectors(geo: Any) -> int | None:
     given = params.get("sectors") if isinstance(params, dict) else None
     value = given if given is not None else getattr(geometry.PARAMETERS[geo["model"]](),
                                                     "sectors", None)
-    return int(value) if _is_int(value) and value >= 3 else None
+    return int(value) if is_int(value) and value >= 3 else None
 
-
-def _is_int(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
 
 
 def _table_of(red: Mapping[str, Any], key: str, out: list[str]) -> dict:
@@ -192,11 +188,8 @@ def _table_of(red: Mapping[str, Any], key: str, out: list[str]) -> dict:
 
 
 def _is_modes(v: Any) -> bool:
-    return v == "auto" or (_is_int(v) and v >= 0)
+    return v == "auto" or (is_int(v) and v >= 0)
 
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and bool(np.isfinite(v))
 
 
 def _check_material(pre: str, m: Any, out: list[str]) -> None:
@@ -205,7 +198,7 @@ def _check_material(pre: str, m: Any, out: list[str]) -> None:
     if not isinstance(m, dict) or set(m) != MATERIAL_KEYS:
         out.append(f"{pre}: expected a table with exactly {sorted(MATERIAL_KEYS)}")
         return
-    bad = [k for k in sorted(MATERIAL_KEYS) if not _is_number(m[k])]
+    bad = [k for k in sorted(MATERIAL_KEYS) if not is_number(m[k])]
     if bad:
         out.append(f"{pre}: {', '.join(f'{k} = {m[k]!r}' for k in bad)}: expected numbers")
         return
@@ -223,7 +216,7 @@ def _check_damping(pre: str, d: Any, out: list[str]) -> None:
         return
     ratios = d.get("modal_ratios", 0.0)
     ratios = ratios if isinstance(ratios, list) else [ratios]
-    if not all(_is_number(v) for v in [d.get("rayleigh_alpha", 0.0),
+    if not all(is_number(v) for v in [d.get("rayleigh_alpha", 0.0),
                                        d.get("rayleigh_beta", 0.0), *ratios]):
         out.append(f"{pre} = {d!r}: expected numbers (modal_ratios: a number or a list)")
         return
@@ -258,9 +251,9 @@ def material(table: Mapping[str, Any] | None, default: Material = STEEL) -> Mate
 def needed_nodal_diameters(red: Mapping[str, Any], sectors: int,
                            case_orders: Iterable[int] | None = None) -> tuple[int, ...]:
     """The NDs of a [reduction] table: explicit, or those of the harmonic orders under the
-    engine order (DESIGN §5; backward waves fold onto 0..Ns/2). Orders: 0..``harmonics`` of
-    the table, else the case's harmonic orders (``case_orders``), else 0..1; order 0 (the
-    static part, ND 0) always."""
+    engine order (``cyclic.nodal_diameters``: backward waves fold onto 0..Ns/2). Orders:
+    0..``harmonics`` of the table, else the case's harmonic orders (``case_orders``), else
+    0..1; order 0 (the static part, ND 0) always."""
     if "nodal_diameters" in red:
         nds = tuple(sorted(set(int(h) for h in red["nodal_diameters"])))
         for h in nds:
@@ -343,10 +336,10 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | 
         nds = needed_nodal_diameters(red, max(sectors), case_orders)
     for spec in specs:  # names and node sets, before any heavy work
         reduction.spec_nodes(mesh, spec)
-    stiffness = patch_stiffnesses(mesh, specs, red)
+    patch_stiffness = patch_stiffnesses(mesh, specs, red)
     backend = red.get("backend", "auto")
     backend = None if backend == "auto" else backend
-    result = StructureResult({}, stiffness, nds, None if "f_max" not in red
+    result = StructureResult({}, patch_stiffness, nds, None if "f_max" not in red
                              else float(red["f_max"]))
     for spec in sorted(specs, key=lambda s: s.body not in mesh.cyclic):  # cyclic bodies first
         is_cyclic = spec.body in mesh.cyclic
@@ -385,7 +378,3 @@ def _recorder(result: StructureResult, body: str, serves: tuple[int, ...] | None
                  + " ".join(f"{x:.0f}" for x in f[:7]))
 
     return report
-
-
-def _with_f_max(spec: BodySpec, f_max: float) -> BodySpec:
-    return replace(spec, f_max=f_max)

@@ -1,5 +1,5 @@
 """Benchmark of assembly, cyclic matrices and Craig-Bampton: times, peak memory, backends,
-and the speed/accuracy table of mesh size and element order (DESIGN.md §7).
+and the speed/accuracy table of mesh size and element order (a speed/accuracy trade).
 
     microslip bench reduction                      # default blisk sector
     microslip bench reduction --refine 0.36 --modes 30 --nds 0,1 --backends pardiso

@@ -1,4 +1,4 @@
-"""Contact stiffness of a patch (DESIGN.md §6, seed 5.2) and local contact frames.
+"""Contact stiffness of a patch (seed 5.2) and local contact frames.
 
 Flat punch on a half-space for the whole patch of area A (Johnson, *Contact Mechanics*, 1985;
 tangential after Mindlin 1949), equivalent radius a = sqrt(A / pi):
@@ -11,7 +11,7 @@ A per-area stiffness [N/m^3] given by a case overrides it: k_node = k_area A / n
 
 Frame per node pair: rows (t1, t2, n), right-handed, n = the patch normal (outward from body
 a into body b). The relative displacement of a pair is ``frames @ (u_a - u_b)``: its normal
-component is positive when the bodies approach (DESIGN.md §2).
+component is positive when the bodies approach (the README's conventions).
 """
 
 from __future__ import annotations

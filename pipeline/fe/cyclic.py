@@ -1,4 +1,4 @@
-"""Cyclic symmetry (seed 5.1.1, DESIGN.md §5): sector matrices per nodal diameter.
+"""Cyclic symmetry (seed 5.1.1): sector matrices per nodal diameter.
 
 Sector angle phi = 2 pi / Ns about the disk axis +z. The right-face nodes are the images of the
 left-face nodes under R(+phi) (``CyclicBoundary.right[i] = R(phi) left[i]``). For nodal diameter
@@ -27,13 +27,9 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from .fem import BodyModel, FloatArray, IntArray
+from microslip.geometry.mesh import rotation_z
 
-
-def rotation(angle: float) -> FloatArray:
-    """(3, 3) rotation by ``angle`` [rad] about +z."""
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+from .fem import BodyModel, IntArray
 
 
 def _check_sectors(sectors: int) -> None:
@@ -102,7 +98,7 @@ def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
         raise ValueError("cyclic boundary: a node is on both faces (a node on the axis?)")
     pl = body.points[body.local_nodes(left, "cyclic boundary left")]
     pr = body.points[body.local_nodes(right, "cyclic boundary right")]
-    R = rotation(2.0 * np.pi / boundary.sectors)
+    R = rotation_z(2.0 * np.pi / boundary.sectors)
     scale = max(float(np.abs(body.points).max()), 1e-300)
     err = float(np.abs(pl @ R.T - pr).max()) if len(pl) else 0.0
     if err > rtol * scale:
@@ -215,7 +211,7 @@ def sector_model(
     vals.append(np.ones(len(free)))
     dtype: type = np.float64
     if boundary is not None:
-        T = phase(nodal_diameter, sectors) * rotation(2.0 * np.pi / sectors)
+        T = phase(nodal_diameter, sectors) * rotation_z(2.0 * np.pi / sectors)
         dtype = np.complex128 if np.iscomplexobj(T) else np.float64
         # u_R[a] = sum_b T[a, b] u_L[b]; a clamped left DOF contributes nothing.
         for a in range(3):
@@ -263,34 +259,5 @@ def expand_to_disk(displacement: NDArray, nodal_diameter: int, sectors: int) -> 
     phi = 2.0 * np.pi / sectors
     out = np.empty((sectors, *u.shape), dtype=np.complex128)
     for s in range(sectors):
-        out[s] = np.exp(1j * nodal_diameter * s * phi) * (u @ rotation(s * phi).T)
+        out[s] = np.exp(1j * nodal_diameter * s * phi) * (u @ rotation_z(s * phi).T)
     return out
-
-
-def replicate_sector(
-    points: FloatArray, tetrahedra: IntArray, boundary: Any
-) -> tuple[FloatArray, IntArray, IntArray]:
-    """Full-disk mesh from Ns rotated copies of a sector, faces merged through the node pairs.
-
-    points: (n, 3); tetrahedra: (m, 4) of the sector (the nodes they use); boundary: the
-    body's CyclicBoundary. Returns (points (n_full, 3), tetrahedra (Ns m, 4), node_map (Ns, n))
-    where node_map[s, i] is the full-disk index of sector node i in copy s.
-    The right face of copy s is the left face of copy s + 1 (mod Ns).
-    """
-    sectors = int(boundary.sectors)
-    _check_sectors(sectors)
-    left = np.asarray(boundary.left, dtype=np.int64)
-    right = np.asarray(boundary.right, dtype=np.int64)
-    n = len(points)
-    is_right = np.zeros(n, dtype=bool)
-    is_right[right] = True
-    own = np.flatnonzero(~is_right)  # nodes each copy contributes
-    node_map = np.full((sectors, n), -1, dtype=np.int64)
-    for s in range(sectors):
-        node_map[s, own] = s * len(own) + np.arange(len(own))
-    for s in range(sectors):
-        node_map[s, right] = node_map[(s + 1) % sectors, left]
-    phi = 2.0 * np.pi / sectors
-    full_points = np.concatenate([points[own] @ rotation(s * phi).T for s in range(sectors)])
-    full_tets = np.concatenate([node_map[s][tetrahedra] for s in range(sectors)])
-    return full_points, full_tets, node_map

@@ -2,7 +2,7 @@
 
 Quadratic tetrahedra by default: scikit-fem's ``ElementVector(ElementTetP2())`` on the order-1
 Gmsh mesh (the P2 element adds one DOF triple per mesh edge; loading a Gmsh ``tetra10`` mesh would
-drop the boundary tags, DESIGN.md §9). Linear tetrahedra (``order=1``) as an option.
+drop the boundary tags and renumber the nodes). Linear tetrahedra (``order=1``) as an option.
 
 Quadrature is the cheapest exact rule for straight-sided (affine) tetrahedra: the stiffness
 integrand is a product of gradients (degree 2(p-1)) and the mass a product of shape functions

@@ -80,14 +80,15 @@ class ReducedModel:
     damping_spec: linear damping applied to the reduced model (``damping`` gives the matrix).
     master_nodes: (n_m,) global mesh node indices; master_coordinates (n_m, 3) [m].
     n_modes: fixed-interface (CB) or normal (modal) modes kept; r = 3 n_m + n_modes.
-    mode_frequencies: (n_modes,) [Hz] of those modes (at mass_scale 1).
+    mode_frequencies: (n_modes,) [Hz] of those modes.
     patches: contact-patch name -> (k,) global node indices of that patch in this body
         (a subset of master_nodes).
     recovery_nodes: (p,) global node indices; recovery: (p, 3, r), u(node) = recovery @ q.
     nodal_diameter, sectors: None for a body without cyclic symmetry.
-    mass_scale: factor applied to the mass (damper mass studies) relative to the reduction.
-    key: content hash of everything that produced the reduction (the mass scale and the
-        damping spec are separate fields, applied without re-reducing).
+    key: content hash of everything that produced the reduction (the damping spec is a
+        separate field, applied without re-reducing). A mass study scales the mass by a
+        multiplier in the harmonic balance (``LinearDynamics.mass``): exact, since re-reducing
+        with density s rho spans the same subspace.
     """
 
     body: str
@@ -104,7 +105,6 @@ class ReducedModel:
     sectors: int | None = None
     patches: Mapping[str, IntArray] = field(default_factory=dict)
     damping_spec: Damping | None = None
-    mass_scale: float = 1.0
     key: str = ""
 
     # --- sizes and maps the harmonic balance needs ---------------------------------------
@@ -175,20 +175,6 @@ class ReducedModel:
 
     # --- derived models ------------------------------------------------------------------
 
-    def with_mass_scale(self, factor: float) -> ReducedModel:
-        """Same reduction with every mass scaled by ``factor`` (damper mass m_d = n m_nom).
-
-        Exact: re-reducing with density n rho gives the same subspace; the modal amplitudes
-        differ only by the scaling sqrt(n), so scaling the reduced mass suffices.
-        """
-        if not (np.isfinite(factor) and factor > 0):
-            raise ValueError(f"factor={factor!r}: mass scale must be finite and > 0")
-        return replace(
-            self,
-            mass=self.mass * factor,
-            mass_scale=self.mass_scale * factor,
-        )
-
     def with_damping(self, damping: Damping | None) -> ReducedModel:
         """Same reduction with another linear damping spec (no re-reduction)."""
         return replace(self, damping_spec=damping)
@@ -223,7 +209,6 @@ class ReducedModel:
             g.attrs["n_modes"] = self.n_modes
             g.attrs["nodal_diameter"] = -1 if self.nodal_diameter is None else self.nodal_diameter
             g.attrs["sectors"] = -1 if self.sectors is None else self.sectors
-            g.attrs["mass_scale"] = self.mass_scale
             g.attrs["key"] = self.key
             spec = self.damping_spec
             g.attrs["damping"] = json.dumps(
@@ -254,7 +239,6 @@ class ReducedModel:
                 sectors=None if ns < 0 else ns,
                 patches=patches,
                 damping_spec=None if spec is None else Damping(spec[0], spec[1], tuple(spec[2])),
-                mass_scale=float(g.attrs["mass_scale"]),
                 key=str(g.attrs["key"]),
                 **arrays,
             )

@@ -1,6 +1,6 @@
 """Compiled hot loop: the friction return map marched over sampled periods.
 
-One kernel serves the four contact laws of DESIGN.md §3: the tangential
+One kernel serves the four contact laws of :mod:`.laws`: the tangential
 dimension ``d`` is 1 or 2 and a constant normal load is ``kn = 0``. For each
 point, given time samples of the tangential relative displacement ``u`` (d
 components) and of the normal one ``v``, the normal force is

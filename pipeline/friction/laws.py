@@ -1,6 +1,6 @@
 """Friction contact elements in the frequency domain (seed section 3 and 4.2).
 
-Four laws (DESIGN.md §3), each vectorised over many points with per-point
+Four laws (seed sections 3 and 4.2), each vectorised over many points with per-point
 parameters:
 
 ====  ============  ===============  =====================================

@@ -169,7 +169,8 @@ def _solve(J: np.ndarray, R: np.ndarray) -> np.ndarray:
     return sla.lu_solve((lu, piv), R, check_finite=False)
 
 
-def _check_range(start: float, stop: float, name: str) -> None:
+def check_range(start: float, stop: float, name: str) -> None:
+    """ValueError unless the range of parameter ``name`` is finite and not empty."""
     if not (np.isfinite(start) and np.isfinite(stop)):
         raise ValueError(f"continuation: range of '{name}' must be finite, got {start}..{stop}")
     if start == stop:
@@ -198,7 +199,7 @@ def natural(
     Where the predictor fails, Newton restarts from the last solution and then
     from ``guesses(lam)``: past a fold that lets the sweep jump to the other
     branch, as a physical slow sweep does (seed Fig. 24)."""
-    _check_range(start, stop, parameter)
+    check_range(start, stop, parameter)
     span = stop - start
     out = _Collector(parameter)
     lam, x = start, np.asarray(x0, float)
@@ -273,7 +274,7 @@ def arclength(
 
     Scaled unknowns ``y = [x / x_scale, lam / lam_scale]`` with ``lam_scale =
     |stop - start|``; steps ``h`` are arc lengths in that metric."""
-    _check_range(start, stop, parameter)
+    check_range(start, stop, parameter)
     lam_scale = abs(stop - start)
     direction = np.sign(stop - start)
     xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x0)).copy()

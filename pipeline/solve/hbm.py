@@ -1,4 +1,4 @@
-"""Multi-harmonic balance on the contact DOFs (seed section 2, DESIGN.md §4).
+"""Multi-harmonic balance on the contact DOFs (seed section 2 and appendix).
 
 For each kept harmonic order n the linear part is the dynamic stiffness
 ``D_n(w) = K_n - (n w)^2 M_n + i n w C_n`` (real, or complex Hermitian from the
@@ -39,26 +39,32 @@ _DENSE_LIMIT = 400_000  # entries of the real kinematic map kept dense
 
 @dataclass(frozen=True)
 class OperatingPoint:
-    """Values of the scalar parameters at which the balance is solved."""
+    """Values of the scalar parameters at which the balance is solved.
+
+    omega: angular frequency [rad/s]; excitation, mass_multiplier, preload: dimensionless
+    multipliers (see ``PARAMETERS``; a continuation parameter name maps to its field).
+    """
 
     omega: float
     excitation: float = 1.0
-    mass: float = 1.0
+    mass_multiplier: float = 1.0
     preload: float = 1.0
 
     def get(self, name: str) -> float:
-        return self.omega if name == "frequency" else getattr(self, _check_parameter(name))
+        return getattr(self, _field(name))
 
     def set(self, name: str, value: float) -> OperatingPoint:
-        if name == "frequency":
-            return replace(self, omega=float(value))
-        return replace(self, **{_check_parameter(name): float(value)})
+        return replace(self, **{_field(name): float(value)})
 
 
-def _check_parameter(name: str) -> str:
+_FIELDS = {"frequency": "omega", "excitation": "excitation", "mass": "mass_multiplier",
+           "preload": "preload"}  # continuation parameter -> OperatingPoint field
+
+
+def _field(name: str) -> str:
     if name not in PARAMETERS:
         raise ValueError(f"hbm: parameter {name!r} is not one of {PARAMETERS}")
-    return name
+    return _FIELDS[name]
 
 
 def _stack(name: str, value, orders: tuple[int, ...], n: int | None) -> np.ndarray:
@@ -116,18 +122,26 @@ class LinearDynamics:
     def n_dof(self) -> int:
         return self.K.shape[1]
 
+    def mass(self, point: OperatingPoint) -> np.ndarray:
+        """(n_orders, n, n) M(s) = M + (s - 1) M_part at the point's mass multiplier s.
+
+        The one mechanism of mass studies (a damper's mass as a multiple of its nominal
+        mass): exact for a reduced body, whose basis does not depend on its density.
+        """
+        if point.mass_multiplier == 1.0:
+            return self.M
+        return self.M + (point.mass_multiplier - 1.0) * self.M_part
+
     def dynamic_stiffness(self, point: OperatingPoint) -> np.ndarray:
         """(n_orders, n, n) D_n at the point."""
         nw = np.array(self.orders, dtype=float)[:, None, None] * point.omega
-        M = self.M + (point.mass - 1.0) * self.M_part
-        return self.K - nw**2 * M + 1j * nw * self.C
+        return self.K - nw**2 * self.mass(point) + 1j * nw * self.C
 
     def d_dynamic_stiffness(self, point: OperatingPoint, parameter: str) -> np.ndarray | None:
         """dD_n / d parameter, or None where D does not depend on it."""
         n = np.array(self.orders, dtype=float)[:, None, None]
         if parameter == "frequency":
-            M = self.M + (point.mass - 1.0) * self.M_part
-            return -2.0 * n**2 * point.omega * M + 1j * n * self.C
+            return -2.0 * n**2 * point.omega * self.mass(point) + 1j * n * self.C
         if parameter == "mass":
             return -((n * point.omega) ** 2) * self.M_part
         return None

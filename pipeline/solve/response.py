@@ -167,7 +167,7 @@ def sweep(
         raise ValueError(f"sweep: 'parameter' = {parameter!r} is not one of {PARAMETERS}")
     if method not in METHODS:
         raise ValueError(f"sweep: 'method' = {method!r} is not one of {METHODS}")
-    cont._check_range(start, stop, parameter)
+    cont.check_range(start, stop, parameter)
     if parameter == "frequency" and min(start, stop) <= 0:
         raise ValueError(f"sweep: frequency range must be > 0 rad/s, got {start}..{stop}")
     if parameter in ("mass",) and min(start, stop) <= 0:
