@@ -388,8 +388,9 @@ def test_retain_freed_memory_in_its_own_process(setting, expected):
     import sys
 
     env = {**os.environ, "MICROSLIP_RETAIN_MEMORY": setting}
-    code = ("import numpy as np; from pipeline import linalg; r = linalg.retain_freed_memory();"
-            " a = np.ones(2**24); del a; b = np.ones(2**24); print(r, b.sum() == 2**24)")
+    code = ("import numpy as np; from microslip.pipeline.fe import linalg; "
+            "r = linalg.retain_freed_memory(); a = np.ones(2**24); del a; b = np.ones(2**24); "
+            "print(r, b.sum() == 2**24)")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True).stdout.split()
     assert out == [expected, "True"]

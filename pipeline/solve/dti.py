@@ -462,6 +462,24 @@ def _solve_inplace(A, b):  # pragma: no cover
 
 
 @njit(cache=True)
+def _relative_motion(B, x, row0, dim, normal, gq, out):  # pragma: no cover
+    """Per point (u1, u2, v) of the DOF vector x (displacements or velocities): gq = B x,
+    then out[p] = its point's rows, 0 for a component the point does not have."""
+    n = x.size
+    for i in range(gq.size):
+        s = 0.0
+        for j in range(n):
+            s += B[i, j] * x[j]
+        gq[i] = s
+    for p in range(row0.size):
+        r0 = row0[p]
+        d = dim[p]
+        out[p, 0] = gq[r0]
+        out[p, 1] = gq[r0 + 1] if d == 2 else 0.0
+        out[p, 2] = gq[r0 + d] if normal[p] else 0.0
+
+
+@njit(cache=True)
 def _residual(a1, h, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
               Tc, Nc, Nrc, gc, Fk, want_J, r, J, qt, vt, dq, Tt, Nt, Nrt, st, gt, gq, Dp,
               tmp):  # pragma: no cover
@@ -472,7 +490,6 @@ def _residual(a1, h, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
     (Tt, Nt, Nrt, st, gt) and, if want_J, J = dR/da1. Returns the force
     scale (largest term)."""
     n = q.size
-    R = gq.size
     h4 = 0.25 * h * h
     for j in range(n):
         dq[j] = h * v[j] + h4 * (a[j] + a1[j])
@@ -491,18 +508,11 @@ def _residual(a1, h, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
                 J[i, j] = M[i, j] + 0.5 * h * C[i, j] + h4 * K[i, j]
         r[i] = ma + cv + kq - Fk[i]
         scale = max(scale, abs(ma), abs(cv), abs(kq), abs(Fk[i]))
-    for i in range(R):
-        s = 0.0
-        for j in range(n):
-            s += B[i, j] * qt[j]
-        gq[i] = s
+    _relative_motion(B, qt, row0, dim, normal, gq, gt)
     for p in range(row0.size):
         r0 = row0[p]
         d = dim[p]
         hn = normal[p]
-        gt[p, 0] = gq[r0]
-        gt[p, 1] = gq[r0 + 1] if d == 2 else 0.0
-        gt[p, 2] = gq[r0 + d] if hn else 0.0
         N, nr, s = _point_law(p, gt, gc, Tc, Nc, Nrc, kt, kn, mu, n0, d, hn, tmp, Dp)
         Tt[p, 0] = tmp[0]
         Tt[p, 1] = tmp[1]
@@ -631,19 +641,8 @@ def _first_event(h, v, vt, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc, sc, gc,
     """Earliest contact transition inside a step of length h, as a fraction in
     (0, 1) located by bisection on the cubic Hermite interpolant of the
     relative motion; 2.0 if no event function changes sign over the step."""
-    n = v.size
-    for rate, vel in ((gd0, v), (gd1, vt)):
-        for i in range(gq.size):
-            s = 0.0
-            for j in range(n):
-                s += B[i, j] * vel[j]
-            gq[i] = s
-        for p in range(row0.size):
-            r0 = row0[p]
-            d = dim[p]
-            rate[p, 0] = gq[r0]
-            rate[p, 1] = gq[r0 + 1] if d == 2 else 0.0
-            rate[p, 2] = gq[r0 + d] if normal[p] else 0.0
+    _relative_motion(B, v, row0, dim, normal, gq, gd0)
+    _relative_motion(B, vt, row0, dim, normal, gq, gd1)
     first = 2.0
     for p in range(row0.size):
         for kind in range(3):
