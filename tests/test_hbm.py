@@ -235,3 +235,59 @@ def test_bad_input_is_rejected_before_work():
                         Excitation.single(1, 0, 1.0), h)
     with pytest.raises(ValueError, match="excitation of order 1 has shape"):
         HarmonicBalance(hb.linear, hb.contacts, Excitation({1: np.ones(3)}), h)
+
+
+def test_orders_with_dofs_of_their_own():
+    """Reduced cyclic bodies keep a different number of modal DOFs per nodal diameter: the
+    balance needs only the DOFs shared by every order. The model of three_dof_cyclic_like
+    with its third DOF (no contact touches it; it carries the loads) made each order's own,
+    in another scale per order and padded at orders 1 and 3 by decoupled DOFs, is the same
+    physics: the same solution, and every order's equations hold at every DOF."""
+    h = Harmonics.up_to(3, 128)
+    ref = three_dof_cyclic_like(h)
+    lin = ref.linear
+    K, M, C, Mp, F = {}, {}, {}, {}, {}
+    for k, o in enumerate(h.orders):
+        extra = 2 if o in (1, 3) else 0
+        T = np.eye(3 + extra, dtype=complex)
+        T[2, 2] = 1.5 + o  # q_2 = (1.5 + o) y: another coordinate per order
+
+        def lift(A, pad, T=T, extra=extra):
+            out = np.zeros((3 + extra, 3 + extra), dtype=complex)
+            out[:3, :3] = A
+            out[3:, 3:] = pad * np.eye(extra)
+            return T.conj().T @ out @ T
+
+        K[o], M[o], C[o] = lift(lin.K[k], 5.0), lift(lin.M[k], 1.0), lift(lin.C[k], 0.1)
+        Mp[o] = lift(lin.M_part[k], 0.0)
+        f = np.zeros(3 + extra, dtype=complex)
+        f[:3] = ref.excitation.forces.get(o, np.zeros(3))
+        F[o] = T.conj().T @ f
+    own = HarmonicBalance(
+        LinearDynamics.create(K, M, C, harmonics=h, mass_part=Mp, n_shared=2),
+        [Contact(c.name, c.elements, {o: np.asarray(c.kinematics[o])[:, :2]
+                                      for o in h.orders}) for c in ref.contacts],
+        Excitation(F), h)
+    assert own.linear.sizes == (3, 5, 3, 5) and own.linear.n_dof == 2
+    p = OperatingPoint(1.3, mass_multiplier=1.4)
+    a, b = solve_point(ref, p), solve_point(own, p)
+    assert a.converged and b.converged
+    # same unknowns, same equations: agreement to the Newton tolerance (1e-9 of the forces)
+    np.testing.assert_allclose(b.x, a.x, atol=1e-8 * np.abs(a.x).max())
+    # every order's own DOFs satisfy that order's equations (seed eq. 9)
+    D = own.linear.dynamic_stiffness(p)
+    Fo, _ = own.forces(p)
+    X = own.recover_orders(b.x, p)
+    fc = [h.to_complex(r.forces.reshape(-1, h.n_coeffs)) for r in own.contact_response(b.x, p)]
+    for k, o in enumerate(h.orders):
+        fnl = np.zeros(X[k].size, dtype=complex)
+        for c, f in zip(own.contacts, fc):
+            fnl[:2] -= np.asarray(c.kinematics[o])[:, :2].conj().T @ f[o]
+        r = D[k] @ X[k] - Fo[k] - fnl
+        assert np.abs(r).max() < 1e-8 * np.abs(Fo[k]).max(initial=1.0)
+    # the energy balance counts the damping of the orders' own DOFs; what is left is the
+    # Newton residual (1e-9 of the forces) times the motion, far below 1e-6
+    e = own.energy_balance(b.x, p)
+    assert e["excitation"] == pytest.approx(e["viscous"] + e["friction"] + e["normal"],
+                                            rel=1e-6)
+    assert e["viscous"] > 0.01 * e["excitation"]  # the damping is not negligible here

@@ -245,7 +245,11 @@ class TimeModel:
         """The time-domain twin of a lumped :class:`microslip.pipeline.solve.hbm.HarmonicBalance`
         (the same K, M, C for every harmonic order and real kinematics)."""
         lin = model.linear
-        for name, mats in (("K", lin.K), ("M", lin.M), ("C", lin.C)):
+        if set(lin.sizes) != {lin.n_dof}:
+            raise ValueError("dti: the orders have DOFs of their own (a reduced cyclic body): "
+                             "no time-domain equivalent")
+        for name, mats in (("K", np.array(lin.K)), ("M", np.array(lin.M)),
+                           ("C", np.array(lin.C))):
             if np.abs(mats - mats[:1]).max() > 0 or np.abs(mats.imag).max() > 0:
                 raise ValueError(f"dti: '{name}' differs between harmonic orders or is complex "
                                  "(cyclic symmetry): no time-domain equivalent")

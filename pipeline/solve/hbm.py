@@ -28,6 +28,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from microslip.pipeline.friction.harmonics import Harmonics
@@ -67,83 +68,112 @@ def _field(name: str) -> str:
     return _FIELDS[name]
 
 
-def _stack(name: str, value, orders: tuple[int, ...], n: int | None) -> np.ndarray:
-    """Per-order matrices -> (n_orders, n, n) complex; a single matrix serves all."""
+def _per_order(name: str, value, orders: tuple[int, ...],
+               sizes: tuple[int, ...] | None) -> tuple[np.ndarray, ...]:
+    """Per-order square complex matrices; a single matrix serves every order."""
     if isinstance(value, Mapping):
         missing = [o for o in orders if o not in value]
         if missing:
             raise ValueError(f"hbm: '{name}' has no matrix for harmonic orders {missing}")
-        mats = [np.asarray(value[o]) for o in orders]
+        raw = [value[o] for o in orders]
     else:
-        mats = [np.asarray(value)] * len(orders)
-    out = np.array(mats, dtype=complex)
-    if out.ndim != 3 or out.shape[1] != out.shape[2]:
-        raise ValueError(f"hbm: '{name}' must be square matrices, got shape {out.shape[1:]}")
-    if n is not None and out.shape[1] != n:
-        raise ValueError(f"hbm: '{name}' is {out.shape[1]}x{out.shape[1]}, expected {n}x{n}")
-    if not np.all(np.isfinite(out)):
-        raise ValueError(f"hbm: '{name}' contains NaN or Inf")
-    return out
+        raw = [value] * len(orders)
+    mats = []
+    for k, (o, m) in enumerate(zip(orders, raw)):
+        m = np.asarray(m, dtype=complex)
+        if m.ndim != 2 or m.shape[0] != m.shape[1]:
+            raise ValueError(f"hbm: '{name}' must be square matrices, got shape {m.shape} "
+                             f"(order {o})")
+        if sizes is not None and m.shape[0] != sizes[k]:
+            raise ValueError(f"hbm: '{name}' is {m.shape[0]}x{m.shape[0]}, expected "
+                             f"{sizes[k]}x{sizes[k]} (order {o})")
+        if not np.all(np.isfinite(m)):
+            raise ValueError(f"hbm: '{name}' contains NaN or Inf")
+        mats.append(m)
+    return tuple(mats)
 
 
 @dataclass(frozen=True, eq=False)
 class LinearDynamics:
-    """The linear part per harmonic order: K_n, M_n, C_n, (n_dof, n_dof).
+    """The linear part per harmonic order: K_n, M_n, C_n.
 
     Each argument is one matrix for every order (lumped models) or a mapping
     ``{order: matrix}`` (cyclic symmetry: the matrices of the order's nodal
     diameter). ``mass_part`` is the part of M a mass multiplier scales.
+
+    The matrices of order n are (n_n, n_n) with n_n >= ``n_dof``: the first ``n_dof``
+    DOFs are shared by every order (the physical DOFs the contacts, loads and outputs
+    use: the master DOFs of reduced bodies); those past ``n_dof`` belong to that order
+    alone (the fixed-interface modal coordinates of a body at the order's nodal
+    diameter, whose number differs between nodal diameters). The harmonic balance
+    condenses them per order, so nothing forces equal sizes. Lumped models: n_n = n_dof.
     """
 
-    K: np.ndarray  # (n_orders, n, n) complex
-    M: np.ndarray
-    C: np.ndarray
-    M_part: np.ndarray
+    K: tuple[np.ndarray, ...]  # per order, (n_n, n_n) complex
+    M: tuple[np.ndarray, ...]
+    C: tuple[np.ndarray, ...]
+    M_part: tuple[np.ndarray, ...]
     orders: tuple[int, ...]
+    n_dof: int
 
     @classmethod
-    def create(cls, K, M, C=None, *, harmonics: Harmonics, mass_part=None) -> LinearDynamics:
+    def create(cls, K, M, C=None, *, harmonics: Harmonics, mass_part=None,
+               n_shared: int | None = None) -> LinearDynamics:
+        """n_shared: DOFs common to every order (default: the smallest order's size)."""
         orders = harmonics.orders
-        Ks = _stack("K", K, orders, None)
-        n = Ks.shape[1]
-        Ms = _stack("M", M, orders, n)
-        Cs = _stack("C", np.zeros((n, n)) if C is None else C, orders, n)
-        Mp = _stack("mass_part", np.zeros((n, n)) if mass_part is None else mass_part, orders, n)
+        Ks = _per_order("K", K, orders, None)
+        sizes = tuple(k.shape[0] for k in Ks)
+        Ms = _per_order("M", M, orders, sizes)
+        zeros = {o: np.zeros((n, n)) for o, n in zip(orders, sizes)}
+        Cs = _per_order("C", zeros if C is None else C, orders, sizes)
+        Mp = _per_order("mass_part", zeros if mass_part is None else mass_part, orders, sizes)
+        n = min(sizes) if n_shared is None else int(n_shared)
+        if not 0 <= n <= min(sizes):
+            raise ValueError(f"hbm: n_shared = {n_shared} must be in 0..{min(sizes)} (the "
+                             "smallest order's size)")
         for name, mats in (("K", Ks), ("M", Ms), ("C", Cs)):
-            asym = np.abs(mats - np.conj(mats.transpose(0, 2, 1))).max()
-            if asym > 1e-9 * max(np.abs(mats).max(), 1e-300):
-                raise ValueError(f"hbm: '{name}' is not symmetric (Hermitian): max |A - A^H| = "
-                                 f"{asym:.3g}")
-        if 0 in orders and np.abs(Ks[0].imag).max() > 1e-12 * max(np.abs(Ks[0]).max(), 1e-300):
-            raise ValueError("hbm: 'K' of harmonic order 0 must be real (nodal diameter 0)")
-        return cls(Ks, Ms, Cs, Mp, orders)
+            for o, A in zip(orders, mats):
+                asym = np.abs(A - A.conj().T).max(initial=0.0)
+                if asym > 1e-9 * max(np.abs(A).max(initial=0.0), 1e-300):
+                    raise ValueError(f"hbm: '{name}' is not symmetric (Hermitian): max "
+                                     f"|A - A^H| = {asym:.3g} (order {o})")
+        if 0 in orders:
+            K0 = Ks[orders.index(0)]
+            if np.abs(K0.imag).max(initial=0.0) > 1e-12 * max(np.abs(K0).max(initial=0.0),
+                                                               1e-300):
+                raise ValueError("hbm: 'K' of harmonic order 0 must be real (nodal diameter 0)")
+        return cls(Ks, Ms, Cs, Mp, orders, n)
 
     @property
-    def n_dof(self) -> int:
-        return self.K.shape[1]
+    def sizes(self) -> tuple[int, ...]:
+        """(n_n,) per order: shared DOFs plus the order's own."""
+        return tuple(k.shape[0] for k in self.K)
 
-    def mass(self, point: OperatingPoint) -> np.ndarray:
-        """(n_orders, n, n) M(s) = M + (s - 1) M_part at the point's mass multiplier s.
+    def mass(self, point: OperatingPoint) -> tuple[np.ndarray, ...]:
+        """Per order M(s) = M + (s - 1) M_part at the point's mass multiplier s.
 
         The one mechanism of mass studies (a damper's mass as a multiple of its nominal
         mass): exact for a reduced body, whose basis does not depend on its density.
         """
         if point.mass_multiplier == 1.0:
             return self.M
-        return self.M + (point.mass_multiplier - 1.0) * self.M_part
+        return tuple(M + (point.mass_multiplier - 1.0) * Mp
+                     for M, Mp in zip(self.M, self.M_part))
 
-    def dynamic_stiffness(self, point: OperatingPoint) -> np.ndarray:
-        """(n_orders, n, n) D_n at the point."""
-        nw = np.array(self.orders, dtype=float)[:, None, None] * point.omega
-        return self.K - nw**2 * self.mass(point) + 1j * nw * self.C
+    def dynamic_stiffness(self, point: OperatingPoint) -> tuple[np.ndarray, ...]:
+        """Per order D_n = K_n - (n w)^2 M_n + i n w C_n at the point."""
+        return tuple(K - (o * point.omega) ** 2 * M + 1j * o * point.omega * C
+                     for o, K, M, C in zip(self.orders, self.K, self.mass(point), self.C))
 
-    def d_dynamic_stiffness(self, point: OperatingPoint, parameter: str) -> np.ndarray | None:
-        """dD_n / d parameter, or None where D does not depend on it."""
-        n = np.array(self.orders, dtype=float)[:, None, None]
+    def d_dynamic_stiffness(self, point: OperatingPoint, parameter: str
+                            ) -> tuple[np.ndarray, ...] | None:
+        """Per order dD_n / d parameter, or None where D does not depend on it."""
         if parameter == "frequency":
-            return -2.0 * n**2 * point.omega * self.mass(point) + 1j * n * self.C
+            return tuple(-2.0 * o**2 * point.omega * M + 1j * o * C
+                         for o, M, C in zip(self.orders, self.mass(point), self.C))
         if parameter == "mass":
-            return -((n * point.omega) ** 2) * self.M_part
+            return tuple(-((o * point.omega) ** 2) * Mp
+                         for o, Mp in zip(self.orders, self.M_part))
         return None
 
 
@@ -164,9 +194,29 @@ class Contact:
 
 @dataclass(frozen=True, eq=False)
 class Excitation:
-    """External forces ``F(t) = Re(sum_n F_n exp(i n w t))``: {order: (n_dof,) complex}."""
+    """External forces ``F(t) = Re(sum_n F_n exp(i n w t))``: {order: complex vector}.
+
+    A vector of ``n_dof`` entries loads the shared DOFs; one of the order's full size n_n
+    (see :class:`LinearDynamics`) also loads the order's own DOFs (the load of a reduced body
+    has modal components). The excitation multiplier scales the dynamic orders only.
+
+    rotating: a static load per unit squared rotation speed, N/(rad/s)^2, (n_dof,) or the
+        order-0 size (the centrifugal load of the bodies); order 0 gets ``speed^2 rotating``
+        with ``speed`` [rad/s] fixed, or tied to the excitation frequency through the engine
+        order, ``speed = w / engine_order`` (an engine-order excitation sweeps the speed).
+    """
 
     forces: Mapping[int, np.ndarray]
+    rotating: np.ndarray | None = None
+    speed: float | None = None
+    engine_order: int | None = None
+
+    def __post_init__(self):
+        if self.rotating is not None and (self.speed is None) == (self.engine_order is None):
+            raise ValueError("hbm: a rotating load needs either 'speed' (rad/s) or "
+                             "'engine_order' (speed = w / EO), exactly one")
+        if self.engine_order is not None and not self.engine_order > 0:
+            raise ValueError(f"hbm: engine_order = {self.engine_order} must be > 0")
 
     @classmethod
     def single(cls, n_dof: int, dof: int, amplitude: float, order: int = 1,
@@ -176,30 +226,61 @@ class Excitation:
         f[dof] = amplitude * np.exp(1j * phase)
         return cls({order: f})
 
-    def vector(self, orders: tuple[int, ...], n_dof: int) -> np.ndarray:
-        """(n_orders, n_dof) complex forces of the kept orders."""
-        F = np.zeros((len(orders), n_dof), dtype=complex)
-        for k, o in enumerate(orders):
+    def speed_squared(self, omega: float) -> tuple[float, float]:
+        """(speed^2, d speed^2 / d w) at excitation frequency ``omega``."""
+        if self.rotating is None:
+            return 0.0, 0.0
+        if self.speed is not None:
+            return float(self.speed) ** 2, 0.0
+        eo = float(self.engine_order)
+        return (omega / eo) ** 2, 2.0 * omega / eo**2
+
+    def vectors(self, orders: tuple[int, ...], sizes: tuple[int, ...], n_dof: int
+                ) -> tuple[tuple[np.ndarray, ...], np.ndarray | None]:
+        """(per order (n_n,) complex forces of the kept orders, the (n_0,) rotating load of
+        order 0 or None)."""
+        out = []
+        for o, n in zip(orders, sizes):
+            F = np.zeros(n, dtype=complex)
             if o in self.forces:
                 f = np.asarray(self.forces[o], dtype=complex)
-                if f.shape != (n_dof,):
-                    raise ValueError(
-                        f"hbm: excitation of order {o} has shape {f.shape}, expected ({n_dof},)"
-                    )
-                F[k] = f
-        return F
+                if f.shape not in ((n_dof,), (n,)):
+                    raise ValueError(f"hbm: excitation of order {o} has shape {f.shape}, "
+                                     f"expected ({n_dof},) or ({n},)")
+                F[: f.size] = f
+            out.append(F)
+        rot = None
+        if self.rotating is not None:
+            if 0 not in orders:
+                raise ValueError("hbm: a rotating (static) load needs harmonic order 0")
+            n0 = sizes[orders.index(0)]
+            f = np.asarray(self.rotating, dtype=float)
+            if f.shape not in ((n_dof,), (n0,)):
+                raise ValueError(f"hbm: rotating load has shape {f.shape}, expected "
+                                 f"({n_dof},) or ({n0},)")
+            rot = np.zeros(n0, dtype=complex)
+            rot[: f.size] = f
+        return tuple(out), rot
 
 
 @dataclass(frozen=True)
 class Condensed:
-    """Linear part condensed on the contact DOFs at one operating point."""
+    """Linear part condensed on the contact DOFs at one operating point.
+
+    Per order k: q_i = z_k - Y_k q_c recovers the other DOFs (the shared ones no contact
+    touches, then the order's own)."""
 
     S: np.ndarray  # (n_orders, nc, nc) complex
     F: np.ndarray  # (n_orders, nc) complex
-    Y: np.ndarray | None  # (n_orders, ni, nc): q_i = z - Y q_c
-    z: np.ndarray | None  # (n_orders, ni)
+    Y: tuple[np.ndarray, ...]  # per order (ni_k, nc)
+    z: tuple[np.ndarray, ...]  # per order (ni_k,)
     dS: np.ndarray | None
     dF: np.ndarray | None
+
+    @property
+    def nbytes(self) -> int:
+        arrays = [self.S, self.F, *self.Y, *self.z, self.dS, self.dF]
+        return sum(a.nbytes for a in arrays if a is not None)
 
 
 class HarmonicBalance:
@@ -228,7 +309,7 @@ class HarmonicBalance:
         self.excitation = excitation
         self.contacts = tuple(contacts)
         n = linear.n_dof
-        self.F_ext = excitation.vector(harmonics.orders, n)
+        self._forces, self._rotating = excitation.vectors(harmonics.orders, linear.sizes, n)
         names = [c.name for c in self.contacts]
         if len(set(names)) != len(names):
             raise ValueError(f"hbm: contact names must be unique, got {names}")
@@ -240,9 +321,33 @@ class HarmonicBalance:
                 used |= np.any(mat != 0, axis=0)
             self._B.append(B)
         self.dofs = np.flatnonzero(used)  # the unknowns: contact DOFs
-        self.others = np.flatnonzero(~used)
+        self.others = np.flatnonzero(~used)  # shared DOFs no contact touches
         self._Breal = [self._real_kinematics(B) for B in self._B]
-        self._cache: dict = {}
+        self._cache = _Cache()
+
+    @property
+    def F_ext(self) -> np.ndarray:
+        """(n_orders, n_dof) complex external forces on the shared DOFs at unit multipliers
+        (the rotating load not included)."""
+        return np.array([f[: self.linear.n_dof] for f in self._forces])
+
+    def forces(self, point: OperatingPoint, parameter: str | None = None
+               ) -> tuple[list[np.ndarray], list[np.ndarray] | None]:
+        """Per order the (n_n,) external forces at the point and, with ``parameter``, their
+        derivatives: the excitation multiplier scales the dynamic orders, the rotating load
+        enters order 0 as speed^2 times it."""
+        s2, ds2 = self.excitation.speed_squared(point.omega)
+        F, dF = [], []
+        for o, f in zip(self.harmonics.orders, self._forces):
+            g = f * point.excitation if o > 0 else f.copy()
+            d = f if (o > 0 and parameter == "excitation") else np.zeros_like(f)
+            if o == 0 and self._rotating is not None:
+                g += s2 * self._rotating
+                if parameter == "frequency":
+                    d = d + ds2 * self._rotating
+            F.append(g)
+            dF.append(d)
+        return F, (dF if parameter is not None else None)
 
     # --------------------------------------------------------------- set-up
     def _kinematics(self, c: Contact) -> dict[int, np.ndarray]:
@@ -310,17 +415,9 @@ class HarmonicBalance:
             return hit
         D = self.linear.dynamic_stiffness(point)
         dD = self.linear.d_dynamic_stiffness(point, parameter) if parameter else None
-        dyn = np.array([o > 0 for o in self.harmonics.orders])[:, None]
-        F = self.F_ext * np.where(dyn, point.excitation, 1.0)
-        dF = None
-        if parameter == "excitation":
-            dF = self.F_ext * dyn
-        elif parameter is not None:
-            dF = np.zeros_like(F)
+        F, dF = self.forces(point, parameter)
         out = _condense(D, F, self.dofs, self.others, dD, dF)
-        if len(self._cache) > 16:
-            self._cache.clear()
-        self._cache[key] = out
+        self._cache.put(key, out, out.nbytes)
         return out
 
     def _real_condensed(self, point: OperatingPoint, parameter: str | None):
@@ -336,7 +433,7 @@ class HarmonicBalance:
                 None if lin.dS is None else h.real_matrix(lin.dS),
                 None if lin.dF is None else h.real_vector(lin.dF).ravel(),
             )
-            self._cache[key] = hit
+            self._cache.put(key, hit, sum(a.nbytes for a in hit if a is not None))
         return hit
 
     # ------------------------------------------------------------- residual
@@ -391,33 +488,40 @@ class HarmonicBalance:
                                    corrections=self.sub_sample))
         return out
 
-    def recover(self, x: np.ndarray, point: OperatingPoint) -> np.ndarray:
-        """(n_dof, ncoeff) coefficients of every DOF (seed eq. 9)."""
+    def recover_orders(self, x: np.ndarray, point: OperatingPoint) -> list[np.ndarray]:
+        """Per order the (n_n,) complex amplitudes of every DOF, the order's own included
+        (seed eq. 9): what a reduced body's recovery matrix takes."""
         h = self.harmonics
         lin = self.condensed(point)
-        xc = x.reshape(self.dofs.size, h.n_coeffs)
-        Q = np.zeros((self.linear.n_dof, h.n_coeffs))
-        Q[self.dofs] = xc
-        if self.others.size:
-            Xc = h.to_complex(xc)
-            Xi = {o: lin.z[k] - lin.Y[k] @ Xc[o] for k, o in enumerate(h.orders)}
-            Q[self.others] = h.from_complex(Xi, (self.others.size,))
-        return Q
+        Xc = h.to_complex(x.reshape(self.dofs.size, h.n_coeffs))
+        out = []
+        for k, (o, n) in enumerate(zip(h.orders, self.linear.sizes)):
+            X = np.zeros(n, dtype=complex)
+            X[self.dofs] = Xc[o]
+            X[_others(self.others, self.linear.n_dof, n)] = lin.z[k] - lin.Y[k] @ Xc[o]
+            out.append(X)
+        return out
+
+    def recover(self, x: np.ndarray, point: OperatingPoint) -> np.ndarray:
+        """(n_dof, ncoeff) coefficients of every shared DOF (seed eq. 9)."""
+        h = self.harmonics
+        n = self.linear.n_dof
+        X = self.recover_orders(x, point)
+        return h.from_complex({o: X[k][:n] for k, o in enumerate(h.orders)}, (n,))
 
     def energy_balance(self, x: np.ndarray, point: OperatingPoint) -> dict[str, float]:
-        """Work per cycle, J: excitation, viscous, contacts (friction + normal)."""
-        h = self.harmonics
-        Q = self.recover(x, point)
-        dyn = np.array([o > 0 for o in h.orders])[:, None]
-        F = self.F_ext * np.where(dyn, point.excitation, 1.0)
-        Fr = h.from_complex({o: F[k] for k, o in enumerate(h.orders)}, (self.linear.n_dof,))
-        w_ext = float(h.work(Fr, Q).sum())
-        Qc = h.to_complex(Q)
-        w_visc = 0.0
-        for k, o in enumerate(h.orders):
+        """Work per cycle, J: excitation, viscous, contacts (friction + normal).
+
+        Over a period a force ``Re(F e^{i n w t})`` does on ``Re(X e^{i n w t})`` the work
+        ``int f dx = -pi n Im(F^H X)``, and a damper C dissipates ``pi w n^2 X^H C X``; the
+        static order does none. Every DOF of every order counts (modal ones too)."""
+        X = self.recover_orders(x, point)
+        F, _ = self.forces(point)
+        w_ext = w_visc = 0.0
+        for o, Xk, Fk, Ck in zip(self.harmonics.orders, X, F, self.linear.C):
             if o > 0:
-                w_visc += np.pi * point.omega * o**2 * float(np.real(
-                    np.conj(Qc[o]) @ self.linear.C[k] @ Qc[o]))
+                w_ext += -np.pi * o * float(np.imag(np.vdot(Fk, Xk)))
+                w_visc += np.pi * point.omega * o**2 * float(np.real(np.vdot(Xk, Ck @ Xk)))
         resp = self.contact_response(x, point)
         w_fric = float(sum(r.dissipation.sum() for r in resp))
         w_norm = float(sum(r.normal_work.sum() for r in resp))
@@ -427,30 +531,49 @@ class HarmonicBalance:
         """Linear response, DOF-major: contacts removed (free system) or, with
         ``stuck``, replaced by their stick stiffness (kt, and kn for the variable
         laws). A singular free system (a body held only by its contacts) falls
-        back to the stuck one."""
+        back to the stuck one.
+
+        Solved order by order on the condensed complex blocks (no factorization of the
+        whole real system); an order counts as singular when LAPACK's estimate of its
+        reciprocal condition number is below 1e-12. Cached per point."""
+        key = ("guess", point, stuck)
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit.copy()
         lin = self.condensed(point)
-        S = self.harmonics.real_matrix(lin.S)
-        F = self.harmonics.real_vector(lin.F).ravel()
-        if S.size == 0:
+        h = self.harmonics
+        if lin.S.shape[1] == 0:
             return np.zeros(0)
-        if not stuck:
-            with np.errstate(all="ignore"):
-                if np.linalg.cond(S) < 1e12:
-                    return np.linalg.solve(S, F)
-        for c, Br in zip(self.contacts, self._Breal):
-            S = S + _sandwich(Br, _stick_blocks(c.elements, self.harmonics.n_coeffs))
-        return np.linalg.lstsq(S, F, rcond=None)[0]
+        X = None if stuck else _solve_orders(lin.S, lin.F)
+        if X is None:
+            S = lin.S + self._stick_stiffness()
+            X = _solve_orders(S, lin.F)
+            if X is None:  # singular even stuck (e.g. uncoupled laws at order 0)
+                X = np.array([np.linalg.lstsq(A, b, rcond=None)[0] for A, b in zip(S, lin.F)])
+        x = h.real_vector(X).ravel()
+        self._cache.put(key, x, x.nbytes)
+        return x.copy()
 
-
-def _stick_blocks(el: ContactElements, nc: int) -> np.ndarray:
-    """(P, c, nc, c, nc) stiffness of stuck contacts: kt per direction, kn normal."""
-    blocks = np.zeros((el.size, el.n_components, nc, el.n_components, nc))
-    eye = np.eye(nc)
-    for j in range(el.dim):
-        blocks[:, j, :, j, :] = el.kt[:, j, None, None] * eye
-    if el.variable_normal:
-        blocks[:, -1, :, -1, :] = el.kn[:, None, None] * eye
-    return blocks
+    def _stick_stiffness(self) -> np.ndarray:
+        """(n_orders, nc, nc) complex B_n^H K_stick B_n on the contact DOFs: kt per tangential
+        direction, kn normal (the same for every order)."""
+        key = ("stick",)
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        out = np.zeros((len(self.harmonics.orders), self.dofs.size, self.dofs.size),
+                       dtype=complex)
+        for c, B in zip(self.contacts, self._B):
+            el = c.elements
+            k = np.zeros((el.size, el.n_components))
+            k[:, : el.dim] = el.kt
+            if el.variable_normal:
+                k[:, -1] = el.kn
+            for i, o in enumerate(self.harmonics.orders):
+                Bc = B[o][:, self.dofs]
+                out[i] += Bc.conj().T @ (k.reshape(-1, 1) * Bc)
+        self._cache.put(key, out, out.nbytes)
+        return out
 
 
 def _sandwich(Br: np.ndarray | sp.csr_matrix, blocks: np.ndarray) -> np.ndarray:
@@ -467,32 +590,91 @@ def _sandwich(Br: np.ndarray | sp.csr_matrix, blocks: np.ndarray) -> np.ndarray:
     return np.asarray((Br.T @ (Jc @ Br)).todense())
 
 
-def _condense(D, F, c, i, dD=None, dF=None) -> Condensed:
-    """Exact per-order condensation of D q = F onto DOFs c (others i).
+def _others(shared_others: np.ndarray, n_shared: int, n: int) -> np.ndarray:
+    """Indices condensed in an order of size n: shared DOFs no contact touches, then the
+    order's own DOFs n_shared..n-1."""
+    return np.concatenate([shared_others, np.arange(n_shared, n)])
 
-    D: (n_orders, n, n); F: (n_orders, n); dD, dF: their derivatives or None."""
-    Dcc = D[:, c][:, :, c]
-    if i.size == 0:
-        return Condensed(Dcc, F[:, c], None, None,
-                         None if dD is None else dD[:, c][:, :, c],
-                         None if dF is None else dF[:, c])
-    Dci, Dic, Dii = D[:, c][:, :, i], D[:, i][:, :, c], D[:, i][:, :, i]
-    rhs = np.concatenate([Dic, F[:, i, None]], axis=2)
-    sol = np.linalg.solve(Dii, rhs)
-    Y, z = sol[:, :, :-1], sol[:, :, -1]
-    S = Dcc - Dci @ Y
-    Fe = F[:, c] - np.einsum("kab,kb->ka", Dci, z)
-    dS = dFe = None
-    if dD is not None or dF is not None:
-        # L = Dci Dii^-1 (left factor), dS = dDcc - dDci Y - L dDic + L dDii Y
-        L = np.linalg.solve(np.transpose(Dii, (0, 2, 1)), np.transpose(Dci, (0, 2, 1)))
-        L = np.transpose(L, (0, 2, 1))
-        dS = np.zeros_like(S)
-        dFe = np.zeros_like(Fe) if dF is None else dF[:, c] - np.einsum("kab,kb->ka", L, dF[:, i])
-        if dD is not None:
-            dcc, dci = dD[:, c][:, :, c], dD[:, c][:, :, i]
-            dic, dii = dD[:, i][:, :, c], dD[:, i][:, :, i]
-            dS = dcc - dci @ Y - L @ dic + L @ dii @ Y
-            # dF_eff = -(dDci - L dDii) z
-            dFe = dFe - np.einsum("kab,kb->ka", dci - L @ dii, z)
-    return Condensed(S, Fe, Y, z, dS, dFe)
+
+def _condense(D, F, c, i_shared, dD=None, dF=None) -> Condensed:
+    """Exact per-order condensation of D q = F onto DOFs c (the rest condensed).
+
+    D: per order (n_k, n_k); F: per order (n_k,); dD, dF: their derivatives or None;
+    i_shared: the shared DOFs not in c (every DOF past the shared ones is condensed too).
+    Shared size: n - (order's own DOFs) = c.size + i_shared.size."""
+    n_shared = c.size + i_shared.size
+    S, Fe, Ys, zs, dSs, dFs = [], [], [], [], [], []
+    deriv = dD is not None or dF is not None
+    for k, (Dk, Fk) in enumerate(zip(D, F)):
+        i = _others(i_shared, n_shared, Dk.shape[0])
+        Dcc = Dk[np.ix_(c, c)]
+        dDk = None if dD is None else dD[k]
+        dFk = None if dF is None else dF[k]
+        if i.size == 0:
+            S.append(Dcc)
+            Fe.append(Fk[c])
+            Ys.append(np.zeros((0, c.size), dtype=complex))
+            zs.append(np.zeros(0, dtype=complex))
+            if deriv:
+                dSs.append(np.zeros_like(Dcc) if dDk is None else dDk[np.ix_(c, c)])
+                dFs.append(np.zeros_like(Fk[c]) if dFk is None else dFk[c])
+            continue
+        Dci, Dic, Dii = Dk[np.ix_(c, i)], Dk[np.ix_(i, c)], Dk[np.ix_(i, i)]
+        sol = np.linalg.solve(Dii, np.concatenate([Dic, Fk[i, None]], axis=1))
+        Y, z = sol[:, :-1], sol[:, -1]
+        S.append(Dcc - Dci @ Y)
+        Fe.append(Fk[c] - Dci @ z)
+        Ys.append(Y)
+        zs.append(z)
+        if deriv:
+            # L = Dci Dii^-1 (left factor), dS = dDcc - dDci Y - L dDic + L dDii Y
+            L = np.linalg.solve(Dii.T, Dci.T).T
+            dFe = np.zeros_like(Fe[-1]) if dFk is None else dFk[c] - L @ dFk[i]
+            dS = np.zeros_like(S[-1])
+            if dDk is not None:
+                dcc, dci = dDk[np.ix_(c, c)], dDk[np.ix_(c, i)]
+                dic, dii = dDk[np.ix_(i, c)], dDk[np.ix_(i, i)]
+                dS = dcc - dci @ Y - L @ dic + L @ dii @ Y
+                dFe = dFe - (dci - L @ dii) @ z  # dF_eff = -(dDci - L dDii) z
+            dSs.append(dS)
+            dFs.append(dFe)
+    return Condensed(np.array(S), np.array(Fe), tuple(Ys), tuple(zs),
+                     np.array(dSs) if deriv else None, np.array(dFs) if deriv else None)
+
+
+def _solve_orders(S: np.ndarray, F: np.ndarray, rcond_min: float = 1e-12
+                  ) -> np.ndarray | None:
+    """X_k = S_k^-1 F_k per order, or None if any S_k is singular to rcond_min (LAPACK's
+    1-norm estimate, O(n^2) beside the O(n^3) factorization)."""
+    X = np.empty_like(F)
+    for k, (A, b) in enumerate(zip(S, F)):
+        lu, piv, info = sla.lapack.zgetrf(A)
+        if info != 0:
+            return None
+        rcond, _ = sla.lapack.zgecon(lu, np.abs(A).sum(axis=0).max(), norm="1")
+        if not rcond >= rcond_min:
+            return None
+        X[k] = sla.lu_solve((lu, piv), b, check_finite=False)
+    return X
+
+
+class _Cache:
+    """Results per operating point, bounded in bytes (dense condensed matrices of a
+    full-scale model take tens of MB each): the oldest entries go first."""
+
+    LIMIT = 512 * 2**20
+
+    def __init__(self):
+        self._data: dict = {}
+        self._bytes = 0
+
+    def get(self, key):
+        return self._data.get(key, (None, 0))[0]
+
+    def put(self, key, value, nbytes: int) -> None:
+        if key in self._data:
+            self._bytes -= self._data.pop(key)[1]
+        while self._data and self._bytes + nbytes > self.LIMIT:
+            self._bytes -= self._data.pop(next(iter(self._data)))[1]
+        self._data[key] = (value, nbytes)
+        self._bytes += nbytes
