@@ -4,6 +4,7 @@ Public API
 ----------
 Mesh, CyclicBoundary, ContactPatch       the mesh contract (geometry.mesh)
 MODELS, PARAMETERS                       case-file model names -> builders / parameter classes
+NAMES                                    bodies, patches, node sets of the contact models
 beam, annular_sector                     reference models for FE checks (geometry.simple)
 blisk_sector, BliskParameters            blisk sector + wedge damper (geometry.blisk)
 root_joint, RootJointParameters          dovetail disk sector + blade (geometry.root_joint)
@@ -34,8 +35,29 @@ PARAMETERS = {  # the same names -> their parameter dataclasses (units, defaults
     "annular_sector": AnnularSectorParameters,
 }
 
+NAMES = {  # the bodies, contact patches and node sets each model makes (what a case may name,
+    # checked before meshing; tests/test_geometry_models.py checks them against the meshes)
+    "blisk_sector": {
+        "bodies": ("blisk", "damper"),
+        "patches": ("damper_left", "damper_right"),
+        "node_sets": ("blisk/bore", "blisk/blade_tip", "blisk/excitation", "blisk/response",
+                      "cyclic/blisk/left", "cyclic/blisk/right", "damper/all",
+                      "contact/damper_left/damper", "contact/damper_left/blisk",
+                      "contact/damper_right/damper", "contact/damper_right/blisk"),
+    },
+    "root_joint": {
+        "bodies": ("blade", "disk"),
+        "patches": ("root_left", "root_right"),
+        "node_sets": ("disk/bore", "cyclic/disk/left", "cyclic/disk/right", "blade/tip",
+                      "blade/excitation", "blade/response", "contact/root_left/blade",
+                      "contact/root_left/disk", "contact/root_right/blade",
+                      "contact/root_right/disk"),
+    },
+}
+
 __all__ = [
     "MODELS",
+    "NAMES",
     "PARAMETERS",
     "AnnularSectorParameters",
     "BeamParameters",

@@ -264,3 +264,13 @@ def test_size_sweep_keeps_every_guarantee(build, factor):
     assert sicn(m.points, m.tetrahedra).min() > MIN_SICN
     for body, cad in m.parameters["derived"]["cad_volume"].items():
         assert m.body_volume(body) == pytest.approx(cad, rel=5e-3)
+
+
+@pytest.mark.parametrize("name, model", [("blisk", "blisk_sector"), ("root", "root_joint")])
+def test_declared_names_are_the_meshed_ones(request, name, model):
+    """Case files are checked against geometry.NAMES before anything is meshed."""
+    m = request.getfixturevalue(name)
+    names = geometry.NAMES[model]
+    assert set(names["bodies"]) == set(m.bodies)
+    assert set(names["patches"]) == set(m.contacts)
+    assert set(names["node_sets"]) == set(m.node_sets)

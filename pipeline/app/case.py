@@ -44,6 +44,7 @@ from microslip.pipeline.solve.hbm import (
     OperatingPoint,
 )
 
+from . import coupled
 from .checks import number, unknown_keys
 from .structure import check as check_reduction
 
@@ -52,7 +53,7 @@ METHODS = ("arclength", "natural", "natural-down")  # natural-down: from stop to
 # peak: max_t |x(t)|; vibration: max_t |x(t) - x0| (static part removed); harmonic: |X_1|
 MEASURES = ("peak", "vibration", "harmonic")
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
-            "analysis", "geometry", "reduction"}
+            "analysis", "geometry", "reduction", "coupling"}
 MODEL_KEYS = {"dofs", "mass", "stiffness", "damping", "mass_part"}
 CONTACT_KEYS = {"name", "law", "form", "kt", "kn", "mu", "n0", "interference", "u", "u1", "u2",
                 "v", "enabled"}
@@ -156,6 +157,9 @@ def _check(data: dict, out: list[str], analyses: bool = True) -> None:
         _geometry(data["geometry"], out)
     if "reduction" in data:
         check_reduction(data["reduction"], data, out)
+    if "coupling" in data:
+        _check_coupled(data, out, analyses)
+        return
     if "geometry" in data and "model" not in data and "analysis" not in data:
         _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
         return  # a mesh (and reduction) case
@@ -200,6 +204,34 @@ def _check(data: dict, out: list[str], analyses: bool = True) -> None:
         return
     for i, a in enumerate(analyses):
         _analysis(i, a, data, seen, names, out)
+
+
+def _check_coupled(data: dict, out: list[str], analyses: bool) -> None:
+    """A case of reduced FE bodies joined by friction patches ([coupling])."""
+    coupled.check(data["coupling"], data, out)
+    for key in ("contacts", "loads"):
+        if key in data:
+            out.append(f"{key}: a coupled case gives its contacts and loads in [coupling]")
+    _harmonics(data.get("harmonics", {}), out)
+    _solver(data.get("solver", {}), out)
+    if not analyses:
+        return
+    items = data.get("analysis", [])
+    if not isinstance(items, list) or not items:
+        out.append("analysis: missing; add at least one [[analysis]] with type in "
+                   f"{list(coupled.ANALYSES)}")
+        return
+    outputs = set(coupled.output_names(data))
+    for i, a in enumerate(items):
+        if isinstance(a, dict) and a.get("type") not in coupled.ANALYSES:
+            out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: a coupled case "
+                       f"runs {list(coupled.ANALYSES)}")
+            continue
+        if isinstance(a, dict) and a.get("parameter", "frequency") not in coupled.PARAMETERS:
+            out.append(f"analysis.{a.get('name', i)}.parameter = {a.get('parameter')!r}: a "
+                       f"coupled case sweeps {list(coupled.PARAMETERS)}")
+            continue
+        _analysis(i, a, data, set(), outputs, out)
 
 
 def _matrix(key: str, value, n: int, positive: bool, out: list[str]) -> None:
@@ -689,8 +721,10 @@ def model(case: Case) -> HarmonicBalance:
     return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=sub)
 
 
-def operating_point(analysis: dict) -> OperatingPoint:
-    """The fixed values of the parameters an analysis does not sweep."""
+def operating_point(analysis: dict, case: Case | None = None) -> OperatingPoint:
+    """The fixed values of the parameters an analysis does not sweep (a coupled case's
+    damper mass multiplier from [coupling] mass_multiplier)."""
     par = analysis.get("parameter", "frequency")
     omega = analysis["start"] if par == "frequency" else analysis["frequency"]
-    return OperatingPoint(float(omega))
+    mass = 1.0 if case is None else case.data.get("coupling", {}).get("mass_multiplier", 1.0)
+    return OperatingPoint(float(omega), mass_multiplier=float(mass))

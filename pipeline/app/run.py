@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,7 +20,11 @@ from microslip.pipeline.solve.response import Response, peak_curve, sweep
 
 from . import case as cs
 from . import plots
+from .models import CoupledModels, LumpedModels
 from .results import ResultsWriter
+
+if TYPE_CHECKING:
+    from .structure import StructureResult
 
 Progress = Callable[[str], None]
 
@@ -31,6 +36,7 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
                        case_hash=case.content_hash, case=case.data) as w:
         stopped = ""
+        models: LumpedModels | CoupledModels = LumpedModels()
         if "geometry" in case.data:
             t = time.perf_counter()
             m = mesh_geometry(case.data["geometry"], out, progress)
@@ -40,7 +46,9 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
                 "contacts": sorted(m.contacts), "parameters": m.parameters, "status": "complete",
                 "elapsed_s": time.perf_counter() - t, "type": "geometry"})
             if "reduction" in case.data:
-                write_structure(w, m, case, out, progress)
+                result = write_structure(w, m, case, out, progress)
+                if "coupling" in case.data:
+                    models = CoupledModels(m, result)
         drawn: dict[str, dict] = {}  # analysis -> {output: series}, for comparisons
         for i, a in enumerate(case.analyses):
             name = str(a.get("name", f"analysis{i}"))
@@ -49,7 +57,8 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
             group = w.analysis(name, {k: v for k, v in a.items() if k != "family"}
                                | {"family": a.get("family", {})})
             progress(f"[{name}] {kind} ...")
-            status, message = RUNNERS[kind](case, a, name, w, group, out, progress, drawn)
+            status, message = RUNNERS[kind](case, a, name, w, group, out, progress, drawn,
+                                            models)
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t
@@ -84,12 +93,12 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
 
 
 def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
-                    progress: Progress = print) -> None:
+                    progress: Progress = print) -> StructureResult:
     """The [reduction] stage: reduced models in out/models (reused when unchanged) and their
     summary in results.h5 /reduction/<body>/nd<h> (frequencies of the reduced model with free
     masters, fixed-interface mode frequencies, master nodes; attrs: model file, sizes) and
     /reduction/contact_stiffness/<patch> (kn, kt per node pair [N/m])."""
-    from .structure import reduce_structure
+    from .structure import reduce_structure  # imports the FE stages only when needed
 
     t = time.perf_counter()
     orders = cs.harmonics(case).orders if "harmonics" in case.data else None
@@ -114,11 +123,14 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
             attrs["file"] = "" if path is None else str(path.relative_to(out))
     progress(f"[reduction] {len(result.cached)} of {len(result.seconds)} models from the "
              f"cache; stage {time.perf_counter() - t:.1f} s")
+    return result
 
 
-def _outputs(case: cs.Case, a: dict) -> tuple[list[str], list[int]]:
-    names = a.get("outputs", case.dofs)
-    return names, [case.dofs.index(n) for n in names]
+def _outputs(case: cs.Case, a: dict, models=None) -> tuple[list[str], object]:
+    """(output names, their selection: DOF indices or rows of the shared DOFs)."""
+    models = models or LumpedModels()
+    names = a.get("outputs", models.names(case))
+    return names, models.selection(case, names)
 
 
 def _family(case: cs.Case, a: dict) -> list[tuple[cs.Case, str, object]]:
@@ -172,6 +184,7 @@ def _contact_data(r: Response) -> dict:
             static = np.zeros((len(r), 0))
         out[c.name] = {
             "state": np.array([x.state[0] for x in rows], dtype=np.int8),
+            "node_state": np.array([x.state for x in rows], dtype=np.int8),
             "dissipation": np.array([x.dissipation.sum() for x in rows]),
             "slip_fraction": np.array([x.slip_fraction.mean() for x in rows]),
             "static_force": static,
@@ -180,9 +193,9 @@ def _contact_data(r: Response) -> dict:
     return out
 
 
-def run_frf(case, a, name, w, group, out, progress, drawn):
+def run_frf(case, a, name, w, group, out, progress, drawn, models):
     par = a.get("parameter", "frequency")
-    names, idx = _outputs(case, a)
+    names, idx = _outputs(case, a, models)
     methods = a.get("method", "arclength")
     methods = methods if isinstance(methods, list) else [methods]
     measure = a.get("measure", "peak")
@@ -196,9 +209,9 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
             if method == "natural-down":
                 start, stop = stop, start
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
-            hb = cs.model(c)
+            hb = models.model(c)
             t = time.perf_counter()
-            base = cs.operating_point(a).set(par, start)
+            base = cs.operating_point(a, c).set(par, start)
             r = sweep(hb, par, start, stop, base,
                       method="natural" if method.startswith("natural") else method,
                       settings=cs.settings(c),
@@ -213,6 +226,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
                 "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
                 "coefficients": coef, "amplitude": amp, "response": shown,
                 "residual": b.residuals, "iterations": b.iterations,
+                "unknowns": b.x, "unknown_dofs": hb.dofs,
                 "contacts": _contact_data(r) if len(r) else {},
             }
             attrs = {"label": tag, "method": method, "measure": measure,
@@ -244,6 +258,10 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
                 break
         if statuses and statuses[-1][0] == "interrupted":
             break
+    if isinstance(models, CoupledModels) and par == "frequency" and statuses and \
+            statuses[-1][0] != "interrupted":
+        _linear_limits(models.coupled(case.with_values(a.get("set", {}))), case, a, names,
+                       measure, w, group, series)
     drawn[name] = {"parameter": par, "series": series, "static": static}
     for n in names:
         plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}", plots.LABELS[par],
@@ -252,6 +270,26 @@ def run_frf(case, a, name, w, group, out, progress, drawn):
         plots.curves(out / f"{name}_static_{cname}.png", f"{name}: static forces, contact "
                      f"{cname}", plots.LABELS[par], lines, "static contact force [N]")
     return _worst(statuses)
+
+
+def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w, group,
+                   series: dict) -> None:
+    """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
+    directly (linear): written beside the curves and drawn with them."""
+    ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
+    base = cs.operating_point(a, case)
+    for springs, label, style in (("free", "free (no damper)", ":"), ("stuck", "fully stuck",
+                                                                         "--")):
+        coef = np.array([cm.linear_outputs(base.set("frequency", x), springs, names)
+                         for x in ws])
+        shown = _measure(coef, cm.hb.harmonics, measure)
+        w.write_group(group, f"linear_{springs}", {"omega": ws, "coefficients": coef,
+                                                   "response": shown}, {"label": label})
+        for k, n in enumerate(names):
+            series[n].append({"x": ws, "y": shown[:, k], "label": label, "ls": style})
+
+
+LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
 
 
 _MEASURE_LABEL = {"peak": "max |{}(t)|", "vibration": "max |{0}(t) - {0}0|",
@@ -269,15 +307,15 @@ def _peak_ticker(progress: Progress, name: str, label: str, par: str):
     return tick
 
 
-def run_peak(case, a, name, w, group, out, progress, drawn):
+def run_peak(case, a, name, w, group, out, progress, drawn, models):
     par = a["parameter"]
     space = np.geomspace if a.get("spacing", "linear") == "log" else np.linspace
     values = space(a["start"], a["stop"], a.get("points", 25))
-    k = case.dofs.index(a["output"])
+    k = _outputs(case, {"outputs": [a["output"]]}, models)[1][0]
     lo, hi = a["window"]
     series, statuses = [], []
     for j, (c, label, fvalue) in enumerate(_family(case, a)):
-        hb = cs.model(c)
+        hb = models.model(c)
         t = time.perf_counter()
         tick = _peak_ticker(progress, name, label, par)
         if a.get("tracking", "continuation") == "continuation":
@@ -325,7 +363,7 @@ def run_peak(case, a, name, w, group, out, progress, drawn):
     return _worst(statuses)
 
 
-def run_loops(case, a, name, w, group, out, progress, drawn):
+def run_loops(case, a, name, w, group, out, progress, drawn, models=None):
     table = next(c for c in case.data["contacts"] if c.get("name") == a["contact"])
     amps = np.asarray(a["amplitudes"], dtype=float)
     base = cs.contact_elements(table)
@@ -369,7 +407,7 @@ def _time_model(case: cs.Case, a: dict):
     return c, hb, names, idx, tm, loads
 
 
-def run_dti(case, a, name, w, group, out, progress, drawn):
+def run_dti(case, a, name, w, group, out, progress, drawn, models=None):
     from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)
@@ -449,7 +487,7 @@ def _join_responses(parts):
                        parts[-1].end)
 
 
-def run_transient(case, a, name, w, group, out, progress, drawn):
+def run_transient(case, a, name, w, group, out, progress, drawn, models=None):
     from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)

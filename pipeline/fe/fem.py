@@ -13,6 +13,9 @@ DOF numbering is scikit-fem's: for a vertex node the three DOFs (x, y, z) are
 to DOFs through these explicit tables, never by a coordinate search.
 
 Units: SI (m, kg, Pa); matrices in N/m and kg.
+
+Loads: ``centrifugal_load`` gives the consistent load vector of the rotation about the disk
+axis (+z through the origin), per unit Omega^2 (see its docstring for what is not modelled).
 """
 
 from __future__ import annotations
@@ -97,6 +100,8 @@ class BodyModel:
     edges: (n_e, 2) global vertex pairs (sorted per row) of the mesh edges.
     edge_dofs: (n_e, 3) DOF indices of the P2 edge nodes (empty for order 1).
     boundary_facets: (n_f, 3) global vertex triples of the body's boundary triangles.
+    tetrahedra: (m_b, 4) global vertex indices of the body's tetrahedra (mesh order), from
+        which the scikit-fem basis (same DOF numbering) is rebuilt for loads.
     stiffness, mass: (N, N) CSR [N/m], [kg].
     """
 
@@ -110,6 +115,7 @@ class BodyModel:
     edges: IntArray
     edge_dofs: IntArray
     boundary_facets: IntArray
+    tetrahedra: IntArray
     stiffness: sp.csr_matrix
     mass: sp.csr_matrix
 
@@ -265,9 +271,48 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
         edges=np.sort(edges, axis=1).astype(np.int64),
         edge_dofs=edge_dofs,
         boundary_facets=nodes[skm.facets[:, skm.boundary_facets()].T].astype(np.int64),
+        tetrahedra=tets,
         stiffness=K,
         mass=M,
     )
+
+
+# --- loads ---------------------------------------------------------------------------------
+
+
+@fe.LinearForm
+def _centrifugal_form(v, w):
+    # rho (x, y, 0) . v: the centrifugal body force per unit Omega^2 about the z axis.
+    return w["rho"] * (w.x[0] * v[0] + w.x[1] * v[1])
+
+
+def centrifugal_load(body: BodyModel) -> FloatArray:
+    """Consistent FE load vector (N,) [N/(rad/s)^2] of a rotation about the disk axis, per
+    unit Omega^2: multiply by Omega^2 [(rad/s)^2] for the load in N at speed Omega [rad/s].
+
+    The disk axis is +z through the origin (every geometry model). The body force density at
+    speed Omega is rho Omega^2 (x, y, 0) [N/m^3]; its consistent load is f_i = int rho (x, y, 0)
+    . N_i dV, assembled with scikit-fem on the body's own basis (same DOF numbering as K and M).
+    The integrand is a shape function (degree p) times a linear field, so ``intorder = p + 1``
+    is exact on straight-sided (affine) tetrahedra; as the field is linear, f = M g exactly,
+    with g the interpolant of (x, y, 0).
+
+    Not modelled: spin softening (the -Omega^2 M_c term of the rotating frame) and stress
+    stiffening (the geometric stiffness of the centrifugal prestress): K and M stay those of
+    the body at rest, this is the load only.
+    """
+    if len(body.tetrahedra) == 0:
+        raise ValueError(f"body {body.body!r}: no tetrahedra to integrate the load over")
+    tets = body.tetrahedra
+    local = body.local_nodes(tets.ravel(), "tetrahedra").reshape(tets.shape)
+    # Same vertex order and connectivity as in ``assemble`` (skfem_mesh): same DOF numbering.
+    skm = fe.MeshTet(np.ascontiguousarray(body.points.T), np.ascontiguousarray(local.T))
+    basis = fe.Basis(skm, _element(body.order), intorder=body.order + 1)
+    f = _centrifugal_form.assemble(basis, rho=body.material.density)
+    if f.shape != (body.n_dofs,):
+        raise ValueError(f"body {body.body!r}: load has {f.shape[0]} DOFs, the body has "
+                         f"{body.n_dofs} (tetrahedra do not match the assembled body)")
+    return np.asarray(f, dtype=np.float64)
 
 
 # --- damping -------------------------------------------------------------------------------

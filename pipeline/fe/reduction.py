@@ -21,6 +21,14 @@ modes and the shift-invert eigen-solve. A free-free body (the damper) needs no s
 treatment: with every contact DOF a master, K_ss is non-singular and the rigid-body motion is
 carried by the static modes, so k has exactly six zero eigenvalues.
 
+Loads: FE load vectors f on the body DOFs go through the same basis, exactly as the matrices:
+the cyclic expansion first (f_free = P_h^H f), then q-space T^H f_free = [f_m + Psi^H f_s ;
+Phi_s^H f_s]. The static modes make this exact for static reactions on clamped masters and for
+any rigid-body motion of the masters. ``reduce_body`` stores the centrifugal load
+(``fem.centrifugal_load``, per unit Omega^2) under the name "centrifugal" in the model of ND 0
+of a cyclic body (the load is axisymmetric: it has no component on any other ND) and in the
+model of a body without cyclic symmetry.
+
 The recovery matrix is kept only on the requested nodes. Models are stored in HDF5 (never
 pickle) and reused when the content hash of their inputs matches.
 """
@@ -43,7 +51,10 @@ from . import cyclic, fem, linalg
 from .fem import Damping, IntArray, Material, MeshLike
 
 #: Bump when the stored layout or the algorithm changes (invalidates caches).
-FORMAT_VERSION = 1
+#: 2: reduced load vectors (``ReducedModel.loads``, the centrifugal load at ND 0).
+FORMAT_VERSION = 2
+#: Name of the centrifugal load (per unit Omega^2) in ``ReducedModel.loads``.
+CENTRIFUGAL = "centrifugal"
 #: Default fixed-interface mode selection: "auto" keeps every mode below CUTOFF x f_ref, with
 #: f_ref the INTEREST-th fixed-interface frequency (or a given f_max). An integer keeps that many.
 DEFAULT_MODES = "auto"
@@ -85,6 +96,11 @@ class ReducedModel:
         (a subset of master_nodes).
     recovery_nodes: (p,) global node indices; recovery: (p, 3, r), u(node) = recovery @ q.
     nodal_diameter, sectors: None for a body without cyclic symmetry.
+    loads: load name -> (r,) reduced load vector, dtype of the model (complex at 0 < h < Ns/2),
+        the generalized force on q of an FE load on the body DOFs (q^H loads[name] is its
+        virtual work). "centrifugal" (``CENTRIFUGAL``): per unit Omega^2, N/(rad/s)^2 on the
+        master DOFs (the modal entries in the units of the mass-normalised modes), present at
+        ND 0 of a cyclic body and for a body without cyclic symmetry.
     key: content hash of everything that produced the reduction (the damping spec is a
         separate field, applied without re-reducing). A mass study scales the mass by a
         multiplier in the harmonic balance (``LinearDynamics.mass``): exact, since re-reducing
@@ -106,6 +122,7 @@ class ReducedModel:
     patches: Mapping[str, IntArray] = field(default_factory=dict)
     damping_spec: Damping | None = None
     key: str = ""
+    loads: Mapping[str, NDArray] = field(default_factory=dict)
 
     # --- sizes and maps the harmonic balance needs ---------------------------------------
 
@@ -203,6 +220,9 @@ class ReducedModel:
             pg = g.create_group("patches")
             for name, nodes in self.patches.items():
                 pg.create_dataset(name, data=np.asarray(nodes, dtype=np.int64))
+            lg = g.create_group("loads")
+            for name, vector in self.loads.items():
+                lg.create_dataset(name, data=np.asarray(vector))
             g.attrs["format_version"] = FORMAT_VERSION
             g.attrs["body"] = self.body
             g.attrs["method"] = self.method
@@ -229,6 +249,7 @@ class ReducedModel:
                 "stiffness", "mass", "master_nodes", "master_coordinates",
                 "mode_frequencies", "recovery_nodes", "recovery")}
             patches = {name: g["patches"][name][()] for name in g["patches"]}
+            loads = {name: g["loads"][name][()] for name in g["loads"]}
             spec = json.loads(g.attrs["damping"])
             nd, ns = int(g.attrs["nodal_diameter"]), int(g.attrs["sectors"])
             return cls(
@@ -240,6 +261,7 @@ class ReducedModel:
                 patches=patches,
                 damping_spec=None if spec is None else Damping(spec[0], spec[1], tuple(spec[2])),
                 key=str(g.attrs["key"]),
+                loads=loads,
                 **arrays,
             )
 
@@ -270,19 +292,23 @@ def reduction_key(
     patches: Mapping[str, IntArray] | None = None,
     cutoff: float = CUTOFF,
     f_max: float | None = None,
+    loads: Iterable[str] = (),
 ) -> str:
     """Content hash of the inputs of a reduction (mesh, body, material, order, constraints,
-    ND, masters, modes, recovery nodes, patches, format version)."""
+    ND, masters, modes, recovery nodes, patches, names of the projected loads, format
+    version). Load vectors enter by name only: those ``reduce_body`` projects are functions
+    of mesh, body, material and order, already in the hash."""
     body = model.body
     return _key(body.mesh_hash, body.body, body.order, body.material, model.clamped_nodes,
                 model.nodal_diameter, method, master_nodes, n_modes, recovery_nodes, patches,
-                cutoff, f_max)
+                cutoff, f_max, loads)
 
 
 def _key(mesh_hash: str, body: str, order: int, material: Material, clamped: IntArray,
          nodal_diameter: int | None, method: str, master_nodes: IntArray, n_modes: int | str,
          recovery_nodes: IntArray, patches: Mapping[str, IntArray] | None,
-         cutoff: float = CUTOFF, f_max: float | None = None) -> str:
+         cutoff: float = CUTOFF, f_max: float | None = None,
+         loads: Iterable[str] = ()) -> str:
     return _hash({
         "format": FORMAT_VERSION,
         "mesh": mesh_hash,
@@ -296,6 +322,7 @@ def _key(mesh_hash: str, body: str, order: int, material: Material, clamped: Int
         "modes": _mode_selection(n_modes, cutoff, f_max),
         "recovery": _nodes_digest(np.unique(recovery_nodes)),
         "patches": {k: _nodes_digest(v) for k, v in (patches or {}).items()},
+        "loads": sorted(loads),
     })
 
 
@@ -337,6 +364,30 @@ def _check_modes(n_modes: int, available: int, what: str) -> None:
         )
 
 
+def _check_loads(model: cyclic.SectorModel, loads: Mapping[str, NDArray] | None
+                 ) -> dict[str, NDArray]:
+    """The FE load vectors, each (N,) on the body DOFs, finite; ValueError otherwise."""
+    out = {}
+    for name, f in (loads or {}).items():
+        if not (isinstance(name, str) and name):
+            raise ValueError(f"loads: names must be non-empty strings, got {name!r}")
+        f = np.asarray(f)
+        if f.shape != (model.body.n_dofs,) or not np.issubdtype(f.dtype, np.number):
+            raise ValueError(f"loads[{name!r}]: shape {f.shape}, expected ({model.body.n_dofs},)"
+                             f" (one entry per DOF of body {model.body.body!r})")
+        if not np.all(np.isfinite(f)):
+            raise ValueError(f"loads[{name!r}]: must be finite")
+        out[name] = f
+    return out
+
+
+def _free_loads(model: cyclic.SectorModel, loads: Mapping[str, NDArray]) -> dict[str, NDArray]:
+    """Loads on the free coordinates: P_h^H f (clamped DOFs drop out; a right-face entry goes to
+    its left-face image, rotated back and phase-shifted as the DOFs are)."""
+    PH = model.expansion.conj().T.tocsr()
+    return {name: PH @ f for name, f in loads.items()}
+
+
 def _recovery_rows(model: cyclic.SectorModel, nodes: IntArray) -> sp.csr_matrix:
     """(3p, n_f) rows of the expansion P_h for the x, y, z DOFs of ``nodes``."""
     dofs = model.body.dofs_of_nodes(nodes, "recovery nodes").ravel()
@@ -355,6 +406,7 @@ def craig_bampton(
     cutoff: float = CUTOFF,
     f_max: float | None = None,
     eigen_method: str = "block",
+    loads: Mapping[str, NDArray] | None = None,
 ) -> ReducedModel:
     """Craig-Bampton reduction of a sector model (one body, one ND).
 
@@ -369,6 +421,8 @@ def craig_bampton(
     timings: if a dict is given, filled with the step times [s].
     eigen_method: "block" (block shift-invert Lanczos) or "arpack" (integer n_modes only);
         see ``linalg.lowest_modes``.
+    loads: name -> (N,) FE load vector on the body DOFs (e.g. ``fem.centrifugal_load``),
+        projected as T^H P_h^H f = [f_m + Psi^H f_s ; Phi_s^H f_s] into ``ReducedModel.loads``.
     All inputs are checked before any factorization.
     """
     selection = n_modes
@@ -391,6 +445,7 @@ def craig_bampton(
         if not np.isin(nodes, masters).all():
             raise ValueError(f"patches[{name!r}]: every patch node must be a master node")
     backend = linalg.check_backend(backend, model.n_free)
+    loads = _check_loads(model, loads)
 
     is_master = np.zeros(n_f, dtype=bool)
     is_master[m_idx] = True
@@ -468,6 +523,16 @@ def craig_bampton(
         R = R.reshape(len(recovery), 3, r)
     else:
         R = np.zeros((0, 3, r), dtype=dtype)
+
+    # Loads: T^H P^H f = [f_m + Psi^H f_s ; Phi^H f_s] (as (Psi^T conj(f_s))^*: no copy of
+    # Psi^H).
+    reduced_loads = {}
+    for name, f in _free_loads(model, loads).items():
+        f_s = f[s_idx].conj()
+        red = np.empty(r, dtype=np.result_type(dtype, f.dtype))
+        red[:n_m] = f[m_idx] + (Psi.T @ f_s).conj()
+        red[n_m:] = (Phi.T @ f_s).conj()
+        reduced_loads[name] = red
     t4 = time.perf_counter()
     if timings is not None:
         timings.update(factorize=t1 - t0, static_modes=t2 - t1, eigen=t3 - t2,
@@ -489,7 +554,8 @@ def craig_bampton(
         patches=patches,
         damping_spec=damping,
         key=reduction_key(model, "craig-bampton", masters, selection, recovery, patches,
-                          cutoff, f_max),
+                          cutoff, f_max, loads),
+        loads=reduced_loads,
     )
 
 
@@ -500,13 +566,15 @@ def modal_reduction(
     damping: Damping | None = None,
     sigma: float = 0.0,
     backend: str | None = None,
+    loads: Mapping[str, NDArray] | None = None,
 ) -> ReducedModel:
     """Modal superposition (eqs. 33-36): q = eta, the amplitudes of the lowest n_modes modes.
 
     k = diag(omega^2), m = I; no master coordinates: contact displacements come from the
     recovery matrix (u = Psi eta on ``recovery_nodes``, which must include the contact nodes),
     contact forces go back as Psi^H f (eq. 36). ``sigma`` [rad^2/s^2] is the shift; use a
-    negative one for a body with rigid-body modes.
+    negative one for a body with rigid-body modes. ``loads``: name -> (N,) FE load vector on
+    the body DOFs, projected as Phi^H P_h^H f (modal forces) into ``ReducedModel.loads``.
     """
     recovery = np.unique(np.asarray(recovery_nodes, dtype=np.int64))
     _check_modes(n_modes, model.n_free, "free")
@@ -514,12 +582,14 @@ def modal_reduction(
         raise ValueError("n_modes=0: modal superposition needs at least one mode")
     if len(recovery):
         model.body.local_nodes(recovery, "recovery_nodes")
+    loads = _check_loads(model, loads)
     lam, Phi = linalg.lowest_modes(model.stiffness, model.mass, int(n_modes), sigma=sigma,
                                    backend=backend)
     if len(recovery):
         R = (_recovery_rows(model, recovery) @ Phi).reshape(len(recovery), 3, n_modes)
     else:
         R = np.zeros((0, 3, n_modes), dtype=Phi.dtype)
+    reduced_loads = {name: Phi.conj().T @ f for name, f in _free_loads(model, loads).items()}
     return ReducedModel(
         body=model.body.body,
         method="modal",
@@ -534,7 +604,9 @@ def modal_reduction(
         nodal_diameter=model.nodal_diameter,
         sectors=model.sectors,
         damping_spec=damping,
-        key=reduction_key(model, "modal", np.empty(0, np.int64), n_modes, recovery),
+        key=reduction_key(model, "modal", np.empty(0, np.int64), n_modes, recovery,
+                          loads=loads),
+        loads=reduced_loads,
     )
 
 
@@ -601,8 +673,14 @@ def _path(cache_dir: str | Path, mesh: MeshLike, spec: BodySpec, master_nodes: I
           nodal_diameter: int | None) -> Path:
     key = _key(mesh.content_hash, spec.body, spec.order, spec.material, clamped,
                nodal_diameter, "craig-bampton", master_nodes, spec.n_modes, recovery, patches,
-               spec.cutoff, spec.f_max)
+               spec.cutoff, spec.f_max, _body_load_names(nodal_diameter))
     return Path(cache_dir) / f"cb-{key[:32]}.h5"
+
+
+def _body_load_names(nodal_diameter: int | None) -> tuple[str, ...]:
+    """Names of the loads ``reduce_body`` projects at an ND (None: no cyclic symmetry): the
+    centrifugal load is axisymmetric, so only ND 0 (or a non-cyclic body) carries it."""
+    return (CENTRIFUGAL,) if nodal_diameter in (None, 0) else ()
 
 
 def reference_frequency(models: Iterable[ReducedModel]) -> float | None:
@@ -623,7 +701,9 @@ def reduce_body(
 ) -> dict[int, ReducedModel]:
     """Craig-Bampton models of one body for each ND (a non-cyclic body: ND ignored, one model
     reused for all). Cached in ``cache_dir/<key>.h5``; the body is assembled once, and only on
-    a cache miss.
+    a cache miss. The model of ND 0 (and that of a non-cyclic body) carries the centrifugal
+    load per unit Omega^2 in ``loads["centrifugal"]`` (see ``fem.centrifugal_load``); the
+    other NDs have no load.
 
     report: called after each model as report(ND, model, file or None, from cache, seconds);
         a non-cyclic body reports once, as ND 0.
@@ -647,8 +727,11 @@ def reduce_body(
             if body_model is None:
                 body_model = fem.assemble(mesh, spec.body, spec.material, spec.order)
             sector = cyclic.sector_model(body_model, clamped, boundary, h)
+            names = _body_load_names(h if boundary is not None else None)
+            loads = {CENTRIFUGAL: fem.centrifugal_load(body_model)} if names else None
             model = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
-                                  spec.damping, backend, cutoff=spec.cutoff, f_max=spec.f_max)
+                                  spec.damping, backend, cutoff=spec.cutoff, f_max=spec.f_max,
+                                  loads=loads)
             if path is not None:
                 _save_atomically(model, path)
         out[h] = model

@@ -124,7 +124,7 @@ def newton(
         if it == settings.max_iter:
             break
         try:
-            dx = -_solve(J, R)
+            dx = _capped(-_solve(J, R), x_scale)
         except (np.linalg.LinAlgError, ValueError) as err:
             return NewtonResult(x, False, it, res, f"singular Jacobian ({err})")
         x, R, J = _damped(fun, x, dx, lam, R)
@@ -133,6 +133,21 @@ def newton(
         x, False, settings.max_iter, res,
         f"no convergence in {settings.max_iter} iterations (||R|| = {res:.3g} * f_scale)",
     )
+
+
+MAX_STEP = 1e4  # largest Newton step, in units of x_scale per unknown
+
+
+def _capped(dx: np.ndarray, x_scale: float | np.ndarray) -> np.ndarray:
+    """The Newton step shortened (direction kept) to at most MAX_STEP x_scale per unknown.
+
+    A weakly determined direction (a contact slipping statically: its force no longer
+    depends on how far it has slid) makes the Jacobian nearly singular there, and a full
+    step can throw the solution metres away along it, where the friction directions, and so
+    everything else, are lost; the residual hardly cares, so the line search would take it.
+    """
+    big = float(np.max(np.abs(dx) / x_scale)) if dx.size else 0.0
+    return dx if big <= MAX_STEP else dx * (MAX_STEP / big)
 
 
 def _damped(fun, x, dx, lam, R0):

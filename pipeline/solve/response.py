@@ -50,18 +50,18 @@ class Response:
         """(n_points,) excitation frequency, rad/s."""
         return np.array([self.point(i).omega for i in range(len(self))])
 
-    def coefficients(self, dofs: Sequence[int] | None = None) -> np.ndarray:
-        """(n_points, n_dofs, n_coeffs) harmonic coefficients of the DOFs (m)."""
-        sel = slice(None) if dofs is None else np.asarray(dofs)
-        return np.array(
-            [self.model.recover(x, self.point(i))[sel] for i, x in enumerate(self.branch.x)]
-        )
+    def coefficients(self, dofs: Sequence[int] | np.ndarray | None = None) -> np.ndarray:
+        """(n_points, n_outputs, n_coeffs) harmonic coefficients (m) of DOFs (indices) or of
+        outputs given as rows (n_outputs, n_dof) of the shared DOFs."""
+        return np.array([output(self.model.recover(x, self.point(i)), dofs)
+                         for i, x in enumerate(self.branch.x)])
 
-    def amplitude(self, dofs: Sequence[int] | None = None, oversample: int = 4) -> np.ndarray:
-        """(n_points, n_dofs) max_t |x(t)| of the DOFs, m."""
+    def amplitude(self, dofs: Sequence[int] | np.ndarray | None = None,
+                  oversample: int = 4) -> np.ndarray:
+        """(n_points, n_outputs) max_t |x(t)| of DOFs or output rows, m."""
         return self.model.harmonics.peak(self.coefficients(dofs), oversample)
 
-    def peak(self, dof: int, *, xtol: float = 1e-9) -> tuple[float, float]:
+    def peak(self, dof: int | np.ndarray, *, xtol: float = 1e-9) -> tuple[float, float]:
         """(parameter value, max|x(t)|) at the largest response of one DOF.
 
         The sampled maximum is refined by a golden-section search on the
@@ -69,7 +69,7 @@ class Response:
         from the nearest point). Where the maximum sits on a fold (the branch
         turns back around it) the sampled maximum is returned unrefined.
         ``xtol`` is relative to the bracket."""
-        amp = self.amplitude([dof])[:, 0]
+        amp = self.amplitude(_one(dof))[:, 0]
         i = int(np.argmax(amp))
         lam = self.values
         if i == 0 or i == len(self) - 1 or (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) <= 0:
@@ -84,7 +84,7 @@ class Response:
             if not r.converged:
                 return -np.inf
             Q = self.model.recover(r.x, self.base.set(self.parameter, value))
-            return float(h.peak(Q[dof]))
+            return float(h.peak(output(Q, _one(dof))[0]))
 
         a, b = sorted((lam[i - 1], lam[i + 1]))
         g = (np.sqrt(5.0) - 1.0) / 2.0
@@ -110,6 +110,22 @@ class Response:
     def energy(self, i: int) -> dict[str, float]:
         """Work per cycle at point ``i`` (see HarmonicBalance.energy_balance)."""
         return self.model.energy_balance(self.branch.x[i], self.point(i))
+
+
+def output(Q: np.ndarray, dofs: Sequence[int] | np.ndarray | None) -> np.ndarray:
+    """(n_outputs, n_coeffs) of recovered coefficients Q (n_dof, n_coeffs): DOF indices
+    select rows, a 2-D array (n_outputs, n_dof) combines them (an FE output: a node's
+    displacement along a direction); None: every DOF."""
+    if dofs is None:
+        return Q
+    sel = np.asarray(dofs)
+    return sel @ Q if sel.ndim == 2 else Q[sel]
+
+
+def _one(dof: int | np.ndarray) -> list[int] | np.ndarray:
+    """One output as a selection: a DOF index, or an (n_dof,) row."""
+    row = np.asarray(dof)
+    return row[None, :] if row.ndim == 1 else [int(dof)]
 
 
 def scales(model: HarmonicBalance, point: OperatingPoint) -> tuple[float, float]:
@@ -269,7 +285,7 @@ def peak_curve(
     model: HarmonicBalance,
     parameter: str,
     values,
-    dof: int,
+    dof: int | np.ndarray,
     window: tuple[float, float],
     base: OperatingPoint | None = None,
     *,
@@ -318,7 +334,7 @@ def peak_curve(
             return 0.0  # no amplitude is smaller: Brent's method moves away
         memo.append((w, r.x))
         Q = model.recover(r.x, point.set("frequency", w))
-        return float(model.harmonics.peak(Q[dof]))
+        return float(model.harmonics.peak(output(Q, _one(dof))[0]))
 
     for i, v in enumerate(vals):
         point = base.set(parameter, v)

@@ -1,0 +1,212 @@
+"""The [coupling] table of a case: reduced FE bodies joined by friction patches.
+
+```toml
+[coupling]
+engine_order = 12            # default: [reduction] engine_order
+speed = "frequency"          # centrifugal load's speed: rad/s, or "frequency": w / EO
+centrifugal = ["damper"]     # bodies under centrifugal load (default: none)
+mass_bodies = ["damper"]     # bodies the mass multiplier scales (default: the non-cyclic ones)
+mass_multiplier = 1.0        # their mass as a multiple of the meshed one (analyses may sweep it)
+[[coupling.contacts]]        # one per patch: a contact element per node pair
+patch = "damper_left"
+mu = 0.5
+interference = 0.0           # [m] design interference (negative: gap); default 0
+elements = "2D"              # "2D" (law D) or "1D+1D" (two law-B elements); default "2D"
+[[coupling.loads]]           # amplitude cos(harmonic w t + phase) [N] over a node set
+node_set = "blisk/excitation"
+direction = "tangential"     # x y z radial tangential axial, or [dx, dy, dz]
+amplitude = 1.0
+harmonic = 1                 # default 1; 0: static
+phase = 0.0                  # [deg], default 0
+[[coupling.outputs]]         # what the analyses' outputs name: a node set's mean
+name = "tip"                 #   displacement along a direction [m]
+node_set = "blisk/response"
+direction = "tangential"
+```
+
+Names (patches, bodies, node sets) are checked against ``geometry.NAMES`` of the case's
+geometry model, before anything is meshed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from microslip import geometry
+from microslip.pipeline.coupling.spec import (
+    DIRECTIONS,
+    ELEMENTS,
+    CouplingSpec,
+    NodalLoad,
+    Output,
+    PatchContact,
+)
+
+from .checks import is_int, is_number, number, unknown_keys
+
+KEYS = {"engine_order", "speed", "centrifugal", "mass_bodies", "mass_multiplier", "contacts",
+        "loads", "outputs"}
+CONTACT_KEYS = {"patch", "mu", "interference", "elements"}
+LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase"}
+OUTPUT_KEYS = {"name", "node_set", "direction"}
+#: Parameters a coupled case's analyses may sweep.
+PARAMETERS = ("frequency", "excitation", "mass")
+ANALYSES = ("frf", "peak")
+
+
+def output_names(data: Mapping[str, Any]) -> list[str]:
+    """The outputs an analysis of a coupled case may name."""
+    table = data.get("coupling", {})
+    outs = table.get("outputs", []) if isinstance(table, dict) else []
+    return [o.get("name") for o in outs if isinstance(o, dict)]
+
+
+def patch_names(data: Mapping[str, Any]) -> list[str]:
+    table = data.get("coupling", {})
+    contacts = table.get("contacts", []) if isinstance(table, dict) else []
+    return [c.get("patch") for c in contacts if isinstance(c, dict)]
+
+
+def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
+    """Append one line per fault of a case's [coupling] table to ``out``."""
+    if not isinstance(table, dict):
+        out.append(f"coupling: expected a table, got {table!r}")
+        return
+    unknown_keys("coupling.", table, KEYS, out)
+    if "reduction" not in data or "geometry" not in data:
+        out.append("coupling: needs [geometry] and [reduction] (the bodies it couples)")
+    if "model" in data:
+        out.append("model: a coupled case takes its bodies from [geometry] and [reduction]; "
+                   "remove [model] (or [coupling])")
+    geo = data.get("geometry", {})
+    names = geometry.NAMES.get(geo.get("model")) if isinstance(geo, dict) else None
+    if isinstance(geo, dict) and geo.get("model") in geometry.MODELS and names is None:
+        out.append(f"coupling: geometry model {geo.get('model')!r} has no contact patches; "
+                   f"coupled models: {sorted(geometry.NAMES)}")
+    red = data.get("reduction", {})
+    eo = table.get("engine_order", red.get("engine_order") if isinstance(red, dict) else None)
+    if eo is None:
+        out.append("coupling.engine_order: missing (and no [reduction] engine_order): the "
+                   "engine order of the excitation")
+    elif not (is_int(eo) and eo >= 1):
+        out.append(f"coupling.engine_order = {eo!r}: expected an integer >= 1")
+    speed = table.get("speed")
+    if speed is not None and speed != "frequency" and not (is_number(speed) and speed >= 0):
+        out.append(f"coupling.speed = {speed!r}: expected a rotation speed >= 0 [rad/s] or "
+                   "'frequency' (speed = w / engine order)")
+    for key in ("centrifugal", "mass_bodies"):
+        bodies = table.get(key, [])
+        if not (isinstance(bodies, list) and all(isinstance(b, str) for b in bodies)):
+            out.append(f"coupling.{key} = {bodies!r}: expected a list of body names")
+        elif names is not None:
+            for b in bodies:
+                if b not in names["bodies"]:
+                    out.append(f"coupling.{key}: {b!r} is not a body; bodies: "
+                               f"{list(names['bodies'])}")
+    if "mass_multiplier" in table:
+        number("coupling.mass_multiplier", table["mass_multiplier"], out, positive=True)
+    if table.get("centrifugal") and "speed" not in table:
+        out.append("coupling.speed: missing; the centrifugal load needs a speed [rad/s] or "
+                   "'frequency'")
+    contacts = _tables(table, "contacts", out, required=True)
+    seen = set()
+    for i, c in enumerate(contacts):
+        pre = f"coupling.contacts[{c.get('patch', i)}]"
+        unknown_keys(pre + ".", c, CONTACT_KEYS, out)
+        patch = c.get("patch")
+        if names is not None and patch not in names["patches"]:
+            out.append(f"{pre}.patch = {patch!r}: not a patch of the geometry; patches: "
+                       f"{list(names['patches'])}")
+        if patch in seen:
+            out.append(f"{pre}: patch {patch!r} given twice")
+        seen.add(patch)
+        if "mu" not in c:
+            out.append(f"{pre}.mu: missing; the friction coefficient (>= 0)")
+        else:
+            number(f"{pre}.mu", c["mu"], out, nonneg=True)
+        if "interference" in c:
+            number(f"{pre}.interference", c["interference"], out)
+        if c.get("elements", "2D") not in ELEMENTS:
+            out.append(f"{pre}.elements = {c.get('elements')!r}: expected one of "
+                       f"{list(ELEMENTS)}")
+    for i, ld in enumerate(_tables(table, "loads", out)):
+        pre = f"coupling.loads[{i}]"
+        unknown_keys(pre + ".", ld, LOAD_KEYS, out)
+        _node_set(pre, ld, names, out)
+        _direction(pre, ld, out)
+        number(f"{pre}.amplitude", ld.get("amplitude"), out)
+        if "harmonic" in ld and not (is_int(ld["harmonic"]) and ld["harmonic"] >= 0):
+            out.append(f"{pre}.harmonic = {ld['harmonic']!r}: expected an integer >= 0")
+        if "phase" in ld:
+            number(f"{pre}.phase", ld["phase"], out)
+    outputs = _tables(table, "outputs", out, required=True)
+    seen = set()
+    for i, o in enumerate(outputs):
+        pre = f"coupling.outputs[{o.get('name', i)}]"
+        unknown_keys(pre + ".", o, OUTPUT_KEYS, out)
+        if not isinstance(o.get("name"), str) or not o.get("name"):
+            out.append(f"{pre}.name: expected a name (the analyses' outputs use it)")
+        elif o["name"] in seen:
+            out.append(f"{pre}.name: {o['name']!r} given twice")
+        seen.add(o.get("name"))
+        _node_set(pre, o, names, out)
+        _direction(pre, o, out)
+
+
+def _tables(table: dict, key: str, out: list[str], required: bool = False) -> list[dict]:
+    value = table.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(x, dict) for x in value):
+        out.append(f"coupling.{key}: expected an array of tables [[coupling.{key}]]")
+        return []
+    if required and not value:
+        out.append(f"coupling.{key}: missing; add at least one [[coupling.{key}]]")
+    return value
+
+
+def _node_set(pre: str, t: dict, names: Mapping | None, out: list[str]) -> None:
+    ns = t.get("node_set")
+    if not isinstance(ns, str):
+        out.append(f"{pre}.node_set = {ns!r}: expected a node-set name")
+    elif names is not None and ns not in names["node_sets"]:
+        out.append(f"{pre}.node_set = {ns!r}: not a node set of the geometry; node sets: "
+                   f"{list(names['node_sets'])}")
+
+
+def _direction(pre: str, t: dict, out: list[str]) -> None:
+    d = t.get("direction")
+    ok = d in DIRECTIONS or (isinstance(d, list) and len(d) == 3 and all(
+        is_number(x) for x in d) and any(x != 0 for x in d))
+    if not ok:
+        out.append(f"{pre}.direction = {d!r}: expected one of {list(DIRECTIONS)} or a "
+                   "non-zero [dx, dy, dz]")
+
+
+def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> CouplingSpec:
+    """The CouplingSpec of a validated case (``cyclic_bodies``: the mesh's, whose complement
+    the mass multiplier scales by default)."""
+    table = data["coupling"]
+    eo = int(table.get("engine_order", data.get("reduction", {}).get("engine_order", 1)))
+    speed = table.get("speed")
+    bodies = geometry.NAMES[data["geometry"]["model"]]["bodies"]
+    return CouplingSpec(
+        contacts=tuple(PatchContact(c["patch"], float(c["mu"]),
+                                    float(c.get("interference", 0.0)),
+                                    c.get("elements", "2D")) for c in table["contacts"]),
+        engine_order=eo,
+        loads=tuple(NodalLoad(ld["node_set"], _dir(ld["direction"]), float(ld["amplitude"]),
+                              int(ld.get("harmonic", 1)), math.radians(ld.get("phase", 0.0)))
+                    for ld in table.get("loads", [])),
+        outputs=tuple(Output(o["name"], o["node_set"], _dir(o["direction"]))
+                      for o in table["outputs"]),
+        speed=None if speed in (None, "frequency") else float(speed),
+        centrifugal=tuple(table.get("centrifugal", ())),
+        mass_bodies=tuple(table.get("mass_bodies",
+                                    [b for b in bodies if b not in cyclic_bodies])),
+    )
+
+
+def _dir(d):
+    return d if isinstance(d, str) else tuple(float(x) for x in d)
+

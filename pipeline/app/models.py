@@ -1,0 +1,68 @@
+"""The models a case's analyses solve: the lumped one its [model] writes, or the coupled
+one of its [geometry], [reduction] and [coupling] tables. Both answer the same three
+questions, so the runners need not know which they have."""
+
+from __future__ import annotations
+
+import json
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from microslip.pipeline.solve.hbm import HarmonicBalance
+
+from . import case as cs
+from . import coupled
+
+if TYPE_CHECKING:
+    from microslip.pipeline.coupling.model import CoupledModel
+
+
+class LumpedModels:
+    """A [model] case: its DOFs are its outputs."""
+
+    def model(self, case: cs.Case) -> HarmonicBalance:
+        return cs.model(case)
+
+    def names(self, case: cs.Case) -> list[str]:
+        return case.dofs
+
+    def selection(self, case: cs.Case, names: list[str]) -> list[int]:
+        """DOF indices (what Response.coefficients and peak_curve take)."""
+        return [case.dofs.index(n) for n in names]
+
+
+class CoupledModels:
+    """A [coupling] case: the mesh and reduced bodies are built once; each variant of the
+    case (an analysis' ``set``, a family value) gets its coupled model, kept while its
+    coupling, harmonics and solver tables are unchanged."""
+
+    def __init__(self, mesh: Any, structure: Any):
+        self.mesh = mesh
+        self.structure = structure
+        self._built: dict[str, CoupledModel] = {}
+
+    def coupled(self, case: cs.Case) -> CoupledModel:
+        from microslip.pipeline.coupling.assemble import couple  # the FE stages, when needed
+
+        key = json.dumps({k: case.data.get(k) for k in ("coupling", "harmonics", "solver")},
+                         sort_keys=True, default=str)
+        if key not in self._built:
+            if len(self._built) >= 8:
+                self._built.pop(next(iter(self._built)))
+            self._built[key] = couple(
+                self.mesh, self.structure.models, self.structure.patch_stiffness,
+                coupled.spec(case.data, tuple(self.mesh.cyclic)), cs.harmonics(case),
+                sub_sample=case.data.get("solver", {}).get("sub_sample", True))
+        return self._built[key]
+
+    def model(self, case: cs.Case) -> HarmonicBalance:
+        return self.coupled(case).hb
+
+    def names(self, case: cs.Case) -> list[str]:
+        return coupled.output_names(case.data)
+
+    def selection(self, case: cs.Case, names: list[str]) -> np.ndarray:
+        """(n_outputs, n_dof) rows of the named outputs over the shared DOFs."""
+        rows = self.coupled(case).outputs
+        return np.array([rows[n] for n in names])

@@ -1,0 +1,276 @@
+"""Reduced bodies + contact patches -> the harmonic-balance model (seed 4.2, 5.1-5.3).
+
+Per harmonic order n, a cyclic body enters with its reduced model at nodal diameter
+h(n) = n EO mod Ns (folded into 0..Ns/2; a backward wave takes the complex conjugates), a
+body without cyclic symmetry (the damper) with its one model at every order. The shared DOFs
+of the balance are the master DOFs of every body (the same physical DOFs at every order);
+each order also has the fixed-interface modal coordinates of its models, whose number differs
+between nodal diameters, and the balance condenses them per order.
+
+One contact point per node pair of a patch, in the pair's frame (rows t1, t2, n; n the patch
+normal from body a into body b): the relative displacement ``g = F (u_a - u_b')`` with
+``u_b'`` the displacement of the touching face. When that face belongs to the neighbouring
+sector (``b_sector_offset = k``), sector k moves as ``exp(i n EO k phi) R(k phi) u_b`` at
+harmonic n (the cyclic wave of the engine order; the same phase whether the ND's matrices are
+conjugated or not, since they describe the true amplitudes of the fundamental sector), so
+the kinematics is complex per order. The forces act on the DOFs as ``B^H f`` (virtual work),
+which the harmonic balance's real layout gives.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from microslip.geometry.mesh import Mesh, rotation_z
+from microslip.pipeline.fe import contact_stiffness, cyclic
+from microslip.pipeline.fe.contact_stiffness import PatchStiffness
+from microslip.pipeline.fe.reduction import ReducedModel
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+
+from .model import BodyLayout, ContactPoints, CoupledModel
+from .spec import CouplingSpec, PatchContact
+
+
+def couple(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
+           patch_stiffness: Mapping[str, PatchStiffness], spec: CouplingSpec,
+           harmonics: Harmonics, *, sub_sample: bool = True) -> CoupledModel:
+    """The coupled model of ``spec`` over the reduced ``models`` (body -> ND -> model, as the
+    structural stage gives them) with the patches' stiffness per node pair.
+
+    Everything named is checked before any matrix is built (ValueError naming it)."""
+    _check(mesh, models, patch_stiffness, spec, harmonics)
+    layout = _layout(mesh, models, spec, harmonics)
+    n_dof = sum(b.n_masters for b in layout)
+    node_dof = _node_dofs(layout)
+    K, M, C, Mp = _linear(layout, harmonics, n_dof, set(spec.mass_bodies))
+    linear = LinearDynamics.create(K, M, C, harmonics=harmonics, mass_part=Mp, n_shared=n_dof)
+    contacts, points = [], {}
+    for pc in spec.contacts:
+        for c, pts in _patch_contacts(mesh, pc, patch_stiffness[pc.patch], node_dof, n_dof,
+                                      spec.engine_order, harmonics):
+            contacts.append(c)
+            points[c.name] = pts
+    excitation = _excitation(mesh, layout, node_dof, n_dof, spec, harmonics)
+    hb = HarmonicBalance(linear, contacts, excitation, harmonics, sub_sample=sub_sample)
+    outputs = {o.name: _row(mesh, node_dof, n_dof, o.node_set, o.direction)
+               for o in spec.outputs}
+    dof_nodes = np.concatenate([np.repeat(b.master_nodes, 3) for b in layout])
+    return CoupledModel(hb, tuple(layout), dof_nodes, outputs, points, spec)
+
+
+# --- checks -----------------------------------------------------------------------------------
+
+
+def _check(mesh, models, stiffness, spec: CouplingSpec, harmonics: Harmonics) -> None:
+    for pc in spec.contacts:
+        if pc.patch not in mesh.contacts:
+            raise ValueError(f"contacts.{pc.patch}: not a contact patch of the mesh; it has "
+                             f"{sorted(mesh.contacts)}")
+        if pc.patch not in stiffness:
+            raise ValueError(f"contacts.{pc.patch}: no contact stiffness for this patch")
+        p = mesh.contacts[pc.patch]
+        for body in (p.body_a, p.body_b):
+            if body not in models:
+                raise ValueError(f"contacts.{pc.patch}: body {body!r} has no reduced model")
+    for body in (*spec.centrifugal, *spec.mass_bodies):
+        if body not in models:
+            raise ValueError(f"body {body!r} has no reduced model; bodies: {sorted(models)}")
+    for load in spec.loads:
+        if load.harmonic not in harmonics.orders:
+            raise ValueError(f"loads.{load.node_set}.harmonic = {load.harmonic}: not among "
+                             f"the harmonic orders {list(harmonics.orders)}")
+    for name in [x.node_set for x in (*spec.loads, *spec.outputs)]:
+        if name not in mesh.node_sets:
+            raise ValueError(f"node set {name!r} does not exist; the mesh has "
+                             f"{sorted(mesh.node_sets)}")
+    if spec.centrifugal and 0 not in harmonics.orders:
+        raise ValueError("centrifugal loads are static: the harmonics must include order 0")
+
+
+# --- the linear part ----------------------------------------------------------------------------
+
+
+def _layout(mesh: Mesh, models, spec: CouplingSpec, harmonics: Harmonics) -> list[BodyLayout]:
+    """Each body's model per order and where its masters and modes sit."""
+    out, offset = [], 0
+    for body in sorted(models):
+        per_nd = models[body]
+        boundary = mesh.cyclic.get(body)
+        chosen, conj = [], []
+        for o in harmonics.orders:
+            if boundary is None:
+                h, c = min(per_nd), False
+            else:
+                h, c = cyclic.harmonic_nodal_diameter(o, spec.engine_order, boundary.sectors)
+                if h not in per_nd:
+                    raise ValueError(
+                        f"body {body!r}: harmonic {o} with engine order {spec.engine_order} "
+                        f"lives on nodal diameter {h}, which was not reduced (reduced: "
+                        f"{sorted(per_nd)}); add it to [reduction]")
+            chosen.append(per_nd[h])
+            conj.append(c)
+        first = chosen[0]
+        for m in chosen[1:]:
+            if not np.array_equal(m.master_nodes, first.master_nodes):
+                raise ValueError(f"body {body!r}: the models of its nodal diameters have "
+                                 "different master nodes")
+        out.append(BodyLayout(body, boundary is not None, offset, first.master_nodes,
+                              tuple(chosen), tuple(conj)))
+        offset += 3 * len(first.master_nodes)
+    return out
+
+
+def _node_dofs(layout: list[BodyLayout]) -> dict[int, int]:
+    """Global node -> first shared DOF (x; y, z follow)."""
+    return {int(n): b.offset + 3 * i for b in layout for i, n in enumerate(b.master_nodes)}
+
+
+def _linear(layout: list[BodyLayout], harmonics: Harmonics, n_dof: int, mass_bodies: set[str]):
+    """Per order K, M, C, M_part: block-diagonal over the bodies, masters in the shared part,
+    modes past it in body order."""
+    K, M, C, Mp = {}, {}, {}, {}
+    for k, o in enumerate(harmonics.orders):
+        modes = [b.models[k].n_modes for b in layout]
+        n = n_dof + sum(modes)
+        K[o], M[o], C[o], Mp[o] = (np.zeros((n, n), dtype=complex) for _ in range(4))
+        own = n_dof
+        for b, nm in zip(layout, modes):
+            idx = b.indices(k, own)
+            own += nm
+            Kb, Mb, Cb = b.models[k].matrices(conjugate=b.conjugate[k])
+            ix = np.ix_(idx, idx)
+            K[o][ix], M[o][ix], C[o][ix] = Kb, Mb, Cb
+            if b.body in mass_bodies:
+                Mp[o][ix] = Mb
+    return K, M, C, Mp
+
+
+# --- contacts -----------------------------------------------------------------------------------
+
+
+def _patch_contacts(mesh: Mesh, pc: PatchContact, stiffness: PatchStiffness,
+                    node_dof: dict[int, int], n_dof: int, engine_order: int,
+                    harmonics: Harmonics) -> list[tuple[Contact, ContactPoints]]:
+    """The contact(s) of one patch: one law-D element per node pair, or two law-B ones."""
+    patch = mesh.contacts[pc.patch]
+    frames = contact_stiffness.contact_frames(patch, mesh.points).reshape(-1, 3, 3)
+    gaps = contact_stiffness.initial_gaps(patch, mesh.patch_points(pc.patch, "a"),
+                                          mesh.patch_points(pc.patch, "b")).ravel()
+    kn, kt = stiffness.normal.ravel(), stiffness.tangential.ravel()
+    nodes_a = np.asarray(patch.nodes_a).ravel()
+    nodes_b = np.asarray(patch.nodes_b).ravel()
+    for name, nodes in ((patch.body_a, nodes_a), (patch.body_b, nodes_b)):
+        missing = [int(x) for x in nodes if int(x) not in node_dof]
+        if missing:
+            raise ValueError(f"contacts.{pc.patch}: nodes {missing[:5]} of body {name!r} are "
+                             "not masters of its reduced model")
+    k = patch.b_sector_offset
+    if k and patch.body_b not in mesh.cyclic:
+        raise ValueError(f"contacts.{pc.patch}: a neighbouring-sector patch needs a cyclic "
+                         f"body b, {patch.body_b!r} is not")
+    phi = mesh.cyclic[patch.body_b].angle if k else 0.0
+    rot = rotation_z(k * phi)
+    da = np.array([node_dof[int(x)] for x in nodes_a])
+    db = np.array([node_dof[int(x)] for x in nodes_b])
+    interference = pc.interference - gaps
+    points = ContactPoints(pc.patch, patch.body_a, patch.body_b, nodes_a, nodes_b,
+                           np.asarray(patch.nodes_a).shape, frames, gaps)
+    if pc.elements == "2D":
+        rows = [(0, 1, 2)]
+        elements = [ContactElements.create("D", kt=kt, kn=kn, mu=pc.mu,
+                                           interference=interference, coupled=True)]
+        names = [pc.patch]
+    else:  # two orthogonal 1D elements sharing the pair's normal stiffness
+        rows = [(0, 2), (1, 2)]
+        elements = [ContactElements.create("B", kt=kt, kn=0.5 * kn, mu=pc.mu,
+                                           interference=interference, coupled=True)] * 2
+        names = [f"{pc.patch}/t1", f"{pc.patch}/t2"]
+    out = []
+    for comps, el, name in zip(rows, elements, names):
+        B = {}
+        for o in harmonics.orders:
+            phase = np.exp(1j * o * engine_order * k * phi) if k else 1.0
+            B[o] = _kinematics(frames[:, comps, :], da, db, phase * rot, n_dof)
+        out.append((Contact(name, el, B), points))
+    return out
+
+
+def _kinematics(frames: np.ndarray, dof_a: np.ndarray, dof_b: np.ndarray,
+                transfer: np.ndarray, n_dof: int) -> np.ndarray:
+    """(P c, n_dof) complex: rows (pair, component) = F (u_a - transfer u_b).
+
+    frames: (P, c, 3) rows of each pair's frame; transfer: (3, 3) complex, the neighbouring
+    sector's phase and rotation (identity for a plain pair)."""
+    P, c, _ = frames.shape
+    B = np.zeros((P, c, n_dof), dtype=complex)
+    rows = np.arange(P)
+    for j in range(3):
+        B[rows, :, dof_a + j] += frames[:, :, j]
+        B[rows, :, dof_b + j] -= frames @ transfer[:, j]
+    return B.reshape(P * c, n_dof)
+
+
+# --- loads and outputs --------------------------------------------------------------------------
+
+
+def _unit(mesh: Mesh, node: int, direction) -> np.ndarray:
+    """(3,) unit vector of a named or given direction at a node."""
+    if not isinstance(direction, str):
+        return np.asarray(direction, dtype=float)
+    if direction in ("x", "y", "z"):
+        return np.eye(3)["xyz".index(direction)]
+    if direction == "axial":
+        return np.array([0.0, 0.0, 1.0])
+    x, y, _ = mesh.points[node]
+    r = np.hypot(x, y)
+    if r == 0.0:
+        raise ValueError(f"node {node} lies on the disk axis: no {direction} direction")
+    return np.array([x / r, y / r, 0.0]) if direction == "radial" else np.array(
+        [-y / r, x / r, 0.0])
+
+
+def _row(mesh: Mesh, node_dof: dict[int, int], n_dof: int, node_set: str,
+         direction) -> np.ndarray:
+    """(n_dof,) mean displacement of a node set's nodes along a direction."""
+    nodes = np.asarray(mesh.node_sets[node_set]).ravel()
+    missing = [int(x) for x in nodes if int(x) not in node_dof]
+    if missing:
+        raise ValueError(f"node set {node_set!r}: nodes {missing[:5]} are not masters of any "
+                         "reduced body (add the set to the body's masters)")
+    row = np.zeros(n_dof)
+    for node in nodes:
+        d = node_dof[int(node)]
+        row[d: d + 3] += _unit(mesh, int(node), direction) / len(nodes)
+    return row
+
+
+def _excitation(mesh: Mesh, layout: list[BodyLayout], node_dof: dict[int, int], n_dof: int,
+                spec: CouplingSpec, harmonics: Harmonics) -> Excitation:
+    """The nodal loads per order and the centrifugal loads per unit speed^2 (order 0: the
+    reduced load vector of each body, masters and modes)."""
+    forces: dict[int, np.ndarray] = {}
+    for load in spec.loads:
+        row = _row(mesh, node_dof, n_dof, load.node_set, load.direction)
+        f = forces.setdefault(load.harmonic, np.zeros(n_dof, dtype=complex))
+        f += load.amplitude * np.exp(1j * load.phase) * row  # total force over the set
+    rotating = None
+    if spec.centrifugal:
+        k0 = harmonics.orders.index(0)
+        n0 = n_dof + sum(b.models[k0].n_modes for b in layout)
+        rotating = np.zeros(n0)
+        own = n_dof
+        for b in layout:
+            m = b.models[k0]
+            if b.body in spec.centrifugal:
+                if "centrifugal" not in m.loads:
+                    raise ValueError(f"body {b.body!r}: its reduced model has no centrifugal "
+                                     "load (reduce it again)")
+                rotating[b.indices(k0, own)] = np.real(m.loads["centrifugal"])
+            own += m.n_modes
+    return Excitation(forces, rotating, spec.speed if rotating is not None else None,
+                      spec.engine_order if rotating is not None and spec.speed is None
+                      else None)

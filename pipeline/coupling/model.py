@@ -1,0 +1,144 @@
+"""The coupled model and its recovery: from harmonic-balance unknowns back to bodies,
+patches, nodes and named outputs (what results, maps and pictures need)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from microslip.pipeline.fe.reduction import ReducedModel
+from microslip.pipeline.solve.hbm import HarmonicBalance, OperatingPoint
+
+from .spec import CouplingSpec
+
+
+@dataclass(frozen=True, eq=False)
+class BodyLayout:
+    """Where one body sits in the coupled model.
+
+    offset: its first master DOF among the shared DOFs (3 per master node, x y z);
+    models, conjugate: per harmonic order, the reduced model and whether its complex
+    conjugate is used (a backward wave)."""
+
+    body: str
+    cyclic: bool
+    offset: int
+    master_nodes: np.ndarray
+    models: tuple[ReducedModel, ...]
+    conjugate: tuple[bool, ...]
+
+    @property
+    def n_masters(self) -> int:
+        return 3 * len(self.master_nodes)
+
+    def indices(self, k: int, own_start: int) -> np.ndarray:
+        """Positions of the body's reduced coordinates (masters, then modes) in order k's
+        vector, given where its modes start there."""
+        return np.concatenate([np.arange(self.offset, self.offset + self.n_masters),
+                               np.arange(own_start, own_start + self.models[k].n_modes)])
+
+
+@dataclass(frozen=True, eq=False)
+class ContactPoints:
+    """The node pairs behind one contact of the model (grid order, row-major (n1, n2)).
+
+    frames: (P, 3, 3) rows t1, t2, n; gaps: (P,) initial normal gap [m] (positive open)."""
+
+    patch: str
+    body_a: str
+    body_b: str
+    nodes_a: np.ndarray
+    nodes_b: np.ndarray
+    grid: tuple[int, int]
+    frames: np.ndarray
+    gaps: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class CoupledModel:
+    """A harmonic-balance model built from reduced bodies and contact patches.
+
+    hb: what the solvers take; layout: the bodies; dof_nodes: (n_dof,) global node of each
+    shared DOF (x, y, z in turn); outputs: name -> (n_dof,) row giving the output from the
+    shared DOFs; points: contact name -> its node pairs."""
+
+    hb: HarmonicBalance
+    layout: tuple[BodyLayout, ...]
+    dof_nodes: np.ndarray
+    outputs: Mapping[str, np.ndarray]
+    points: Mapping[str, ContactPoints]
+    spec: CouplingSpec
+
+    def output_coefficients(self, x: np.ndarray, point: OperatingPoint,
+                            names: list[str] | None = None) -> np.ndarray:
+        """(n_outputs, n_coeffs) real coefficients of the named outputs [m]."""
+        Q = self.hb.recover(x, point)
+        names = list(self.outputs) if names is None else names
+        return np.array([self.outputs[n] @ Q for n in names]).reshape(len(names), -1)
+
+    def body_coordinates(self, x: np.ndarray, point: OperatingPoint, body: str
+                         ) -> list[np.ndarray]:
+        """Per harmonic order the complex reduced coordinates of one body (masters, modes):
+        ``model.recover(q)`` gives its recovery nodes' displacements at that order."""
+        X = self.hb.recover_orders(x, point)
+        n_dof = self.hb.linear.n_dof
+        out = []
+        for k in range(len(self.hb.harmonics.orders)):
+            own = n_dof
+            for b in self.layout:
+                if b.body == body:
+                    out.append(X[k][b.indices(k, own)])
+                own += b.models[k].n_modes
+        if not out:
+            raise ValueError(f"body {body!r} is not in this model; bodies: "
+                             f"{[b.body for b in self.layout]}")
+        return out
+
+    def linear_outputs(self, point: OperatingPoint, springs: str = "stuck",
+                       names: list[str] | None = None) -> np.ndarray:
+        """(n_outputs, n_coeffs) output coefficients of a linear limit, solved directly order
+        by order (no harmonic balance): ``springs = "stuck"`` every contact replaced by its
+        stick springs (kt, kn; the friction limit never reached), ``"normal"`` by its normal
+        springs alone (mu = 0, contacts never opening), ``"free"`` the cyclic bodies alone
+        (no damper, no contact). The springs carry the preload kn Delta at order 0."""
+        if springs not in ("stuck", "normal", "free"):
+            raise ValueError(f"springs = {springs!r}: expected 'stuck', 'normal' or 'free'")
+        hb, h = self.hb, self.hb.harmonics
+        n_dof = hb.linear.n_dof
+        D = hb.linear.dynamic_stiffness(point)
+        F, _ = hb.forces(point)
+        X = []
+        for k, o in enumerate(h.orders):
+            A, b = D[k].copy(), F[k].copy()
+            if springs == "free":
+                keep = self._cyclic_indices(k)
+                x = np.zeros(A.shape[0], dtype=complex)
+                x[keep] = np.linalg.solve(A[np.ix_(keep, keep)], b[keep])
+                X.append(x[:n_dof])
+                continue
+            for c in hb.contacts:
+                el = c.elements
+                B = np.asarray(c.kinematics[o]).reshape(el.size, el.n_components, n_dof)
+                k_c = np.zeros((el.size, el.n_components))
+                if springs == "stuck":
+                    k_c[:, : el.dim] = el.kt
+                k_c[:, -1] = el.kn
+                Bf = B.reshape(-1, n_dof)
+                A[:n_dof, :n_dof] += Bf.conj().T @ (k_c.reshape(-1, 1) * Bf)
+                if o == 0:  # the preload kn Delta of the normal springs
+                    b[:n_dof] -= B[:, -1, :].conj().T @ el.n0
+            X.append(np.linalg.solve(A, b)[:n_dof])
+        Q = h.from_complex({o: X[k] for k, o in enumerate(h.orders)}, (n_dof,))
+        names = list(self.outputs) if names is None else names
+        return np.array([self.outputs[n] @ Q for n in names]).reshape(len(names), -1)
+
+    def _cyclic_indices(self, k: int) -> np.ndarray:
+        """Order k's positions of the cyclic bodies' coordinates (masters and modes)."""
+        own, keep = self.hb.linear.n_dof, []
+        for b in self.layout:
+            if b.cyclic:
+                keep.append(b.indices(k, own))
+            own += b.models[k].n_modes
+        return np.concatenate(keep) if keep else np.zeros(0, dtype=int)
