@@ -99,14 +99,19 @@ def test_no_damper_is_the_free_blisk(sector):
     assert w_free == pytest.approx(first_bending(sector), rel=2e-3)  # the blisk's own mode
 
 
-def test_static_contact_forces_balance_the_centrifugal_load(sector):
-    """Order 0 of the damper's equilibrium: its centrifugal force and the static contact
-    forces on it sum to zero (the rigid translations are in its Craig-Bampton basis)."""
+@pytest.mark.parametrize("mass", [1.0, 3.0])
+def test_static_contact_forces_balance_the_centrifugal_load(sector, mass):
+    """Order 0 of the damper's equilibrium: its centrifugal force (scaled with its mass by
+    the mass multiplier) and the static contact forces on it sum to zero (the rigid
+    translations are in its Craig-Bampton basis)."""
     mesh, red = sector
     cm = model(sector, 0.5)
-    x, p = solved(cm, first_bending(sector))
+    p = OperatingPoint(first_bending(sector), mass_multiplier=mass)
+    r = solve_point(cm.hb, p)
+    assert r.converged, r.reason
+    x = r.x
     damper = red.models["damper"][0]
-    centrifugal = SPEED**2 * np.array([damper.loads["centrifugal"][damper.dof_index(
+    centrifugal = mass * SPEED**2 * np.array([damper.loads["centrifugal"][damper.dof_index(
         damper.master_nodes)[:, j]].sum().real for j in range(3)])
     total = np.zeros(3)
     for c, r in zip(cm.hb.contacts, cm.hb.contact_response(x, p)):
@@ -145,7 +150,7 @@ def test_jacobian_matches_central_differences(sector):
     x += 0.3 * np.random.default_rng(3).normal(size=x.size) * np.abs(x).max()
     states = np.concatenate([r.state for r in hb.contact_response(x, p)])
     assert len(set(states.tolist())) >= 3, states  # a mixed state
-    R, J, dR = hb.residual(x, p, "frequency")
+    R, J, _ = hb.residual(x, p)
     eps = 1e-6 * np.abs(x).max()
     Jfd = np.empty_like(J)
     for i in range(x.size):
@@ -156,10 +161,15 @@ def test_jacobian_matches_central_differences(sector):
     # central differences of a piecewise-smooth residual: exact where no sample changes
     # state within +-eps, which holds for this state; 1e-5 covers their O(eps^2) error
     assert np.max(np.abs(J - Jfd)) <= 1e-5 * np.max(np.abs(J))
-    dw = 1e-6 * w
-    dfd = (hb.residual(x, p.set("frequency", w + dw), jacobian=False)[0]
-           - hb.residual(x, p.set("frequency", w - dw), jacobian=False)[0]) / (2 * dw)
-    assert np.max(np.abs(dR - dfd)) <= 1e-5 * np.max(np.abs(dR))
+    # the parameters: frequency (speed w / EO: the centrifugal load follows) and the damper's
+    # mass multiplier (its inertia and its centrifugal load)
+    for parameter, value in (("frequency", w), ("mass", 2.0)):
+        q = p.set(parameter, value)
+        dR = hb.residual(x, q, parameter)[2]
+        dv = 1e-6 * value
+        dfd = (hb.residual(x, q.set(parameter, value + dv), jacobian=False)[0]
+               - hb.residual(x, q.set(parameter, value - dv), jacobian=False)[0]) / (2 * dv)
+        assert np.max(np.abs(dR - dfd)) <= 1e-5 * np.max(np.abs(dR))
 
 
 @pytest.fixture(scope="module")

@@ -257,11 +257,11 @@ def _excitation(mesh: Mesh, layout: list[BodyLayout], node_dof: dict[int, int], 
         row = _row(mesh, node_dof, n_dof, load.node_set, load.direction)
         f = forces.setdefault(load.harmonic, np.zeros(n_dof, dtype=complex))
         f += load.amplitude * np.exp(1j * load.phase) * row  # total force over the set
-    rotating = None
+    rotating = part = None
     if spec.centrifugal:
         k0 = harmonics.orders.index(0)
         n0 = n_dof + sum(b.models[k0].n_modes for b in layout)
-        rotating = np.zeros(n0)
+        rotating, part = np.zeros(n0), np.zeros(n0)
         own = n_dof
         for b in layout:
             m = b.models[k0]
@@ -270,7 +270,9 @@ def _excitation(mesh: Mesh, layout: list[BodyLayout], node_dof: dict[int, int], 
                     raise ValueError(f"body {b.body!r}: its reduced model has no centrifugal "
                                      "load (reduce it again)")
                 rotating[b.indices(k0, own)] = np.real(m.loads["centrifugal"])
+                if b.body in spec.mass_bodies:  # a heavier damper pulls harder
+                    part[b.indices(k0, own)] = np.real(m.loads["centrifugal"])
             own += m.n_modes
     return Excitation(forces, rotating, spec.speed if rotating is not None else None,
                       spec.engine_order if rotating is not None and spec.speed is None
-                      else None)
+                      else None, part)

@@ -204,12 +204,16 @@ class Excitation:
         order-0 size (the centrifugal load of the bodies); order 0 gets ``speed^2 rotating``
         with ``speed`` [rad/s] fixed, or tied to the excitation frequency through the engine
         order, ``speed = w / engine_order`` (an engine-order excitation sweeps the speed).
+    rotating_part: the part of ``rotating`` that the mass multiplier s scales with the mass
+        (the centrifugal load of the bodies in ``LinearDynamics.mass_part``): the load at s is
+        ``rotating + (s - 1) rotating_part``, as M(s) = M + (s - 1) M_part.
     """
 
     forces: Mapping[int, np.ndarray]
     rotating: np.ndarray | None = None
     speed: float | None = None
     engine_order: int | None = None
+    rotating_part: np.ndarray | None = None
 
     def __post_init__(self):
         if self.rotating is not None and (self.speed is None) == (self.engine_order is None):
@@ -236,9 +240,9 @@ class Excitation:
         return (omega / eo) ** 2, 2.0 * omega / eo**2
 
     def vectors(self, orders: tuple[int, ...], sizes: tuple[int, ...], n_dof: int
-                ) -> tuple[tuple[np.ndarray, ...], np.ndarray | None]:
+                ) -> tuple[tuple[np.ndarray, ...], np.ndarray | None, np.ndarray | None]:
         """(per order (n_n,) complex forces of the kept orders, the (n_0,) rotating load of
-        order 0 or None)."""
+        order 0 and its mass-scaled part, or None)."""
         out = []
         for o, n in zip(orders, sizes):
             F = np.zeros(n, dtype=complex)
@@ -249,18 +253,21 @@ class Excitation:
                                      f"expected ({n_dof},) or ({n},)")
                 F[: f.size] = f
             out.append(F)
-        rot = None
-        if self.rotating is not None:
-            if 0 not in orders:
-                raise ValueError("hbm: a rotating (static) load needs harmonic order 0")
-            n0 = sizes[orders.index(0)]
-            f = np.asarray(self.rotating, dtype=float)
+        if self.rotating is None:
+            return tuple(out), None, None
+        if 0 not in orders:
+            raise ValueError("hbm: a rotating (static) load needs harmonic order 0")
+        n0 = sizes[orders.index(0)]
+        rot = []
+        for name, value in (("rotating", self.rotating), ("rotating_part", self.rotating_part)):
+            f = np.zeros(n0) if value is None else np.asarray(value, dtype=float)
             if f.shape not in ((n_dof,), (n0,)):
-                raise ValueError(f"hbm: rotating load has shape {f.shape}, expected "
-                                 f"({n_dof},) or ({n0},)")
-            rot = np.zeros(n0, dtype=complex)
-            rot[: f.size] = f
-        return tuple(out), rot
+                raise ValueError(f"hbm: {name} load has shape {f.shape}, expected ({n_dof},) "
+                                 f"or ({n0},)")
+            vec = np.zeros(n0, dtype=complex)
+            vec[: f.size] = f
+            rot.append(vec)
+        return tuple(out), rot[0], rot[1]
 
 
 @dataclass(frozen=True)
@@ -309,7 +316,8 @@ class HarmonicBalance:
         self.excitation = excitation
         self.contacts = tuple(contacts)
         n = linear.n_dof
-        self._forces, self._rotating = excitation.vectors(harmonics.orders, linear.sizes, n)
+        self._forces, self._rotating, self._rotating_part = excitation.vectors(
+            harmonics.orders, linear.sizes, n)
         names = [c.name for c in self.contacts]
         if len(set(names)) != len(names):
             raise ValueError(f"hbm: contact names must be unique, got {names}")
@@ -323,6 +331,8 @@ class HarmonicBalance:
         self.dofs = np.flatnonzero(used)  # the unknowns: contact DOFs
         self.others = np.flatnonzero(~used)  # shared DOFs no contact touches
         self._Breal = [self._real_kinematics(B) for B in self._B]
+        self._blocks = [_PointBlocks.of(Br, c.elements.size) for c, Br in
+                        zip(self.contacts, self._Breal)]
         self._cache = _Cache()
 
     @property
@@ -335,16 +345,19 @@ class HarmonicBalance:
                ) -> tuple[list[np.ndarray], list[np.ndarray] | None]:
         """Per order the (n_n,) external forces at the point and, with ``parameter``, their
         derivatives: the excitation multiplier scales the dynamic orders, the rotating load
-        enters order 0 as speed^2 times it."""
+        enters order 0 as speed^2 times it (its mass part times the mass multiplier)."""
         s2, ds2 = self.excitation.speed_squared(point.omega)
         F, dF = [], []
         for o, f in zip(self.harmonics.orders, self._forces):
             g = f * point.excitation if o > 0 else f.copy()
             d = f if (o > 0 and parameter == "excitation") else np.zeros_like(f)
             if o == 0 and self._rotating is not None:
-                g += s2 * self._rotating
+                rot = self._rotating + (point.mass_multiplier - 1.0) * self._rotating_part
+                g += s2 * rot
                 if parameter == "frequency":
-                    d = d + ds2 * self._rotating
+                    d = d + ds2 * rot
+                elif parameter == "mass":
+                    d = d + s2 * self._rotating_part
             F.append(g)
             dF.append(d)
         return F, (dF if parameter is not None else None)
@@ -455,7 +468,7 @@ class HarmonicBalance:
         dR = None
         if parameter is not None:
             dR = (dS @ x if dS is not None else np.zeros_like(x)) - dF
-        for c, Br in zip(self.contacts, self._Breal):
+        for c, Br, blocks in zip(self.contacts, self._Breal, self._blocks):
             el = c.elements.with_n0(c.elements.n0 * point.preload) if point.preload != 1 else (
                 c.elements
             )
@@ -464,7 +477,7 @@ class HarmonicBalance:
                             corrections=self.sub_sample)
             R += Br.T @ r.forces.ravel()
             if jacobian:
-                J += _sandwich(Br, r.jacobian)
+                blocks.add_sandwich(J, r.jacobian)
             if parameter == "preload":
                 dR += Br.T @ (r.d_n0 * c.elements.n0[:, None, None]).ravel()
         return R, J, dR
@@ -576,18 +589,44 @@ class HarmonicBalance:
         return out
 
 
-def _sandwich(Br: np.ndarray | sp.csr_matrix, blocks: np.ndarray) -> np.ndarray:
-    """B^T diag(blocks) B for per-point blocks (P, c, nc, c, nc) -> dense (n, n)."""
-    P = blocks.shape[0]
-    m = blocks.shape[1] * blocks.shape[2]
-    if isinstance(Br, np.ndarray):
-        B3 = Br.reshape(P, m, -1)
-        JB = np.matmul(blocks.reshape(P, m, m), B3)
-        return Br.T @ JB.reshape(P * m, -1)
-    Jc = sp.bsr_matrix(
-        (blocks.reshape(P, m, m), np.arange(P), np.arange(P + 1)), shape=(P * m, P * m)
-    )
-    return np.asarray((Br.T @ (Jc @ Br)).todense())
+@dataclass(frozen=True)
+class _PointBlocks:
+    """The real kinematic map of one contact cut into its points: point p's rows touch only
+    the unknowns ``cols[p]`` (its two nodes' DOFs times the coefficients), through the dense
+    block ``B[p]`` (m, k) with m = components x coefficients. Then B^T diag(J_p) B costs
+    P (m k^2 + k^2) instead of a product over every unknown; ``disjoint``: no two points
+    share an unknown (each node in one pair) and none is padded, so the blocks add without
+    collisions."""
+
+    cols: np.ndarray  # (P, k) int, padded with a repeated column whose B entries are 0
+    B: np.ndarray  # (P, m, k)
+    disjoint: bool
+
+    @classmethod
+    def of(cls, Br: np.ndarray | sp.csr_matrix, P: int) -> _PointBlocks:
+        Bc = sp.csr_matrix(Br)
+        m = Bc.shape[0] // P
+        cols = [np.unique(Bc[p * m:(p + 1) * m].indices) for p in range(P)]
+        k = max((c.size for c in cols), default=0)
+        idx = np.zeros((P, max(k, 1)), dtype=np.int64)
+        B = np.zeros((P, m, max(k, 1)))
+        for p, c in enumerate(cols):
+            if c.size:
+                idx[p, : c.size], idx[p, c.size:] = c, c[0]
+                B[p, :, : c.size] = Bc[p * m:(p + 1) * m][:, c].toarray()
+        used = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
+        padded = any(c.size < k for c in cols)
+        return cls(idx, B, bool(np.unique(used).size == used.size) and not padded)
+
+    def add_sandwich(self, J: np.ndarray, blocks: np.ndarray) -> None:
+        """J += B^T diag(blocks) B for per-point blocks (P, c, nc, c, nc)."""
+        P, m, _ = self.B.shape
+        C = np.swapaxes(self.B, 1, 2) @ (blocks.reshape(P, m, m) @ self.B)  # (P, k, k)
+        rows, cols = self.cols[:, :, None], self.cols[:, None, :]
+        if self.disjoint:
+            J[rows, cols] += C
+        else:  # shared or padded columns: accumulate every contribution
+            np.add.at(J, (rows, cols), C)
 
 
 def _others(shared_others: np.ndarray, n_shared: int, n: int) -> np.ndarray:
@@ -627,14 +666,15 @@ def _condense(D, F, c, i_shared, dD=None, dF=None) -> Condensed:
         Ys.append(Y)
         zs.append(z)
         if deriv:
-            # L = Dci Dii^-1 (left factor), dS = dDcc - dDci Y - L dDic + L dDii Y
+            # L = Dci Dii^-1 (left factor), dS = dDcc - dDci Y - L (dDic - dDii Y): two
+            # products of (nc x ni x nc), the cost of the condensation itself
             L = np.linalg.solve(Dii.T, Dci.T).T
             dFe = np.zeros_like(Fe[-1]) if dFk is None else dFk[c] - L @ dFk[i]
             dS = np.zeros_like(S[-1])
-            if dDk is not None:
-                dcc, dci = dDk[np.ix_(c, c)], dDk[np.ix_(c, i)]
-                dic, dii = dDk[np.ix_(i, c)], dDk[np.ix_(i, i)]
-                dS = dcc - dci @ Y - L @ dic + L @ dii @ Y
+            if dDk is not None and np.any(dDk):  # (zero at order 0 for the frequency)
+                dci = dDk[np.ix_(c, i)]
+                dii = dDk[np.ix_(i, i)]
+                dS = dDk[np.ix_(c, c)] - dci @ Y - L @ (dDk[np.ix_(i, c)] - dii @ Y)
                 dFe = dFe - (dci - L @ dii) @ z  # dF_eff = -(dDci - L dDii) z
             dSs.append(dS)
             dFs.append(dFe)
