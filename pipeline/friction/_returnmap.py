@@ -8,7 +8,7 @@ components) and of the normal one ``v``, the normal force is
 
     predictor   Tp = T_{k-1} + kt * (u_k - u_{k-1})
     open        N_k = 0           ->  T_k = 0
-    stick       |Tp| <= mu N_k    ->  T_k = Tp
+    stick       |Tp| <= mu N_k    ->  T_k = Tp   (to rounding: STICK_SLACK)
     slip        otherwise         ->  T_k = mu N_k Tp / |Tp|   (radial return)
 
 In 2D a slip that continues from a slipping sample is integrated exactly over
@@ -20,7 +20,15 @@ second order (measured on the circle's closed form: 1.1e-3, 6.7e-5, 4.2e-6 at
 
 The march starts as if the previous sample had ``T = kt u_{N-1}``, so the
 first predictor is ``kt u_0`` (the static part included: seed eqs. 26-28), and
-repeats periods until the force at the end of a period repeats.
+repeats periods until the force at the end of a period repeats. A cycle that
+sticks all period is periodic from any nearby start (it is not unique, and
+the periodicity leaves its derivative free: Phi = I): the one returned is
+where that march settles, slipping in its first periods if it must
+("shakedown"), and its derivatives are those of the same march, repeated
+with derivatives. When the march closes in on a corner of the stuck set
+(slipping at the same two samples period after period, contracting slowly)
+the cycle is the one touching the limit at both, in closed form and
+differentiated implicitly (:func:`_cycle`).
 
 Sub-sample transitions. Between two samples the inputs are taken linear in
 time. A contact that closes inside an interval starts sticking from where it
@@ -46,6 +54,13 @@ import numpy as np
 from numba import njit, prange
 
 STICK, SLIP, OPEN = 0, 1, 2
+# A predictor this close to the limit, relative to the magnitudes it is computed from
+# (mu N and kt |u|), sticks. A cycle stuck after slipping ("shakedown") touches the limit
+# where it last slipped and comes back there each period with the rounding of a period's
+# increments (~1e-15 of those magnitudes, measured to 4096 samples; at most ns * 1.1e-16,
+# 5e-13): stick or slip decided by those bits would switch the sub-sample kink term on and
+# off (an O(h^3) step in the forces), so the forces would not be differentiable there.
+STICK_SLACK = 1e-11
 
 
 @njit(cache=True, parallel=True, fastmath=False)
@@ -68,9 +83,14 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
 
     The cycle is found without derivatives. Derivatives then take one more
     period from a sample that erases the memory of the march (open, or
-    slipping in 1D), where they are exact with no history; a point with no such
-    sample (stuck, or slipping in 2D without opening) repeats the march with
-    derivatives from the start.
+    slipping in 1D), where they are exact with no history. A point with no such
+    sample either slips on an isolated 2D cycle, whose derivative is that of
+    the periodic orbit (:func:`_periodic_derivative`), or sticks all period
+    (possibly touching the limit): then its start state, and so every force,
+    is what the march from the start convention left (seed eqs. 26-28), and
+    the march is repeated with derivatives from the start (as is any march of
+    at most two periods), or it sits on a corner of the stuck set
+    (:func:`_corner_derivative`).
     """
     P, d, ns = u.shape
     nc = E.shape[1]
@@ -81,8 +101,8 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
         dT = np.zeros((d, m))
         T = np.empty(d)
         Tp = np.empty(d)
-        periods = _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, False, max_periods, rtol,
-                         T, Tp, dT, G, T_out, N_out, state_out)
+        periods, how, ca, cb = _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, False,
+                                      max_periods, rtol, T, Tp, dT, G, T_out, N_out, state_out)
         if want_jac:
             e = -1
             for k in range(ns):
@@ -97,10 +117,14 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
                 _steps(p, e + 1, ns - 1, state_out[p, e] == OPEN, u, v, kt, kn, mu, n0, E,
                        has_normal, True, True, T, Tp, dT, G, T_out, N_out, state_out, -1,
                        state_out[p, e] == SLIP)
-            elif periods > 2:
-                _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G,
-                                     T_out, N_out, state_out)
-            else:
+            elif how == CORNER:
+                _corner_derivative(p, ca, cb, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT,
+                                   G, T_out, N_out, state_out)
+            elif periods <= 2 or not _periodic_derivative(
+                    p, u, v, kt, kn, mu, n0, E, has_normal, how == PLAIN, T, Tp, dT, G, T_out,
+                    N_out, state_out):
+                # the march again with derivatives from the start convention: short, or a
+                # stuck cycle whose start state is the march's choice (seed eqs. 26-28)
                 _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, True, periods, 0.0,
                        T, Tp, dT, G, T_out, N_out, state_out)
         periods_out[p] = periods
@@ -159,6 +183,9 @@ def _count(p, state_out, T_out, counts_out):  # pragma: no cover
 
 
 SHOOT_AFTER = 4  # plain periods before Newton on the cycle's periodicity
+SINGULAR = 1e-8  # smallest singular value of (I - Phi) below which a cycle is not isolated
+TOUCH = 1e-9  # return-map corrections below this (x the force scale) only touch the limit
+PLAIN, SHOT, CORNER = 0, 1, 2  # how _cycle reached the cycle
 
 
 @njit(cache=True)
@@ -169,8 +196,58 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
 
     A cycle still drifting after SHOOT_AFTER periods (2D partial slip contracts
     slowly) is found by Newton on periodicity, ``T_s += (I - Phi)^-1 (P(T_s) -
-    T_s)`` with Phi = dP/dT_s carried through each period. Returns the periods
-    marched; the last one is left in the outputs."""
+    T_s)`` with Phi = dP/dT_s carried through each period. That is sound for an
+    isolated cycle. A cycle that sticks all period, or only touches the limit,
+    is one of a continuum of periodic cycles (shifted stuck cycles, Phi = I),
+    and which one holds is the history's choice: the predictor/corrector of
+    seed eqs. 26-28, the march from ``T = kt u``. A Newton jump into that
+    continuum lands on one of them by chance (and its derivative would need
+    that of Phi). Two cases are told apart:
+
+    * the march was closing in on a corner of the stuck set, slipping at the
+      same two samples a and b period after period (alternate projections onto
+      two limit circles, contracting by a factor set by their angle, slowly
+      when it is small): its limit is the stuck cycle touching the limit at
+      both, found in closed form (:func:`_corner_point`);
+    * otherwise the cycle is marched again without jumps (a cycle touching the
+      limit at one sample is reached in finitely many periods, a few tens in
+      the cases met).
+
+    Returns the periods, how the cycle was reached (PLAIN: by the march alone,
+    replayable with derivatives; SHOT: an isolated cycle, by jumps; CORNER) and
+    the corner's samples a, b (-1 unless CORNER)."""
+    d, ns = u.shape[1], u.shape[2]
+    shooting = rtol > 0.0 and not want_jac
+    periods, jumped, isolated, a, b = _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
+                                               max_periods, rtol, shooting, T, Tp, dT, G,
+                                               T_out, N_out, state_out)
+    if not jumped:
+        return periods, PLAIN, -1, -1
+    if isolated:
+        return periods, SHOT, -1, -1
+    if d == 2 and a >= 0 and _corner_start(p, a, b, u, v, kt, kn, mu, n0, T_out, T):
+        _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, False, False, T, Tp, dT,
+               G, T_out, N_out, state_out)
+        stuck = True
+        for k in range(ns):
+            if state_out[p, k] != STICK:
+                stuck = False
+        if stuck:
+            return periods + 1, CORNER, a, b
+    periods, _, _, _, _ = _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
+                                   max_periods, rtol, False, T, Tp, dT, G, T_out, N_out,
+                                   state_out)
+    return periods, PLAIN, -1, -1
+
+
+@njit(cache=True)
+def _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol, shooting,
+             T, Tp, dT, G, T_out, N_out, state_out):  # pragma: no cover
+    """The march of :func:`_cycle`, with Newton jumps after SHOOT_AFTER periods
+    if ``shooting``. Returns the periods; whether the last period started from
+    a jump; if so, whether the cycle is isolated (:func:`_isolated`); and the
+    two slip samples a, b of the last periods that slipped if they were the
+    same in the last two of them (-1 otherwise)."""
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = (d + int(has_normal)) * nc + 1  # derivative columns (dT may be a placeholder)
@@ -186,10 +263,13 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
     Tend = T.copy()
     shoot = np.zeros((d, m + d))
     periods = 0
+    jumped = from_jump = newton = stable = False
+    a = b = -1
     for period in range(max_periods):
         periods = period + 1
+        from_jump = jumped
         was_open = not closed if period == 0 else state_out[p, ns - 1] == OPEN
-        newton = rtol > 0.0 and not want_jac and period >= SHOOT_AFTER
+        newton = shooting and period >= SHOOT_AFTER
         slipped = period > 0 and state_out[p, ns - 1] == SLIP
         if newton:
             shoot[:, :] = 0.0
@@ -201,6 +281,22 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
             scale = _steps(p, 0, ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
                            want_jac, want_jac, T, Tp, dT, G, T_out, N_out, state_out, -1,
                            slipped)
+        if shooting and period >= SHOOT_AFTER - 1:
+            # the slip samples, when two (a corner of the stuck set being closed in on)
+            count, i0, i1 = 0, -1, -1
+            for k in range(ns):
+                if state_out[p, k] == SLIP:
+                    count += 1
+                    if count == 1:
+                        i0 = k
+                    elif count == 2:
+                        i1 = k
+            if count == 2:
+                stable = i0 == a and i1 == b
+                a, b = i0, i1
+            elif count > 0:
+                a = b = -1
+                stable = False
         diff = 0.0
         for j in range(d):
             diff = max(diff, abs(T[j] - Tend[j]))
@@ -213,6 +309,7 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
             if d == 1:
                 if a00 != 0.0:
                     T[0] = Tend[0] + r0 / a00
+                    jumped = True
             else:
                 a01, a10, a11 = -shoot[0, m + 1], -shoot[1, m], 1.0 - shoot[1, m + 1]
                 r1 = T[1] - Tend[1]
@@ -220,21 +317,169 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
                 if det != 0.0:
                     T[0] = Tend[0] + (a11 * r0 - a01 * r1) / det
                     T[1] = Tend[1] + (a00 * r1 - a10 * r0) / det
+                    jumped = True
         for j in range(d):
             Tend[j] = T[j]
-    return periods
+    if not stable:
+        a = b = -1
+    if not from_jump:
+        return periods, False, False, a, b
+    # jumps leave every later period in Newton mode: shoot holds the last one's Phi
+    return periods, True, _isolated(p, shoot, m, u, kt, mu, T_out, N_out, state_out), a, b
 
 
 @njit(cache=True)
-def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T_out,
-                         N_out, state_out):  # pragma: no cover
+def _isolated(p, ext, m, u, kt, mu, T_out, N_out, state_out):  # pragma: no cover
+    """Whether the period last marched (in the outputs; ext[:, m:] its Phi =
+    dT_end / dT_start) is an isolated periodic cycle, whose start state the
+    periodicity fixes.
+
+    Isolated: it opens (the memory is erased), or it slips with (I - Phi)
+    regular. Not: it sticks all period (Phi = I), or it only touches the limit
+    (every return-map correction ``|Tp - T|`` below TOUCH x the force scale:
+    rounding, or the drift the periodicity test lets through, 1e-13 by
+    default), or (I - Phi) has a smallest singular value below SINGULAR
+    (estimated as |det| / Frobenius norm, within a factor sqrt 2; a cycle
+    contracting that slowly is not told from a stuck one in 1e8 periods). A
+    slip cycle has corrections that balance over the period, each set by the
+    motion, and (I - Phi) set by the directions of its slip arcs."""
+    d, ns = T_out.shape[1], T_out.shape[2]
+    scale = 0.0
+    jump = 0.0
+    for k in range(ns):
+        if state_out[p, k] == OPEN:
+            return True
+        kprev = k - 1 if k > 0 else ns - 1
+        scale = max(scale, mu[p] * N_out[p, k])
+        corr = 0.0
+        for j in range(d):
+            scale = max(scale, abs(T_out[p, j, k]))
+            if state_out[p, k] == SLIP:
+                tp = T_out[p, j, kprev] + kt[p, j] * (u[p, j, k] - u[p, j, kprev])
+                corr += (tp - T_out[p, j, k]) ** 2
+        jump = max(jump, np.sqrt(corr))
+    if jump <= TOUCH * scale:
+        return False
+    if d == 1:
+        return abs(1.0 - ext[0, m]) > SINGULAR
+    a00, a01 = 1.0 - ext[0, m], -ext[0, m + 1]
+    a10, a11 = -ext[1, m], 1.0 - ext[1, m + 1]
+    det = a00 * a11 - a01 * a10
+    fro = np.sqrt(a00 * a00 + a01 * a01 + a10 * a10 + a11 * a11)
+    return abs(det) > SINGULAR * fro
+
+
+@njit(cache=True)
+def _corner_start(p, a, b, u, v, kt, kn, mu, n0, T_out, T):  # pragma: no cover
+    """Start state (into T) of the 2D stuck cycle ``T_k = c + kt u_k`` that
+    touches the limit at samples a and b, ``|c + kt u_i| = mu N_i``: the
+    intersection of two circles in c, the one nearest the cycle in the
+    outputs. False if the circles do not cross at an angle (sine) above
+    SINGULAR."""
+    ns = T_out.shape[2]
+    c0 = T_out[p, 0, ns - 1] - kt[p, 0] * u[p, 0, ns - 1]
+    c1 = T_out[p, 1, ns - 1] - kt[p, 1] * u[p, 1, ns - 1]
+    ok, c0, c1 = _corner_point(p, a, b, u, v, kt, kn, mu, n0, c0, c1)
+    if ok:
+        T[0] = c0 + kt[p, 0] * u[p, 0, ns - 1]
+        T[1] = c1 + kt[p, 1] * u[p, 1, ns - 1]
+    return ok
+
+
+@njit(cache=True)
+def _corner_point(p, a, b, u, v, kt, kn, mu, n0, c0, c1):  # pragma: no cover
+    """The point c nearest (c0, c1) with ``|c + kt u_i| = mu N_i`` at i = a, b:
+    (ok, c). Circles about -kt u_i; c = P_a + x e +- h e_perp."""
+    ra = mu[p] * (n0[p] + kn[p] * v[p, a])
+    rb = mu[p] * (n0[p] + kn[p] * v[p, b])
+    pa0, pa1 = -kt[p, 0] * u[p, 0, a], -kt[p, 1] * u[p, 1, a]
+    dx0, dx1 = -kt[p, 0] * u[p, 0, b] - pa0, -kt[p, 1] * u[p, 1, b] - pa1
+    dist = np.sqrt(dx0 * dx0 + dx1 * dx1)
+    if ra <= 0.0 or rb <= 0.0 or dist == 0.0:
+        return False, c0, c1
+    e0, e1 = dx0 / dist, dx1 / dist
+    x = (dist * dist + ra * ra - rb * rb) / (2.0 * dist)
+    h2 = ra * ra - x * x
+    # sine of the angle between the circles' normals at c: dist h / (ra rb)
+    if h2 <= 0.0 or dist * np.sqrt(h2) <= SINGULAR * ra * rb:
+        return False, c0, c1
+    h = np.sqrt(h2)
+    if (c0 - pa0 - x * e0) * -e1 + (c1 - pa1 - x * e1) * e0 < 0.0:
+        h = -h
+    return True, pa0 + x * e0 - h * e1, pa1 + x * e1 + h * e0
+
+
+@njit(cache=True)
+def _corner_derivative(p, a, b, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T_out,
+                       N_out, state_out):  # pragma: no cover
+    """Derivatives of the stuck cycle on a corner (:func:`_cycle`): c by
+    implicit differentiation of the touching conditions ``|w_i| = mu N_i``,
+    ``w_i = c + kt u_i`` (i = a, b), ``n_i . (dc + kt du_i) = mu dN_i`` with
+    n_i = w_i / |w_i|, then the period from ``T_s = c + kt u_{N-1}`` storing G.
+    That is the derivative of the corner the forces are on (exact)."""
+    ns = u.shape[2]
+    nc = E.shape[1]
+    m = dT.shape[1]
+    vcol = 2 * nc
+    c0 = T_out[p, 0, ns - 1] - kt[p, 0] * u[p, 0, ns - 1]
+    c1 = T_out[p, 1, ns - 1] - kt[p, 1] * u[p, 1, ns - 1]
+    _, c0, c1 = _corner_point(p, a, b, u, v, kt, kn, mu, n0, c0, c1)
+    la = mu[p] * (n0[p] + kn[p] * v[p, a])
+    lb = mu[p] * (n0[p] + kn[p] * v[p, b])
+    na0, na1 = (c0 + kt[p, 0] * u[p, 0, a]) / la, (c1 + kt[p, 1] * u[p, 1, a]) / la
+    nb0, nb1 = (c0 + kt[p, 0] * u[p, 0, b]) / lb, (c1 + kt[p, 1] * u[p, 1, b]) / lb
+    det = na0 * nb1 - na1 * nb0
+    for col in range(m):
+        ra = rb = 0.0  # mu dN_i - n_i . kt du_i
+        if col < nc:
+            ra = -na0 * kt[p, 0] * E[a, col]
+            rb = -nb0 * kt[p, 0] * E[b, col]
+        elif col < 2 * nc:
+            ra = -na1 * kt[p, 1] * E[a, col - nc]
+            rb = -nb1 * kt[p, 1] * E[b, col - nc]
+        elif has_normal and col < vcol + nc:
+            ra = mu[p] * kn[p] * E[a, col - vcol]
+            rb = mu[p] * kn[p] * E[b, col - vcol]
+        elif col == m - 1:
+            ra = rb = mu[p]
+        dT[0, col] = (nb1 * ra - na1 * rb) / det
+        dT[1, col] = (na0 * rb - nb0 * ra) / det
+    for c in range(nc):  # T_s = c + kt u_{N-1}
+        dT[0, c] += kt[p, 0] * E[ns - 1, c]
+        dT[1, nc + c] += kt[p, 1] * E[ns - 1, c]
+    T[0] = c0 + kt[p, 0] * u[p, 0, ns - 1]
+    T[1] = c1 + kt[p, 1] * u[p, 1, ns - 1]
+    _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, True, T, Tp, dT, G,
+           T_out, N_out, state_out)
+
+
+@njit(cache=True)
+def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, Tp, dT, G,
+                         T_out, N_out, state_out):  # pragma: no cover
     """Derivatives of a slowly contracting cycle with no memory-erasing sample:
     one period from the periodic state with d extra columns for the start
     state gives b and Phi in dT_end = Phi dT_start + b; the periodic orbit has
     dT_start = (I - Phi)^-1 b; a second period stores G from it. Two periods
-    instead of re-marching all of them."""
+    instead of re-marching all of them.
+
+    A cycle that is not isolated (:func:`_isolated`: stuck all period, where
+    Phi = I and b = 0, or touching the limit) satisfies that equation for any
+    dT_start, or hardly depends on it: its start state is the march's choice
+    and its derivative that of the march. Then nothing is stored and False is
+    returned, for the caller to march again with derivatives; that needs the
+    cycle ``replayable``, reached without Newton jumps, which :func:`_cycle`
+    ensures for every cycle that is not isolated (a cycle reached by jumps is
+    solved here whatever this period shows)."""
     d, ns = u.shape[1], u.shape[2]
     m = dT.shape[1]
+    if replayable:
+        slips = False
+        for k in range(ns):
+            if state_out[p, k] == SLIP:
+                slips = True
+                break
+        if not slips:
+            return False  # stuck all period: Phi = I, b = 0
     ext = np.zeros((d, m + d))
     T0 = np.empty(d)
     for j in range(d):
@@ -244,6 +489,8 @@ def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T
     last_slip = state_out[p, ns - 1] == SLIP
     _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, False, T, Tp, ext,
            G, T_out, N_out, state_out, m - 1, last_slip)
+    if replayable and not _isolated(p, ext, m, u, kt, mu, T_out, N_out, state_out):
+        return False
     A = np.eye(d) - ext[:, m:]
     rhs = ext[:, :m].copy()
     if d == 1:
@@ -257,6 +504,7 @@ def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T
         T[j] = T0[j]
     _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, True, T, Tp, dT,
            G, T_out, N_out, state_out, -1, last_slip)
+    return True
 
 
 @njit(cache=True)
@@ -320,7 +568,15 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                 norm += Tp[j] * Tp[j]
             norm = np.sqrt(norm)
             lim = mu[p] * N
-            if norm <= lim:
+            stick = norm <= lim
+            if not stick:
+                # within rounding of the limit is stick (STICK_SLACK): a cycle left
+                # touching the limit by a slip stays stuck there whatever its last bits
+                slack = lim
+                for j in range(d):
+                    slack += kt[p, j] * abs(u[p, j, k])
+                stick = norm <= lim + STICK_SLACK * slack
+            if stick:
                 for j in range(d):
                     T[j] = Tp[j]
                 state_out[p, k] = STICK
@@ -495,10 +751,11 @@ def _flow_derivative(dT0, dT1, dq0, dq1, dL1, t0, t1, L0, L1, h0, h1, nq, c0, p0
         dI = (Iint - 1.0 / L0) / dL * dL0 + (1.0 / L1 - Iint) / dL * dL1
     else:
         dI = -2.0 / (L0 + L1) ** 2 * (dL0 + dL1)
-    dEx = -Ex * (Iint * dnq + nq * dI)
+    dlogEx = -(Iint * dnq + nq * dI)  # not dEx / Ex: Ex underflows to 0 on a long slip
+    dEx = Ex * dlogEx
     dtau1 = dtau0 * Ex + tau0 * dEx
     dC = -4.0 * tau1 / (den * den) * dtau1
-    dbeta = beta * (dEx / Ex - dc0 / (1.0 + c0) - 2.0 * tau1 * dtau1 / den)
+    dbeta = beta * (dlogEx - dc0 / (1.0 + c0) - 2.0 * tau1 * dtau1 / den)
     dr0 = dC * h0 + C * dh0 + dbeta * p0 + beta * dp0
     dr1 = dC * h1 + C * dh1 + dbeta * p1 + beta * dp1
     return dL1 * r0 + L1 * dr0, dL1 * r1 + L1 * dr1
