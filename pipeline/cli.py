@@ -13,6 +13,7 @@ BENCHES = {
     "mesh": "microslip.pipeline.bench.meshing",
     "reduction": "microslip.pipeline.bench.reduction",
     "teaching": "microslip.pipeline.bench.teaching",
+    "coupled": "microslip.pipeline.bench.coupled",
 }
 
 
@@ -176,7 +177,8 @@ def main(argv: list[str] | None = None) -> int:
               "  bench core       speed and accuracy of the numerical core\n"
               "  bench mesh       meshing time and size over a mesh-size sweep\n"
               "  bench reduction  assembly, cyclic matrices and Craig-Bampton: time, memory\n"
-              "  bench teaching   harmonic balance against time integration; the teaching set",
+              "  bench teaching   harmonic balance against time integration; the teaching set\n"
+              "  bench coupled    coupled blisk + damper: time per point against contact grid",
               file=sys.stderr)
         return 0 if argv and argv[0] in ("-h", "--help") else 2
     from microslip.pipeline.fe.linalg import retain_freed_memory

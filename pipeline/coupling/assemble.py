@@ -188,7 +188,7 @@ def _patch_contacts(mesh: Mesh, pc: PatchContact, stiffness: PatchStiffness,
         rows = [(0, 2), (1, 2)]
         elements = [ContactElements.create("B", kt=kt, kn=0.5 * kn, mu=pc.mu,
                                            interference=interference, coupled=True)] * 2
-        names = [f"{pc.patch}/t1", f"{pc.patch}/t2"]
+        names = [f"{pc.patch}.t1", f"{pc.patch}.t2"]
     out = []
     for comps, el, name in zip(rows, elements, names):
         B = {}

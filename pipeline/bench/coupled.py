@@ -1,0 +1,140 @@
+"""Speed of the coupled harmonic balance at full scale: the blisk sector with its wedge damper,
+contact grids from 2 x 24 to 2 x 240 node pairs, harmonics 0-1 and 0-3.
+
+    microslip bench coupled                                 # the whole table
+    microslip bench coupled --grids 6x4,9x4 --harmonics 1 --points 10
+
+Per configuration, in a fresh process (its own peak memory): the mesh and the reduced bodies
+(cached under --cache), the coupled model, the first point (linear guesses, scales, Newton
+from cold) and then --points arclength points from there. Printed: unknowns, time before the
+first point, median time per point, Newton iterations per point, peak memory, and the floor,
+the dense LU of the unknowns at this machine's measured rate (a 400 x 400 LU in the same
+process), which every Newton iteration pays once. Last, the growth exponent of time per
+point against the number of unknowns (3 is the LU's). A configuration whose single LU would
+take longer than --budget seconds is not run; its estimate is printed instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import multiprocessing
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .core import reference_unit
+
+GRIDS = ((6, 4), (9, 4), (12, 5), (15, 8), (24, 10))  # (axial, along the flank) per patch
+LU_400_FLOP = 2.0 / 3.0 * 400**3
+
+
+def unknowns(n_axial: int, n_flank: int, H: int) -> int:
+    """2 patches x pairs x 2 nodes x 3 DOFs, times the coefficients of orders 0..H."""
+    return 12 * n_axial * n_flank * (2 * H + 1)
+
+
+def run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dict:
+    """One configuration (run in a child process)."""
+    from microslip import geometry
+    from microslip.pipeline.app import structure
+    from microslip.pipeline.coupling.assemble import couple
+    from microslip.pipeline.coupling.spec import CouplingSpec, NodalLoad, Output, PatchContact
+    from microslip.pipeline.friction.harmonics import Harmonics
+    from microslip.pipeline.solve import continuation as cont
+    from microslip.pipeline.solve.hbm import OperatingPoint
+    from microslip.pipeline.solve.response import sweep
+
+    t0 = time.perf_counter()
+    mesh = geometry.blisk_sector(contact_n_axial=n_axial, contact_n_flank=n_flank)
+    red = structure.reduce_structure(
+        mesh, {"engine_order": 12, "harmonics": H, "damping": {"modal_ratios": 0.001}},
+        Path(cache) / f"{n_axial}x{n_flank}", range(H + 1), progress=lambda s: None)
+    spec = CouplingSpec(
+        contacts=(PatchContact("damper_left", 0.5), PatchContact("damper_right", 0.5)),
+        engine_order=12, loads=(NodalLoad("blisk/excitation", "tangential", 5.0),),
+        outputs=(Output("tip", "blisk/response", "tangential"),), centrifugal=("damper",),
+        mass_bodies=("damper",))
+    hb = couple(mesh, red.models, red.patch_stiffness, spec, Harmonics.up_to(H, 64)).hb
+    setup = time.perf_counter() - t0
+    w0 = 0.96 * 2 * np.pi * red.frequencies["blisk", 12][0]
+    base = OperatingPoint(w0, mass_multiplier=25.0)
+    t1 = time.perf_counter()
+    first = sweep(hb, "frequency", w0, 1.1 * w0, base,
+                  settings=cont.Settings(max_points=1))
+    t_first = time.perf_counter() - t1
+    times, its = [], []
+
+    def tick(n, value, iterations):
+        times.append(time.perf_counter())
+        its.append(iterations)
+
+    t2 = time.perf_counter()
+    r = sweep(hb, "frequency", w0, 1.1 * w0, base, x0=first.branch.x[0],
+              settings=cont.Settings(max_points=points + 1), progress=tick)
+    steps = np.diff([t2, *times])[1:]  # the first is the start point again
+    return {"unknowns": hb.n_unknowns, "setup": setup, "first": t_first,
+            "per_point": float(np.median(steps)) if len(steps) else float("nan"),
+            "iterations": float(np.mean(its[1:])) if len(its) > 1 else float("nan"),
+            "points": len(r) - 1, "status": r.branch.status,
+            "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+def _grids(text: str) -> list[tuple[int, int]]:
+    out = []
+    for item in text.split(","):
+        a, _, b = item.partition("x")
+        out.append((int(a), int(b)))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="microslip bench coupled", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--grids", type=_grids, default=list(GRIDS),
+                        help="contact grids per patch, e.g. 6x4,9x4 (axial x flank)")
+    parser.add_argument("--harmonics", default="1,3", help="highest orders H, e.g. 1,3")
+    parser.add_argument("--points", type=int, default=10, help="arclength points timed")
+    parser.add_argument("--budget", type=float, default=30.0,
+                        help="skip a configuration whose one LU would take longer [s]")
+    parser.add_argument("--cache", default=".microslip-cache/bench-coupled",
+                        help="where the reduced bodies are kept between runs")
+    args = parser.parse_args(argv)
+    if args.points < 2:
+        parser.error(f"--points must be >= 2, got {args.points}")
+    Hs = [int(h) for h in args.harmonics.split(",")]
+    unit = reference_unit()
+    rate = LU_400_FLOP / unit
+    print(f"reference: 400 x 400 LU {unit * 1e3:.2f} ms ({rate / 1e9:.1f} GFLOP/s)")
+    header = (f"{'grid':>9} {'H':>2} {'unknowns':>8} {'setup s':>8} {'first s':>8} "
+              f"{'s/point':>8} {'its/pt':>6} {'LU s':>7} {'x LU':>5} {'peak MB':>8}  status")
+    print(header)
+    rows: dict[int, list[tuple[int, float]]] = {}
+    ctx = multiprocessing.get_context("spawn")
+    for H in Hs:
+        for na, nf in args.grids:
+            n = unknowns(na, nf, H)
+            lu = 2.0 / 3.0 * n**3 / rate
+            grid = f"2x{na * nf}"
+            if lu > args.budget:
+                print(f"{grid:>9} {H:>2} {n:>8} {'':>8} {'':>8} {'':>8} {'':>6} {lu:7.2f} "
+                      f"{'':>5} {8 * n * n * 6 / 2**20:8.0f}  skipped: one LU ~{lu:.0f} s "
+                      f"> --budget (memory estimate: 6 dense matrices)", flush=True)
+                continue
+            with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
+                res = pool.submit(run_one, na, nf, H, args.points, args.cache).result()
+            lu = 2.0 / 3.0 * res["unknowns"] ** 3 / rate
+            print(f"{grid:>9} {H:>2} {res['unknowns']:>8} {res['setup']:8.1f} "
+                  f"{res['first']:8.2f} {res['per_point']:8.3f} {res['iterations']:6.1f} "
+                  f"{lu:7.3f} {res['per_point'] / lu:5.1f} {res['memory_mb']:8.0f}  "
+                  f"{res['status']} ({res['points']} points)", flush=True)
+            rows.setdefault(H, []).append((res["unknowns"], res["per_point"]))
+    for H, pts in rows.items():
+        if len(pts) >= 2:
+            n, t = np.log(np.array(pts)).T
+            slope = np.polyfit(n, t, 1)[0]
+            print(f"H = {H}: time per point ~ unknowns^{slope:.2f} over "
+                  f"{min(p[0] for p in pts)}..{max(p[0] for p in pts)} unknowns")
+    return 0
