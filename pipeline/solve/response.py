@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 
 from microslip.pipeline.friction.laws import ContactResponse
 
@@ -227,11 +228,42 @@ def sweep(
         if len(branch):
             tries.append((branch.values[-1], branch.x[-1]))
         for value, x in tries:
-            hint = sampling_hint(model, x, base.set(parameter, value))
+            hint = failure_hint(model, x, base.set(parameter, value))
             if hint:
                 branch.message += hint
                 break
     return Response(model, branch, base)
+
+
+def failure_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
+    """Why a solve may have stalled at x, and what to change: a static problem that nothing
+    holds, or stick arcs between samples ("" if neither shows)."""
+    if not np.all(np.isfinite(x)):
+        return ""
+    return static_hint(model, x, point) or sampling_hint(model, x, point)
+
+
+def static_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
+    """The static (order-0) block of the Jacobian singular: a body (a free damper) that no
+    contact holds statically, every point of it slipping or open, and no load closing them.
+    Its static position is then undetermined and Newton wanders; say so instead."""
+    h = model.harmonics
+    if not h.has_static or model.n_unknowns == 0:
+        return ""
+    _, J, _ = model.residual(x, point)
+    a0 = np.arange(model.dofs.size) * h.n_coeffs  # DOF-major: a0 first
+    J0 = J[np.ix_(a0, a0)]
+    lu, _, info = sla.lapack.dgetrf(J0)
+    rcond = 0.0 if info else sla.lapack.dgecon(lu, np.abs(J0).sum(axis=0).max())[0]
+    if rcond >= 1e-12:
+        return ""
+    states = np.concatenate([r.state for r in model.contact_response(x, point)])
+    n_open = int(np.sum(states == 4))
+    n_slip = int(np.sum((states == 1) | (states == 2) | (states == 3)))
+    return (f"; the static (order-0) problem is singular at w = {point.omega:.6g} rad/s: "
+            f"nothing holds a body in place ({n_open} of {states.size} contact points open, "
+            f"{n_slip} slipping): a free body needs a static load that closes its contacts "
+            "(a centrifugal load with its speed) or an interference")
 
 
 def sampling_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
@@ -262,7 +294,7 @@ def solve_point(
     r = cont.newton(fun, x0, 0.0, x_scale=xs, f_scale=fs, settings=settings)
     if not r.converged:
         r = cont.NewtonResult(r.x, False, r.iterations, r.residual,
-                              r.reason + sampling_hint(model, r.x, point))
+                              r.reason + failure_hint(model, r.x, point))
     return r
 
 
