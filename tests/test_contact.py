@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from derivatives import fd_contact_jacobian
 
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import (
@@ -56,18 +57,7 @@ def rich_motion(el, h, rng):
 
 
 def fd_jacobian(el, g, h, eps=1e-7):
-    """Central differences of the forces over every input coefficient."""
-    P = el.size
-    flat = g.reshape(P, -1)
-    J = np.empty((P, flat.shape[1], flat.shape[1]))
-    for i in range(flat.shape[1]):
-        gp, gm = flat.copy(), flat.copy()
-        gp[:, i] += eps
-        gm[:, i] -= eps
-        fp = el.evaluate(gp.reshape(g.shape), h, jacobian=False).forces.reshape(P, -1)
-        fm = el.evaluate(gm.reshape(g.shape), h, jacobian=False).forces.reshape(P, -1)
-        J[:, :, i] = (fp - fm) / (2 * eps)
-    return J
+    return fd_contact_jacobian(el, g, h, eps)
 
 
 @pytest.mark.parametrize("law", ["A", "B", "C", "D"])

@@ -19,6 +19,7 @@ and slip with the last bits of the forces, and with it the sub-sample kink term.
 
 import numpy as np
 import pytest
+from derivatives import fd_contact_jacobian
 
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import (
@@ -76,18 +77,7 @@ def case(name):
 
 
 def fd_jacobian(el, g, h, eps=1e-6):
-    """Central differences of the returned forces over every input coefficient."""
-    P = el.size
-    flat = g.reshape(P, -1)
-    J = np.empty((P, flat.shape[1], flat.shape[1]))
-    for i in range(flat.shape[1]):
-        gp, gm = flat.copy(), flat.copy()
-        gp[:, i] += eps
-        gm[:, i] -= eps
-        fp = el.evaluate(gp.reshape(g.shape), h, jacobian=False).forces.reshape(P, -1)
-        fm = el.evaluate(gm.reshape(g.shape), h, jacobian=False).forces.reshape(P, -1)
-        J[:, :, i] = (fp - fm) / (2 * eps)
-    return J
+    return fd_contact_jacobian(el, g, h, eps)
 
 
 def fd_n0(el, g, h, eps=1e-6):

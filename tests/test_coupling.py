@@ -5,6 +5,7 @@ against the full-disk model (the test of the neighbour-sector phase and rotation
 
 import numpy as np
 import pytest
+from derivatives import fd_residual_jacobian
 
 from microslip import geometry
 from microslip.pipeline.app import structure
@@ -151,13 +152,7 @@ def test_jacobian_matches_central_differences(sector):
     states = np.concatenate([r.state for r in hb.contact_response(x, p)])
     assert len(set(states.tolist())) >= 3, states  # a mixed state
     R, J, _ = hb.residual(x, p)
-    eps = 1e-6 * np.abs(x).max()
-    Jfd = np.empty_like(J)
-    for i in range(x.size):
-        e = np.zeros_like(x)
-        e[i] = eps
-        Jfd[:, i] = (hb.residual(x + e, p, jacobian=False)[0]
-                     - hb.residual(x - e, p, jacobian=False)[0]) / (2 * eps)
+    Jfd = fd_residual_jacobian(hb, x, p, 1e-6 * np.abs(x).max())
     # central differences of a piecewise-smooth residual: exact where no sample changes
     # state within +-eps, which holds for this state; 1e-5 covers their O(eps^2) error
     assert np.max(np.abs(J - Jfd)) <= 1e-5 * np.max(np.abs(J))
