@@ -180,14 +180,15 @@ def full_disk(sector):
     return full, structure.reduce_structure(full, red, None, progress=lambda s: None)
 
 
-def full_disk_model(full_disk, mu, eo, h):
+def full_disk_model(full_disk, mu, eo, h, amplitude=1.0):
     """Loads on every blade with the engine order's phase, sector k: k EO 2 pi / Ns."""
     full, red = full_disk
     dampers = tuple(b for b in full.bodies if b.startswith("damper"))
     phi = 2 * np.pi / NS
     s = CouplingSpec(
         contacts=tuple(PatchContact(p, mu) for p in sorted(full.contacts)), engine_order=eo,
-        loads=tuple(NodalLoad(f"blisk/excitation#{k}", "tangential", 1.0, 1, k * eo * phi)
+        loads=tuple(NodalLoad(f"blisk/excitation#{k}", "tangential", amplitude, 1,
+                              k * eo * phi)
                     for k in range(NS)),
         outputs=(Output("tip", "blisk/response#0", "tangential"),), speed=SPEED,
         centrifugal=dampers, mass_bodies=dampers)
@@ -195,31 +196,28 @@ def full_disk_model(full_disk, mu, eo, h):
 
 
 @pytest.mark.parametrize("eo", [1, 5])  # ND 1 forward, and backward (conjugated matrices)
-@pytest.mark.parametrize("mu", [1e4, 0.5])
-def test_cyclic_sector_equals_the_full_disk(sector, full_disk, eo, mu):
+@pytest.mark.parametrize("mu, amplitude, rtol", [
+    # stuck: both models span the same space, agreement 1e-9 (measured); the wrong wave
+    # differs by 2e-5 here (on 45 deg flanks the damper passes little force between
+    # neighbouring platforms), so 1e-7 is what tells a wrong phase or rotation apart
+    (1e4, 1.0, 1e-7),
+    # microslip at the resonance: agreement 8e-6 (measured; Newton stops at 1e-9 of the
+    # forces, and the response is ~100x the static one there)
+    (0.5, 15.0, 1e-4)])
+def test_cyclic_sector_equals_the_full_disk(sector, full_disk, eo, mu, amplitude, rtol):
     """The sector with the neighbour's phase exp(i n EO phi) and rotation against Ns copies
-    joined node for node: FRF points within 0.5 % (stuck contacts: the tangential springs
-    carry the neighbour's motion, so a wrong phase or rotation shows; mu = 0.5: microslip)."""
+    joined node for node (six dampers, twelve plain patches): first-harmonic tip amplitudes
+    at three frequencies through the resonance; and the opposite wave as a negative control
+    (the test can fail)."""
     h = Harmonics.up_to(1, 64)
-    cyc = model(sector, mu, eo=eo, h=h)
-    ref = full_disk_model(full_disk, mu, eo, h)
+    ref = full_disk_model(full_disk, mu, eo, h, amplitude)
+    cases = [(model(sector, mu, eo=eo, h=h, amplitude=amplitude), rtol, True)]
+    if mu > 1:
+        cases.append((model(sector, mu, eo=NS - eo, h=h, amplitude=amplitude), 1e-6, False))
     w0 = first_bending(sector)
-    for w in (0.98 * w0, w0, 1.02 * w0):
-        a = cyc.output_coefficients(*solved(cyc, w))
-        b = ref.output_coefficients(*solved(ref, w))
-        amp = lambda c: np.hypot(c[0, 1], c[0, 2])  # noqa: E731  first-harmonic amplitude
-        # both models use the same elements and mode cut-off; what differs is the reduction
-        # (Ns-fold more master/modal freedom in the full disk): measured agreement ~1e-3
-        assert amp(a) == pytest.approx(amp(b), rel=5e-3)
-
-
-def test_a_damper_nothing_holds_is_reported_not_solved(sector):
-    """No centrifugal load and zero interference: nothing presses the damper on the flanks,
-    its static position is undetermined (the order-0 block singular). The solve must stop
-    saying so, never return NaN or a silent non-convergence."""
-    cm = model(sector, 0.5, speed=0.0)
-    r = solve_point(cm.hb, OperatingPoint(first_bending(sector)))
-    assert not r.converged
-    assert np.all(np.isfinite(r.x))
-    assert "static (order-0) problem is singular" in r.reason
-    assert "centrifugal load" in r.reason
+    amp = lambda c: np.hypot(c[0, 1], c[0, 2])  # noqa: E731  first-harmonic amplitude
+    for cyc, tol, same in cases:
+        err = max(abs(amp(cyc.output_coefficients(*solved(cyc, w)))
+                      / amp(ref.output_coefficients(*solved(ref, w))) - 1)
+                  for w in (0.98 * w0, w0, 1.02 * w0))
+        assert (err <= tol) == same, err
