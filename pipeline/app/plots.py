@@ -34,7 +34,8 @@ def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: 
     ``{x, y, label}`` drawn as markers (time integration)."""
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for s in series:
-        (line,) = ax.plot(s["x"], s["y"], label=s.get("label"), lw=1.4, ls=s.get("ls", "-"))
+        (line,) = ax.plot(s["x"], s["y"], label=s.get("label"), lw=s.get("lw", 1.4),
+                          ls=s.get("ls", "-"), color=s.get("color"))
         tp = s.get("turning_points", [])
         if len(tp):
             ax.plot(np.asarray(s["x"])[tp], np.asarray(s["y"])[tp], "o", mfc="none",

@@ -278,15 +278,16 @@ def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w
     directly (linear): written beside the curves and drawn with them."""
     ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
     base = cs.operating_point(a, case)
-    for springs, label, style in (("free", "free (no damper)", ":"), ("stuck", "fully stuck",
-                                                                         "--")):
+    for springs, label, style in (("free", "free (no damper)", ":"),
+                                  ("stuck", "fully stuck", "-.")):
         coef = np.array([cm.linear_outputs(base.set("frequency", x), springs, names)
                          for x in ws])
         shown = _measure(coef, cm.hb.harmonics, measure)
         w.write_group(group, f"linear_{springs}", {"omega": ws, "coefficients": coef,
                                                    "response": shown}, {"label": label})
         for k, n in enumerate(names):
-            series[n].append({"x": ws, "y": shown[:, k], "label": label, "ls": style})
+            series[n].append({"x": ws, "y": shown[:, k], "label": label, "ls": style,
+                              "color": "0.45", "lw": 1.0})
 
 
 LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
