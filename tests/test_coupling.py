@@ -221,3 +221,15 @@ def test_cyclic_sector_equals_the_full_disk(sector, full_disk, eo, mu, amplitude
                       / amp(ref.output_coefficients(*solved(ref, w))) - 1)
                   for w in (0.98 * w0, w0, 1.02 * w0))
         assert (err <= tol) == same, err
+
+
+def test_a_damper_nothing_holds_is_reported_not_solved(sector):
+    """No centrifugal load and zero interference: nothing presses the damper on the flanks,
+    its static position is undetermined (the order-0 block singular). The solve must stop
+    saying so, never return NaN or a silent non-convergence."""
+    cm = model(sector, 0.5, speed=0.0)
+    r = solve_point(cm.hb, OperatingPoint(first_bending(sector)))
+    assert not r.converged
+    assert np.all(np.isfinite(r.x))
+    assert "static (order-0) problem is singular" in r.reason
+    assert "centrifugal load" in r.reason
