@@ -6,6 +6,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from case_helpers import case_faults
 
 from microslip.pipeline.app import case as cs
 from microslip.pipeline.app.run import run_case
@@ -25,11 +26,7 @@ GOOD = {
 
 
 def faults(mutate) -> list[str]:
-    data = copy.deepcopy(GOOD)
-    mutate(data)
-    with pytest.raises(cs.CaseError) as err:
-        cs.check(data)
-    return err.value.faults
+    return case_faults(GOOD, mutate)
 
 
 def test_good_case_builds_the_model_it_says():

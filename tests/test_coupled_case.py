@@ -6,6 +6,7 @@ import copy
 import h5py
 import numpy as np
 import pytest
+from case_helpers import case_faults
 
 from microslip import geometry
 from microslip.pipeline.app import case as cs
@@ -34,11 +35,7 @@ CASE = {
 
 
 def faults(mutate) -> list[str]:
-    data = copy.deepcopy(CASE)
-    mutate(data)
-    with pytest.raises(cs.CaseError) as err:
-        cs.check(data)
-    return err.value.faults
+    return case_faults(CASE, mutate)
 
 
 def test_the_shipped_case_is_valid():

@@ -9,6 +9,7 @@ import h5py
 import numpy as np
 import pytest
 import scipy.linalg as sla
+from case_helpers import case_faults
 
 from microslip import geometry
 from microslip.pipeline.app import case as cs
@@ -28,11 +29,7 @@ CASE = {
 
 
 def faults(mutate) -> list[str]:
-    data = copy.deepcopy(CASE)
-    mutate(data)
-    with pytest.raises(cs.CaseError) as err:
-        cs.check(data)
-    return err.value.faults
+    return case_faults(CASE, mutate)
 
 
 @pytest.mark.parametrize("mutate, expected", [
