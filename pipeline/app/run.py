@@ -284,7 +284,9 @@ def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w
                          for x in ws])
         shown = _measure(coef, cm.hb.harmonics, measure)
         w.write_group(group, f"linear_{springs}", {"omega": ws, "coefficients": coef,
-                                                   "response": shown}, {"label": label})
+                                                   "response": shown},
+                      {"label": label, "status": "complete", "message": "linear, solved "
+                       "directly"})
         for k, n in enumerate(names):
             series[n].append({"x": ws, "y": shown[:, k], "label": label, "ls": style,
                               "color": "0.45", "lw": 1.0})

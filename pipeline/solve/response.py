@@ -260,10 +260,14 @@ def static_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) ->
     states = np.concatenate([r.state for r in model.contact_response(x, point)])
     n_open = int(np.sum(states == 4))
     n_slip = int(np.sum((states == 1) | (states == 2) | (states == 3)))
+    loaded = bool(np.any(model.forces(point)[0][model.harmonics.orders.index(0)]))
+    remedy = ("the static load does not hold it there (where the branch folds, arclength "
+              "continuation follows the turn)" if loaded else
+              "a free body needs a static load that closes its contacts (a centrifugal load "
+              "with its speed) or an interference")
     return (f"; the static (order-0) problem is singular at w = {point.omega:.6g} rad/s: "
             f"nothing holds a body in place ({n_open} of {states.size} contact points open, "
-            f"{n_slip} slipping): a free body needs a static load that closes its contacts "
-            "(a centrifugal load with its speed) or an interference")
+            f"{n_slip} slipping): {remedy}")
 
 
 def sampling_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
