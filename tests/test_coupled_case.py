@@ -79,6 +79,10 @@ def test_a_coupled_case_runs_end_to_end(tmp_path):
         assert n > 3
         # per point: the contact unknowns, per node pair its state and static forces
         assert curve["unknowns"].shape == (n, 72 * 3)  # 2 x 6 pairs x 2 nodes x 3, 3 coeffs
+        # every contact DOF named by its mesh node (the patches' nodes) and direction
+        nodes = set(curve["unknown_nodes"][()].tolist())
+        assert len(nodes) == 24 and sorted(np.bincount(curve["unknown_directions"][()])) == [
+            24, 24, 24]
         for name, pairs, comps in (("damper_left", 6, 3), ("damper_right.t1", 6, 2)):
             g = curve["contacts"][name]
             assert g["node_state"].shape == (n, pairs)

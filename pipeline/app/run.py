@@ -229,6 +229,9 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
                 "unknowns": b.x, "unknown_dofs": hb.dofs,
                 "contacts": _contact_data(r) if len(r) else {},
             }
+            if isinstance(models, CoupledModels):  # each unknown's mesh node and x/y/z
+                data["unknown_nodes"] = models.coupled(c).dof_nodes[hb.dofs]
+                data["unknown_directions"] = hb.dofs % 3
             attrs = {"label": tag, "method": method, "measure": measure,
                      "family_key": (a.get("family") or {}).get("key", ""),
                      "family_value": value if value is not None else "", "status": b.status,
