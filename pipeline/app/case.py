@@ -195,15 +195,19 @@ def _check(data: dict, out: list[str], analyses: bool = True) -> None:
         _load(i, load, names, out)
     _harmonics(data.get("harmonics", {}), out)
     _solver(data.get("solver", {}), out)
-    if not analyses:
-        return
-    analyses = data.get("analysis", [])
-    if not isinstance(analyses, list) or not analyses:
-        out.append("analysis: missing; add at least one [[analysis]] with type in "
-                   f"{list(ANALYSES)}")
-        return
-    for i, a in enumerate(analyses):
-        _analysis(i, a, data, seen, names, out)
+    if analyses:
+        for i, a in _analysis_tables(data, ANALYSES, out):
+            _analysis(i, a, data, seen, names, out)
+
+
+def _analysis_tables(data: dict, kinds: tuple[str, ...], out: list[str]) -> list:
+    """(index, table) of the case's [[analysis]], or a fault if there is none."""
+    items = data.get("analysis", [])
+    if not isinstance(items, list) or not items:
+        out.append(f"analysis: missing; add at least one [[analysis]] with type in "
+                   f"{list(kinds)}")
+        return []
+    return list(enumerate(items))
 
 
 def _check_coupled(data: dict, out: list[str], analyses: bool) -> None:
@@ -216,13 +220,8 @@ def _check_coupled(data: dict, out: list[str], analyses: bool) -> None:
     _solver(data.get("solver", {}), out)
     if not analyses:
         return
-    items = data.get("analysis", [])
-    if not isinstance(items, list) or not items:
-        out.append("analysis: missing; add at least one [[analysis]] with type in "
-                   f"{list(coupled.ANALYSES)}")
-        return
     outputs = set(coupled.output_names(data))
-    for i, a in enumerate(items):
+    for i, a in _analysis_tables(data, coupled.ANALYSES, out):
         if isinstance(a, dict) and a.get("type") not in coupled.ANALYSES:
             out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: a coupled case "
                        f"runs {list(coupled.ANALYSES)}")
