@@ -31,7 +31,7 @@ from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import ContactElements
 from microslip.pipeline.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
 
-from .model import BodyLayout, ContactPoints, CoupledModel
+from .model import BodyLayout, ContactPoints, CoupledModel, body_positions
 from .spec import CouplingSpec, PatchContact
 
 
@@ -134,13 +134,9 @@ def _linear(layout: list[BodyLayout], harmonics: Harmonics, n_dof: int, mass_bod
     modes past it in body order."""
     K, M, C, Mp = {}, {}, {}, {}
     for k, o in enumerate(harmonics.orders):
-        modes = [b.models[k].n_modes for b in layout]
-        n = n_dof + sum(modes)
+        n = n_dof + sum(b.models[k].n_modes for b in layout)
         K[o], M[o], C[o], Mp[o] = (np.zeros((n, n), dtype=complex) for _ in range(4))
-        own = n_dof
-        for b, nm in zip(layout, modes):
-            idx = b.indices(k, own)
-            own += nm
+        for b, idx in body_positions(layout, k, n_dof):
             Kb, Mb, Cb = b.models[k].matrices(conjugate=b.conjugate[k])
             ix = np.ix_(idx, idx)
             K[o][ix], M[o][ix], C[o][ix] = Kb, Mb, Cb
@@ -262,17 +258,15 @@ def _excitation(mesh: Mesh, layout: list[BodyLayout], node_dof: dict[int, int], 
         k0 = harmonics.orders.index(0)
         n0 = n_dof + sum(b.models[k0].n_modes for b in layout)
         rotating, part = np.zeros(n0), np.zeros(n0)
-        own = n_dof
-        for b in layout:
+        for b, idx in body_positions(layout, k0, n_dof):
             m = b.models[k0]
             if b.body in spec.centrifugal:
                 if "centrifugal" not in m.loads:
                     raise ValueError(f"body {b.body!r}: its reduced model has no centrifugal "
                                      "load (reduce it again)")
-                rotating[b.indices(k0, own)] = np.real(m.loads["centrifugal"])
+                rotating[idx] = np.real(m.loads["centrifugal"])
                 if b.body in spec.mass_bodies:  # a heavier damper pulls harder
-                    part[b.indices(k0, own)] = np.real(m.loads["centrifugal"])
-            own += m.n_modes
+                    part[idx] = np.real(m.loads["centrifugal"])
     return Excitation(forces, rotating, spec.speed if rotating is not None else None,
                       spec.engine_order if rotating is not None and spec.speed is None
                       else None, part)

@@ -40,6 +40,17 @@ class BodyLayout:
                                np.arange(own_start, own_start + self.models[k].n_modes)])
 
 
+def body_positions(layout: tuple[BodyLayout, ...] | list[BodyLayout], k: int,
+                   n_dof: int) -> list[tuple[BodyLayout, np.ndarray]]:
+    """Each body with its positions in order k's vector: masters in the shared part, then
+    the modes of every body in turn past it."""
+    out, own = [], n_dof
+    for b in layout:
+        out.append((b, b.indices(k, own)))
+        own += b.models[k].n_modes
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class ContactPoints:
     """The node pairs behind one contact of the model (grid order, row-major (n1, n2)).
@@ -83,14 +94,9 @@ class CoupledModel:
         """Per harmonic order the complex reduced coordinates of one body (masters, modes):
         ``model.recover(q)`` gives its recovery nodes' displacements at that order."""
         X = self.hb.recover_orders(x, point)
-        n_dof = self.hb.linear.n_dof
-        out = []
-        for k in range(len(self.hb.harmonics.orders)):
-            own = n_dof
-            for b in self.layout:
-                if b.body == body:
-                    out.append(X[k][b.indices(k, own)])
-                own += b.models[k].n_modes
+        out = [X[k][idx] for k in range(len(X))
+               for b, idx in body_positions(self.layout, k, self.hb.linear.n_dof)
+               if b.body == body]
         if not out:
             raise ValueError(f"body {body!r} is not in this model; bodies: "
                              f"{[b.body for b in self.layout]}")
@@ -136,9 +142,6 @@ class CoupledModel:
 
     def _cyclic_indices(self, k: int) -> np.ndarray:
         """Order k's positions of the cyclic bodies' coordinates (masters and modes)."""
-        own, keep = self.hb.linear.n_dof, []
-        for b in self.layout:
-            if b.cyclic:
-                keep.append(b.indices(k, own))
-            own += b.models[k].n_modes
+        keep = [idx for b, idx in body_positions(self.layout, k, self.hb.linear.n_dof)
+                if b.cyclic]
         return np.concatenate(keep) if keep else np.zeros(0, dtype=int)
