@@ -78,11 +78,18 @@ def run(argv: list[str]) -> int:
         print("microslip run: interrupted; the results file keeps what finished, marked "
               "partial", file=sys.stderr)
         return 130
+    import h5py
+
     from microslip.pipeline.app.results import summary
 
     print(summary(path))
     print(f"wrote {out} in {time.perf_counter() - t:.1f} s")
-    return 0
+    with h5py.File(path, "r") as f:
+        status, message = str(f.attrs["status"]), str(f.attrs["message"])
+    if status == "complete":
+        return 0
+    print(f"microslip run: {status}: {message}", file=sys.stderr)
+    return 130 if message.startswith("interrupted") else 1
 
 
 def check(argv: list[str]) -> int:

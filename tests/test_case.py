@@ -122,6 +122,24 @@ def test_interrupted_run_leaves_a_valid_partial_file(tmp_path):
         assert "curve_000" in f["a"] and "curve_001" not in f["a"]
 
 
+def test_a_stopped_curve_makes_the_run_partial_and_exit_1(tmp_path, monkeypatch):
+    """A curve cut short (3 points cannot cover 0.5..2 rad/s) is not a complete run:
+    the file says partial and which analysis stopped, and `microslip run` exits 1."""
+    from microslip.pipeline import cli
+
+    data = copy.deepcopy(GOOD)
+    data["solver"] = {"max_points": 3}
+    cs.check(data)
+    monkeypatch.setattr(cli, "_load_case", lambda cmd, path: cs.Case(data, "t.toml"))
+    assert cli.main(["run", "t.toml", "--out", str(tmp_path)]) == 1
+    with h5py.File(tmp_path / "results.h5") as f:
+        assert f.attrs["status"] == "partial"
+        assert f.attrs["message"].startswith("analysis a stopped")
+        assert f["a"].attrs["status"] == "stopped"
+    data.pop("solver")  # the same case through to the end: exit 0
+    assert cli.main(["run", "t.toml", "--out", str(tmp_path)]) == 0
+
+
 def test_transient_and_dti_analyses(tmp_path):
     """A mass pressed on a wall by a static load (law B, no preload): after the
     quasi-static step N equals the load; time integration runs from a case."""

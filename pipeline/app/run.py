@@ -50,6 +50,7 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
                 if "coupling" in case.data:
                     models = CoupledModels(m, result)
         drawn: dict[str, dict] = {}  # analysis -> {output: series}, for comparisons
+        unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
         for i, a in enumerate(case.analyses):
             name = str(a.get("name", f"analysis{i}"))
             kind = a["type"]
@@ -67,8 +68,15 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
             if status == "interrupted":
                 stopped = f"interrupted by the user in analysis {name}"
                 break
+            if status != "complete":
+                unfinished.append((name, status, message))
         if stopped:
             return w.close("partial", stopped)
+        if unfinished:  # a stopped or failed curve is not a complete run
+            failed = [u for u in unfinished if u[1] == "failed"]
+            status = "failed" if len(failed) == len(case.analyses) else "partial"
+            return w.close(status, "; ".join(f"analysis {n} {s}: {m}".rstrip(": ")
+                                             for n, s, m in unfinished))
     return out / "results.h5"
 
 
