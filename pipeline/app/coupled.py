@@ -63,12 +63,6 @@ def output_names(data: Mapping[str, Any]) -> list[str]:
     return [o.get("name") for o in outs if isinstance(o, dict)]
 
 
-def patch_names(data: Mapping[str, Any]) -> list[str]:
-    table = data.get("coupling", {})
-    contacts = table.get("contacts", []) if isinstance(table, dict) else []
-    return [c.get("patch") for c in contacts if isinstance(c, dict)]
-
-
 def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
     """Append one line per fault of a case's [coupling] table to ``out``."""
     if not isinstance(table, dict):

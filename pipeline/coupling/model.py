@@ -89,19 +89,6 @@ class CoupledModel:
         names = list(self.outputs) if names is None else names
         return np.array([self.outputs[n] @ Q for n in names]).reshape(len(names), -1)
 
-    def body_coordinates(self, x: np.ndarray, point: OperatingPoint, body: str
-                         ) -> list[np.ndarray]:
-        """Per harmonic order the complex reduced coordinates of one body (masters, modes):
-        ``model.recover(q)`` gives its recovery nodes' displacements at that order."""
-        X = self.hb.recover_orders(x, point)
-        out = [X[k][idx] for k in range(len(X))
-               for b, idx in body_positions(self.layout, k, self.hb.linear.n_dof)
-               if b.body == body]
-        if not out:
-            raise ValueError(f"body {body!r} is not in this model; bodies: "
-                             f"{[b.body for b in self.layout]}")
-        return out
-
     def linear_outputs(self, point: OperatingPoint, springs: str = "stuck",
                        names: list[str] | None = None) -> np.ndarray:
         """(n_outputs, n_coeffs) output coefficients of a linear limit, solved directly order
