@@ -3,8 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
+import signal
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 
@@ -19,14 +25,24 @@ BENCHES = {
 
 def demo(argv: list[str]) -> int:
     """Frequency response of the single-DOF Jenkins oscillator, as a table."""
+    from microslip.pipeline.app.checks import samples_rule
     from microslip.pipeline.bench.demos import jenkins_oscillator
     from microslip.pipeline.solve.hbm import OperatingPoint
     from microslip.pipeline.solve.response import sweep
 
     parser = argparse.ArgumentParser(prog="microslip demo", description=demo.__doc__)
     parser.add_argument("--harmonics", type=int, default=7, help="highest harmonic H (>= 1)")
-    parser.add_argument("--samples", type=int, default=256, help="time samples per period")
+    parser.add_argument("--samples", type=int, default=256,
+                        help="time samples per period: a power of 2 >= 16 (H + 1)")
     args = parser.parse_args(argv)
+    faults: list[str] = []
+    if args.harmonics < 1:
+        faults.append(f"--harmonics = {args.harmonics}: expected an integer >= 1")
+    else:  # the rule of case files (harmonics.samples): another count gives a wrong peak
+        samples_rule("--samples", args.samples, args.harmonics, faults)
+    if faults:
+        print(f"microslip demo: {faults[0]}", file=sys.stderr)
+        return 2
     hb = jenkins_oscillator(args.harmonics, args.samples)
     t = time.perf_counter()
     r = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5))
@@ -45,21 +61,85 @@ def demo(argv: list[str]) -> int:
     return 0 if r.branch.complete else 1
 
 
+INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), for every command
+TERMINATED = 143  # SIGTERM during `run` (128 + SIGTERM, what a shell reports for a kill)
+BROKEN_PIPE = 141  # stdout closed early, e.g. `| head` (128 + SIGPIPE, as for other tools)
+
+
 def _load_case(command: str, path):
-    """The validated case, or None after printing its faults."""
+    """The validated case, or None after printing its faults (one line when one fault)."""
     from microslip.pipeline.app import case as cs
 
     try:
         return cs.load(path)
     except cs.CaseError as err:
-        print(f"microslip {command}: {err}", file=sys.stderr)
+        text = f"{path}: {err.faults[0]}" if len(err.faults) == 1 else str(err)
+        print(f"microslip {command}: {text}", file=sys.stderr)
         return None
+
+
+def _output_folder(command: str, out: Path, given: bool) -> bool:
+    """Whether ``out`` is a folder we can write (created if missing), checked before any
+    heavy work; else prints one line saying why and returns False."""
+    what = f"--out {out}" if given else f"output folder {out}"
+    if out.exists() and not out.is_dir():
+        problem = "exists and is not a folder"
+    else:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            problem = f"cannot create the folder ({err.strerror})"
+        else:
+            try:  # a real write (a nameless file): permissions and read-only mounts show here
+                with tempfile.TemporaryFile(dir=out):
+                    return True
+            except OSError as err:
+                problem = f"cannot write in the folder ({err.strerror})"
+    print(f"microslip {command}: {what}: {problem}; give a writable folder", file=sys.stderr)
+    return False
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM during `microslip run`: raised like Ctrl-C so the run saves what finished."""
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[list[int]]:
+    """For the duration, SIGTERM raises Terminated (once: a repeat while the results are
+    being saved is ignored; SIGKILL still kills). Yields a list that gets the signal number.
+    The previous handler is restored afterwards."""
+    received: list[int] = []
+
+    def handler(signum, frame):
+        if not received:
+            received.append(signum)
+            raise Terminated
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread (main() called from a thread): leave SIGTERM
+        yield received
+        return
+    try:
+        yield received
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _report_run(path: Path, out: Path, start: float) -> tuple[str, str]:
+    """Print the summary of a finished run; its (status, message)."""
+    import h5py
+
+    from microslip.pipeline.app.results import summary
+
+    print(summary(path))
+    print(f"wrote {out} in {time.perf_counter() - start:.1f} s")
+    with h5py.File(path, "r") as f:
+        return str(f.attrs["status"]), str(f.attrs["message"])
 
 
 def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
-    from pathlib import Path
-
     from microslip.pipeline.app.run import run_case
 
     parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
@@ -71,25 +151,25 @@ def run(argv: list[str]) -> int:
     if c is None:
         return 2
     out = args.out or Path("out") / args.case.stem
+    if not _output_folder("run", out, args.out is not None):
+        return 2
     t = time.perf_counter()
-    try:
-        path = run_case(c, out, progress=lambda msg: print(msg, flush=True))
-    except KeyboardInterrupt:
-        print("microslip run: interrupted; the results file keeps what finished, marked "
-              "partial", file=sys.stderr)
-        return 130
-    import h5py
-
-    from microslip.pipeline.app.results import summary
-
-    print(summary(path))
-    print(f"wrote {out} in {time.perf_counter() - t:.1f} s")
-    with h5py.File(path, "r") as f:
-        status, message = str(f.attrs["status"]), str(f.attrs["message"])
+    with _sigterm_as_interrupt() as received:
+        try:
+            path = run_case(c, out, progress=lambda msg: print(msg, flush=True))
+            status, message = _report_run(path, out, t)
+        except KeyboardInterrupt:  # Terminated too
+            why = "terminated (SIGTERM)" if received else "interrupted"
+            print(f"microslip run: {why}; the results file keeps what finished, marked "
+                  "partial", file=sys.stderr)
+            return TERMINATED if received else INTERRUPTED
     if status == "complete":
         return 0
-    print(f"microslip run: {status}: {message}", file=sys.stderr)
-    return 130 if message.startswith("interrupted") else 1
+    why = "terminated (SIGTERM); " if received else ""
+    print(f"microslip run: {why}{status}: {message}", file=sys.stderr)
+    if message.startswith("interrupted"):  # a curve caught the interrupt and saved itself
+        return TERMINATED if received else INTERRUPTED
+    return 1
 
 
 def check(argv: list[str]) -> int:
@@ -105,8 +185,12 @@ def check(argv: list[str]) -> int:
     for path in args.case:
         try:
             c = cs.load(path)
+            largest = max(cs.sizes(c.data), key=lambda s: s.nbytes, default=None)
+            size = f"; largest analysis: {largest}" if largest else ""
             print(f"{path}: ok ({len(c.analyses)} analyses: "
-                  f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)})")
+                  f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)}{size})")
+            for note in cs.notes(c.data):
+                print(f"{path}: note: {note}")
         except cs.CaseError as err:
             print(err, file=sys.stderr)
             bad += 1
@@ -115,25 +199,36 @@ def check(argv: list[str]) -> int:
 
 def show(argv: list[str]) -> int:
     """Summarise a results file (or the results.h5 of an output folder)."""
-    from pathlib import Path
-
-    from microslip.pipeline.app.results import summary
+    from microslip.pipeline.app.results import ResultsError, leftover, summary
 
     parser = argparse.ArgumentParser(prog="microslip show", description=show.__doc__)
     parser.add_argument("path", type=Path, help="results.h5 or its folder")
     args = parser.parse_args(argv)
-    target = args.path / "results.h5" if args.path.is_dir() else args.path
-    if not target.is_file():
-        print(f"microslip show: no results file at {target}", file=sys.stderr)
+    if not args.path.exists():
+        print(f"microslip show: {args.path}: no such file or folder", file=sys.stderr)
         return 2
-    print(summary(target))
+    target = args.path / "results.h5" if args.path.is_dir() else args.path
+    tmp = target.with_name(target.name + ".tmp")  # what a killed run leaves
+    if not target.is_file():
+        if not tmp.is_file():
+            print(f"microslip show: no results file at {target}", file=sys.stderr)
+            return 2
+        print(leftover(tmp))
+        print(f"microslip show: no {target.name} in {target.parent}, only the leftover "
+              f"{tmp.name} of an unfinished run (above)", file=sys.stderr)
+        return 1
+    try:
+        print(summary(target))
+    except ResultsError as err:
+        print(f"microslip show: {err}", file=sys.stderr)
+        return 2
+    if tmp.is_file():
+        print(f"note: {leftover(tmp)}")
     return 0
 
 
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
-    from pathlib import Path
-
     from microslip.pipeline.app.run import mesh_geometry
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
@@ -149,7 +244,8 @@ def mesh(argv: list[str]) -> int:
         print(f"microslip mesh: {args.case} has no [geometry] table", file=sys.stderr)
         return 2
     out = args.out or Path("out") / args.case.stem
-    out.mkdir(parents=True, exist_ok=True)
+    if not _output_folder("mesh", out, args.out is not None):
+        return 2
     try:
         mesh_geometry(c.data["geometry"], out, progress=print, pictures=not args.no_pictures)
     except (TypeError, ValueError) as err:
@@ -161,8 +257,11 @@ def mesh(argv: list[str]) -> int:
 def bench(argv: list[str]) -> int:
     """Benchmarks that print measured figures."""
     if not argv or argv[0] not in BENCHES:
-        print(f"usage: microslip bench {{{','.join(BENCHES)}}} [options]", file=sys.stderr)
-        return 2
+        asked = bool(argv) and argv[0] in ("-h", "--help")
+        print(f"usage: microslip bench {{{','.join(BENCHES)}}} [options]\n"
+              "  (microslip bench NAME --help: the options of one)",
+              file=sys.stdout if asked else sys.stderr)
+        return 0 if asked else 2
     import importlib
 
     return importlib.import_module(BENCHES[argv[0]]).main(argv[1:])
@@ -172,10 +271,24 @@ COMMANDS = {"demo": demo, "run": run, "check": check, "show": show, "mesh": mesh
             "bench": bench}
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("microslip")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return "unknown"
+
+
 def main(argv: list[str] | None = None) -> int:
+    """The ``microslip`` command; returns the exit code (see the README's Commands)."""
     argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] in ("-V", "--version"):
+        print(f"microslip {_version()}")
+        return 0
     if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
-        print("usage: microslip {demo,run,check,show,mesh,bench} ...\n\n"
+        asked = bool(argv) and argv[0] in ("-h", "--help")
+        print("usage: microslip [--version] {demo,run,check,show,mesh,bench} ...\n\n"
               "  demo             frequency response of the single-DOF Jenkins oscillator\n"
               "  run CASE.toml    run a case: results.h5 and pictures in out/<case>\n"
               "  check CASE.toml  validate a case file without running it\n"
@@ -185,13 +298,35 @@ def main(argv: list[str] | None = None) -> int:
               "  bench mesh       meshing time and size over a mesh-size sweep\n"
               "  bench reduction  assembly, cyclic matrices and Craig-Bampton: time, memory\n"
               "  bench teaching   harmonic balance against time integration; the teaching set\n"
-              "  bench coupled    coupled blisk + damper: time per point against contact grid",
-              file=sys.stderr)
-        return 0 if argv and argv[0] in ("-h", "--help") else 2
+              "  bench coupled    coupled blisk + damper: time per point against contact grid\n"
+              "\n"
+              "microslip COMMAND --help: the options of a command; --version: the version",
+              file=sys.stdout if asked else sys.stderr)
+        return 0 if asked else 2
     from microslip.pipeline.fe.linalg import retain_freed_memory
 
     retain_freed_memory()  # a command is one process doing large numerical work
-    return COMMANDS[argv[0]](argv[1:])
+    try:
+        code = COMMANDS[argv[0]](argv[1:])
+        sys.stdout.flush()  # a closed pipe shows here, while it can still be handled
+        return code
+    except KeyboardInterrupt:  # `run` saves its results first; elsewhere nothing to keep
+        print(f"microslip {argv[0]}: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except BrokenPipeError:  # stdout closed early (`| head`): no traceback, quietly stop
+        _stdout_to_devnull()
+        return BROKEN_PIPE
+
+
+def _stdout_to_devnull() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # a replaced stdout (tests): nothing to do
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
 
 
 if __name__ == "__main__":

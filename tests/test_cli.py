@@ -40,3 +40,41 @@ def test_mesh_rejects_bad_cases(tmp_path, capsys, text, msg):
 def test_unknown_command_is_a_usage_error(capsys):
     assert main(["fly"]) == 2
     assert "usage: microslip" in capsys.readouterr().err
+
+
+def test_version(capsys):
+    from importlib.metadata import version
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out == f"microslip {version('microslip')}\n"
+
+
+def test_top_level_help_lists_version(capsys):
+    assert main(["--help"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: microslip [--version] {demo,run,check,show,mesh,bench}")
+
+
+@pytest.mark.parametrize("command", [["run"], ["check"], ["show"], ["mesh"], ["demo"],
+                                     ["bench", "core"], ["bench", "mesh"],
+                                     ["bench", "reduction"], ["bench", "teaching"],
+                                     ["bench", "coupled"]])
+def test_help_names_the_real_program(capsys, command):
+    with pytest.raises(SystemExit) as exit_:
+        main([*command, "--help"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: microslip {' '.join(command)} ")
+
+
+def test_bench_reduction_prints_each_row_once(capsys):
+    """The coarse blisk sector, one ND: each table row once on stdout (progress goes to
+    stderr), and a single run is not called a median."""
+    from microslip.pipeline.bench import reduction
+
+    mesh = reduction.blisk_mesh(4.0)
+    reduction.bench_reduction(mesh, [0], 5, ["superlu"], order=1, bodies=("blisk",))
+    out = capsys.readouterr().out
+    assert "single run" in out and "median of" not in out
+    rows = [line for line in out.splitlines() if line.split()[:3] == ["superlu", "blisk", "0"]]
+    assert len(rows) == 1, out
+    assert reduction._runs(3) == "median of 3 runs"

@@ -23,6 +23,7 @@ reference with units and defaults is in the README.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import json
 import tomllib
@@ -42,10 +43,20 @@ from microslip.pipeline.solve.hbm import (
     HarmonicBalance,
     LinearDynamics,
     OperatingPoint,
+    _Cache,  # its byte limit bounds what the cache holds: the memory estimate reads it
 )
 
 from . import coupled
-from .checks import number, unknown_keys
+from .checks import (
+    ContactShape,
+    available_memory,
+    balance_bytes,
+    is_int,
+    memory_text,
+    number,
+    samples_rule,
+    unknown_keys,
+)
 from .structure import check as check_reduction
 
 ANALYSES = ("frf", "peak", "loops", "dti", "transient")
@@ -124,7 +135,9 @@ class Case:
         data = copy.deepcopy(self.data)
         for key, value in values.items():
             _set_path(data, key, value, create=True)
-        check(data, self.source)
+        # memory=False: load bounded every analysis with its set and family already, against
+        # the memory free then (a run's own arrays must not refuse its later curves)
+        check(data, self.source, memory=False)
         return Case(data, self.source)
 
 
@@ -137,16 +150,24 @@ def load(path: str | Path) -> Case:
             data = tomllib.load(f)
     except OSError as err:
         raise CaseError(str(path), [f"cannot read the file: {err.strerror}"]) from None
+    except UnicodeDecodeError as err:  # tomllib decodes first: a binary file lands here
+        raise CaseError(str(path), [
+            f"not a text file: byte 0x{err.object[err.start]:02x} at offset {err.start} is "
+            "not UTF-8; a case file is TOML text (UTF-8)"]) from None
     except tomllib.TOMLDecodeError as err:
         raise CaseError(str(path), [f"not valid TOML: {err}"]) from None
     check(data, str(path))
     return Case(data, str(path))
 
 
-def check(data: dict, source: str = "case") -> None:
-    """Validate a case table; raises CaseError with one line per fault."""
+def check(data: dict, source: str = "case", *, memory: bool = True) -> None:
+    """Validate a case table; raises CaseError with one line per fault. With ``memory``, a
+    valid case whose largest analysis needs more than the machine's available memory
+    (:func:`sizes`) is refused too, before anything is built."""
     faults: list[str] = []
     _check(data, faults)
+    if not faults and memory:
+        _memory(data, faults)
     if faults:
         raise CaseError(source, faults)
 
@@ -398,11 +419,8 @@ def _harmonics(h, out: list[str]) -> None:
             out.append(f"harmonics.orders = {o!r}: expected a list of integers >= 0")
             return
         top = max(o)
-    if "samples" in h and number("harmonics.samples", h["samples"], out, positive=True,
-                                  integer=True):
-        if isinstance(top, int) and h["samples"] <= 2 * top:
-            out.append(f"harmonics.samples = {h['samples']}: too few for order {top}; need > "
-                       f"{2 * top}")
+    if "samples" in h and is_int(top) and top >= 0:
+        samples_rule("harmonics.samples", h["samples"], top, out)
 
 
 def _solver(s, out: list[str]) -> None:
@@ -509,8 +527,8 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if a.get("scale", "all") not in ("all", "v"):
             out.append(f"{pre}.scale = {a.get('scale')!r}: expected 'all' (the amplitudes "
                        "multiply the whole motion) or 'v' (only the normal motion)")
-        if "samples" in a:
-            number(f"{pre}.samples", a["samples"], out, positive=True, integer=True)
+        if "samples" in a:  # the loops keep orders 0 and 1 (run.run_loops)
+            samples_rule(f"{pre}.samples", a["samples"], 1, out)
     if kind == "transient":
         number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
         for k in ("ramp_time", "settle_time"):
@@ -577,6 +595,10 @@ def _family(pre: str, fam, data: dict, out: list[str]) -> None:
     except (KeyError, IndexError, TypeError, ValueError):
         out.append(f"{pre}.family.key = {key!r}: no such key in the case (use e.g. "
                    "'contacts.<name>.n0' or 'loads.0.amplitude')")
+        return
+    if key.startswith("harmonics."):  # each value moves H or the samples: the same rule
+        for j, v in enumerate(vals):
+            _overrides(f"{pre}.family.values[{j}]", data, {key: v}, out)
 
 
 def _overrides(pre: str, data: dict, table: dict, out: list[str]) -> None:
@@ -609,6 +631,174 @@ def _geometry(geo, out: list[str]) -> None:
     params = geo.get("parameters", {})
     if not isinstance(params, dict):
         out.append("geometry.parameters: expected a table")
+
+
+# --------------------------------------------------------------- sizes and notes
+@dataclass(frozen=True)
+class Size:
+    """What one analysis will hold: the real unknowns of its harmonic balance (of a time
+    integration: the DOFs; loops prescribe the motion and have none) and its peak memory."""
+
+    analysis: str
+    unknowns: int
+    nbytes: int
+    detail: str = ""  # what sets the size (for a refusal)
+
+    def __str__(self) -> str:
+        what = f"{self.unknowns:,} unknowns" if self.unknowns else "no unknowns (prescribed motion)"
+        return f"{self.analysis}, {what}, {memory_text(self.nbytes)}"
+
+
+def sizes(data: dict) -> list[Size]:
+    """Per analysis of a valid case, the estimate for its largest curve (its ``set``, then
+    each ``family`` value or table applied), from the case's numbers alone: nothing is
+    built, so check and run refuse what will not fit before any work."""
+    out = []
+    for i, a in enumerate(data.get("analysis", [])):
+        name = str(a.get("name", i))
+        out.append(max((_size(name, v, a) for v in _variants(data, a)),
+                       key=lambda s: s.nbytes))
+    return out
+
+
+def _memory(data: dict, out: list[str]) -> None:
+    """A fault per analysis whose estimate exceeds the memory available now."""
+    limit = available_memory()
+    for s in sizes(data) if limit is not None else []:
+        if s.nbytes > limit:
+            out.append(f"analysis.{s.analysis}: needs {memory_text(s.nbytes)} "
+                       f"({s.unknowns:,} real unknowns: {s.detail}) but "
+                       f"{limit / 1e9:.1f} GB of memory is available; lower harmonics.max "
+                       "(or harmonics.orders), harmonics.samples or the contact DOFs")
+
+
+def _variants(data: dict, a: dict) -> list[dict]:
+    """The case as each curve of analysis ``a`` sees it."""
+    base = copy.deepcopy({k: v for k, v in data.items() if k != "analysis"})
+    for key, value in a.get("set", {}).items():
+        _set_path(base, key, value, create=True)
+    fam = a.get("family") or {}
+    tables = fam.get("sets", [])
+    if "key" in fam:
+        tables = [{fam["key"]: v} for v in fam["values"]]
+    variants = []
+    for table in tables:
+        v = copy.deepcopy(base)
+        for key, value in table.items():
+            _set_path(v, key, value, create=True)
+        variants.append(v)
+    return variants or [base]
+
+
+def _size(name: str, data: dict, a: dict) -> Size:
+    kind = a.get("type")
+    if kind in ("dti", "transient"):  # a handful of dense DOF x DOF matrices
+        n = len(data["model"]["dofs"])
+        return Size(name, n, 8 * 8 * n * n, f"{n} DOFs, time integration")
+    if kind == "loops":  # one law at orders 0, 1 under a prescribed motion, per amplitude
+        c = next(c for c in data["contacts"] if c.get("name") == a["contact"])
+        d, variable = LAWS[c["law"]]
+        shape = ContactShape(len(a["amplitudes"]), d + variable, d, 0)
+        nbytes = balance_bytes(0, 0, 2, 3, a.get("samples", 512), [shape], 1, _Cache.LIMIT)
+        return Size(name, 0, nbytes, "prescribed motion")
+    if "coupling" in data:
+        contact_dofs, shapes = _patch_contacts(data)
+        linear_dofs = contact_dofs  # a lower bound: the modes and other masters come later
+    else:
+        contact_dofs, shapes = _lumped_contacts(data)
+        linear_dofs = len(data["model"]["dofs"])
+    h = harmonics(Case(data, ""))
+    points = data.get("solver", {}).get("max_points", Settings().max_points)
+    nbytes = balance_bytes(contact_dofs, linear_dofs, len(h.orders), h.n_coeffs, h.n_samples,
+                           shapes, points, _Cache.LIMIT)
+    detail = (f"{contact_dofs:,} contact DOF(s) x {h.n_coeffs:,} coefficients, H = "
+              f"{max(h.orders)}, {h.n_samples:,} samples per period")
+    return Size(name, contact_dofs * h.n_coeffs, nbytes, detail)
+
+
+def _lumped_contacts(data: dict) -> tuple[int, list[ContactShape]]:
+    """(DOFs any enabled contact touches, one shape per contact) of a lumped case."""
+    touched: set[str] = set()
+    shapes = []
+    for c in data.get("contacts", []):
+        if not c.get("enabled", True):
+            continue
+        d, variable = LAWS[c["law"]]
+        keys = (["u"] if d == 1 else ["u1", "u2"]) + (["v"] if variable else [])
+        mine = {dof for k in keys for dof in c[k]}
+        shapes.append(ContactShape(1, len(keys), d, len(mine)))
+        touched |= mine
+    return len(touched), shapes
+
+
+def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
+    """(contact DOFs, shapes) of a coupled case from its contact grids, known before meshing:
+    a patch has n_axial x n_flank node pairs, each pair a node of each body (3 DOFs each)."""
+    from microslip import geometry
+
+    geo = data["geometry"]
+    given = geo.get("parameters", {})
+    fields = {f.name: f.default for f in dataclasses.fields(geometry.PARAMETERS[geo["model"]])}
+
+    def count(key: str) -> int:
+        v = given.get(key, fields[key])
+        return v if is_int(v) and v > 0 else fields[key]  # a bad value is refused at meshing
+
+    pairs = count("contact_n_axial") * count("contact_n_flank")
+    shapes = []
+    for c in data["coupling"]["contacts"]:
+        if c.get("elements", "2D") == "2D":
+            shapes.append(ContactShape(pairs, 3, 2, 6))
+        else:  # two law-B elements (t1 or t2, and n)
+            shapes += [ContactShape(pairs, 2, 1, 6)] * 2
+    return 6 * pairs * len(data["coupling"]["contacts"]), shapes
+
+
+def notes(data: dict) -> list[str]:
+    """Remarks on a valid lumped case that are not faults: a contact so much stiffer than
+    the structure it touches that the time sampling, not the contact, sets the accuracy.
+
+    After a reversal of u = U cos(theta) a Jenkins contact sticks until u has come back
+    2 u_s, u_s = mu N / kt: an arc theta_s ~ 2 sqrt(u_s / U). Where friction matters the
+    motion is of the order of the friction force's displacement on the structure,
+    U ~ mu N / k, so theta_s ~ 2 sqrt(k / kt). A transition placed one sample (2 pi / ns)
+    off moves u by U theta_s 2 pi / ns; against the stick range 2 u_s that is a relative
+    error of the hysteresis ~ (2 pi / ns) sqrt(kt / k). It reaches 1, the whole stick arc
+    inside two samples (what the laws count as ``undersampled``), at
+    kt / k = (ns / 2 pi)^2: above, the results go to the stuck-spring limit (still
+    converging) at an accuracy the samples set. k is the structure's stiffness along the
+    contact's motion, b K b^T (the other DOFs held: the larger, so no false note)."""
+    if "model" not in data or not any(a.get("type") in ("frf", "peak")
+                                      for a in data.get("analysis", [])):
+        return []
+    dofs = data["model"]["dofs"]
+    index = {d: i for i, d in enumerate(dofs)}
+    K = _as_matrix(data["model"]["stiffness"], len(dofs))
+    ns = harmonics(Case(data, "")).n_samples
+    limit = (ns / (2 * np.pi)) ** 2
+    out = []
+    for i, c in enumerate(data.get("contacts", [])):
+        if not c.get("enabled", True):
+            continue
+        name = c.get("name", f"contact{i}")
+        d, variable = LAWS[c["law"]]
+        kt = np.broadcast_to(np.asarray(c["kt"], dtype=float), (d,))
+        springs = [(f"kt{'' if d == 1 else f'[{j}]'}", kt[j], k)
+                   for j, k in enumerate(["u"] if d == 1 else ["u1", "u2"])]
+        springs += [("kn", c["kn"], "v")] if variable else []
+        for key, stiff, motion in springs:
+            b = _row(c[motion], index, len(dofs)).real
+            k = float(b @ K @ b)
+            if k <= 0 or stiff / k <= limit:
+                continue
+            need = 1 << int(np.ceil(np.log2(2 * np.pi * np.sqrt(stiff / k))))
+            out.append(f"contacts.{name}.{key} = {stiff:g} N/m is {stiff / k:.3g} x the "
+                       f"structure's stiffness along {motion} ({k:g} N/m), above "
+                       f"(samples / 2 pi)^2 = {limit:.0f} for {ns} samples per period: the stick "
+                       "arc after a reversal falls inside two samples, so the results tend to "
+                       "the stuck-spring limit at an accuracy the sampling sets; "
+                       f"harmonics.samples = {need:,} would resolve it")
+    return out
 
 
 # --------------------------------------------------------------- key paths

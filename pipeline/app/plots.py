@@ -1,72 +1,145 @@
 """PNG pictures of a run (matplotlib, headless): FRFs and families of FRFs,
 parameter curves (optimization and performance plots), hysteresis loops and 2D
-force trajectories, time integration against harmonic balance."""
+force trajectories, time integration against harmonic balance.
+
+Every function saves its PNG and returns the matplotlib Figure (tests read its axes)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 LABELS = {
     "frequency": "excitation frequency w [rad/s]",
-    "excitation": "excitation multiplier [-]",
-    "preload": "preload multiplier (N0 when n0 = 1 N) [-]",
-    "mass": "mass multiplier [-]",
+    "excitation": "excitation: multiple of the nominal load [-]",
+    "preload": "preload: multiple of the nominal N0 [-] (N0 in N when n0 = 1 N)",
+    "mass": "mass: multiple of the nominal mass [-]",
 }
+DECADES = 1.5  # an axis whose positive values span more decades than this is drawn in log
+SPARSE = 50  # a curve of fewer computed points shows them as markers
 
 
-def _save(fig, path: Path) -> Path:
+def _figure(size: tuple[float, float]) -> Figure:
+    """A figure on its own Agg canvas: files only, no display needed, no pyplot state
+    (so no global backend switch and nothing to close)."""
+    fig = Figure(figsize=size)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig: Figure, path: Path) -> Figure:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
+
+
+def decades(arrays: Sequence) -> float:
+    """Decades spanned by the finite values; 0 unless there are two and all are positive."""
+    v = np.concatenate([np.ravel(np.asarray(a, dtype=float)) for a in arrays] or [[]])
+    v = v[np.isfinite(v)]
+    return float(np.log10(v.max() / v.min())) if v.size > 1 and v.min() > 0 else 0.0
+
+
+def spans_decades(arrays: Sequence) -> bool:
+    """True when the finite values are all positive and span more than DECADES decades."""
+    return decades(arrays) > DECADES
+
+
+def number(value: float, scale: float = 0.0, digits: int = 3) -> str:
+    """``value`` to ``digits`` significant digits; "0" when it is round-off next to
+    ``scale`` (a dissipation of -4e-17 J beside 8 J is zero)."""
+    if value == 0 or abs(value) <= 1e-9 * abs(scale):
+        return "0"
+    return f"{value:.{digits}g}"
+
+
+def _line(ax: Axes, s: dict) -> Line2D | None:
+    """One computed curve: markers on its points when they are sparse, turning points
+    circled; a curve with no finite point is left out (and out of the legend)."""
+    x, y = np.asarray(s["x"], dtype=float), np.asarray(s["y"], dtype=float)
+    finite = np.isfinite(y)
+    if not finite.any():
+        return None
+    marker = "o" if finite.sum() < SPARSE else None
+    (line,) = ax.plot(x, y, label=s.get("label"), lw=s.get("lw", 1.4), ls=s.get("ls", "-"),
+                      color=s.get("color"), marker=marker, ms=3)
+    tp = s.get("turning_points", [])
+    if len(tp):
+        ax.plot(x[tp], y[tp], "o", mfc="none", color=line.get_color(), ms=7)
+    return line
+
+
+def _mark_optimum(ax: Axes, line: Line2D, what: str, unit: str) -> None:
+    """A star on the curve's minimum, labelled in the legend (beside its curve) with the
+    value and the parameter there: floating labels of a family's optima collide."""
+    x, y = (np.asarray(v, dtype=float) for v in line.get_data())
+    i = int(np.nanargmin(y))
+    ax.plot(x[i], y[i], "*", color=line.get_color(), ms=13, mec="black", mew=0.6, zorder=5,
+            ls="none", label=f"min {number(y[i])} {unit} at {what} = {number(x[i])}")
+
+
+def _scale(ax: Axes, axis: str, log: bool | None, arrays: list) -> None:
+    """Log when asked, or (log=None) when the data span decades; linear otherwise."""
+    if not (log if log is not None else spans_decades(arrays)):
+        return
+    getattr(ax, f"set_{axis}scale")("log")
+    ax.grid(True, which="minor", axis=axis, alpha=0.12)  # values between the decades
+    if 0 < decades(arrays) <= 3:  # few decades: ticks at 1, 2, 5 x 10^n read as plain numbers
+        scale = getattr(ax, f"{axis}axis")
+        scale.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        scale.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        scale.set_minor_formatter(NullFormatter())
 
 
 def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: str,
-           *, logx: bool = False, logy: bool = False, markers: Sequence[dict] = ()) -> Path:
+           *, logx: bool | None = None, logy: bool | None = None,
+           markers: Sequence[dict] = (), optimum: tuple[str, str] | None = None) -> Figure:
     """Lines ``{x, y, label}`` (turning points marked where given) and point sets
-    ``{x, y, label}`` drawn as markers (time integration)."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ``{x, y, label}`` drawn as markers (time integration).
+
+    ``logx``/``logy`` None: log when the axis' data span decades. ``optimum`` =
+    (parameter name, unit of y): mark and label each curve's minimum."""
+    fig = _figure((7, 4.5))
+    ax = fig.add_subplot()
     for s in series:
-        (line,) = ax.plot(s["x"], s["y"], label=s.get("label"), lw=s.get("lw", 1.4),
-                          ls=s.get("ls", "-"), color=s.get("color"))
-        tp = s.get("turning_points", [])
-        if len(tp):
-            ax.plot(np.asarray(s["x"])[tp], np.asarray(s["y"])[tp], "o", mfc="none",
-                    color=line.get_color(), ms=6)
+        line = _line(ax, s)
+        if optimum and line is not None:
+            _mark_optimum(ax, line, *optimum)
     for m in markers:
         ax.plot(m["x"], m["y"], m.get("style", "ks"), label=m.get("label"), ms=5, mfc="none")
+    drawn = list(series) + list(markers)
+    _scale(ax, "x", logx, [d["x"] for d in drawn])
+    _scale(ax, "y", logy, [d["y"] for d in drawn])
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=10)
-    if logx:
-        ax.set_xscale("log")
-    if logy:
-        ax.set_yscale("log")
     ax.grid(alpha=0.3)
-    if any(s.get("label") for s in list(series) + list(markers)):
+    if any(line.get_label()[:1] not in ("", "_") for line in ax.get_lines()):
         ax.legend(fontsize=8)
     return _save(fig, path)
 
 
-def loops(path: Path, title: str, loops_: Sequence[dict], *, two_d: bool) -> Path:
-    """Hysteresis loops T(u) (1D, with N(t) dashed when it varies) or force
-    trajectories (T_x, T_y) with the Coulomb circle (2D)."""
-    fig, ax = plt.subplots(figsize=(6, 5))
-    for lp in loops_:
+def loops(path: Path, title: str, loops_: Sequence[dict], *, two_d: bool) -> Figure:
+    """Hysteresis loops T(u) (1D) or force trajectories (T_x, T_y) with the Coulomb
+    circle of the largest normal load (2D, dotted)."""
+    fig = _figure((9, 5) if two_d else (6, 5))
+    ax = fig.add_subplot()
+    for i, lp in enumerate(loops_):
         if two_d:
             T = np.asarray(lp["T"])
             (line,) = ax.plot(np.append(T[0], T[0, 0]), np.append(T[1], T[1, 0]),
                               label=lp["label"])
             lim = np.max(lp["limit"])
             th = np.linspace(0, 2 * np.pi, 200)
-            ax.plot(lim * np.cos(th), lim * np.sin(th), ":", color=line.get_color(), lw=0.8)
+            ax.plot(lim * np.cos(th), lim * np.sin(th), ":", color=line.get_color(), lw=0.8,
+                    label="dotted: Coulomb limit mu max N" if i == len(loops_) - 1 else None)
         else:
             u, T = np.asarray(lp["u"]), np.asarray(lp["T"])
             ax.plot(np.append(u, u[0]), np.append(T, T[0]), label=lp["label"])
@@ -79,14 +152,16 @@ def loops(path: Path, title: str, loops_: Sequence[dict], *, two_d: bool) -> Pat
         ax.set_ylabel("tangential force T [N]")
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    # the circles fill the square axes: the legend goes beside them
+    ax.legend(fontsize=8, **({"loc": "upper left", "bbox_to_anchor": (1.02, 1)} if two_d else {}))
     return _save(fig, path)
 
 
-def transient(path: Path, title: str, steps: Sequence[dict]) -> Path:
+def transient(path: Path, title: str, steps: Sequence[dict]) -> Figure:
     """Load steps (seed Fig. 13): per step, the outputs over time (top) and a
     contact's tangential force with the limits +-mu N (bottom)."""
-    fig, axes = plt.subplots(2, len(steps), figsize=(6 * len(steps), 6.5), squeeze=False)
+    fig = _figure((6 * len(steps), 6.5))
+    axes = fig.subplots(2, len(steps), squeeze=False)
     for j, st in enumerate(steps):
         ax = axes[0, j]
         for name, q in st["outputs"].items():
@@ -98,10 +173,10 @@ def transient(path: Path, title: str, steps: Sequence[dict]) -> Path:
         ax.legend(fontsize=8)
         ax = axes[1, j]
         ax.plot(st["t"], st["T"], lw=0.8, label="T")
-        ax.plot(st["t"], st["limit"], "k--", lw=0.8, label="+- mu N")
+        ax.plot(st["t"], st["limit"], "k--", lw=0.8, label="slip limits +- mu N")
         ax.plot(st["t"], -st["limit"], "k--", lw=0.8)
         ax.set_xlabel("t [s]")
-        ax.set_ylabel(f"contact {st['contact']} [N]")
+        ax.set_ylabel(f"tangential force T, contact {st['contact']} [N]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     return _save(fig, path)

@@ -21,6 +21,7 @@ import datetime as _dt
 import json
 import os
 import platform
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -122,39 +123,104 @@ def _datasets(g: h5py.Group, datasets: Mapping) -> None:
             g.create_dataset(k, data=arr)
 
 
+class ResultsError(ValueError):
+    """A path that is not a readable results file; the message names it and why."""
+
+    def __init__(self, path: str | Path, reason: str):
+        self.reason = reason
+        super().__init__(f"{path}: {reason}")
+
+
+ROOT_ATTRS = ("title", "source", "case_hash", "status", "message", "created", "versions")
+
+
+def open_results(path: str | Path, *, locking: bool = True) -> h5py.File:
+    """A results file opened for reading; ResultsError if it is not one.
+
+    locking=False reads a file another process may still hold open for writing (a run's
+    ``results.h5.tmp``), which HDF5's file locking would otherwise refuse.
+    """
+    try:
+        f = h5py.File(path, "r", locking=locking)
+    except OSError as err:
+        raise ResultsError(path, f"cannot open as HDF5 ({_reason(err)})") from None
+    missing = [k for k in ROOT_ATTRS if k not in f.attrs]
+    if missing:
+        f.close()
+        raise ResultsError(path, "an HDF5 file but not a microslip results file (no root "
+                           f"attribute {', '.join(missing)})")
+    return f
+
+
+def _reason(err: OSError) -> str:
+    """h5py's open errors, shortened to what a user can act on."""
+    if err.errno:
+        return os.strerror(err.errno)
+    text = str(err)
+    if "signature not found" in text:
+        return "not an HDF5 file"
+    inner = re.search(r"\(([^()]*)\)\s*$", text)  # HDF5's own reason, in the last (...)
+    return inner.group(1) if inner else text
+
+
 def summary(path: str | Path) -> str:
-    """A readable summary of a results file (``microslip show``)."""
+    """A readable summary of a results file (``microslip show``); ResultsError if the
+    path is not one."""
     path = Path(path)
     if path.is_dir():
         path = path / "results.h5"
-    lines = []
-    with h5py.File(path, "r") as f:
+    with open_results(path) as f:
         a = f.attrs
-        lines.append(f"{a['title']}  [{a['status']}]  {a['message']}".rstrip())
-        lines.append(f"  source {a['source']}, case {a['case_hash'][:12]}, {a['created']}")
+        lines = [f"{a['title']}  [{a['status']}]  {a['message']}".rstrip(),
+                 f"  source {a['source']}, case {a['case_hash'][:12]}, {a['created']}"]
         v = json.loads(a["versions"])
         lines.append("  " + ", ".join(f"{k} {v[k]}" for k in sorted(v)))
-        for name, g in f.items():
-            if name == "case":
-                continue
-            ga = g.attrs
-            lines.append(f"{name}: {ga.get('type', '?')} [{ga.get('status', '?')}] "
-                         f"{ga.get('elapsed_s', 0.0):.2f} s {ga.get('message', '')}".rstrip())
-            if ga.get("type") == "reduction":
-                lines.extend(_reduction_lines(g))
-                continue
-            for cname, c in g.items():
-                if not isinstance(c, h5py.Group):
-                    continue
-                ca = c.attrs
-                npts = next((c[k].shape[0] for k in ("parameter", "omega", "amplitude", "t")
-                             if k in c), 0)
-                extra = ""
-                if "amplitude" in c and c["amplitude"].size:
-                    extra = f", max amplitude {np.max(c['amplitude'][()]):.6g}"
-                lines.append(f"  {cname} {ca.get('label', '')}: {npts} points "
-                             f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
+        lines.extend(_analysis_lines(f))
     return "\n".join(lines)
+
+
+def leftover(tmp: str | Path) -> str:
+    """What a ``results.h5.tmp`` holds: the file of a run killed before it could rename it
+    (SIGKILL, power loss), or of a run still going."""
+    tmp = Path(tmp)
+    head = (f"{tmp}: left by a run that was killed before it finished, or is still running "
+            f"(never renamed to {tmp.name.removesuffix('.tmp')})")
+    try:
+        with open_results(tmp, locking=False) as f:
+            lines = _analysis_lines(f)
+    except ResultsError as err:
+        return f"{head}; unreadable: {err.reason}"
+    except Exception as err:  # a killed writer can leave any inconsistency: report, not fail
+        return f"{head}; unreadable: {type(err).__name__}: {err}"
+    if not lines:
+        return f"{head}; it holds no analysis yet"
+    return f"{head}; it holds:\n" + "\n".join("  " + x for x in lines)
+
+
+def _analysis_lines(f: h5py.File) -> list[str]:
+    """Per analysis: type, status, time; per curve: points, status, largest amplitude."""
+    lines = []
+    for name, g in f.items():
+        if name == "case":
+            continue
+        ga = g.attrs
+        lines.append(f"{name}: {ga.get('type', '?')} [{ga.get('status', '?')}] "
+                     f"{ga.get('elapsed_s', 0.0):.2f} s {ga.get('message', '')}".rstrip())
+        if ga.get("type") == "reduction":
+            lines.extend(_reduction_lines(g))
+            continue
+        for cname, c in g.items():
+            if not isinstance(c, h5py.Group):
+                continue
+            ca = c.attrs
+            npts = next((c[k].shape[0] for k in ("parameter", "omega", "amplitude", "t")
+                         if k in c), 0)
+            extra = ""
+            if "amplitude" in c and c["amplitude"].size:
+                extra = f", max amplitude {np.max(c['amplitude'][()]):.6g}"
+            lines.append(f"  {cname} {ca.get('label', '')}: {npts} points "
+                         f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
+    return lines
 
 
 def _reduction_lines(g: h5py.Group) -> list[str]:

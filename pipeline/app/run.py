@@ -149,7 +149,14 @@ def _family(case: cs.Case, a: dict) -> list[tuple[cs.Case, str, object]]:
     if "sets" in fam:
         return [(case.with_values(s), str(v), v) for v, s in zip(fam["values"], fam["sets"])]
     label = fam.get("label", fam["key"])
-    return [(case.with_value(fam["key"], v), f"{label} = {v:g}", v) for v in fam["values"]]
+    return [(case.with_value(fam["key"], v), _value_label(label, v), v) for v in fam["values"]]
+
+
+def _value_label(label: str, v: float) -> str:
+    """("N0 [N]", 0.02) -> "N0 = 0.02 N": a legend reads the value with its unit."""
+    name, _, unit = label.partition(" [")
+    unit = unit.removesuffix("]")
+    return f"{name} = {v:g}" + (f" {unit}" if unit not in ("", "-") else "")
 
 
 def _ticker(progress: Progress, prefix: str) -> Callable[[int, float, int], None]:
@@ -306,8 +313,8 @@ def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w
 LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
 
 
-_MEASURE_LABEL = {"peak": "max |{}(t)|", "vibration": "max |{0}(t) - {0}0|",
-                  "harmonic": "first-harmonic amplitude of {}"}
+_MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [m]",
+                  "harmonic": "first-harmonic amplitude of {} [m]"}
 
 
 def _normal(hb, contact: str) -> bool:
@@ -369,11 +376,10 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models):
         series.append({"x": values[:n], "y": np.array(amp), "label": label or None})
         if statuses and statuses[-1][0] == "interrupted":
             break
-    wide = a["start"] > 0 and a["stop"] / a["start"] > 50
     plots.curves(out / f"{name}.png", f"{name}: peak response of {a['output']}",
                  plots.LABELS[par], series,
-                 f"peak max |{a['output']}(t)| over w in [{lo:g}, {hi:g}] rad/s",
-                 logx=wide, logy=wide)
+                 f"resonance peak of max |{a['output']}(t)| [m]\n(w in {lo:g} to {hi:g} rad/s)",
+                 optimum=(par, "m") if par in ("preload", "mass") else None)
     return _worst(statuses)
 
 
@@ -394,8 +400,14 @@ def run_loops(case, a, name, w, group, out, progress, drawn, models=None):
         g[:, j, 1], g[:, j, 2] = factor * ca, factor * sa
     r = el.evaluate(g, h, jacobian=False, histories=True)
     loops_ = []
+    # the scaled motion's amplitude in m; W to 3 digits, round-off (vs. T u) shown as 0
+    scaled = el.n_components - 1 if scale_v_only else 0
+    what = "v" if scale_v_only else ("u_x" if el.dim == 2 else "u")
+    work = np.abs(r.T).max() * np.abs(r.u).max()
     for i, s in enumerate(amps):
-        label = f"x{s:g}: {STATE_NAMES[r.state[i]]}, W = {r.dissipation[i]:.3g} J"
+        amp = s * np.hypot(*motion[scaled])
+        label = (f"{what} amplitude {plots.number(amp)} m: {STATE_NAMES[r.state[i]]}, "
+                 f"W = {plots.number(r.dissipation[i], work)} J")
         loops_.append({"u": r.u[i, 0], "T": r.T[i] if el.dim == 2 else r.T[i, 0],
                        "limit": el.mu[i] * r.N[i], "label": label})
     data = {"amplitude": amps, "u": r.u, "v": r.v, "T": r.T, "N": r.N,

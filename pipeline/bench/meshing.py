@@ -49,7 +49,8 @@ def time_build(build: Callable[[], Mesh], repeats: int) -> tuple[Mesh, float]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="microslip bench mesh",
+                                 description=__doc__.splitlines()[0])
     ap.add_argument("--factors", type=float, nargs="+", default=[2.0, 1.5, 1.0, 0.75, 0.5])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS))

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import resource
+import sys
 import time
 from collections.abc import Sequence
 
@@ -52,6 +53,15 @@ def blisk_bodies(mesh) -> dict[str, dict]:
 
 def _row(cells: Sequence[object], widths: Sequence[int]) -> str:
     return "  ".join(str(c).rjust(w) for c, w in zip(cells, widths, strict=True))
+
+
+def _progress(text: str) -> None:
+    """A long bench's sign of life, on stderr: the tables (stdout) hold each row once."""
+    print(text, file=sys.stderr, flush=True)
+
+
+def _runs(repeat: int) -> str:
+    return "single run" if repeat == 1 else f"median of {repeat} runs"
 
 
 def _table(title: str, header: Sequence[str], rows: list[Sequence[object]]) -> None:
@@ -107,10 +117,10 @@ def bench_reduction(mesh, nds: Sequence[int], n_modes: int | str, backends: Sequ
                 rows.append([backend, name, h, model.n_free, red.n_masters, red.n_modes,
                              *(f"{x:.2f}" for x in times), f"{peak_memory_mb():.0f}",
                              f"{red.frequencies(7)[-1]:.1f}"])
-                print(*rows[-1], flush=True)
-    _table(f"cyclic matrices + Craig-Bampton per ND (eigen: {eigen}; times in s, median of "
-           f"{repeat}; peak RSS is the process's; the damper's modes up to cutoff x the disk's "
-           "highest 10th fixed-interface frequency, as a case does)",
+                _progress(f"  {backend} {name} ND {h}: {times[-1]:.2f} s")
+    _table(f"cyclic matrices + Craig-Bampton per ND (eigen: {eigen}; times in s, "
+           f"{_runs(repeat)}; peak RSS is the process's; the damper's modes up to cutoff x the "
+           "disk's highest 10th fixed-interface frequency, as a case does)",
            ["backend", "body", "ND", "free DOFs", "masters", "modes", "cyclic", "factor",
             "static", "eigen", "project", "total", "peak MB", "f7 [Hz]"], rows)
 
@@ -152,7 +162,7 @@ def bench_cb(model_name: str, nds: Sequence[int], cutoffs: Sequence[float],
             err = np.abs(red.frequencies(10) / f_ref - 1)
             rows.append([h, label, red.n_modes, f"{err.max():.1e}",
                          " ".join(f"{e:.0e}" for e in err), f"{time.perf_counter() - t:.1f}"])
-            print(*rows[-1], flush=True)
+            _progress(f"  ND {h} {label}: {time.perf_counter() - t:.1f} s")
     _table(f"Craig-Bampton error of the first ten frequencies per ND ({model_name}; cutoff c: "
            f"modes below c x the 10th fixed-interface frequency; default "
            f"{reduction.DEFAULT_MODES!r}, c = {reduction.CUTOFF:g})",
@@ -182,7 +192,8 @@ def bench_accuracy(refines: Sequence[float], nds: Sequence[int], n_freq: int = 6
                 lam, _ = linalg.lowest_modes(model.stiffness, model.mass, n_freq)
                 results[refine, order, h] = (body.n_dofs, np.sqrt(lam) / (2 * np.pi),
                                              t_asm + time.perf_counter() - t)
-                print(refine, order, h, results[refine, order, h], flush=True)
+                _progress(f"  size factor {refine:g} P{order} ND {h}: "
+                          f"{results[refine, order, h][2]:.1f} s")
     rows = []
     for (refine, order, h), (n, f, t) in results.items():
         if refine not in refines:
@@ -198,7 +209,7 @@ def bench_accuracy(refines: Sequence[float], nds: Sequence[int], n_freq: int = 6
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="bench_reduction", description=__doc__,
+    parser = argparse.ArgumentParser(prog="microslip bench reduction", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--refine", type=float, default=1.0,
                         help="scale of the blisk tet sizes (0.36: about 150,000 DOFs)")
@@ -211,7 +222,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--bodies", default="blisk,damper")
     parser.add_argument("--order", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=1,
-                        help="runs per ND; the tables give medians (default 1)")
+                        help="runs per ND; the tables give medians (default 1: single run)")
     parser.add_argument("--accuracy", action="store_true",
                         help="print the mesh-size/order speed-accuracy table instead")
     parser.add_argument("--accuracy-refines", default="2,1.4,1,0.7")
@@ -221,6 +232,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="print the CB error table (modes / cut-off per ND) instead")
     parser.add_argument("--cutoffs", default="3,3.5,4,5")
     args = parser.parse_args(argv)
+    if args.repeat < 1:
+        parser.error(f"--repeat must be >= 1, got {args.repeat}")
     linalg.retain_freed_memory()
     nds = [int(x) for x in args.nds.split(",")]
     if args.accuracy:
@@ -236,7 +249,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"blisk sector, size factor {args.refine:g}: {len(mesh.points)} nodes, "
           f"{len(mesh.tetrahedra)} tets, meshed in {time.perf_counter() - t:.2f} s")
     bench_reduction(mesh, nds, args.modes, backends, args.order, args.eigen,
-                    args.bodies.split(","), max(1, args.repeat))
+                    args.bodies.split(","), args.repeat)
     return 0
 
 
