@@ -134,3 +134,32 @@ def test_peak_tracking_matches_full_sweeps():
         # a flat two-humped peak may be followed on its other hump (1e-4 measured)
         assert a_t == pytest.approx(a, rel=2e-4)
     assert pc.solves < steps / 4 * len(values)
+
+
+def v_kink(x, lam, jac=True):
+    """R = [x1 - 10 |lam|, x2 - lam]: the branch x(lam) turns sharply in x at lam = 0
+    (a stick/slip kink) while lam keeps growing; J = I has no fold anywhere."""
+    return (np.array([x[0] - 10 * abs(lam), x[1] - lam]), np.eye(2),
+            np.array([-10 * np.sign(lam), -1.0]))
+
+
+def test_arclength_passes_a_kink_without_retracing():
+    # the tangents before and after the kink point opposite ways in x (dot product < 0):
+    # orienting each along the previous one would turn the branch back onto itself;
+    # the sign of det [J dR; t] (constant away from folds) carries it through
+    b = cont.arclength(v_kink, np.array([10.0, -1.0]), -1.0, 1.0, parameter="lam",
+                       settings=cont.Settings(tol=1e-12))
+    assert b.complete and b.values[-1] == 1.0
+    assert np.all(np.diff(b.values) > 0) and b.turning_points == []
+    assert np.allclose(b.x[:, 0], 10 * np.abs(b.values), atol=1e-9)
+
+
+def test_a_stalled_branch_stops_and_says_why():
+    # undamped, with a force friction cannot bound (P = 0.1 N > 4 mu N / pi = 0.064 N):
+    # the response runs off to infinity at w = 1 rad/s and the branch never gets past it
+    hb = jenkins_oscillator(3, 64, c=0.0, kt=1e2)
+    r = sweep(hb, "frequency", 0.55, 2.5, OperatingPoint(0.55))
+    assert r.branch.status == "stopped" and "stalled at frequency = 1" in r.branch.message
+    assert len(r) < 3 * cont.STALL_POINTS + 400  # stopped, not piled up to max_points
+    assert np.ptp(r.values[-cont.STALL_POINTS:]) < cont.STALL_SPAN * 1.95
+    assert r.amplitude([0])[-1, 0] > 1e3  # it did run off (m, against 0.1 N / 1 N/m)

@@ -123,6 +123,21 @@ def test_static_contact_forces_balance_the_centrifugal_load(sector, mass):
     assert np.linalg.norm(total + centrifugal) <= 1e-6 * np.linalg.norm(centrifugal)
 
 
+@pytest.mark.parametrize("factor", [0.985, 0.995, 1.015])
+def test_energy_balance_at_points_around_the_resonance(sector, factor):
+    """The fast version of the sweep below: the same balance at three frequencies."""
+    cm = model(sector, 0.5, amplitude=50.0)
+    p = OperatingPoint(factor * first_bending(sector))
+    r = solve_point(cm.hb, p)
+    assert r.converged, r.reason
+    e = cm.hb.energy_balance(r.x, p)
+    # as below: what is left is the Newton residual (1e-9 of the forces) times the motion
+    assert e["excitation"] == pytest.approx(e["viscous"] + e["friction"] + e["normal"],
+                                            rel=1e-6)
+    assert e["friction"] > 0.0
+
+
+@pytest.mark.slow
 def test_energy_balance_along_a_sweep(sector):
     """Work of the excitation per cycle = friction + linear damping (+ the normal springs'
     work, zero up to the sampling) at every point of an FRF through the resonance."""

@@ -37,13 +37,13 @@ from microslip.pipeline.friction.harmonics import Harmonics, default_samples
 from microslip.pipeline.friction.laws import LAWS, ContactElements
 from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.hbm import (
+    CACHE_LIMIT,  # bounds what the solver's cache holds: the memory estimate reads it
     PARAMETERS,
     Contact,
     Excitation,
     HarmonicBalance,
     LinearDynamics,
     OperatingPoint,
-    _Cache,  # its byte limit bounds what the cache holds: the memory estimate reads it
 )
 
 from . import coupled
@@ -699,7 +699,7 @@ def _size(name: str, data: dict, a: dict) -> Size:
         c = next(c for c in data["contacts"] if c.get("name") == a["contact"])
         d, variable = LAWS[c["law"]]
         shape = ContactShape(len(a["amplitudes"]), d + variable, d, 0)
-        nbytes = balance_bytes(0, 0, 2, 3, a.get("samples", 512), [shape], 1, _Cache.LIMIT)
+        nbytes = balance_bytes(0, 0, 2, 3, a.get("samples", 512), [shape], 1, CACHE_LIMIT)
         return Size(name, 0, nbytes, "prescribed motion")
     if "coupling" in data:
         contact_dofs, shapes = _patch_contacts(data)
@@ -710,7 +710,7 @@ def _size(name: str, data: dict, a: dict) -> Size:
     h = harmonics(Case(data, ""))
     points = data.get("solver", {}).get("max_points", Settings().max_points)
     nbytes = balance_bytes(contact_dofs, linear_dofs, len(h.orders), h.n_coeffs, h.n_samples,
-                           shapes, points, _Cache.LIMIT)
+                           shapes, points, CACHE_LIMIT)
     detail = (f"{contact_dofs:,} contact DOF(s) x {h.n_coeffs:,} coefficients, H = "
               f"{max(h.orders)}, {h.n_samples:,} samples per period")
     return Size(name, contact_dofs * h.n_coeffs, nbytes, detail)

@@ -220,7 +220,30 @@ def _analysis_lines(f: h5py.File) -> list[str]:
                 extra = f", max amplitude {np.max(c['amplitude'][()]):.6g}"
             lines.append(f"  {cname} {ca.get('label', '')}: {npts} points "
                          f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
+            coarse = undersampled_warning(
+                {k: p["undersampled"][()] for k, p in c.get("contacts", {}).items()
+                 if isinstance(p, h5py.Group) and "undersampled" in p},
+                int(ca.get("samples", 0)))
+            if coarse:
+                lines.append(f"    warning: {coarse}")
     return lines
+
+
+def undersampled_warning(undersampled: Mapping[str, np.ndarray], samples: int) -> str:
+    """What ``run`` and ``show`` say of a curve whose contacts had stick arcs within two time
+    samples (per contact, (n_points,) counts of ContactResponse.undersampled): the sampled
+    friction force moves in steps there, so accuracy and convergence hang on the samples.
+    "" where no point is flagged."""
+    flagged = {k: np.asarray(v) > 0 for k, v in undersampled.items()}
+    flagged = {k: f for k, f in flagged.items() if f.any()}
+    if not flagged:
+        return ""
+    points = int(np.logical_or.reduce(list(flagged.values())).sum())
+    total = next(iter(flagged.values())).size
+    which = f"contact{'s' if len(flagged) > 1 else ''} {', '.join(flagged)}"
+    return (f"stick arcs within two of the {samples:,} samples per period at {points} of "
+            f"{total} points ({which}): the sampled friction force is coarse there; raise "
+            f"harmonics.samples from {samples:,}, e.g. to {4 * samples:,}")
 
 
 def _reduction_lines(g: h5py.Group) -> list[str]:

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import STATE_NAMES
 from microslip.pipeline.solve.hbm import OperatingPoint
@@ -21,7 +22,8 @@ from microslip.pipeline.solve.response import Response, peak_curve, sweep
 from . import case as cs
 from . import plots
 from .models import CoupledModels, LumpedModels
-from .results import ResultsWriter
+from .progress import time_left
+from .results import ResultsWriter, undersampled_warning
 
 if TYPE_CHECKING:
     from .structure import StructureResult
@@ -58,6 +60,9 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
             group = w.analysis(name, {k: v for k, v in a.items() if k != "family"}
                                | {"family": a.get("family", {})})
             progress(f"[{name}] {kind} ...")
+            if kind in ("frf", "peak", "loops") and (case.contacts_enabled()
+                                                     or "coupling" in case.data):
+                warm_up(progress)  # says so when a first run compiles the contact kernels
             status, message = RUNNERS[kind](case, a, name, w, group, out, progress, drawn,
                                             models)
             group.attrs["status"] = status
@@ -159,14 +164,22 @@ def _value_label(label: str, v: float) -> str:
     return f"{name} = {v:g}" + (f" {unit}" if unit not in ("", "-") else "")
 
 
-def _ticker(progress: Progress, prefix: str) -> Callable[[int, float, int], None]:
-    last = [0.0]
+def _ticker(progress: Progress, prefix: str, start: float, stop: float,
+            clock: Callable[[], float] = time.perf_counter) -> Callable[[int, float, int], None]:
+    """Continuation ticks, at most one line a second: the point, the share of the parameter
+    range covered (the farthest reached: arclength turns back at folds) and the time left."""
+    t0 = clock()
+    last = [-np.inf]
+    covered = [0.0]
 
     def tick(n: int, value: float, iterations: int) -> None:
-        now = time.perf_counter()
+        covered[0] = max(covered[0], min(max((value - start) / (stop - start), 0.0), 1.0))
+        now = clock()
         if now - last[0] > 1.0:
             last[0] = now
-            progress(f"{prefix} point {n}, value {value:.6g}, {iterations} Newton iterations")
+            left = time_left(now - t0, covered[0])
+            progress(f"{prefix} point {n}, value {value:.6g} ({covered[0]:.0%} of the range"
+                     f"{', ' + left if left else ''}), {iterations} Newton iterations")
 
     return tick
 
@@ -230,7 +243,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
             r = sweep(hb, par, start, stop, base,
                       method="natural" if method.startswith("natural") else method,
                       settings=cs.settings(c),
-                      progress=_ticker(progress, f"[{name}] curve {j + 1} {tag}"))
+                      progress=_ticker(progress, f"[{name}] curve {j + 1} {tag}", start, stop))
             elapsed = time.perf_counter() - t
             b = r.branch
             coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx),
@@ -272,6 +285,11 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
                         "label": ", ".join(x for x in (tag, what) if x)})
             progress(f"[{name}] curve {j} {tag}: {len(r)} points, {b.status} "
                      f"({elapsed:.2f} s) {b.message}".rstrip())
+            coarse = undersampled_warning({k: cd["undersampled"] for k, cd in
+                                           data["contacts"].items()}, hb.harmonics.n_samples)
+            if coarse:
+                where = " ".join(x for x in (f"[{name}] curve {j}", tag) if x)
+                progress(f"warning: {where}: {coarse}")
             if b.status == "interrupted":
                 break
         if statuses and statuses[-1][0] == "interrupted":

@@ -39,6 +39,7 @@ whose mesh, material, constraints, masters and mode selection have not changed.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -51,6 +52,7 @@ from microslip.pipeline.fe.fem import Damping, Material
 from microslip.pipeline.fe.reduction import BodySpec, ReducedModel
 
 from .checks import is_int, is_number, unknown_keys
+from .progress import time_left
 
 Progress = Callable[[str], None]
 
@@ -341,6 +343,7 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | 
     backend = None if backend == "auto" else backend
     result = StructureResult({}, patch_stiffness, nds, None if "f_max" not in red
                              else float(red["f_max"]))
+    count = _Count(sum(len(set(nds)) if s.body in mesh.cyclic else 1 for s in specs))
     for spec in sorted(specs, key=lambda s: s.body not in mesh.cyclic):  # cyclic bodies first
         is_cyclic = spec.body in mesh.cyclic
         if not is_cyclic and spec.f_max is None and spec.n_modes == "auto":
@@ -350,14 +353,35 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | 
                 result.f_max = f_ref
                 spec = replace(spec, f_max=f_ref)
 
-        report = _recorder(result, spec.body, None if is_cyclic else nds, progress)
+        report = _recorder(result, spec.body, None if is_cyclic else nds, progress, count)
         result.models[spec.body] = reduction.reduce_body(mesh, spec, nds, cache_dir, backend,
                                                          report)
     return result
 
 
+@dataclass
+class _Count:
+    """Models of the stage done so far, of ``total`` (one per cyclic body and ND, one per
+    other body), for the progress lines; the time left is from the rate so far."""
+
+    total: int
+    clock: Callable[[], float] = time.perf_counter
+    done: int = 0
+    t0: float | None = None  # when the stage began (default: now)
+
+    def __post_init__(self):
+        if self.t0 is None:
+            self.t0 = self.clock()
+
+    def step(self) -> str:
+        """One more model done: "i/N" and, while models remain, "~N s left"."""
+        self.done += 1
+        left = time_left(self.clock() - self.t0, self.done / max(self.total, 1))
+        return f"{self.done}/{self.total}" + (f", {left}" if left else "")
+
+
 def _recorder(result: StructureResult, body: str, serves: tuple[int, ...] | None,
-              progress: Progress) -> Callable[..., None]:
+              progress: Progress, count: _Count) -> Callable[..., None]:
     """The ``report`` of reduce_body for one body: records each model (under every ND in
     ``serves`` for a non-cyclic body, whose one model serves them all) and prints a line."""
 
@@ -373,7 +397,7 @@ def _recorder(result: StructureResult, body: str, serves: tuple[int, ...] | None
             if path is not None:
                 result.files[body, nd] = path
         progress(f"[reduction] {body}" + (f" ND {h}" if serves is None else "")
-                 + f": {model.n_masters} master DOFs + {model.n_modes} modes, "
+                 + f" ({count.step()}): {model.n_masters} master DOFs + {model.n_modes} modes, "
                  + ("from cache" if cached else f"{seconds:.1f} s") + "; f [Hz] "
                  + " ".join(f"{x:.0f}" for x in f[:7]))
 

@@ -50,8 +50,12 @@ in closed form.
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
+
+import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
 
 STICK, SLIP, OPEN = 0, 1, 2
 # A predictor this close to the limit, relative to the magnitudes it is computed from
@@ -63,11 +67,42 @@ STICK, SLIP, OPEN = 0, 1, 2
 STICK_SLACK = 1e-11
 
 
-@njit(cache=True, parallel=True, fastmath=False)
-def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, max_periods,
-          rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
-          periods_out, counts_out):  # pragma: no cover
+# numba compiles a kernel and every helper once per argument types, so march casts its
+# inputs to one type each, and constants passed between the helpers are wrapped
+# (np.int64(0), np.bool_(True)): a bare literal types as Literal[...] and compiles the
+# callee once more per value (_steps was compiled 16 times). (dtype, ndim) per argument of
+# march; ndim 0 is a scalar.
+_ARGS = ((np.float64, 3), (np.float64, 3), (np.float64, 2), (np.float64, 2), (np.float64, 1),
+         (np.float64, 1), (np.float64, 1), (np.float64, 2), (np.float64, 2), (np.float64, 1),
+         (np.int8, 1), (np.bool_, 0), (np.bool_, 0), (np.int64, 0), (np.float64, 0),
+         (np.bool_, 0), (np.float64, 3), (np.float64, 2), (np.int8, 2), (np.float64, 3),
+         (np.float64, 4), (np.float64, 3), (np.int64, 1), (np.int64, 2))
+_OUTPUTS = frozenset((1, 2, *range(16, 24)))  # written in place: checked, never copied
+_KINDS = tuple((np.dtype(dt), nd) for dt, nd in _ARGS)
+_SCALAR = {np.dtype(np.bool_): bool, np.dtype(np.int64): int, np.dtype(np.float64): float}
+SIGNATURE = tuple(numba.from_dtype(dt) if nd == 0 else types.Array(numba.from_dtype(dt), nd, "C")
+                  for dt, nd in _KINDS)
+
+# Work (points x samples x derivative columns) from which march shares the points among
+# threads: a serial march costs ~23 ns per unit (laws A and D). Median ms, serial vs 2
+# threads, law A (H = 1, 128 samples, 4 columns; work = 512 P): quiet cores, P = 1: 0.045 vs
+# 0.053, 4: 0.077 vs 0.073, 64: 0.73 vs 0.40, 1024: 11.9 vs 6.2; under load 3-4 with
+# OpenMP, P = 1: 0.045 vs 0.047 (p90 7.9: a descheduled thread stalls the join a time
+# slice), 16: 0.20 vs 6.2, 256: 3.8 vs 11, 1024: 12 vs 16, 2048: 23 vs 24 (TBB: 0.96-1.04x
+# at every P); law D (H = 3, 64 samples, 22 columns), loaded: P = 64: 1.9 vs 8.0, 256: 8.2
+# vs 8.0. From ~12 ms a stall costs little and threads halve the time on quiet cores.
+PARALLEL_MIN_WORK = 2**19
+# Compile time of the serial kernel, s, told on a first run (measured 10.9 s, quiet cores).
+COMPILE_SECONDS = 10
+
+
+def march(*args: object) -> None:
     """March the return map of every point to its periodic steady state.
+
+    args: g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac,
+    max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
+    periods_out, counts_out; the points run serially or on threads
+    (:func:`parallel_pays`), with the same results.
 
     g: (P, d + has_normal, nc) input coefficients; u: (P, d, ns) and v: (P, ns)
     receive the tangential and normal samples (the synthesis of g; v = 0 for
@@ -92,48 +127,136 @@ def march(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, ma
     at most two periods), or it sits on a corner of the stuck set
     (:func:`_corner_derivative`).
     """
-    P, d, ns = u.shape
+    args = _cast(args)
+    P, ns = args[1].shape[0], args[1].shape[2]
+    columns = args[20].shape[3] + 1 if args[12] else 1  # derivative columns carried, J_out
+    kernel = _march_parallel if parallel_pays(P, ns, columns) else _march_serial
+    kernel(*args)
+
+
+def parallel_pays(points: int, samples: int, columns: int = 1) -> bool:
+    """Whether march runs the points on threads: the work, points x samples x columns
+    (the derivative columns carried per sample, 1 without), from PARALLEL_MIN_WORK."""
+    return (points > 1 and points * samples * columns >= PARALLEL_MIN_WORK
+            and numba.get_num_threads() > 1)
+
+
+def _cast(args: tuple) -> tuple:
+    """The arguments as SIGNATURE types: inputs converted to C-contiguous writeable arrays
+    of its dtypes (a copy only when needed), outputs checked (they are written in place).
+    Cheap when nothing needs converting (~2 us: march runs thousands of times a curve)."""
+    out = list(args)
+    for i, (dt, nd) in enumerate(_KINDS):
+        a = args[i]
+        if nd == 0:
+            out[i] = _SCALAR[dt](a)
+            continue
+        if type(a) is not np.ndarray:
+            a = np.asarray(a)
+        flags = a.flags
+        if a.dtype == dt and a.ndim == nd and flags.c_contiguous and flags.writeable:
+            continue
+        if i in _OUTPUTS:
+            raise ValueError(f"march: output {i} must be a writeable C-contiguous {nd}-d "
+                             f"{dt.name} array, got {a.dtype} {a.shape}")
+        out[i] = np.array(a, dtype=dt, order="C")  # a writeable copy
+    return tuple(out)
+
+
+def kernels_cached() -> bool:
+    """Whether the serial contact kernel is compiled in this process or in numba's on-disk
+    cache (NUMBA_CACHE_DIR or __pycache__), so that a first march does not compile it."""
+    if SIGNATURE in _march_serial.overloads:
+        return True
+    try:  # numba's own index of the cache file, without loading the compiled code
+        cache = _march_serial._cache
+        key = cache._index_key(SIGNATURE, _march_serial.targetctx.codegen())
+        return key in cache._cache_file._load_index()
+    except Exception:  # a numba without these internals: say nothing rather than guess
+        return True
+
+
+def warm_up(progress: Callable[[str], None] = print) -> None:
+    """Compile the serial contact kernel now if it is not cached, telling ``progress``
+    (a first run compiles for ~COMPILE_SECONDS; later runs load it from the cache)."""
+    if kernels_cached():
+        return
+    progress(f"compiling the contact kernels (first run only, ~{COMPILE_SECONDS} s) ...")
+    t = time.perf_counter()
+    _march_serial.compile(SIGNATURE)
+    progress(f"compiled the contact kernels in {time.perf_counter() - t:.1f} s")
+
+
+@njit(cache=True)
+def _march_serial(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac,
+                  max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
+                  periods_out, counts_out):  # pragma: no cover
+    """march, one point after the other."""
+    for p in range(u.shape[0]):
+        _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac,
+               max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
+               periods_out, counts_out)
+
+
+@njit(cache=True, parallel=True)
+def _march_parallel(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac,
+                    max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out,
+                    D_out, periods_out, counts_out):  # pragma: no cover
+    """march, the points shared among threads."""
+    for i in prange(u.shape[0]):
+        # prange's index is unsigned: an int64 point reuses the serial kernel's _point
+        _point(np.int64(i), g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal,
+               want_jac, max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out,
+               D_out, periods_out, counts_out)
+
+
+@njit(inline="always")  # one compiled level less: each re-optimises all it links (~2 s)
+def _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, max_periods,
+           rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out, periods_out,
+           counts_out):  # pragma: no cover
+    """march for point p."""
+    d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = J_out.shape[3] + 1
-    for p in prange(P):
-        _synthesis(p, g, E, has_normal, u, v)
-        G = np.empty((ns, d * m)) if want_jac else np.empty((1, 1))  # every row written
-        dT = np.zeros((d, m))
-        T = np.empty(d)
-        Tp = np.empty(d)
-        periods, how, ca, cb = _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, False,
-                                      max_periods, rtol, T, Tp, dT, G, T_out, N_out, state_out)
-        if want_jac:
-            e = -1
-            for k in range(ns):
-                if state_out[p, k] == OPEN or (d == 1 and state_out[p, k] == SLIP):
-                    e = k
-                    break
-            if e >= 0:
-                _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT)
-                for j in range(d):
-                    for col in range(m):
-                        G[e, j * m + col] = dT[j, col]
-                _steps(p, e + 1, ns - 1, state_out[p, e] == OPEN, u, v, kt, kn, mu, n0, E,
-                       has_normal, True, True, T, Tp, dT, G, T_out, N_out, state_out, -1,
-                       state_out[p, e] == SLIP)
-            elif how == CORNER:
-                _corner_derivative(p, ca, cb, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT,
-                                   G, T_out, N_out, state_out)
-            elif periods <= 2 or not _periodic_derivative(
-                    p, u, v, kt, kn, mu, n0, E, has_normal, how == PLAIN, T, Tp, dT, G, T_out,
-                    N_out, state_out):
-                # the march again with derivatives from the start convention: short, or a
-                # stuck cycle whose start state is the march's choice (seed eqs. 26-28)
-                _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, True, periods, 0.0,
-                       T, Tp, dT, G, T_out, N_out, state_out)
-        periods_out[p] = periods
-        _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
-                 F_out, J_out, D_out)
-        if corrections:
-            _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
-                   T_out, N_out, state_out, G, F_out, J_out, D_out)
-        _count(p, state_out, T_out, counts_out)
+    yes, no = np.bool_(True), np.bool_(False)
+    _synthesis(p, g, E, has_normal, u, v)
+    G = np.empty((ns, d * m)) if want_jac else np.empty((1, 1))  # every row written
+    dT = np.zeros((d, m))
+    T = np.empty(d)
+    Tp = np.empty(d)
+    periods, how, ca, cb = _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, no, max_periods,
+                                  rtol, T, Tp, dT, G, T_out, N_out, state_out)
+    if want_jac:
+        e = -1
+        for k in range(ns):
+            if state_out[p, k] == OPEN or (d == 1 and state_out[p, k] == SLIP):
+                e = k
+                break
+        if e >= 0:
+            _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT)
+            for j in range(d):
+                for col in range(m):
+                    G[e, j * m + col] = dT[j, col]
+            _steps(p, e + 1, ns - 1, state_out[p, e] == OPEN, u, v, kt, kn, mu, n0, E,
+                   has_normal, yes, yes, T, Tp, dT, G, T_out, N_out, state_out, np.int64(-1),
+                   state_out[p, e] == SLIP)
+        elif how == CORNER:
+            _corner_derivative(p, ca, cb, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT,
+                               G, T_out, N_out, state_out)
+        elif periods <= 2 or not _periodic_derivative(
+                p, u, v, kt, kn, mu, n0, E, has_normal, how == PLAIN, T, Tp, dT, G, T_out,
+                N_out, state_out):
+            # the march again with derivatives from the start convention: short, or a
+            # stuck cycle whose start state is the march's choice (seed eqs. 26-28)
+            _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, yes, periods, 0.0,
+                   T, Tp, dT, G, T_out, N_out, state_out)
+    periods_out[p] = periods
+    _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
+             F_out, J_out, D_out)
+    if corrections:
+        _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
+               T_out, N_out, state_out, G, F_out, J_out, D_out)
+    _count(p, state_out, T_out, counts_out)
 
 
 @njit(cache=True)
@@ -226,8 +349,9 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
     if isolated:
         return periods, SHOT, -1, -1
     if d == 2 and a >= 0 and _corner_start(p, a, b, u, v, kt, kn, mu, n0, T_out, T):
-        _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, False, False, T, Tp, dT,
-               G, T_out, N_out, state_out)
+        no = np.bool_(False)
+        _steps(p, np.int64(0), ns, no, u, v, kt, kn, mu, n0, E, has_normal, no, no, T, Tp, dT,
+               G, T_out, N_out, state_out, np.int64(-1), no)
         stuck = True
         for k in range(ns):
             if state_out[p, k] != STICK:
@@ -235,8 +359,8 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
         if stuck:
             return periods + 1, CORNER, a, b
     periods, _, _, _, _ = _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
-                                   max_periods, rtol, False, T, Tp, dT, G, T_out, N_out,
-                                   state_out)
+                                   max_periods, rtol, np.bool_(False), T, Tp, dT, G, T_out,
+                                   N_out, state_out)
     return periods, PLAIN, -1, -1
 
 
@@ -275,12 +399,13 @@ def _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol
             shoot[:, :] = 0.0
             for j in range(d):
                 shoot[j, m + j] = 1.0
-            scale = _steps(p, 0, ns, was_open, u, v, kt, kn, mu, n0, E, has_normal, True,
-                           False, T, Tp, shoot, G, T_out, N_out, state_out, m - 1, slipped)
+            scale = _steps(p, np.int64(0), ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
+                           np.bool_(True), np.bool_(False), T, Tp, shoot, G, T_out, N_out,
+                           state_out, m - 1, slipped)
         else:
-            scale = _steps(p, 0, ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
-                           want_jac, want_jac, T, Tp, dT, G, T_out, N_out, state_out, -1,
-                           slipped)
+            scale = _steps(p, np.int64(0), ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
+                           want_jac, want_jac, T, Tp, dT, G, T_out, N_out, state_out,
+                           np.int64(-1), slipped)
         if shooting and period >= SHOOT_AFTER - 1:
             # the slip samples, when two (a corner of the stuck set being closed in on)
             count, i0, i1 = 0, -1, -1
@@ -449,8 +574,9 @@ def _corner_derivative(p, a, b, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, 
         dT[1, nc + c] += kt[p, 1] * E[ns - 1, c]
     T[0] = c0 + kt[p, 0] * u[p, 0, ns - 1]
     T[1] = c1 + kt[p, 1] * u[p, 1, ns - 1]
-    _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, True, T, Tp, dT, G,
-           T_out, N_out, state_out)
+    yes, no = np.bool_(True), np.bool_(False)
+    _steps(p, np.int64(0), ns, no, u, v, kt, kn, mu, n0, E, has_normal, yes, yes, T, Tp, dT, G,
+           T_out, N_out, state_out, np.int64(-1), no)
 
 
 @njit(cache=True)
@@ -487,23 +613,27 @@ def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, 
         T[j] = T0[j]
         ext[j, m + j] = 1.0
     last_slip = state_out[p, ns - 1] == SLIP
-    _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, False, T, Tp, ext,
+    k0, yes, no = np.int64(0), np.bool_(True), np.bool_(False)
+    _steps(p, k0, ns, no, u, v, kt, kn, mu, n0, E, has_normal, yes, no, T, Tp, ext,
            G, T_out, N_out, state_out, m - 1, last_slip)
     if replayable and not _isolated(p, ext, m, u, kt, mu, T_out, N_out, state_out):
         return False
-    A = np.eye(d) - ext[:, m:]
-    rhs = ext[:, :m].copy()
+    # (I - Phi) dT_start = b with Phi = ext[:, m:], b = ext[:, :m], in scalars: array
+    # arithmetic would compile numba's shape-mismatch errors (string formatting, ~3 s)
+    a00 = 1.0 - ext[0, m]
     if d == 1:
-        dT[0, :] = rhs[0, :] / A[0, 0]
-    else:
-        det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
         for col in range(m):
-            dT[0, col] = (A[1, 1] * rhs[0, col] - A[0, 1] * rhs[1, col]) / det
-            dT[1, col] = (A[0, 0] * rhs[1, col] - A[1, 0] * rhs[0, col]) / det
+            dT[0, col] = ext[0, col] / a00
+    else:
+        a01, a10, a11 = -ext[0, m + 1], -ext[1, m], 1.0 - ext[1, m + 1]
+        det = a00 * a11 - a01 * a10
+        for col in range(m):
+            dT[0, col] = (a11 * ext[0, col] - a01 * ext[1, col]) / det
+            dT[1, col] = (a00 * ext[1, col] - a10 * ext[0, col]) / det
     for j in range(d):
         T[j] = T0[j]
-    _steps(p, 0, ns, False, u, v, kt, kn, mu, n0, E, has_normal, True, True, T, Tp, dT,
-           G, T_out, N_out, state_out, -1, last_slip)
+    _steps(p, k0, ns, no, u, v, kt, kn, mu, n0, E, has_normal, yes, yes, T, Tp, dT,
+           G, T_out, N_out, state_out, np.int64(-1), last_slip)
     return True
 
 
@@ -528,11 +658,11 @@ def _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT):  # pra
 
 @njit(cache=True)
 def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac, store,
-           T, Tp, dT, G, T_out, N_out, state_out, cn0=-1, prev_slip=False):  # pragma: no cover
+           T, Tp, dT, G, T_out, N_out, state_out, cn0, prev_slip):  # pragma: no cover
     """Advance the return map ``count`` samples from sample k0 (indices taken
     modulo ns), T and dT holding the state at the sample before; with ``store``
     each sample's dT goes to G. Returns the force scale met (max |T| and mu N),
-    for the periodicity test. cn0: the n0 column of dT (default its last);
+    for the periodicity test. cn0: the n0 column of dT (< 0: its last);
     prev_slip: the sample before slipped (2D slip then follows the exact flow)."""
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]

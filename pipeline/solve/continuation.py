@@ -313,19 +313,20 @@ def arclength(
     if progress:
         progress(len(out), start, first.iterations)
     x, lam = first.x, start
-    tangent = _tangent(fun, x, lam, xs, lam_scale, f_scale, None, direction)
-    if tangent is None:
+    first_tangent = _tangent(fun, x, lam, xs, lam_scale, f_scale, None, direction)
+    if first_tangent is None:
         return out.finish("stopped", f"singular Jacobian at {parameter} = {lam:.6g}")
     try:
-        return _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start,
-                                stop, f_scale, settings, progress, parameter)
+        return _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction,
+                                start, stop, f_scale, settings, progress, parameter)
     except KeyboardInterrupt:
         return out.finish("interrupted", f"interrupted by the user after {parameter} = "
                           f"{out.values[-1]:.6g}")
 
 
-def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start, stop,
+def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, start, stop,
                      f_scale, settings, progress, parameter):
+    tangent, orientation = first_tangent
     h = settings.step
     corners = 0
     while len(out) < settings.max_points:
@@ -372,20 +373,24 @@ def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start,
                 return out.finish("stopped", f"stopped near {parameter} = {lam:.6g}: {why} "
                                   f"with step below min_step = {settings.min_step:g}")
             lam_c, r = crossed
-            t_c = _tangent(fun, r.x, lam_c, xs, lam_scale, f_scale, tangent, direction)
-            if t_c is None:
+            crossed_tangent = _tangent(fun, r.x, lam_c, xs, lam_scale, f_scale, tangent,
+                                       direction)
+            if crossed_tangent is None:
                 return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_c:.6g}")
+            t_c, orientation = crossed_tangent
             if t_c[-1] * (lam_c - lam) < 0:  # keep going the way the crossing went
-                t_c = -t_c
+                t_c, orientation = -t_c, -orientation
             out.add(lam_c, r)
             if progress:
                 progress(len(out), lam_c, r.iterations)
             x, lam, tangent, h = r.x, lam_c, t_c, settings.step
             continue
         x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
-        t_new = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent, direction, info)
-        if t_new is None:
+        new_tangent = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent,
+                               direction, info)
+        if new_tangent is None:
             return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_new:.6g}")
+        t_new = new_tangent[0] * new_tangent[1] * orientation
         if not settings.lower < lam_new < settings.upper:
             return out.finish("stopped", f"the branch left the admissible range "
                               f"({settings.lower:g}, {settings.upper:g}) of {parameter} "
@@ -395,6 +400,9 @@ def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start,
             progress(len(out), lam_new, its)
         if np.sign(t_new[-1]) != np.sign(tangent[-1]) and tangent[-1] != 0:
             out.turning_points.append(len(out) - 1)
+        stall = _stalled(out, lam_scale)
+        if stall:
+            return out.finish("stopped", f"stalled at {parameter} = {lam_new:.6g}: {stall}")
         turn = np.arccos(np.clip(t_new @ tangent, -1.0, 1.0))
         x, lam, tangent = x_new, lam_new, t_new
         # adapt the step to the corrector's effort and to how fast the branch turns
@@ -417,6 +425,30 @@ def _arclength_steps(fun, out, x, lam, tangent, xs, lam_scale, direction, start,
     return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")
 
 
+#: A continuation has stalled when its last STALL_POINTS points moved the parameter by
+#: less than STALL_SPAN of its range: the step is spent on the unknowns alone (a response
+#: running off to infinity at an undamped resonance, or a branch circling at a kink),
+#: and more points would only pile up there.
+STALL_POINTS = 50
+STALL_SPAN = 1e-6
+
+
+def _stalled(out: _Collector, lam_scale: float) -> str:
+    """Why the branch has stalled ("" if it has not)."""
+    if len(out) <= STALL_POINTS:
+        return ""
+    recent = out.values[-STALL_POINTS:]
+    spread = max(recent) - min(recent)
+    if spread >= STALL_SPAN * lam_scale:
+        return ""
+    first, last = (float(np.max(np.abs(out.xs[i]))) for i in (-STALL_POINTS, -1))
+    grew = f"; the largest unknown went from {first:.3g} to {last:.3g}" if last > first else ""
+    return (f"the last {STALL_POINTS} points moved it by {spread:.2g} only (less than "
+            f"{STALL_SPAN:g} x its range {lam_scale:.4g}){grew}: the response changes at a "
+            "fixed parameter (an undamped resonance that friction does not bound, or a kink "
+            "the steps circle around)")
+
+
 def _cross_corner(fun, x, lam, slope, lam_scale, xs, f_scale, settings):
     """Newton at fixed parameter just past ``lam`` in the branch's direction
     (from the last solution): (lam, NewtonResult) or None."""
@@ -431,39 +463,54 @@ def _cross_corner(fun, x, lam, slope, lam_scale, xs, f_scale, settings):
     return None
 
 
+def _lu_sign(lu: np.ndarray, piv: np.ndarray) -> float:
+    """Sign of the determinant of the matrix that LAPACK factored into (lu, piv)."""
+    swaps = np.count_nonzero(piv != np.arange(piv.size))
+    return float(np.prod(np.sign(np.diag(lu)))) * (-1.0) ** swaps
+
+
 def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None):
-    """Unit tangent of the scaled branch, oriented along the previous one
-    (or towards increasing progress at the first point). ``jac``: (J, dR) at
-    (x, lam) if already known."""
+    """(t, s): the unit tangent of the scaled branch and s = sign det [J dR; t] for it.
+
+    t is oriented along ``previous`` (or towards increasing progress at the first
+    point); the caller fixes the orientation by s, which stays constant along a branch
+    and flips t at a fold only (Allgower & Georg): a Jacobian that jumps at a
+    stick/slip kink can turn the dot product with the previous tangent negative, and
+    the branch would then retrace itself. ``jac``: (J, dR, factors) at (x, lam) if
+    already known; for the bordered row r, det [J dR; t] = det [J dR; r] (r . t) / |t|
+    gives s from the factors of any bordered matrix."""
     J, dR, *factors = jac if jac is not None else fun(x, lam, True)[1:]
     n = x.size
     if previous is not None and factors and factors[0] and n >= REUSE_FACTORS:
         rhs = np.zeros(n + 1)
         rhs[n] = 1.0
-        t = sla.lu_solve(factors[0][0], rhs, check_finite=False)
+        lu, piv = factors[0][0]
+        t = sla.lu_solve((lu, piv), rhs, check_finite=False)
         if np.all(np.isfinite(t)) and np.linalg.norm(t) > 0:
-            t /= np.linalg.norm(t)
-            return t if t @ previous >= 0 else -t
+            return t / np.linalg.norm(t), _lu_sign(lu, piv)  # previous . t = 1 > 0
     Js = J * xs[None, :] / f_scale
     dRs = dR * lam_scale / f_scale
+    A = np.zeros((n + 1, n + 1))
+    A[:n, :n], A[:n, n] = Js, dRs
     if previous is None:
         try:
             z = _solve(Js, -dRs)
         except (np.linalg.LinAlgError, ValueError):
             return None
-        t = np.append(z, 1.0)
-        t /= np.linalg.norm(t)
-        return t * direction
-    A = np.zeros((n + 1, n + 1))
-    A[:n, :n], A[:n, n], A[n] = Js, dRs, previous
-    rhs = np.zeros(n + 1)
-    rhs[n] = 1.0
-    try:
-        t = _solve(A, rhs)
-    except (np.linalg.LinAlgError, ValueError):
-        return None
-    t /= np.linalg.norm(t)
-    return t if t @ previous >= 0 else -t
+        t = np.append(z, 1.0) * direction
+        A[n] = t
+    else:
+        A[n] = previous
+        rhs = np.zeros(n + 1)
+        rhs[n] = 1.0
+        keep: list = []
+        try:
+            t = _solve(A, rhs, keep)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        return t / np.linalg.norm(t), _lu_sign(*keep[0])  # previous . t = 1 > 0
+    lu, piv = sla.lu_factor(A, check_finite=False)
+    return t / np.linalg.norm(t), _lu_sign(lu, piv)
 
 
 def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):

@@ -698,11 +698,15 @@ def _solve_orders(S: np.ndarray, F: np.ndarray, rcond_min: float = 1e-12
     return X
 
 
-class _Cache:
-    """Results per operating point, bounded in bytes (dense condensed matrices of a
-    full-scale model take tens of MB each): the oldest entries go first."""
+#: Bytes the per-point cache of a HarmonicBalance may hold (dense condensed matrices of a
+#: full-scale model take tens of MB each); memory estimates read it.
+CACHE_LIMIT = 512 * 2**20
 
-    LIMIT = 512 * 2**20
+
+class _Cache:
+    """Results per operating point, bounded by CACHE_LIMIT bytes: the oldest go first."""
+
+    LIMIT = CACHE_LIMIT
 
     def __init__(self):
         self._data: dict = {}

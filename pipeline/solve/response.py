@@ -9,7 +9,7 @@ contact states and dissipated energies point by point.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +22,15 @@ from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
 
 METHODS = ("arclength", "natural")
 LINEAR_SAMPLES = 801  # parameter samples of a sweep with no contact DOF
+#: A harmonic resonates when its normalised modal dynamic stiffness
+#: |w_i^2 - (n w)^2 + i n w c_i| / max(w_i^2, (n w)^2) falls below this: n w within 0.05 %
+#: of w_i with a modal damping ratio below 5e-4 (at resonance the measure is 2 zeta), an
+#: amplification over 1000 that only the contacts can bound.
+RESONANCE_TOL = 1e-3
+#: The fraction of the excitation a cold-start ramp begins at: the contact forces scale with
+#: the excitation and the slip limits do not, so the stuck linear guess is the solution there
+#: unless the full load exceeds the slip limits 1000-fold.
+RAMP_START = 1e-3
 
 
 @dataclass
@@ -174,11 +183,13 @@ def sweep(
     x0: np.ndarray | None = None,
     x_scale: float | None = None,
     progress: Callable[[int, float, int], None] | None = None,
+    retry: bool = True,
 ) -> Response:
     """Follow the solution of ``model`` as ``parameter`` goes from start to stop.
 
     base: values of the other parameters (and of this one, overridden by the
-    sweep). Bad arguments raise ValueError before any solve.
+    sweep). Bad arguments raise ValueError before any solve. retry: where the cold
+    start (no ``x0``) fails at the first point, reach it by :func:`excitation_ramp`.
     """
     if parameter not in PARAMETERS:
         raise ValueError(f"sweep: 'parameter' = {parameter!r} is not one of {PARAMETERS}")
@@ -205,23 +216,41 @@ def sweep(
     xs, fs = scales(model, p0)
     if x_scale is not None:
         xs = float(x_scale)
-    if x0 is None:
+    cold = x0 is None
+    if cold:
         x0 = initial_guess(model, p0, fs)
 
     def fun(x, lam, jac):
         return model.residual(x, base.set(parameter, lam), parameter, jacobian=jac)
 
-    if method == "arclength":
-        branch = cont.arclength(fun, x0, start, stop, parameter=parameter, x_scale=xs,
-                                f_scale=fs, settings=settings, progress=progress)
-    else:
+    def follow(x_start: np.ndarray) -> cont.Branch:
+        if method == "arclength":
+            return cont.arclength(fun, x_start, start, stop, parameter=parameter,
+                                  x_scale=xs, f_scale=fs, settings=settings, progress=progress)
+
         def guesses(value):
             p = base.set(parameter, value)
             return [model.linear_guess(p), model.linear_guess(p, stuck=True)]
 
-        branch = cont.natural(fun, x0, start, stop, parameter=parameter, x_scale=xs,
-                              f_scale=fs, settings=settings, progress=progress,
-                              guesses=guesses)
+        return cont.natural(fun, x_start, start, stop, parameter=parameter, x_scale=xs,
+                            f_scale=fs, settings=settings, progress=progress, guesses=guesses)
+
+    branch = follow(x0)
+    retried = ""  # what the ramp did, for the end of the message
+    if (cold and retry and not len(branch) and branch.failed is not None
+            and branch.status == "stopped" and not _structural_hint(model, branch.failed[1], p0)):
+        try:
+            ramp, retried = excitation_ramp(model, p0, settings=settings)
+        except KeyboardInterrupt:
+            branch.status, branch.message = "interrupted", (
+                f"interrupted by the user while ramping the excitation at {parameter} = "
+                f"{start:.6g}")
+            return Response(model, branch, base)
+        if ramp is not None:
+            steps = branch.steps
+            branch = follow(ramp.x)
+            branch.steps += steps
+            retried = f"; first point: the cold start failed, {retried}"
     if not branch.complete and branch.status != "interrupted":
         # the failed iterate, else the last converged point, may show the cause
         tries = [branch.failed] if branch.failed is not None else []
@@ -232,15 +261,23 @@ def sweep(
             if hint:
                 branch.message += hint
                 break
+    branch.message = (branch.message + retried).removeprefix("; ")
     return Response(model, branch, base)
 
 
 def failure_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
     """Why a solve may have stalled at x, and what to change: a static problem that nothing
-    holds, or stick arcs between samples ("" if neither shows)."""
-    if not np.all(np.isfinite(x)):
-        return ""
-    return static_hint(model, x, point) or sampling_hint(model, x, point)
+    holds, an undamped resonance of a harmonic, or stick arcs between samples ("" if none
+    shows)."""
+    finite = np.all(np.isfinite(x))
+    return _structural_hint(model, x, point) or (sampling_hint(model, x, point) if finite
+                                                 else "")
+
+
+def _structural_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
+    """The causes no other start cures: the linear part itself is singular at the point."""
+    static = static_hint(model, x, point) if np.all(np.isfinite(x)) else ""
+    return static or resonance_hint(model, point)
 
 
 def static_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
@@ -270,6 +307,58 @@ def static_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) ->
             f"{n_slip} slipping): {remedy}")
 
 
+def resonance_hint(model: HarmonicBalance, point: OperatingPoint) -> str:
+    """A harmonic order n >= 1 at an undamped resonance of the linear part: n w at a natural
+    frequency w_i of K_n, M_n (contacts free, or stuck: their stick stiffness added) with no
+    damping to bound it. The order-n block of the Jacobian is then singular, or nearly, in a
+    slipping (free) or stuck contact state; no start or sampling cures that.
+
+    Measure per mode (M-normalised modes of order n): the modal dynamic stiffness
+    |w_i^2 - (n w)^2 + i n w c_i| over max(w_i^2, (n w)^2), the order's smallest singular
+    value in that basis, normalised; flagged below RESONANCE_TOL."""
+    lin = model.linear
+    best = None  # (measure, order, natural frequency, contact state)
+    for o, K, M, C in zip(lin.orders, lin.K, lin.mass(point), lin.C):
+        if o == 0:
+            continue
+        nw2 = (o * point.omega) ** 2
+        for state, Ks in (("free", K), ("stuck", K + _stick_stiffness(model, o, K.shape[0]))):
+            try:
+                lam, phi = sla.eigh(Ks, M)
+            except (np.linalg.LinAlgError, ValueError):
+                return ""
+            c = np.real(np.einsum("ij,ik,kj->j", phi.conj(), C, phi))
+            measure = np.abs(lam - nw2 + 1j * np.sqrt(nw2) * c) / np.maximum(np.abs(lam), nw2)
+            i = int(np.argmin(measure))
+            if best is None or measure[i] < best[0]:
+                best = (float(measure[i]), o, float(np.sqrt(max(lam[i], 0.0))), state)
+    if best is None or not best[0] < RESONANCE_TOL:
+        return ""
+    measure, o, wn, state = best
+    return (f"; harmonic {o} resonates at w = {point.omega:.6g} rad/s: {o} w = "
+            f"{o * point.omega:.6g} rad/s is at the natural frequency {wn:.6g} rad/s of the "
+            f"linear part (contacts {state}; normalised dynamic stiffness {measure:.1e} < "
+            f"{RESONANCE_TOL:g}) and no damping bounds it, so the Jacobian is (nearly) "
+            "singular there: add damping or skip this frequency")
+
+
+def _stick_stiffness(model: HarmonicBalance, order: int, size: int) -> np.ndarray:
+    """(size, size) B_n^H K_stick B_n on every DOF of an order: kt per tangential direction,
+    kn normal (HarmonicBalance keeps the same on the contact DOFs only)."""
+    out = np.zeros((size, size), dtype=complex)
+    n = model.linear.n_dof
+    for c in model.contacts:
+        el = c.elements
+        k = np.zeros((el.size, el.n_components))
+        k[:, : el.dim] = el.kt
+        if el.variable_normal:
+            k[:, -1] = el.kn
+        B = np.asarray(c.kinematics[order] if isinstance(c.kinematics, Mapping)
+                       else c.kinematics, dtype=complex)
+        out[:n, :n] += B.conj().T @ (k.reshape(-1, 1) * B)
+    return out
+
+
 def sampling_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
     """A remedy for a stalled solve when stick arcs fall between samples."""
     n = sum(int(np.sum(r.undersampled > 0)) for r in model.contact_response(x, point))
@@ -286,20 +375,81 @@ def solve_point(
     *,
     settings: cont.Settings = cont.DEFAULT,
     x0: np.ndarray | None = None,
+    retry: bool = True,
 ) -> cont.NewtonResult:
-    """One harmonic-balance solution at a fixed operating point."""
+    """One harmonic-balance solution at a fixed operating point.
+
+    retry: where the cold start (no ``x0``) fails and the linear part is not singular
+    there, reach the point by :func:`excitation_ramp` (its ``reason`` then says so)."""
     xs, fs = scales(model, point)
-    if x0 is None:
+    cold = x0 is None
+    if cold:
         x0 = initial_guess(model, point, fs)
 
     def fun(x, lam, jac):
         return model.residual(x, point, None, jacobian=jac)
 
     r = cont.newton(fun, x0, 0.0, x_scale=xs, f_scale=fs, settings=settings)
-    if not r.converged:
-        r = cont.NewtonResult(r.x, False, r.iterations, r.residual,
-                              r.reason + failure_hint(model, r.x, point))
-    return r
+    if r.converged:
+        return r
+    structural = _structural_hint(model, r.x, point)
+    retried = ""
+    if cold and retry and not structural:
+        ramp, retried = excitation_ramp(model, point, settings=settings)
+        if ramp is not None:
+            return cont.NewtonResult(ramp.x, True, ramp.iterations, ramp.residual,
+                                     f"the cold start failed ({r.reason}); {retried}")
+    hint = structural or (sampling_hint(model, r.x, point) if np.all(np.isfinite(r.x))
+                          else "")
+    return cont.NewtonResult(r.x, False, r.iterations, r.residual, r.reason + hint + retried)
+
+
+def excitation_ramp(
+    model: HarmonicBalance,
+    point: OperatingPoint,
+    *,
+    settings: cont.Settings = cont.DEFAULT,
+) -> tuple[cont.NewtonResult | None, str]:
+    """The solution at ``point`` reached by continuation in the excitation, from RAMP_START
+    of it (every contact stuck: the linear guess is exact) up to the point's value; for
+    cold starts that fail where the contacts are stiff and the response sharp.
+
+    Natural continuation first (the response grows monotonically with the load), then
+    arclength (it crosses the corners where a contact state changes along the whole orbit).
+    Returns (solution or None, what was tried: for the caller's message). (None, "") where
+    the point has no dynamic load to ramp. KeyboardInterrupt if the user stops a ramp."""
+    full = point.excitation
+    forces = model.forces(point)[0]
+    if full == 0 or not any(np.any(f) for o, f in zip(model.harmonics.orders, forces) if o):
+        return None, ""
+    xs, fs = scales(model, point)
+    low = RAMP_START * full
+    x0 = initial_guess(model, point.set("excitation", low), fs)
+    # never through zero load (arclength could turn back there)
+    ramp_settings = dataclasses.replace(settings, lower=0.0) if full > 0 else settings
+
+    def fun(x, lam, jac):
+        return model.residual(x, point.set("excitation", lam), "excitation", jacobian=jac)
+
+    def at_point(x, lam, jac):
+        return model.residual(x, point, None, jacobian=jac)
+
+    reached = []
+    for name, method in (("natural", cont.natural), ("arclength", cont.arclength)):
+        b = method(fun, x0, low, full, parameter="excitation", x_scale=xs, f_scale=fs,
+                   settings=ramp_settings)
+        if b.status == "interrupted":
+            raise KeyboardInterrupt
+        if b.complete:  # polish at the exact point (the last step may land a rounding short)
+            r = cont.newton(at_point, b.x[-1], 0.0, x_scale=xs, f_scale=fs, settings=settings)
+            if r.converged:
+                return r, (f"reached by {name} continuation in the excitation from "
+                           f"{RAMP_START:g} x its value ({len(b)} points)")
+        reached.append(f"{name} reached {b.values[-1] / full:.3g} x" if len(b) else
+                       f"{name} found no start")
+    return None, (f"; retried by continuation in the excitation from {RAMP_START:g} x its "
+                  f"value: {', '.join(reached)} (a sweep in frequency from a point that "
+                  "converges may reach it)")
 
 
 @dataclass
