@@ -19,6 +19,7 @@ Neither raises on non-convergence: the branch computed so far is returned with
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -179,7 +180,9 @@ def _solve(J: np.ndarray, R: np.ndarray, keep: list | None = None) -> np.ndarray
     """J^-1 R by LU; the factors are appended to ``keep`` if given (for reuse)."""
     if not np.all(np.isfinite(J)):
         raise ValueError("Jacobian has NaN or Inf")
-    lu, piv = sla.lu_factor(J, check_finite=False)
+    with warnings.catch_warnings():  # a zero pivot is reported below, as an error
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        lu, piv = sla.lu_factor(J, check_finite=False)
     if np.any(np.diag(lu) == 0):
         raise np.linalg.LinAlgError("zero pivot")
     if keep is not None:
@@ -509,7 +512,9 @@ def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None)
         except (np.linalg.LinAlgError, ValueError):
             return None
         return t / np.linalg.norm(t), _lu_sign(*keep[0])  # previous . t = 1 > 0
-    lu, piv = sla.lu_factor(A, check_finite=False)
+    with warnings.catch_warnings():  # J is regular here (z was solved from it)
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        lu, piv = sla.lu_factor(A, check_finite=False)
     return t / np.linalg.norm(t), _lu_sign(lu, piv)
 
 
