@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import contextlib
 import json
+import signal
+import threading
 from collections.abc import Callable, Iterator
 
 import gmsh
@@ -26,6 +28,7 @@ def gmsh_session(model_name: str) -> Iterator[None]:
     if gmsh.isInitialized():
         raise RuntimeError("a Gmsh session is already open (sessions do not nest)")
     # No config files and no SIGINT hijack: same options on every machine/thread.
+    handlers = _signal_handlers()
     gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:
         for name, value in (
@@ -50,6 +53,25 @@ def gmsh_session(model_name: str) -> Iterator[None]:
         yield
     finally:
         gmsh.finalize()
+        _restore(handlers)
+
+
+#: Signals whose Python handlers a session must leave in place: Gmsh (OpenCASCADE) installs
+#: C-level handlers behind Python's back, and SIGTERM then killed `microslip run` outright
+#: instead of saving a partial results file.
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _signal_handlers() -> dict:
+    return {s: signal.getsignal(s) for s in SIGNALS}
+
+
+def _restore(handlers: dict) -> None:
+    if threading.current_thread() is not threading.main_thread():
+        return  # only the main thread handles (and may set) signals
+    for s, h in handlers.items():
+        if h is not None:  # None: set outside Python, nothing of ours to restore
+            signal.signal(s, h)
 
 
 def run_builder(model: str, params: dict, build: Callable[[], Mesh]) -> Mesh:

@@ -169,3 +169,25 @@ def test_write_msh_and_vtu_round_trip(tmp_path):
     xdmf = meshio.read(m.write(tmp_path / "m.xdmf"))
     assert len(xdmf.points) == 8
     json.dumps(m.parameters)
+
+
+def test_a_gmsh_session_leaves_the_signal_handlers_in_place():
+    """OpenCASCADE installs C-level signal handlers: after a session SIGTERM must still reach
+    Python's handler (`microslip run` saves a partial file on it), not kill the process.
+    In a child process: the signal goes to the whole process."""
+    import subprocess
+    import sys
+
+    code = (
+        "import os, signal, time\n"
+        "got = []\n"
+        "signal.signal(signal.SIGTERM, lambda s, f: got.append(s))\n"
+        "from microslip import geometry\n"
+        "geometry.blisk_sector(sectors=48)\n"
+        "os.kill(os.getpid(), signal.SIGTERM)\n"
+        "time.sleep(0.2)\n"
+        "print('handled' if got else 'not handled')\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "handled", (r.returncode, r.stderr)
