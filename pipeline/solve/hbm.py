@@ -568,24 +568,29 @@ class HarmonicBalance:
         return x.copy()
 
     def _stick_stiffness(self) -> np.ndarray:
-        """(n_orders, nc, nc) complex B_n^H K_stick B_n on the contact DOFs: kt per tangential
-        direction, kn normal (the same for every order)."""
+        """(n_orders, nc, nc) :meth:`stick_stiffness` of every order on the contact DOFs."""
         key = ("stick",)
         hit = self._cache.get(key)
         if hit is not None:
             return hit
-        out = np.zeros((len(self.harmonics.orders), self.dofs.size, self.dofs.size),
-                       dtype=complex)
+        out = np.array([self.stick_stiffness(o, self.dofs) for o in self.harmonics.orders])
+        self._cache.put(key, out, out.nbytes)
+        return out
+
+    def stick_stiffness(self, order: int, dofs: np.ndarray | None = None) -> np.ndarray:
+        """Complex B_n^H K_stick B_n of harmonic ``order`` on ``dofs`` (default: all n_dof
+        shared DOFs): the contacts stuck, kt per tangential direction and kn normal for
+        the variable-normal laws; N/m."""
+        cols = np.arange(self.linear.n_dof) if dofs is None else dofs
+        out = np.zeros((cols.size, cols.size), dtype=complex)
         for c, B in zip(self.contacts, self._B):
             el = c.elements
             k = np.zeros((el.size, el.n_components))
             k[:, : el.dim] = el.kt
             if el.variable_normal:
                 k[:, -1] = el.kn
-            for i, o in enumerate(self.harmonics.orders):
-                Bc = B[o][:, self.dofs]
-                out[i] += Bc.conj().T @ (k.reshape(-1, 1) * Bc)
-        self._cache.put(key, out, out.nbytes)
+            Bc = B[order][:, cols]
+            out += Bc.conj().T @ (k.reshape(-1, 1) * Bc)
         return out
 
 

@@ -9,7 +9,7 @@ contact states and dissipated energies point by point.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -322,7 +322,9 @@ def resonance_hint(model: HarmonicBalance, point: OperatingPoint) -> str:
         if o == 0:
             continue
         nw2 = (o * point.omega) ** 2
-        for state, Ks in (("free", K), ("stuck", K + _stick_stiffness(model, o, K.shape[0]))):
+        stuck = K.astype(complex)
+        stuck[: lin.n_dof, : lin.n_dof] += model.stick_stiffness(o)
+        for state, Ks in (("free", K), ("stuck", stuck)):
             try:
                 lam, phi = sla.eigh(Ks, M)
             except (np.linalg.LinAlgError, ValueError):
@@ -340,23 +342,6 @@ def resonance_hint(model: HarmonicBalance, point: OperatingPoint) -> str:
             f"linear part (contacts {state}; normalised dynamic stiffness {measure:.1e} < "
             f"{RESONANCE_TOL:g}) and no damping bounds it, so the Jacobian is (nearly) "
             "singular there: add damping or skip this frequency")
-
-
-def _stick_stiffness(model: HarmonicBalance, order: int, size: int) -> np.ndarray:
-    """(size, size) B_n^H K_stick B_n on every DOF of an order: kt per tangential direction,
-    kn normal (HarmonicBalance keeps the same on the contact DOFs only)."""
-    out = np.zeros((size, size), dtype=complex)
-    n = model.linear.n_dof
-    for c in model.contacts:
-        el = c.elements
-        k = np.zeros((el.size, el.n_components))
-        k[:, : el.dim] = el.kt
-        if el.variable_normal:
-            k[:, -1] = el.kn
-        B = np.asarray(c.kinematics[order] if isinstance(c.kinematics, Mapping)
-                       else c.kinematics, dtype=complex)
-        out[:n, :n] += B.conj().T @ (k.reshape(-1, 1) * B)
-    return out
 
 
 def sampling_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
