@@ -163,3 +163,40 @@ def test_a_stalled_branch_stops_and_says_why():
     assert len(r) < 3 * cont.STALL_POINTS + 400  # stopped, not piled up to max_points
     assert np.ptp(r.values[-cont.STALL_POINTS:]) < cont.STALL_SPAN * 1.95
     assert r.amplitude([0])[-1, 0] > 1e3  # it did run off (m, against 0.1 N / 1 N/m)
+
+
+def wave(x, lam, jac=True):
+    """n copies of R_i = x_i - sin(3 lam): the same curved branch in every unknown."""
+    n = x.size
+    return x - np.sin(3 * lam), np.eye(n), np.full(n, -3 * np.cos(3 * lam))
+
+
+def test_the_arc_metric_does_not_depend_on_the_number_of_unknowns():
+    # the unknowns enter the arc length by their root mean square: 400 copies of one
+    # unknown trace the very same points as one (a 2-norm would weight the parameter
+    # 1/20 as much and take ~20 times the points)
+    one = cont.arclength(wave, np.zeros(1), 0.0, 2.0, parameter="lam")
+    many = cont.arclength(wave, np.zeros(400), 0.0, 2.0, parameter="lam")
+    assert one.complete and many.complete
+    assert len(one) == len(many)
+    assert np.allclose(one.values, many.values, rtol=0, atol=1e-9)
+    assert np.allclose(many.x, np.sin(3 * many.values)[:, None], atol=1e-9)
+
+
+def test_the_corrector_gives_up_early_where_newton_makes_no_progress():
+    # R = x^2 + 1 has no root: damped Newton stalls at x = 0 with ||R|| = 1; the
+    # corrector says so after STAGNATION iterations instead of spending max_iter
+    # (each with up to 7 line-search evaluations) before the step is halved
+    calls = []
+
+    def no_root(x, lam, jac=True):
+        calls.append(lam)
+        return np.array([x[0] ** 2 + 1.0]), np.array([[2 * x[0]]]), np.array([0.0])
+
+    settings = cont.Settings(max_iter=25, target_iter=4)
+    tangent = np.array([0.0, 1.0])
+    ok, _, its, res, why = cont._correct(no_root, np.array([0.3, 0.0]), tangent,
+                                         np.ones(1), 1.0, 1.0, settings)
+    assert not ok and "no progress" in why and res >= 1.0
+    assert its <= cont.STAGNATION + 2
+    assert len(calls) <= 8 * (cont.STAGNATION + 2)  # 7 trials per iteration at most

@@ -101,7 +101,11 @@ class Settings:
 
 
 DEFAULT = Settings()
-MAX_CORNERS = 10  # fixed-parameter crossings of a non-smooth branch, per branch
+MAX_CORNERS = 20  # fixed-parameter crossings of a non-smooth branch, per branch
+#: After this many correctors missed in a row (the step 2^-6 of what it was), a corner is
+#: tried before any shorter step: at a corner no step is short enough, and halving down to
+#: min_step costs some 15 more failed correctors each time.
+CORNER_MISSES = 6
 
 
 def newton(
@@ -300,14 +304,19 @@ def arclength(
 ) -> Branch:
     """Pseudo-arclength continuation from ``start`` until ``stop`` is passed.
 
-    Scaled unknowns ``y = [x / x_scale, lam / lam_scale]`` with ``lam_scale =
-    |stop - start|``; steps ``h`` are arc lengths in that metric."""
+    Scaled unknowns ``y = [x / (x_scale sqrt(n)), lam / lam_scale]`` with ``lam_scale =
+    |stop - start|``; steps ``h`` are arc lengths in that metric. The unknowns enter by
+    their root mean square, not their sum: a step then moves the parameter by the same
+    share of its range for one unknown or 1296 (a 2-norm over n unknowns would give the
+    parameter a weight 1 / sqrt(n), and a full-scale FRF thousands of points)."""
     check_range(start, stop, parameter)
     lam_scale = abs(stop - start)
     direction = np.sign(stop - start)
-    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x0)).copy()
+    rms = np.sqrt(max(np.size(x0), 1))
+    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x0)) * rms
     out = _Collector(parameter)
-    first = newton(fun, x0, start, x_scale=xs, f_scale=f_scale, settings=settings)
+    # Newton's step cap is per unknown: the unknowns' own scale, without the metric's rms
+    first = newton(fun, x0, start, x_scale=xs / rms, f_scale=f_scale, settings=settings)
     out.steps += 1
     if not first.converged:
         out.failed = (start, first.x)
@@ -330,8 +339,9 @@ def arclength(
 def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, start, stop,
                      f_scale, settings, progress, parameter):
     tangent, orientation = first_tangent
+    rms = np.sqrt(max(x.size, 1))  # as in arclength's metric
     h = settings.step
-    corners = 0
+    corners = misses = 0  # corners crossed; correctors missed in a row
     while len(out) < settings.max_points:
         y = np.append(x / xs, lam / lam_scale)
         pred = y + h * tangent
@@ -340,7 +350,8 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
             # overshoot: land exactly on the end value, at fixed lam
             frac = (stop - lam) / (lam_p - lam)
             guess = (y + frac * h * tangent)[:-1] * xs
-            r = newton(fun, guess, stop, x_scale=xs, f_scale=f_scale, settings=settings)
+            r = newton(fun, guess, stop, x_scale=xs / rms, f_scale=f_scale,
+                       settings=settings)
             out.steps += 1
             if r.converged:
                 out.add(stop, r)
@@ -358,9 +369,10 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
         far = ok and np.linalg.norm(y_new - pred) > 10.0 * h  # on another branch
         if not ok or far:
             h /= 2
+            misses += 1
             if not ok:
                 out.failed = (y_new[-1] * lam_scale, y_new[:-1] * xs)
-            if h >= settings.min_step:
+            if h >= settings.min_step and (misses != CORNER_MISSES or corners >= MAX_CORNERS):
                 continue
             # a corner of the branch (e.g. the whole orbit passing from stick to slip at
             # once): the tangent is undefined there, but a step at fixed parameter
@@ -370,6 +382,8 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
                 corners += 1
                 crossed = _cross_corner(fun, x, lam, tangent[-1], lam_scale, xs, f_scale,
                                         settings)
+            if crossed is None and h >= settings.min_step:
+                continue  # not a corner: shorter steps go on
             if crossed is None:
                 why = f"corrector failed ({info})" if not ok else \
                     "the corrector keeps leaving the branch"
@@ -386,8 +400,9 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
             out.add(lam_c, r)
             if progress:
                 progress(len(out), lam_c, r.iterations)
-            x, lam, tangent, h = r.x, lam_c, t_c, settings.step
+            x, lam, tangent, h, misses = r.x, lam_c, t_c, settings.step, 0
             continue
+        misses = 0
         x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
         new_tangent = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent,
                                direction, info)
@@ -417,9 +432,9 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
             h = max(h * 0.6, settings.min_step)
         # dynamic scaling: the unknowns' scale follows the largest amplitude met,
         # so a resonance 100x the start amplitude does not take 100x the points
-        grow = np.max(np.abs(x)) / xs
+        grow = np.max(np.abs(x)) * rms / xs
         if np.any(grow > 1.0):
-            new_xs = np.maximum(xs, np.max(np.abs(x)))
+            new_xs = np.maximum(xs, np.max(np.abs(x)) * rms)
             tangent = np.append(tangent[:-1] * xs / new_xs, tangent[-1])
             tangent /= np.linalg.norm(tangent)
             xs = new_xs
@@ -456,11 +471,12 @@ def _cross_corner(fun, x, lam, slope, lam_scale, xs, f_scale, settings):
     """Newton at fixed parameter just past ``lam`` in the branch's direction
     (from the last solution): (lam, NewtonResult) or None."""
     sign = np.sign(slope) if slope != 0 else 1.0
-    for frac in (1e-4, 1e-3, 1e-2):
+    for frac in (1e-5, 1e-4, 1e-3, 1e-2):  # the shortest crossing first
         lam_c = lam + sign * frac * lam_scale
         if not settings.lower < lam_c < settings.upper:
             return None
-        r = newton(fun, x, lam_c, x_scale=xs, f_scale=f_scale, settings=settings)
+        r = newton(fun, x, lam_c, x_scale=xs / np.sqrt(max(x.size, 1)), f_scale=f_scale,
+                   settings=settings)
         if r.converged:
             return lam_c, r
     return None
@@ -518,6 +534,15 @@ def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None)
     return t / np.linalg.norm(t), _lu_sign(lu, piv)
 
 
+#: The corrector gives up after CORRECTOR_ITER x target_iter iterations, or when STAGNATION
+#: iterations have not halved its merit: on a branch with stick/slip kinks an iterate can
+#: sit on a kink between two linear pieces, each pointing Newton at the other, and 25 damped
+#: iterations there cost 100 evaluations (20 s on the full-scale blisk); a step half as
+#: long almost always converges in 2-4.
+CORRECTOR_ITER = 3
+STAGNATION = 4
+
+
 def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
     """Newton on [R(y) = 0; t . (y - y_pred) = 0] (seed eq. 56), damped like
     :func:`newton`: near a stick/slip kink the full step can jump between two
@@ -534,14 +559,19 @@ def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
     y = pred.copy()
     R, J, dR, merit = evaluate(y)
     factors: list = []  # the last LU of the bordered Jacobian (the tangent may reuse it)
-    for it in range(settings.max_iter + 1):
+    max_iter = min(settings.max_iter, CORRECTOR_ITER * settings.target_iter)
+    merits = [merit]
+    for it in range(max_iter + 1):
         res = max(_norm(R, f_scale), abs(tangent @ (y - pred)))
         if not np.isfinite(res):
             return False, y, it, res, "residual is NaN or Inf"
         if res <= settings.tol:
             return True, y, it, res, (J, dR, factors)
-        if it == settings.max_iter:
+        if it == max_iter:
             break
+        if it >= STAGNATION and merit > 0.5 * merits[-1 - STAGNATION]:
+            return False, y, it, res, (f"no progress in {STAGNATION} iterations "
+                                       f"(||R|| = {res:.3g} * f_scale)")
         A = np.empty((n + 1, n + 1))
         A[:n, :n] = J * xs[None, :] / f_scale
         A[:n, n] = dR * lam_scale / f_scale
@@ -561,7 +591,8 @@ def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
                 break
             alpha *= 0.5
         y, (R, J, dR, merit) = best
-    return False, y, settings.max_iter, res, f"no convergence (||R|| = {res:.3g} * f_scale)"
+        merits.append(merit)
+    return False, y, max_iter, res, f"no convergence (||R|| = {res:.3g} * f_scale)"
 
 
 class _Collector:

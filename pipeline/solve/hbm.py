@@ -279,7 +279,7 @@ class Condensed:
 
     S: np.ndarray  # (n_orders, nc, nc) complex
     F: np.ndarray  # (n_orders, nc) complex
-    Y: tuple[np.ndarray, ...]  # per order (ni_k, nc)
+    Y: tuple[np.ndarray, ...]  # per order (ni_k, nc), real where D is (order 0)
     z: tuple[np.ndarray, ...]  # per order (ni_k,)
     dS: np.ndarray | None
     dF: np.ndarray | None
@@ -426,27 +426,22 @@ class HarmonicBalance:
         hit = self._cache.get(key)
         if hit is not None:
             return hit
-        D = self.linear.dynamic_stiffness(point)
-        dD = self.linear.d_dynamic_stiffness(point, parameter) if parameter else None
+        lin = self._reordered()
         F, dF = self.forces(point, parameter)
-        out = _condense(D, F, self.dofs, self.others, dD, dF)
+        dD = lin.d_stiffness(point, parameter) if parameter else None
+        out = _condense(lin.stiffness(point), lin.take(F), self.dofs.size, dD,
+                        None if dF is None else lin.take(dF))
         self._cache.put(key, out, out.nbytes)
         return out
 
-    def _real_condensed(self, point: OperatingPoint, parameter: str | None):
-        """(S, F, dS, dF) of the condensed linear part in the real DOF-major layout."""
-        key = ("real", point, parameter)
+    def _reordered(self) -> _Reordered:
+        """The linear part reordered for the condensation, built once (pinned in the cache:
+        it counts against CACHE_LIMIT but every point needs it)."""
+        key = ("reordered",)
         hit = self._cache.get(key)
         if hit is None:
-            lin = self.condensed(point, parameter)
-            h = self.harmonics
-            hit = (
-                h.real_matrix(lin.S),
-                h.real_vector(lin.F).ravel(),
-                None if lin.dS is None else h.real_matrix(lin.dS),
-                None if lin.dF is None else h.real_vector(lin.dF).ravel(),
-            )
-            self._cache.put(key, hit, sum(a.nbytes for a in hit if a is not None))
+            hit = _Reordered.of(self.linear, self.dofs, self.others)
+            self._cache.put(key, hit, hit.nbytes, pinned=True)
         return hit
 
     # ------------------------------------------------------------- residual
@@ -462,12 +457,16 @@ class HarmonicBalance:
         x: (n_unknowns,) real, DOF-major over :attr:`dofs`. Returns R (n,),
         J (n, n) or None, dR (n,) or None (if ``parameter`` is None).
         """
-        S, F, dS, dF = self._real_condensed(point, parameter)
-        R = S @ x - F
-        J = S.copy() if jacobian else None
+        lin = self.condensed(point, parameter)
+        h = self.harmonics
+        # the linear terms per order on the complex blocks; the real operator only for J (a
+        # continuation meets every point once: converting S costs what copying a cached
+        # real one would, and dS is never needed as a matrix)
+        R = h.real_apply(lin.S, x) - h.real_vector(lin.F).ravel()
+        J = h.real_matrix(lin.S) if jacobian else None
         dR = None
         if parameter is not None:
-            dR = (dS @ x if dS is not None else np.zeros_like(x)) - dF
+            dR = h.real_apply(lin.dS, x) - h.real_vector(lin.dF).ravel()
         for c, Br, blocks in zip(self.contacts, self._Breal, self._blocks):
             el = c.elements.with_n0(c.elements.n0 * point.preload) if point.preload != 1 else (
                 c.elements
@@ -640,51 +639,158 @@ def _others(shared_others: np.ndarray, n_shared: int, n: int) -> np.ndarray:
     return np.concatenate([shared_others, np.arange(n_shared, n)])
 
 
-def _condense(D, F, c, i_shared, dD=None, dF=None) -> Condensed:
-    """Exact per-order condensation of D q = F onto DOFs c (the rest condensed).
+@dataclass(frozen=True, eq=False)
+class _Reordered:
+    """Per order K, M, C and M_part with rows and columns reordered: the contact DOFs, then
+    the condensed ones (``_others``). The blocks D_cc, D_ci, D_ic, D_ii of any point are then
+    basic slices of D, not gathers from the full matrices: a continuation puts every Newton
+    iterate at a new frequency, so this is what gets reused. Real where the imaginary part is
+    exactly zero (half the memory, real products at order 0); C, M_part None where zero."""
 
-    D: per order (n_k, n_k); F: per order (n_k,); dD, dF: their derivatives or None;
-    i_shared: the shared DOFs not in c (every DOF past the shared ones is condensed too).
-    Shared size: n - (order's own DOFs) = c.size + i_shared.size."""
-    n_shared = c.size + i_shared.size
-    S, Fe, Ys, zs, dSs, dFs = [], [], [], [], [], []
-    deriv = dD is not None or dF is not None
+    index: tuple[np.ndarray, ...]  # per order (n_k,): the original DOF of each row
+    K: tuple[np.ndarray, ...]  # per order (n_k, n_k), read-only
+    M: tuple[np.ndarray, ...]
+    C: tuple[np.ndarray | None, ...]
+    M_part: tuple[np.ndarray | None, ...]
+    orders: tuple[int, ...]
+
+    @classmethod
+    def of(cls, linear: LinearDynamics, dofs: np.ndarray, others: np.ndarray) -> _Reordered:
+        index = tuple(np.concatenate([dofs, _others(others, linear.n_dof, n)])
+                      for n in linear.sizes)
+
+        def take(mats, optional=False):
+            out = []
+            for A, p in zip(mats, index):
+                B = A[np.ix_(p, p)]
+                B = B if np.any(B.imag) else np.ascontiguousarray(B.real)
+                B.flags.writeable = False
+                out.append(None if optional and not np.any(B) else B)
+            return tuple(out)
+
+        return cls(index, take(linear.K), take(linear.M), take(linear.C, True),
+                   take(linear.M_part, True), linear.orders)
+
+    @property
+    def nbytes(self) -> int:
+        arrays = [*self.index, *self.K, *self.M, *self.C, *self.M_part]
+        return sum(a.nbytes for a in arrays if a is not None)
+
+    def take(self, vectors: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """Per order (n_k,) vectors reordered like the matrices."""
+        return [v[p] for v, p in zip(vectors, self.index)]
+
+    def _mass(self, k: int, s: float) -> np.ndarray:
+        """M(s) = M + (s - 1) M_part of order k (as LinearDynamics.mass)."""
+        Mp = self.M_part[k]
+        return self.M[k] if s == 1.0 or Mp is None else self.M[k] + (s - 1.0) * Mp
+
+    def stiffness(self, point: OperatingPoint) -> list[np.ndarray]:
+        """Per order D_n = K_n - (n w)^2 M_n + i n w C_n, the expressions of
+        LinearDynamics.dynamic_stiffness (same rounding); order 0 is K itself (read-only)."""
+        w, out = point.omega, []
+        for k, o in enumerate(self.orders):
+            if o == 0:
+                out.append(self.K[k])
+                continue
+            D = self.K[k] - (o * w) ** 2 * self._mass(k, point.mass_multiplier)
+            out.append(D if self.C[k] is None else D + 1j * o * w * self.C[k])
+        return out
+
+    def d_stiffness(self, point: OperatingPoint, parameter: str) -> list[np.ndarray | None]:
+        """Per order dD_n / d parameter (LinearDynamics.d_dynamic_stiffness), None where zero
+        (order 0, and parameters D does not depend on)."""
+        w, out = point.omega, []
+        for k, o in enumerate(self.orders):
+            dD = None
+            if o != 0 and parameter == "frequency":
+                dD = -2.0 * o**2 * w * self._mass(k, point.mass_multiplier)
+                dD = dD if self.C[k] is None else dD + 1j * o * self.C[k]
+            elif o != 0 and parameter == "mass" and self.M_part[k] is not None:
+                dD = -((o * w) ** 2) * self.M_part[k]
+            out.append(dD)
+        return out
+
+
+def _condense(D, F, nc: int, dD=None, dF=None) -> Condensed:
+    """Exact per-order condensation of D q = F onto its first nc DOFs (the rest condensed):
+    S = D_cc - D_ci D_ii^-1 D_ic.
+
+    D: per order (n_k, n_k), real or complex, rows and columns ordered contact DOFs first
+    (:class:`_Reordered`); F: per order (n_k,) in that order; dD, dF: their derivatives per
+    order (an entry None where zero) or None."""
+    n, deriv = len(D), dD is not None or dF is not None
+    S, Fe = np.empty((n, nc, nc), dtype=complex), np.empty((n, nc), dtype=complex)
+    dS, dFe = (np.zeros_like(S), np.zeros_like(Fe)) if deriv else (None, None)
+    Ys, zs = [], []
     for k, (Dk, Fk) in enumerate(zip(D, F)):
-        i = _others(i_shared, n_shared, Dk.shape[0])
-        Dcc = Dk[np.ix_(c, c)]
-        dDk = None if dD is None else dD[k]
         dFk = None if dF is None else dF[k]
-        if i.size == 0:
-            S.append(Dcc)
-            Fe.append(Fk[c])
-            Ys.append(np.zeros((0, c.size), dtype=complex))
-            zs.append(np.zeros(0, dtype=complex))
-            if deriv:
-                dSs.append(np.zeros_like(Dcc) if dDk is None else dDk[np.ix_(c, c)])
-                dFs.append(np.zeros_like(Fk[c]) if dFk is None else dFk[c])
-            continue
-        Dci, Dic, Dii = Dk[np.ix_(c, i)], Dk[np.ix_(i, c)], Dk[np.ix_(i, i)]
-        sol = np.linalg.solve(Dii, np.concatenate([Dic, Fk[i, None]], axis=1))
-        Y, z = sol[:, :-1], sol[:, -1]
-        S.append(Dcc - Dci @ Y)
-        Fe.append(Fk[c] - Dci @ z)
+        Y, z = _schur(Dk, Fk, nc, S[k], Fe[k], dFk, None if dFk is None else dFe[k])
+        if dD is not None and dD[k] is not None:
+            _schur_derivative(Dk, dD[k], nc, Y, z, dS[k], dFe[k])
         Ys.append(Y)
         zs.append(z)
-        if deriv:
-            # L = Dci Dii^-1 (left factor), dS = dDcc - dDci Y - L (dDic - dDii Y): two
-            # products of (nc x ni x nc), the cost of the condensation itself
-            L = np.linalg.solve(Dii.T, Dci.T).T
-            dFe = np.zeros_like(Fe[-1]) if dFk is None else dFk[c] - L @ dFk[i]
-            dS = np.zeros_like(S[-1])
-            if dDk is not None and np.any(dDk):  # (zero at order 0 for the frequency)
-                dci = dDk[np.ix_(c, i)]
-                dii = dDk[np.ix_(i, i)]
-                dS = dDk[np.ix_(c, c)] - dci @ Y - L @ (dDk[np.ix_(i, c)] - dii @ Y)
-                dFe = dFe - (dci - L @ dii) @ z  # dF_eff = -(dDci - L dDii) z
-            dSs.append(dS)
-            dFs.append(dFe)
-    return Condensed(np.array(S), np.array(Fe), tuple(Ys), tuple(zs),
-                     np.array(dSs) if deriv else None, np.array(dFs) if deriv else None)
+    return Condensed(S, Fe, tuple(Ys), tuple(zs), dS, dFe)
+
+
+def _schur(D, F, nc, S, Fe, dF=None, dFe=None):
+    """One order's condensation written into S (nc, nc) and Fe (nc,): S = D_cc - D_ci Y and
+    Fe = F_c - D_ci z, with Y = D_ii^-1 D_ic (ni, nc), z = D_ii^-1 F_i (ni,); given dF (n,),
+    also dFe = dF_c - L dF_i with L = D_ci D_ii^-1 (the part that does not depend on dD).
+    Returns (Y, z)."""
+    Dcc, Dci, Dic, Dii = D[:nc, :nc], D[:nc, nc:], D[nc:, :nc], D[nc:, nc:]
+    vecs = F[:, None] if dF is None else np.stack([F, dF], axis=1)  # (n, 1 or 2)
+    if Dii.shape[0] == 0:
+        S[...] = Dcc
+        g = np.zeros((nc, vecs.shape[1]), dtype=complex)
+        Y, z = np.zeros((0, nc), dtype=complex), np.zeros(0, dtype=complex)
+    else:
+        # one solve and one product for every right-hand side, D_ci D_ii^-1 [D_ic, F_i, dF_i]
+        # (each BLAS call costs a thread hand-off, more than the flops on a busy machine)
+        sol = np.linalg.solve(Dii, _join(Dic, vecs[nc:]))
+        G = Dci @ sol
+        np.subtract(Dcc, G[:, :nc], out=S)
+        g = _tail(G, nc)
+        Y, z = sol[:, :nc], _tail(sol, nc)[:, 0].copy()
+    Fe[...] = F[:nc] - g[:, 0]
+    if dF is not None:
+        dFe[...] = dF[:nc] - g[:, 1]
+    return Y, z
+
+
+def _schur_derivative(D, dD, nc, Y, z, dS, dFe) -> None:
+    """The dependence of one order's D in the derivatives of its condensation:
+    dS = dD_cc - dD_ci Y - L (dD_ic - dD_ii Y) written into dS (nc, nc) and
+    -(dD_ci - L dD_ii) z added to dFe (nc,), with L = D_ci D_ii^-1 and Y, z from
+    :func:`_schur`."""
+    if Y.shape[0] == 0:  # nothing condensed
+        dS[...] = dD[:nc, :nc]
+        return
+    # L V as D_ci (D_ii^-1 V) with V = [dD_ic - dD_ii Y, -dD_ii z]: one solve (refactoring
+    # D_ii, ni^3, costs nothing beside) and one product, [dD_ci, D_ci] [W; D_ii^-1 V] with
+    # W = [Y, z] (nc x 2 ni x nc, the condensation's cost)
+    W = np.concatenate([Y, z[:, None]], axis=1)
+    V = -(dD[nc:, nc:] @ W)
+    V[:, :nc] += dD[nc:, :nc]
+    U = np.linalg.solve(D[nc:, nc:], V)
+    H = np.concatenate([dD[:nc, nc:], D[:nc, nc:]], axis=1) @ np.concatenate([W, U])
+    np.subtract(dD[:nc, :nc], H[:, :nc], out=dS)
+    dFe -= H[:, nc]
+
+
+def _join(A: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """[A, v] as one operand. Complex columns v (m, k) join a real A as their float view
+    (m, 2k: real and imaginary parts interleaved), so products with real matrices stay real
+    (order 0: a quarter of the work); :func:`_tail` undoes it."""
+    if np.iscomplexobj(A):
+        return np.concatenate([A, v], axis=1)
+    return np.concatenate([A, np.ascontiguousarray(v, dtype=complex).view(float)], axis=1)
+
+
+def _tail(G: np.ndarray, n: int) -> np.ndarray:
+    """The complex columns past the first n of a product with :func:`_join`'s operand."""
+    t = G[:, n:]
+    return t if np.iscomplexobj(G) else np.ascontiguousarray(t).view(complex)
 
 
 def _solve_orders(S: np.ndarray, F: np.ndarray, rcond_min: float = 1e-12
@@ -704,26 +810,30 @@ def _solve_orders(S: np.ndarray, F: np.ndarray, rcond_min: float = 1e-12
 
 
 #: Bytes the per-point cache of a HarmonicBalance may hold (dense condensed matrices of a
-#: full-scale model take tens of MB each); memory estimates read it.
+#: full-scale model take tens of MB each), the model's reordered linear part included; memory
+#: estimates read it.
 CACHE_LIMIT = 512 * 2**20
 
 
 class _Cache:
-    """Results per operating point, bounded by CACHE_LIMIT bytes: the oldest go first."""
+    """Results per operating point, bounded by CACHE_LIMIT bytes: the oldest go first. Pinned
+    entries (per-model data every point needs) count against the bound but stay."""
 
     LIMIT = CACHE_LIMIT
 
     def __init__(self):
         self._data: dict = {}
+        self._pinned: dict = {}
         self._bytes = 0
 
     def get(self, key):
-        return self._data.get(key, (None, 0))[0]
+        return (self._data.get(key) or self._pinned.get(key, (None, 0)))[0]
 
-    def put(self, key, value, nbytes: int) -> None:
-        if key in self._data:
-            self._bytes -= self._data.pop(key)[1]
+    def put(self, key, value, nbytes: int, pinned: bool = False) -> None:
+        store = self._pinned if pinned else self._data
+        if key in store:
+            self._bytes -= store.pop(key)[1]
         while self._data and self._bytes + nbytes > self.LIMIT:
             self._bytes -= self._data.pop(next(iter(self._data)))[1]
-        self._data[key] = (value, nbytes)
+        store[key] = (value, nbytes)
         self._bytes += nbytes
