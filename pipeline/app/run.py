@@ -276,12 +276,9 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
                 series[n].append({"x": b.values, "y": shown[:, k], "label": tag or None,
                                   "turning_points": b.turning_points, "ls": style})
             for cname, cd in data["contacts"].items():
-                sf = cd["static_force"]
-                for comp in range(sf.shape[1]):
-                    what = "N0" if comp == sf.shape[1] - 1 and _normal(hb, cname) else (
-                        f"T0_{comp + 1}" if sf.shape[1] > 2 else "T0")
+                for what, y in _static_lines(hb, cname, cd["static_force"]):
                     static.setdefault(cname, []).append({
-                        "x": b.values, "y": sf[:, comp], "ls": style,
+                        "x": b.values, "y": y, "ls": style,
                         "label": ", ".join(x for x in (tag, what) if x)})
             progress(f"[{name}] curve {j} {tag}: {len(r)} points, {b.status} "
                      f"({elapsed:.2f} s) {b.message}".rstrip())
@@ -337,6 +334,27 @@ _MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [
 
 def _normal(hb, contact: str) -> bool:
     return next(c for c in hb.contacts if c.name == contact).elements.variable_normal
+
+
+def _static_lines(hb, contact: str, static: np.ndarray) -> list[tuple[str, np.ndarray]]:
+    """(label, (n,) force [N]) lines of a contact's static forces ``static`` (n, columns).
+
+    A coupled contact of several points (a patch: [T1, T2, N] per node pair) gives the
+    patch's total per component, "sum N0" etc.: one line per pair and component (108 for
+    36 pairs) is unreadable; the per-pair values stay in results.h5."""
+    el = next(c for c in hb.contacts if c.name == contact).elements
+    comps = el.n_components
+    if el.coupled and el.size > 1 and static.shape[1] == el.size * comps:
+        names = [f"T0_{j + 1}" if el.dim > 1 else "T0" for j in range(el.dim)]
+        names += ["N0"] if el.variable_normal else []
+        total = static.reshape(static.shape[0], el.size, comps).sum(axis=1)
+        return [(f"sum {n}", total[:, j]) for j, n in enumerate(names)]
+    lines = []
+    for comp in range(static.shape[1]):
+        what = "N0" if comp == static.shape[1] - 1 and el.variable_normal else (
+            f"T0_{comp + 1}" if static.shape[1] > 2 else "T0")
+        lines.append((what, static[:, comp]))
+    return lines
 
 
 def _peak_ticker(progress: Progress, name: str, label: str, par: str):
