@@ -238,12 +238,12 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
                 start, stop = stop, start
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             hb = models.model(c)
+            which = f"[{name}] curve {j + 1} {tag}".rstrip()
             t = time.perf_counter()
             base = cs.operating_point(a, c).set(par, start)
             r = sweep(hb, par, start, stop, base,
                       method="natural" if method.startswith("natural") else method,
-                      settings=cs.settings(c),
-                      progress=_ticker(progress, f"[{name}] curve {j + 1} {tag}", start, stop))
+                      settings=cs.settings(c), progress=_ticker(progress, which, start, stop))
             elapsed = time.perf_counter() - t
             b = r.branch
             coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx),
@@ -280,7 +280,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
                     static.setdefault(cname, []).append({
                         "x": b.values, "y": y, "ls": style,
                         "label": ", ".join(x for x in (tag, what) if x)})
-            progress(f"[{name}] curve {j} {tag}: {len(r)} points, {b.status} "
+            progress(f"{which}: {len(r)} points, {b.status} "
                      f"({elapsed:.2f} s) {b.message}".rstrip())
             coarse = undersampled_warning({k: cd["undersampled"] for k, cd in
                                            data["contacts"].items()}, hb.harmonics.n_samples)
