@@ -312,7 +312,7 @@ def arclength(
     check_range(start, stop, parameter)
     lam_scale = abs(stop - start)
     direction = np.sign(stop - start)
-    rms = np.sqrt(max(np.size(x0), 1))
+    rms = _rms(x0)
     xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x0)) * rms
     out = _Collector(parameter)
     # Newton's step cap is per unknown: the unknowns' own scale, without the metric's rms
@@ -336,10 +336,15 @@ def arclength(
                           f"{out.values[-1]:.6g}")
 
 
+def _rms(x: np.ndarray) -> float:
+    """sqrt(n): the arc metric's x_scale is the unknowns' scale times it (their rms)."""
+    return float(np.sqrt(max(np.size(x), 1)))
+
+
 def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, start, stop,
                      f_scale, settings, progress, parameter):
     tangent, orientation = first_tangent
-    rms = np.sqrt(max(x.size, 1))  # as in arclength's metric
+    rms = _rms(x)
     h = settings.step
     corners = misses = 0  # corners crossed; correctors missed in a row
     while len(out) < settings.max_points:
@@ -475,8 +480,7 @@ def _cross_corner(fun, x, lam, slope, lam_scale, xs, f_scale, settings):
         lam_c = lam + sign * frac * lam_scale
         if not settings.lower < lam_c < settings.upper:
             return None
-        r = newton(fun, x, lam_c, x_scale=xs / np.sqrt(max(x.size, 1)), f_scale=f_scale,
-                   settings=settings)
+        r = newton(fun, x, lam_c, x_scale=xs / _rms(x), f_scale=f_scale, settings=settings)
         if r.converged:
             return lam_c, r
     return None
