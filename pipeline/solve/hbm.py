@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as sla
@@ -157,22 +158,34 @@ class LinearDynamics:
         """
         if point.mass_multiplier == 1.0:
             return self.M
-        return tuple(M + (point.mass_multiplier - 1.0) * Mp
-                     for M, Mp in zip(self.M, self.M_part))
+        return tuple(M + (point.mass_multiplier - 1.0) * Mp if scaled else M
+                     for M, Mp, scaled in zip(self.M, self.M_part, self._nonzero[1]))
+
+    @cached_property
+    def _nonzero(self) -> tuple[tuple[bool, ...], tuple[bool, ...]]:
+        """Per order whether C and M_part have any nonzero entry: zero ones are skipped
+        (an undamped body, a cyclic body no mass multiplier scales)."""
+        return (tuple(bool(np.any(C)) for C in self.C),
+                tuple(bool(np.any(Mp)) for Mp in self.M_part))
 
     def dynamic_stiffness(self, point: OperatingPoint) -> tuple[np.ndarray, ...]:
-        """Per order D_n = K_n - (n w)^2 M_n + i n w C_n at the point."""
-        return tuple(K - (o * point.omega) ** 2 * M + 1j * o * point.omega * C
-                     for o, K, M, C in zip(self.orders, self.K, self.mass(point), self.C))
+        """Per order D_n = K_n - (n w)^2 M_n + i n w C_n at the point; order 0 is K_0 itself
+        (real if stored real: read it, do not write it)."""
+        w, damped = point.omega, self._nonzero[0]
+        return tuple(K if o == 0 else K - (o * w) ** 2 * M + (1j * o * w * C if d else 0.0)
+                     for o, K, M, C, d in zip(self.orders, self.K, self.mass(point), self.C,
+                                              damped))
 
     def d_dynamic_stiffness(self, point: OperatingPoint, parameter: str
-                            ) -> tuple[np.ndarray, ...] | None:
-        """Per order dD_n / d parameter, or None where D does not depend on it."""
+                            ) -> tuple[np.ndarray | None, ...] | None:
+        """Per order dD_n / d parameter (None at order 0, where D does not depend on w or
+        the mass), or None where no order's D depends on it."""
+        w = point.omega
         if parameter == "frequency":
-            return tuple(-2.0 * o**2 * point.omega * M + 1j * o * C
+            return tuple(None if o == 0 else -2.0 * o**2 * w * M + 1j * o * C
                          for o, M, C in zip(self.orders, self.mass(point), self.C))
         if parameter == "mass":
-            return tuple(-((o * point.omega) ** 2) * Mp
+            return tuple(None if o == 0 else -((o * w) ** 2) * Mp
                          for o, Mp in zip(self.orders, self.M_part))
         return None
 
@@ -428,8 +441,8 @@ class HarmonicBalance:
             return hit
         lin = self._reordered()
         F, dF = self.forces(point, parameter)
-        dD = lin.d_stiffness(point, parameter) if parameter else None
-        out = _condense(lin.stiffness(point), lin.take(F), self.dofs.size, dD,
+        dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
+        out = _condense(lin.linear.dynamic_stiffness(point), lin.take(F), self.dofs.size, dD,
                         None if dF is None else lin.take(dF))
         self._cache.put(key, out, out.nbytes)
         return out
@@ -641,75 +654,40 @@ def _others(shared_others: np.ndarray, n_shared: int, n: int) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class _Reordered:
-    """Per order K, M, C and M_part with rows and columns reordered: the contact DOFs, then
-    the condensed ones (``_others``). The blocks D_cc, D_ci, D_ic, D_ii of any point are then
+    """The linear part with rows and columns reordered per order: the contact DOFs, then the
+    condensed ones (``_others``). The blocks D_cc, D_ci, D_ic, D_ii of any point are then
     basic slices of D, not gathers from the full matrices: a continuation puts every Newton
-    iterate at a new frequency, so this is what gets reused. Real where the imaginary part is
-    exactly zero (half the memory, real products at order 0); C, M_part None where zero."""
+    iterate at a new frequency, so this is what gets reused. Matrices are stored real where
+    their imaginary part is exactly zero (half the memory, real products at order 0)."""
 
     index: tuple[np.ndarray, ...]  # per order (n_k,): the original DOF of each row
-    K: tuple[np.ndarray, ...]  # per order (n_k, n_k), read-only
-    M: tuple[np.ndarray, ...]
-    C: tuple[np.ndarray | None, ...]
-    M_part: tuple[np.ndarray | None, ...]
-    orders: tuple[int, ...]
+    linear: LinearDynamics  # reordered, read-only
 
     @classmethod
     def of(cls, linear: LinearDynamics, dofs: np.ndarray, others: np.ndarray) -> _Reordered:
         index = tuple(np.concatenate([dofs, _others(others, linear.n_dof, n)])
                       for n in linear.sizes)
 
-        def take(mats, optional=False):
+        def take(mats):
             out = []
             for A, p in zip(mats, index):
                 B = A[np.ix_(p, p)]
                 B = B if np.any(B.imag) else np.ascontiguousarray(B.real)
                 B.flags.writeable = False
-                out.append(None if optional and not np.any(B) else B)
+                out.append(B)
             return tuple(out)
 
-        return cls(index, take(linear.K), take(linear.M), take(linear.C, True),
-                   take(linear.M_part, True), linear.orders)
+        return cls(index, LinearDynamics(take(linear.K), take(linear.M), take(linear.C),
+                                         take(linear.M_part), linear.orders, linear.n_dof))
 
     @property
     def nbytes(self) -> int:
-        arrays = [*self.index, *self.K, *self.M, *self.C, *self.M_part]
-        return sum(a.nbytes for a in arrays if a is not None)
+        lin = self.linear
+        return sum(a.nbytes for a in (*self.index, *lin.K, *lin.M, *lin.C, *lin.M_part))
 
     def take(self, vectors: Sequence[np.ndarray]) -> list[np.ndarray]:
         """Per order (n_k,) vectors reordered like the matrices."""
         return [v[p] for v, p in zip(vectors, self.index)]
-
-    def _mass(self, k: int, s: float) -> np.ndarray:
-        """M(s) = M + (s - 1) M_part of order k (as LinearDynamics.mass)."""
-        Mp = self.M_part[k]
-        return self.M[k] if s == 1.0 or Mp is None else self.M[k] + (s - 1.0) * Mp
-
-    def stiffness(self, point: OperatingPoint) -> list[np.ndarray]:
-        """Per order D_n = K_n - (n w)^2 M_n + i n w C_n, the expressions of
-        LinearDynamics.dynamic_stiffness (same rounding); order 0 is K itself (read-only)."""
-        w, out = point.omega, []
-        for k, o in enumerate(self.orders):
-            if o == 0:
-                out.append(self.K[k])
-                continue
-            D = self.K[k] - (o * w) ** 2 * self._mass(k, point.mass_multiplier)
-            out.append(D if self.C[k] is None else D + 1j * o * w * self.C[k])
-        return out
-
-    def d_stiffness(self, point: OperatingPoint, parameter: str) -> list[np.ndarray | None]:
-        """Per order dD_n / d parameter (LinearDynamics.d_dynamic_stiffness), None where zero
-        (order 0, and parameters D does not depend on)."""
-        w, out = point.omega, []
-        for k, o in enumerate(self.orders):
-            dD = None
-            if o != 0 and parameter == "frequency":
-                dD = -2.0 * o**2 * w * self._mass(k, point.mass_multiplier)
-                dD = dD if self.C[k] is None else dD + 1j * o * self.C[k]
-            elif o != 0 and parameter == "mass" and self.M_part[k] is not None:
-                dD = -((o * w) ** 2) * self.M_part[k]
-            out.append(dD)
-        return out
 
 
 def _condense(D, F, nc: int, dD=None, dF=None) -> Condensed:
