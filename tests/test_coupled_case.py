@@ -96,22 +96,14 @@ def test_a_coupled_case_runs_end_to_end(tmp_path):
 
 def test_a_patch_draws_its_total_static_forces_per_component():
     # 3 node pairs x [T1, T2, N]: three lines, each the sum over the pairs (not nine)
-    from types import SimpleNamespace
-
-    from microslip.pipeline.app.run import _static_lines
-
-    def model(**el):
-        return SimpleNamespace(contacts=[SimpleNamespace(name="c", elements=SimpleNamespace(
-            **el, n_components=el["dim"] + int(el["variable_normal"])))])
+    from microslip.pipeline.app.pictures import static_lines
 
     static = np.arange(18.0).reshape(2, 9)  # 2 points of the curve
-    patch = _static_lines(model(coupled=True, size=3, dim=2, variable_normal=True), "c",
-                          static)
+    patch = static_lines(static, ["T0_1", "T0_2", "N0"])
     assert [w for w, _ in patch] == ["sum T0_1", "sum T0_2", "sum N0"]
     for j, (_, y) in enumerate(patch):
         np.testing.assert_array_equal(y, static.reshape(2, 3, 3)[:, :, j].sum(axis=1))
     # one point: its components as they are
-    single = _static_lines(model(coupled=True, size=1, dim=1, variable_normal=True), "c",
-                           static[:, :2])
+    single = static_lines(static[:, :2], ["T0", "N0"])
     assert [w for w, _ in single] == ["T0", "N0"]
     np.testing.assert_array_equal(single[1][1], static[:, 1])

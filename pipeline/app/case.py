@@ -8,6 +8,7 @@ harmonic (order 0: static). Analyses (``[[analysis]]``) say what to compute:
 frf      a sweep of ``frequency`` | ``excitation`` | ``preload`` | ``mass`` by
          arclength or natural continuation, optionally one curve per value of
          a ``family`` key (any case key, e.g. ``contacts.wall.n0``)
+         (coupled cases: ``maps`` at the peak or at given values, every solution there)
 peak     the largest response over a frequency window against a parameter:
          optimization (preload, mass) and performance (excitation) curves
 loops    hysteresis loops / 2D force trajectories of one contact law under a
@@ -52,6 +53,7 @@ from .checks import (
     available_memory,
     balance_bytes,
     is_int,
+    is_number,
     memory_text,
     number,
     samples_rule,
@@ -74,9 +76,9 @@ SOLVER_KEYS = {"tol", "max_iter", "step", "min_step", "max_step", "max_turn", "t
                "max_points", "sub_sample"}
 ANALYSIS_KEYS = {
     "frf": {"type", "name", "parameter", "start", "stop", "method", "frequency", "outputs",
-            "family", "set", "measure"},
+            "family", "set", "measure", "maps", "map_types"},
     "peak": {"type", "name", "parameter", "start", "stop", "window", "output", "points", "set",
-             "family", "spacing", "tracking"},
+             "family", "spacing", "tracking", "measure", "levels"},
     "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
     "dti": {"type", "name", "frequencies", "outputs", "steps_per_period", "ramp_periods",
             "ramp_time", "settle_time", "max_periods", "set", "compare", "restart", "measure"},
@@ -497,6 +499,13 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         fam = a.get("family")
         if fam is not None:
             _family(pre, fam, data, out)
+        if kind == "frf" and ("maps" in a or "map_types" in a):
+            _maps(pre, a, data, out)
+    if kind == "peak" and a.get("measure", "peak") not in ("peak", "vibration"):
+        out.append(f"{pre}.measure = {a.get('measure')!r}: expected 'peak' or 'vibration'")
+    if kind == "peak" and "levels" in a and not isinstance(a["levels"], bool):
+        out.append(f"{pre}.levels = {a['levels']!r}: expected true or false (the free and "
+                   "fully stuck peak levels, a coupled case)")
     if kind in ("frf", "dti"):
         if a.get("measure", "peak") not in MEASURES:
             out.append(f"{pre}.measure = {a.get('measure')!r}: expected one of {list(MEASURES)}")
@@ -565,6 +574,29 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if "compare" in a and a["compare"] not in names:
             out.append(f"{pre}.compare = {a['compare']!r}: no analysis of that name; known: "
                        f"{names}")
+
+
+MAP_TYPES = ("status", "normal_load")
+
+
+def _maps(pre: str, a: dict, data: dict, out: list[str]) -> None:
+    """``maps``: where an frf draws its contact maps ("peak", or parameter values: every
+    solution there); ``map_types``: which maps."""
+    if "coupling" not in data:
+        out.append(f"{pre}.maps: contact maps need contact patches: a [coupling] case")
+        return
+    where = a.get("maps", [])
+    lo, hi = sorted((a.get("start", 0.0), a.get("stop", 0.0)))
+    if not isinstance(where, list):
+        out.append(f"{pre}.maps = {where!r}: expected a list of 'peak' and parameter values")
+        where = []
+    for x in where:
+        if x != "peak" and not (is_number(x) and lo <= x <= hi):
+            out.append(f"{pre}.maps: {x!r} is neither 'peak' nor a parameter value in the "
+                       f"range {lo:g}..{hi:g}")
+    kinds = a.get("map_types", ["status"])
+    if not (isinstance(kinds, list) and all(k in MAP_TYPES for k in kinds)):
+        out.append(f"{pre}.map_types = {kinds!r}: expected a list of {list(MAP_TYPES)}")
 
 
 def _family(pre: str, fam, data: dict, out: list[str]) -> None:

@@ -35,7 +35,7 @@ class LumpedModels:
 class CoupledModels:
     """A [coupling] case: the mesh and reduced bodies are built once; each variant of the
     case (an analysis' ``set``, a family value) gets its coupled model, kept while its
-    coupling, harmonics and solver tables are unchanged."""
+    coupling (but for the mass multiplier), harmonics and solver tables are unchanged."""
 
     def __init__(self, mesh: Any, structure: Any):
         self.mesh = mesh
@@ -45,8 +45,12 @@ class CoupledModels:
     def coupled(self, case: cs.Case) -> CoupledModel:
         from microslip.pipeline.coupling.assemble import couple  # the FE stages, when needed
 
-        key = json.dumps({k: case.data.get(k) for k in ("coupling", "harmonics", "solver")},
-                         sort_keys=True, default=str)
+        # the mass multiplier enters per operating point (hb.linear's mass part): a damper
+        # mass study shares one coupled model
+        table = {k: case.data.get(k) for k in ("coupling", "harmonics", "solver")}
+        table["coupling"] = {k: v for k, v in (table["coupling"] or {}).items()
+                             if k != "mass_multiplier"}
+        key = json.dumps(table, sort_keys=True, default=str)
         if key not in self._built:
             if len(self._built) >= 8:
                 self._built.pop(next(iter(self._built)))

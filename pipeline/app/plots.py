@@ -102,18 +102,23 @@ def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: 
            *, logx: bool | None = None, logy: bool | None = None,
            markers: Sequence[dict] = (), optimum: tuple[str, str] | None = None) -> Figure:
     """Lines ``{x, y, label}`` (turning points marked where given) and point sets
-    ``{x, y, label}`` drawn as markers (time integration).
+    ``{x, y, label}`` drawn as markers (time integration; ``text``: a letter beside a
+    single marked point).
 
     ``logx``/``logy`` None: log when the axis' data span decades. ``optimum`` =
-    (parameter name, unit of y): mark and label each curve's minimum."""
+    (parameter name, unit of y): mark and label each curve's minimum (but of series with
+    ``optimum: False``, e.g. reference levels)."""
     fig = _figure((7, 4.5))
     ax = fig.add_subplot()
     for s in series:
         line = _line(ax, s)
-        if optimum and line is not None:
+        if optimum and line is not None and s.get("optimum", True):
             _mark_optimum(ax, line, *optimum)
     for m in markers:
         ax.plot(m["x"], m["y"], m.get("style", "ks"), label=m.get("label"), ms=5, mfc="none")
+        if m.get("text"):  # a letter beside the marked point (the maps name it)
+            ax.annotate(m["text"], (m["x"][0], m["y"][0]), xytext=(4, 4),
+                        textcoords="offset points", fontsize=9)
     drawn = list(series) + list(markers)
     _scale(ax, "x", logx, [d["x"] for d in drawn])
     _scale(ax, "y", logy, [d["y"] for d in drawn])

@@ -112,9 +112,17 @@ class ResultsWriter:
         return False
 
 
+#: A key of a nested mapping given to ``write_group`` whose value (a mapping) becomes the
+#: attributes of that subgroup rather than a dataset.
+ATTRS = "__attrs__"
+
+
 def _datasets(g: h5py.Group, datasets: Mapping) -> None:
     for k, v in datasets.items():
-        if isinstance(v, Mapping):
+        if k == ATTRS:
+            for name, value in v.items():
+                g.attrs[name] = _attr(value)
+        elif isinstance(v, Mapping):
             _datasets(g.create_group(k), v)
         else:
             arr = np.asarray(v)
@@ -201,7 +209,7 @@ def _analysis_lines(f: h5py.File) -> list[str]:
     """Per analysis: type, status, time; per curve: points, status, largest amplitude."""
     lines = []
     for name, g in f.items():
-        if name == "case":
+        if name in ("case", "contact_grids"):
             continue
         ga = g.attrs
         lines.append(f"{name}: {ga.get('type', '?')} [{ga.get('status', '?')}] "

@@ -6,6 +6,7 @@ saving the branch computed so far; the results file is then marked partial.
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -17,15 +18,24 @@ from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import STATE_NAMES
 from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import Response, peak_curve, sweep
+from microslip.pipeline.solve.response import (
+    Response,
+    output,
+    peak_curve,
+    solve_point,
+    sweep,
+)
 
 from . import case as cs
-from . import plots
+from . import pictures, plots
+from .maps import EDGES
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
-from .results import ResultsWriter, undersampled_warning
+from .results import ATTRS, ResultsWriter, undersampled_warning
 
 if TYPE_CHECKING:
+    from microslip.pipeline.coupling.model import PatchState
+
     from .structure import StructureResult
 
 Progress = Callable[[str], None]
@@ -47,6 +57,7 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
                 "tetrahedra": m.tetrahedra.shape[0], "bodies": sorted(m.bodies),
                 "contacts": sorted(m.contacts), "parameters": m.parameters, "status": "complete",
                 "elapsed_s": time.perf_counter() - t, "type": "geometry"})
+            write_contact_grids(w, m)
             if "reduction" in case.data:
                 result = write_structure(w, m, case, out, progress)
                 if "coupling" in case.data:
@@ -103,6 +114,18 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
         for path in render_previews(m, out):
             progress(f"[geometry] wrote {path}")
     return m
+
+
+def write_contact_grids(w: ResultsWriter, mesh) -> None:
+    """/contact_grids/<patch>: each patch's node grid, frame and map orientation
+    (maps.PatchGrid), what the maps are drawn on."""
+    from .maps import PatchGrid
+
+    for name in sorted(mesh.contacts):
+        grid = PatchGrid.from_mesh(mesh, name)
+        w.write_group(w.file.require_group("contact_grids"), name, grid.datasets(),
+                      {"body_a": grid.body_a, "body_b": grid.body_b,
+                       "high_edge": grid.high_edge, "high_edge_name": EDGES[grid.high_edge]})
 
 
 def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
@@ -195,10 +218,10 @@ def _measure(coefficients: np.ndarray, h: Harmonics, how: str) -> np.ndarray:
     return h.peak(c)
 
 
-def _contact_data(r: Response) -> dict:
-    """Per contact and point: state, dissipation, slip fraction, static forces."""
+def _contact_data(r: Response, per_point: list) -> dict:
+    """Per contact and point: state, dissipation, slip fraction, static forces (and the
+    names of their columns per contact point)."""
     out = {}
-    per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
     for ci, c in enumerate(r.model.contacts):
         rows = [contacts[ci] for contacts in per_point]
         el = c.elements
@@ -210,15 +233,111 @@ def _contact_data(r: Response) -> dict:
             static = np.concatenate([np.full((len(r), el.size * el.dim), np.nan), n0], axis=1)
         else:
             static = np.zeros((len(r), 0))
+        columns = [f"T0_{j + 1}" if el.dim > 1 else "T0" for j in range(el.dim)]
+        columns += ["N0"] if el.variable_normal else []
         out[c.name] = {
             "state": np.array([x.state[0] for x in rows], dtype=np.int8),
             "node_state": np.array([x.state for x in rows], dtype=np.int8),
             "dissipation": np.array([x.dissipation.sum() for x in rows]),
             "slip_fraction": np.array([x.slip_fraction.mean() for x in rows]),
             "static_force": static,
+            "columns": np.array(columns if static.shape[1] else [], dtype="S"),
             "undersampled": np.array([x.undersampled.sum() for x in rows]),
         }
     return out
+
+
+def _patch_data(states: list[dict[str, PatchState]]) -> dict:
+    """Per patch and point (n points, P node pairs): state (n, P), static forces
+    [T0_1, T0_2, N0] (n, P, 3) [N], the share of slipping node pairs (n,)."""
+    if not states:
+        return {}
+    return {p: {"state": np.array([s[p].state for s in states], dtype=np.int8),
+                "static": np.array([s[p].static for s in states]),
+                "slip_share": np.array([s[p].slip_share for s in states])}
+            for p in states[0]}
+
+
+def _response_at(hb, x: np.ndarray, point: OperatingPoint, rows, measure: str) -> np.ndarray:
+    """(n_outputs,) response measure of one solution."""
+    coef = output(hb.recover(x, point), rows)
+    return _measure(coef[None], hb.harmonics, measure)[0]
+
+
+def map_solutions(r: Response, wanted: list, rows, measure: str, settings
+                  ) -> list[tuple[str, float, np.ndarray]]:
+    """(what, parameter value, x) of the solutions a curve draws maps of.
+
+    "peak": the largest response of the first output, refined by one parabola through the
+    three computed points around it and a Newton solve there (the computed point if that
+    fails or is lower). A number: every solution of the branch at that parameter value
+    (a fold gives several), each from the secant between the two points that bracket it,
+    solved there at the value itself."""
+    hb, lam = r.model, r.values
+    if not len(r):
+        return []
+    shown = np.array([_response_at(hb, x, r.point(i), rows, measure)[0]
+                      for i, x in enumerate(r.branch.x)])
+    out = []
+    for w in wanted:
+        if w == "peak":
+            i = int(np.argmax(shown))
+            v, x = float(lam[i]), r.branch.x[i]
+            if 0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0:
+                trial = _vertex(lam[i - 1: i + 2], shown[i - 1: i + 2])
+                if trial is not None:
+                    s = solve_point(hb, r.base.set(r.parameter, trial), settings=settings,
+                                    x0=x, retry=False)
+                    if s.converged and _response_at(hb, s.x, r.base.set(r.parameter, trial),
+                                                    rows, measure)[0] >= shown[i]:
+                        v, x = trial, s.x
+            out.append(("peak", v, x))
+            continue
+        found: list[tuple[float, np.ndarray]] = []
+        for j in np.flatnonzero((lam[:-1] - w) * (lam[1:] - w) <= 0):
+            t = 0.0 if lam[j + 1] == lam[j] else (w - lam[j]) / (lam[j + 1] - lam[j])
+            x0 = r.branch.x[j] + t * (r.branch.x[j + 1] - r.branch.x[j])
+            s = solve_point(hb, r.base.set(r.parameter, w), settings=settings, x0=x0,
+                            retry=False)
+            if not s.converged:
+                continue
+            a = _response_at(hb, s.x, r.base.set(r.parameter, w), rows, measure)[0]
+            if all(abs(a - b) > 1e-6 * max(abs(a), abs(b)) for b, _ in found):
+                found.append((a, s.x))
+        found.sort(key=lambda f: -f[0])  # the highest first, as a fold's upper branch
+        for k, (_, x) in enumerate(found):
+            out.append((f"{r.parameter} = {w:g}, solution {k + 1} of {len(found)}", float(w),
+                        x))
+    return out
+
+
+def _vertex(x: np.ndarray, y: np.ndarray) -> float | None:
+    """The abscissa of the parabola's vertex through three points, if it is a maximum
+    inside their span."""
+    (x0, x1, x2), (y0, y1, y2) = x, y
+    d = (x0 - x1) * (x0 - x2) * (x1 - x2)
+    a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d
+    b = (x2 ** 2 * (y0 - y1) + x1 ** 2 * (y2 - y0) + x0 ** 2 * (y1 - y2)) / d
+    if not a < 0:
+        return None
+    v = -b / (2 * a)
+    return float(v) if min(x0, x2) < v < max(x0, x2) else None
+
+
+def _map_groups(cm, r: Response, solutions, rows, measure: str, letters) -> dict:
+    """The maps/ subgroups of a curve: per solution its letter, parameter, response,
+    unknowns and patch states."""
+    groups = {}
+    for what, v, x in solutions:
+        point = r.base.set(r.parameter, v)
+        patches = cm.patches(x, point)
+        letter = next(letters)
+        groups[f"point_{letter}"] = {
+            ATTRS: {"what": what, "letter": letter, "parameter": v, "omega": point.omega},
+            "unknowns": x, "response": _response_at(r.model, x, point, rows, measure),
+            "patches": {p: {"state": s.state, "static": s.static,
+                            "slip_share": s.slip_share} for p, s in patches.items()}}
+    return groups
 
 
 def run_frf(case, a, name, w, group, out, progress, drawn, models):
@@ -227,8 +346,8 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
     methods = a.get("method", "arclength")
     methods = methods if isinstance(methods, list) else [methods]
     measure = a.get("measure", "peak")
-    series = {n: [] for n in names}
-    static: dict[str, list] = {}  # contact -> lines of its static forces (order 0 kept)
+    wanted = a.get("maps", [])
+    letters = iter("abcdefghijklmnopqrstuvwxyz")
     statuses = []
     j = 0
     for c, label, value in _family(case, a):
@@ -250,16 +369,36 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
                                                                 hb.harmonics.n_coeffs))
             amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
             shown = _measure(coef, hb.harmonics, measure) if len(r) else amp
+            per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
             data = {
                 "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
                 "coefficients": coef, "amplitude": amp, "response": shown,
                 "residual": b.residuals, "iterations": b.iterations,
+                "turning_points": np.array(b.turning_points, dtype=np.int64),
                 "unknowns": b.x, "unknown_dofs": hb.dofs,
-                "contacts": _contact_data(r) if len(r) else {},
+                "contacts": _contact_data(r, per_point),
             }
             if isinstance(models, CoupledModels):  # each unknown's mesh node and x/y/z
-                data["unknown_nodes"] = models.coupled(c).dof_nodes[hb.dofs]
+                from microslip.pipeline.coupling.model import patch_states
+
+                cm = models.coupled(c)
+                data["unknown_nodes"] = cm.dof_nodes[hb.dofs]
                 data["unknown_directions"] = hb.dofs % 3
+                names_c = [ct.name for ct in hb.contacts]
+                data["patches"] = _patch_data([patch_states(names_c, cm.points, p)
+                                               for p in per_point])
+                if wanted and b.status != "interrupted":
+                    sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
+                    data["maps"] = _map_groups(cm, r, sols, idx, measure, letters)
+                    for m in data["maps"].values():
+                        progress(f"{which}: map point {m[ATTRS]['letter']}, {m[ATTRS]['what']}"
+                                 f" at {par} {m[ATTRS]['parameter']:.6g}: response "
+                                 f"{m['response'][0]:.4g} m")
+                    missing = [x for x in wanted if x != "peak" and not any(
+                        s[1] == x for s in sols)]
+                    if missing:
+                        progress(f"warning: {which}: no solution found at {par} = "
+                                 f"{', '.join(f'{x:g}' for x in missing)} for its maps")
             attrs = {"label": tag, "method": method, "measure": measure,
                      "family_key": (a.get("family") or {}).get("key", ""),
                      "family_value": value if value is not None else "", "status": b.status,
@@ -271,15 +410,6 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
             w.flush()
             j += 1
             statuses.append((b.status, b.message))
-            style = {"natural": "--", "natural-down": ":"}.get(method, "-")
-            for k, n in enumerate(names):
-                series[n].append({"x": b.values, "y": shown[:, k], "label": tag or None,
-                                  "turning_points": b.turning_points, "ls": style})
-            for cname, cd in data["contacts"].items():
-                for what, y in _static_lines(hb, cname, cd["static_force"]):
-                    static.setdefault(cname, []).append({
-                        "x": b.values, "y": y, "ls": style,
-                        "label": ", ".join(x for x in (tag, what) if x)})
             progress(f"{which}: {len(r)} points, {b.status} "
                      f"({elapsed:.2f} s) {b.message}".rstrip())
             coarse = undersampled_warning({k: cd["undersampled"] for k, cd in
@@ -294,25 +424,24 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
     if isinstance(models, CoupledModels) and par == "frequency" and statuses and \
             statuses[-1][0] != "interrupted":
         _linear_limits(models.coupled(case.with_values(a.get("set", {}))), case, a, names,
-                       measure, w, group, series)
-    drawn[name] = {"parameter": par, "series": series, "static": static}
-    for n in names:
-        plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}", plots.LABELS[par],
-                     series[n], _MEASURE_LABEL[measure].format(n))
-    for cname, lines in static.items():
-        plots.curves(out / f"{name}_static_{cname}.png", f"{name}: static forces, contact "
-                     f"{cname}", plots.LABELS[par], lines, "static contact force [N]")
+                       measure, w, group)
+    group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
+    drawn[name] = dict(zip(("parameter", "series", "static"), pictures.frf_series(group)))
+    pictures.frf(group, name, out)
     return _worst(statuses)
 
 
-def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w, group,
-                   series: dict) -> None:
+def _attr_list(values: list[str]) -> str:
+    return json.dumps(list(values))
+
+
+def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w,
+                   group) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
-    directly (linear): written beside the curves and drawn with them."""
+    directly (linear): written beside the curves (the pictures draw them with them)."""
     ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
     base = cs.operating_point(a, case)
-    for springs, label, style in (("free", "free (no damper)", ":"),
-                                  ("stuck", "fully stuck", "-.")):
+    for springs, label in (("free", "free (no damper)"), ("stuck", "fully stuck")):
         coef = np.array([cm.linear_outputs(base.set("frequency", x), springs, names)
                          for x in ws])
         shown = _measure(coef, cm.hb.harmonics, measure)
@@ -320,41 +449,13 @@ def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w
                                                    "response": shown},
                       {"label": label, "status": "complete", "message": "linear, solved "
                        "directly"})
-        for k, n in enumerate(names):
-            series[n].append({"x": ws, "y": shown[:, k], "label": label, "ls": style,
-                              "color": "0.45", "lw": 1.0})
 
 
 LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
 
 
-_MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [m]",
-                  "harmonic": "first-harmonic amplitude of {} [m]"}
-
-
 def _normal(hb, contact: str) -> bool:
     return next(c for c in hb.contacts if c.name == contact).elements.variable_normal
-
-
-def _static_lines(hb, contact: str, static: np.ndarray) -> list[tuple[str, np.ndarray]]:
-    """(label, (n,) force [N]) lines of a contact's static forces ``static`` (n, columns).
-
-    A coupled contact of several points (a patch: [T1, T2, N] per node pair) gives the
-    patch's total per component, "sum N0" etc.: one line per pair and component (108 for
-    36 pairs) is unreadable; the per-pair values stay in results.h5."""
-    el = next(c for c in hb.contacts if c.name == contact).elements
-    comps = el.n_components
-    if el.coupled and el.size > 1 and static.shape[1] == el.size * comps:
-        names = [f"T0_{j + 1}" if el.dim > 1 else "T0" for j in range(el.dim)]
-        names += ["N0"] if el.variable_normal else []
-        total = static.reshape(static.shape[0], el.size, comps).sum(axis=1)
-        return [(f"sum {n}", total[:, j]) for j, n in enumerate(names)]
-    lines = []
-    for comp in range(static.shape[1]):
-        what = "N0" if comp == static.shape[1] - 1 and el.variable_normal else (
-            f"T0_{comp + 1}" if static.shape[1] > 2 else "T0")
-        lines.append((what, static[:, comp]))
-    return lines
 
 
 def _peak_ticker(progress: Progress, name: str, label: str, par: str):
@@ -370,15 +471,17 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models):
     values = space(a["start"], a["stop"], a.get("points", 25))
     k = _outputs(case, {"outputs": [a["output"]]}, models)[1][0]
     lo, hi = a["window"]
-    series, statuses = [], []
+    vibration = a.get("measure", "peak") == "vibration"
+    statuses = []
     for j, (c, label, fvalue) in enumerate(_family(case, a)):
         hb = models.model(c)
+        base = cs.operating_point({"start": lo}, c)
         t = time.perf_counter()
         tick = _peak_ticker(progress, name, label, par)
         if a.get("tracking", "continuation") == "continuation":
             try:
-                pc = peak_curve(hb, par, values, k, (lo, hi), OperatingPoint(lo),
-                                settings=cs.settings(c), progress=tick)
+                pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=cs.settings(c),
+                                progress=tick, vibration=vibration)
             except KeyboardInterrupt:
                 statuses.append(("interrupted", "interrupted by the user"))
                 break
@@ -389,12 +492,11 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models):
         else:
             omega, amp, done, how = [], [], [], []
             for i, v in enumerate(values):
-                r = sweep(hb, "frequency", lo, hi, OperatingPoint(lo).set(par, v),
-                          settings=cs.settings(c))
+                r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=cs.settings(c))
                 if r.branch.status == "interrupted":
                     statuses.append(("interrupted", r.branch.message))
                     break
-                wk, ak = r.peak(k) if len(r) else (np.nan, np.nan)
+                wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
                 omega.append(wk)
                 amp.append(ak)
                 done.append(r.branch.complete)
@@ -409,14 +511,65 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models):
             "status": _worst(statuses)[0], "message": _worst(statuses)[1],
             "elapsed_s": time.perf_counter() - t})
         w.flush()
-        series.append({"x": values[:n], "y": np.array(amp), "label": label or None})
         if statuses and statuses[-1][0] == "interrupted":
             break
-    plots.curves(out / f"{name}.png", f"{name}: peak response of {a['output']}",
-                 plots.LABELS[par], series,
-                 f"resonance peak of max |{a['output']}(t)| [m]\n(w in {lo:g} to {hi:g} rad/s)",
-                 optimum=(par, "m") if par in ("preload", "mass") else None)
+    if a.get("levels", False) and isinstance(models, CoupledModels) and not (
+            statuses and statuses[-1][0] == "interrupted"):
+        c = case.with_values(a.get("set", {}))
+        _peak_levels(models.coupled(c), cs.operating_point({"start": lo}, c), par, values,
+                     a["output"], (lo, hi), vibration, w, group, progress, name)
+    pictures.peak(group, name, out)
     return _worst(statuses)
+
+
+LEVEL_POINTS = 5  # parameter values at which the fully stuck peak level is computed
+
+
+def _peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_name: str,
+                 window: tuple[float, float], vibration: bool, w, group, progress,
+                 name: str) -> None:
+    """The linear levels of a peak curve: the free blisk's peak (one value: no damper, no
+    parameter) and the fully stuck system's at LEVEL_POINTS values spread as ``values``."""
+    t = time.perf_counter()
+    ends = values[[0, -1]]
+    spread = (np.geomspace if values[0] > 0 and np.allclose(
+        values, np.geomspace(values[0], values[-1], values.size)) else np.linspace)
+    picks = spread(values[0], values[-1], min(LEVEL_POINTS, values.size))
+    for springs, pars in (("free", ends), ("stuck", picks)):
+        peaks = [linear_peak(cm, base.set(par, v), springs, output_name, window, vibration)
+                 for v in (pars[:1] if springs == "free" else pars)]
+        if springs == "free":
+            peaks = peaks * 2
+        w.write_group(group, f"level_{springs}", {
+            "parameter": pars, "omega": np.array([p[0] for p in peaks]),
+            "amplitude": np.array([p[1] for p in peaks])},
+            {"label": springs, "status": "complete", "message": "linear, solved directly"})
+    progress(f"[{name}] free and fully stuck peak levels in {time.perf_counter() - t:.1f} s")
+
+
+def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
+                window: tuple[float, float], vibration: bool,
+                grid: int = 101) -> tuple[float, float]:
+    """(w, amplitude) of the largest response of a linear limit of a coupled model in a
+    frequency window: a grid, then Brent's bounded search between the grid neighbours of
+    its maximum (to 1e-6 of the window)."""
+    from scipy.optimize import minimize_scalar
+
+    from microslip.pipeline.solve.response import amplitude
+
+    h = cm.hb.harmonics
+
+    def amp(x: float) -> float:
+        coef = cm.linear_outputs(point.set("frequency", x), springs, [output_name])[0]
+        return float(amplitude(h, coef, vibration))
+
+    ws = np.linspace(*window, grid)
+    a = np.array([amp(x) for x in ws])
+    i = int(np.argmax(a))
+    lo, hi = ws[max(i - 1, 0)], ws[min(i + 1, grid - 1)]
+    res = minimize_scalar(lambda x: -amp(x), bounds=(lo, hi), method="bounded",
+                          options={"xatol": 1e-6 * (window[1] - window[0])})
+    return (float(res.x), float(-res.fun)) if -res.fun >= a[i] else (float(ws[i]), float(a[i]))
 
 
 def run_loops(case, a, name, w, group, out, progress, drawn, models=None):
@@ -530,7 +683,8 @@ def run_dti(case, a, name, w, group, out, progress, drawn, models=None):
     for k, n in enumerate(names):
         series = ref.get("series", {}).get(n, [])
         plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}",
-                     plots.LABELS["frequency"], series, _MEASURE_LABEL[measure].format(n),
+                     plots.LABELS["frequency"], series,
+                     pictures.MEASURE_LABEL[measure].format(n),
                      markers=[{"x": fr.omega, "y": shown[:, k],
                                "label": f"time integration ({spp} steps/period)"}])
     return ("complete" if ok else "stopped"), message
@@ -558,7 +712,7 @@ def run_transient(case, a, name, w, group, out, progress, drawn, models=None):
                            steps_per_period=a.get("steps_per_period", 256))
     progress(f"[{name}] load steps integrated in {time.perf_counter() - t0:.2f} s")
     first = hb.contacts[0] if hb.contacts else None
-    pictures = []
+    drawn_steps = []
     for k, (label, tr) in enumerate(zip(("load step 1", "load step 2"), steps)):
         if tr is None:
             continue
@@ -573,9 +727,9 @@ def run_transient(case, a, name, w, group, out, progress, drawn, models=None):
             h = tr.contacts[0]
             entry.update(T=h.T[:, 0, 0], limit=first.elements.mu[0] * h.N[:, 0],
                          contact=first.name)
-        pictures.append(entry)
-    if pictures and first is not None:
-        plots.transient(out / f"{name}.png", name, pictures)
+        drawn_steps.append(entry)
+    if drawn_steps and first is not None:
+        plots.transient(out / f"{name}.png", name, drawn_steps)
     return "complete", ""
 
 

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from microslip.pipeline.fe.reduction import ReducedModel
+from microslip.pipeline.friction.laws import ContactResponse, slip_share
 from microslip.pipeline.solve.hbm import HarmonicBalance, OperatingPoint
 
 from .spec import CouplingSpec
@@ -67,6 +68,45 @@ class ContactPoints:
     gaps: np.ndarray
 
 
+@dataclass(frozen=True)
+class PatchState:
+    """One patch at one solution, per node pair in grid order (row-major (n1, n2)).
+
+    state: (P,) int8 state over the period (laws.STICK .. OPEN; with two 1D elements per
+    pair, the worse of the two: their normal is shared, so they lift off together);
+    static: (P, 3) static contact forces [T0_1, T0_2, N0] in the pair's frame [N];
+    slip_share: the share of the patch's node pairs that slip (stick-slip or gross slip)."""
+
+    state: np.ndarray
+    static: np.ndarray
+
+    @property
+    def slip_share(self) -> float:
+        return slip_share(self.state)
+
+
+def patch_states(names: list[str], points: Mapping[str, ContactPoints],
+                 responses: list[ContactResponse]) -> dict[str, PatchState]:
+    """Per patch its :class:`PatchState`, from the responses of the contacts ``names`` (the
+    model's contacts in order: a 2D patch has one, a 1D+1D patch two, "<patch>.t1/.t2")."""
+    parts: dict[str, list[tuple[str, ContactResponse]]] = {}
+    for name, r in zip(names, responses):
+        parts.setdefault(points[name].patch, []).append((name, r))
+    out = {}
+    for patch, items in parts.items():
+        state = np.max([r.state for _, r in items], axis=0).astype(np.int8)
+        static = np.zeros((state.size, 3))
+        if len(items) == 1:  # one 2D element: [T1, T2, N]
+            static[:] = items[0][1].forces[:, :, 0]
+        else:  # "<patch>.t1", "<patch>.t2": [T, N] each, half the normal stiffness each
+            for name, r in items:
+                j = 0 if name.endswith(".t1") else 1
+                static[:, j] = r.forces[:, 0, 0]
+                static[:, 2] += r.forces[:, 1, 0]
+        out[patch] = PatchState(state, static)
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class CoupledModel:
     """A harmonic-balance model built from reduced bodies and contact patches.
@@ -81,6 +121,11 @@ class CoupledModel:
     outputs: Mapping[str, np.ndarray]
     points: Mapping[str, ContactPoints]
     spec: CouplingSpec
+
+    def patches(self, x: np.ndarray, point: OperatingPoint) -> dict[str, PatchState]:
+        """Per patch its node pairs' states and static forces at a solution ``x``."""
+        return patch_states([c.name for c in self.hb.contacts], self.points,
+                            self.hb.contact_response(x, point))
 
     def output_coefficients(self, x: np.ndarray, point: OperatingPoint,
                             names: list[str] | None = None) -> np.ndarray:

@@ -48,6 +48,14 @@ LAWS: dict[str, tuple[int, bool]] = {  # law -> (tangential dimension, variable 
 # Per-point contact state over one period.
 STICK, STICK_SLIP, GROSS_SLIP, PARTIAL_LIFTOFF, OPEN = range(5)
 STATE_NAMES = ("stick", "stick-slip", "gross slip", "partial lift-off", "open")
+
+
+def slip_share(state: np.ndarray) -> float:
+    """The share of points (node pairs) that slip over the period: stick-slip or gross slip
+    (a point that also lifts off counts as partial lift-off, not as slipping)."""
+    return float(np.isin(state, (STICK_SLIP, GROSS_SLIP)).mean()) if np.size(state) else 0.0
+
+
 # Per-sample state in the time histories.
 SAMPLE_STICK, SAMPLE_SLIP, SAMPLE_OPEN = _returnmap.STICK, _returnmap.SLIP, _returnmap.OPEN
 

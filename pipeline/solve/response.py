@@ -67,19 +67,22 @@ class Response:
                          for i, x in enumerate(self.branch.x)])
 
     def amplitude(self, dofs: Sequence[int] | np.ndarray | None = None,
-                  oversample: int = 4) -> np.ndarray:
-        """(n_points, n_outputs) max_t |x(t)| of DOFs or output rows, m."""
-        return self.model.harmonics.peak(self.coefficients(dofs), oversample)
+                  oversample: int = 4, vibration: bool = False) -> np.ndarray:
+        """(n_points, n_outputs) max_t |x(t)| of DOFs or output rows, m (``vibration``:
+        max_t |x(t) - x0|, the static part left out)."""
+        return amplitude(self.model.harmonics, self.coefficients(dofs), vibration, oversample)
 
-    def peak(self, dof: int | np.ndarray, *, xtol: float = 1e-9) -> tuple[float, float]:
-        """(parameter value, max|x(t)|) at the largest response of one DOF.
+    def peak(self, dof: int | np.ndarray, *, xtol: float = 1e-9,
+             vibration: bool = False) -> tuple[float, float]:
+        """(parameter value, max|x(t)|) at the largest response of one DOF (``vibration``:
+        of max|x(t) - x0|).
 
         The sampled maximum is refined by a golden-section search on the
         parameter, solving the balance afresh at each trial value (warm start
         from the nearest point). Where the maximum sits on a fold (the branch
         turns back around it) the sampled maximum is returned unrefined.
         ``xtol`` is relative to the bracket."""
-        amp = self.amplitude(_one(dof))[:, 0]
+        amp = self.amplitude(_one(dof), vibration=vibration)[:, 0]
         i = int(np.argmax(amp))
         lam = self.values
         if i == 0 or i == len(self) - 1 or (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) <= 0:
@@ -94,7 +97,7 @@ class Response:
             if not r.converged:
                 return -np.inf
             Q = self.model.recover(r.x, self.base.set(self.parameter, value))
-            return float(h.peak(output(Q, _one(dof))[0]))
+            return float(amplitude(h, output(Q, _one(dof))[0], vibration))
 
         a, b = sorted((lam[i - 1], lam[i + 1]))
         g = (np.sqrt(5.0) - 1.0) / 2.0
@@ -120,6 +123,17 @@ class Response:
     def energy(self, i: int) -> dict[str, float]:
         """Work per cycle at point ``i`` (see HarmonicBalance.energy_balance)."""
         return self.model.energy_balance(self.branch.x[i], self.point(i))
+
+
+def amplitude(h, coefficients: np.ndarray, vibration: bool = False,
+              oversample: int = 4) -> np.ndarray:
+    """max_t |x(t)| of coefficient rows (..., n_coeffs) (``vibration``: of x(t) - x0, the
+    static part, order 0, left out)."""
+    c = np.asarray(coefficients, dtype=float)
+    if vibration and h.has_static:
+        c = c.copy()
+        c[..., 0] = 0.0
+    return h.peak(c, oversample)
 
 
 def output(Q: np.ndarray, dofs: Sequence[int] | np.ndarray | None) -> np.ndarray:
@@ -462,6 +476,7 @@ def peak_curve(
     *,
     settings: cont.Settings = cont.DEFAULT,
     progress: Callable[[int, float, float, float, str], None] | None = None,
+    vibration: bool = False,
 ) -> PeakCurve:
     """Optimization / performance curves: the peak traced by natural continuation
     in ``parameter`` (seed Fig. 6).
@@ -473,7 +488,8 @@ def peak_curve(
     a maximum on the bracket's edge widens it (twice), and failing that the value
     falls back to a full FRF. Far fewer solves than one FRF per value. It follows
     one peak: where the FRF has several maxima of similar height (e.g. a stuck
-    and a slipping resonance) it may stay on a lower one; use full sweeps there."""
+    and a slipping resonance) it may stay on a lower one; use full sweeps there.
+    ``vibration``: the peak of max|x(t) - x0| (the static part left out)."""
     from scipy.optimize import minimize_scalar
 
     lo, hi = window
@@ -491,7 +507,7 @@ def peak_curve(
         solves += r.branch.steps
         if not len(r):
             return np.nan, np.nan
-        w, a = r.peak(dof)
+        w, a = r.peak(dof, vibration=vibration)
         memo.clear()
         memo.extend((float(r.omega[i]), r.branch.x[i]) for i in range(len(r)))
         return w, a
@@ -505,7 +521,7 @@ def peak_curve(
             return 0.0  # no amplitude is smaller: Brent's method moves away
         memo.append((w, r.x))
         Q = model.recover(r.x, point.set("frequency", w))
-        return float(model.harmonics.peak(output(Q, _one(dof))[0]))
+        return float(amplitude(model.harmonics, output(Q, _one(dof))[0], vibration))
 
     for i, v in enumerate(vals):
         point = base.set(parameter, v)

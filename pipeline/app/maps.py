@@ -1,0 +1,314 @@
+"""Contact-status and static-load maps of contact patches (seed Fig. 20, 23), off screen.
+
+Each node pair of a patch's structured grid is drawn as the cell of its own tributary area
+(the dual grid: corners halfway between neighbouring nodes, the outer ones extrapolated), so
+a map shows one solid colour per node and never blends two states. The patch is drawn flat
+in its own plane, seen from body b onto body a's face, turned so that the direction of
+growing radius (at the patch centre, projected onto the plane) points up; the edge at the
+highest radius is also drawn thick and labelled, so the orientation reads without the text.
+
+Colours of the states over the period follow the seed's Fig. 23 (white: stick; grey:
+alternate stick-slip; black: partial lift-off); gross slip and open, which that figure does
+not show, get colours of their own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from microslip.pipeline.friction.laws import (
+    GROSS_SLIP,
+    OPEN,
+    PARTIAL_LIFTOFF,
+    STATE_NAMES,
+    STICK,
+    STICK_SLIP,
+)
+
+#: Colour of each state over the period (matplotlib/VTK colour names or #rrggbb).
+STATE_COLOURS: dict[int, str] = {STICK: "white", STICK_SLIP: "#a0a0a0", GROSS_SLIP: "#e6550d",
+                                 PARTIAL_LIFTOFF: "black", OPEN: "#3182bd"}
+#: Pixels of one map panel (width, height); a grid of panels multiplies them.
+PANEL = (520, 420)
+EDGES = ("first row (i = 0)", "last row (i = n1 - 1)", "first column (j = 0)",
+         "last column (j = n2 - 1)")
+HIGH_RADIUS = "#d62728"  # the high-radius edge
+
+
+@dataclass(frozen=True, eq=False)
+class PatchGrid:
+    """Where a patch's node pairs sit, and how its map is drawn.
+
+    name: patch name; points: (n1, n2, 3) coordinates of side a [m]; frame: (3, 3) rows
+    t1, t2, n (n from body a into body b); axes: (2, 3) the map's right and up directions
+    in space (up: growing radius; right x up = n); high_edge: index into EDGES of the grid
+    edge at the highest mean radius; nodes_a, nodes_b: (n1, n2) mesh nodes of the pairs."""
+
+    name: str
+    body_a: str
+    body_b: str
+    points: np.ndarray
+    frame: np.ndarray
+    axes: np.ndarray
+    high_edge: int
+    nodes_a: np.ndarray
+    nodes_b: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.points.shape[:2]
+
+    @property
+    def plane(self) -> np.ndarray:
+        """(n1, n2, 2) map coordinates [m] of the nodes (right, up) about the patch centre."""
+        centred = self.points - self.points.reshape(-1, 3).mean(axis=0)
+        return centred @ self.axes.T
+
+    @property
+    def connectivity(self) -> np.ndarray:
+        """((n1 - 1)(n2 - 1), 4) quads of the node grid, node indices row-major (i n2 + j),
+        counter-clockwise in (i, j)."""
+        n1, n2 = self.shape
+        idx = np.arange(n1 * n2).reshape(n1, n2)
+        return np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]],
+                        axis=-1).reshape(-1, 4)
+
+    @classmethod
+    def from_mesh(cls, mesh, name: str) -> PatchGrid:
+        from microslip.pipeline.fe.contact_stiffness import contact_frames
+
+        patch = mesh.contacts[name]
+        points = mesh.patch_points(name, "a")
+        frame = contact_frames(patch, mesh.points)[0, 0]
+        return cls(name, patch.body_a, patch.body_b, points, frame, map_axes(points, frame),
+                   high_radius_edge(points), np.asarray(patch.nodes_a),
+                   np.asarray(patch.nodes_b))
+
+    def datasets(self) -> dict[str, np.ndarray]:
+        """What results.h5 keeps under /contact_grids/<patch> (attrs: body_a, body_b,
+        high_edge)."""
+        return {"points": self.points, "frame": self.frame, "map_axes": self.axes,
+                "map_coordinates": self.plane, "connectivity": self.connectivity,
+                "nodes_a": self.nodes_a, "nodes_b": self.nodes_b}
+
+    @classmethod
+    def from_group(cls, name: str, g) -> PatchGrid:
+        """A PatchGrid read back from its results.h5 group (h5py)."""
+        return cls(name, str(g.attrs["body_a"]), str(g.attrs["body_b"]), g["points"][()],
+                   g["frame"][()], g["map_axes"][()], int(g.attrs["high_edge"]),
+                   g["nodes_a"][()], g["nodes_b"][()])
+
+
+def map_axes(points: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """(2, 3) right and up of a patch's map: up along the radius (from the disk axis +z
+    through the patch centre) projected onto the patch plane, right = up x n. A patch whose
+    plane is normal to the radius (no projection to speak of) keeps t2 up."""
+    n = frame[2]
+    c = points.reshape(-1, 3).mean(axis=0)
+    radial = np.array([c[0], c[1], 0.0])
+    up = radial - (radial @ n) * n
+    if np.linalg.norm(up) < 0.2 * max(np.linalg.norm(radial), 1e-300):
+        up = frame[1]
+    up = up / np.linalg.norm(up)
+    return np.stack([np.cross(up, n), up])
+
+
+def high_radius_edge(points: np.ndarray) -> int:
+    """Index into EDGES of the grid edge whose nodes have the highest mean radius."""
+    r = np.hypot(points[..., 0], points[..., 1])
+    return int(np.argmax([r[0].mean(), r[-1].mean(), r[:, 0].mean(), r[:, -1].mean()]))
+
+
+def cell_corners(plane: np.ndarray) -> np.ndarray:
+    """(n1 + 1, n2 + 1, 2) corners of the nodes' tributary cells: halfway between
+    neighbouring nodes, half a spacing beyond the outer ones (a grid of one node along an
+    axis gets a unit-free zero-width cell, which the caller avoids)."""
+    out = plane
+    for axis in (0, 1):
+        a = np.moveaxis(out, axis, 0)
+        mid = 0.5 * (a[1:] + a[:-1])
+        first, last = a[0] - (mid[0] - a[0]), a[-1] + (a[-1] - mid[-1])
+        out = np.moveaxis(np.concatenate([first[None], mid, last[None]]), 0, axis)
+    return out
+
+
+def state_rgb(states: np.ndarray, colours: Mapping[int, str] = STATE_COLOURS) -> np.ndarray:
+    """(..., 3) uint8 colour of each state."""
+    from matplotlib.colors import to_rgb
+
+    table = np.array([to_rgb(colours[s]) for s in range(len(STATE_NAMES))])
+    return np.round(255 * table[np.asarray(states, dtype=int)]).astype(np.uint8)
+
+
+def cells(grid: PatchGrid, values: np.ndarray, name: str):
+    """pyvista StructuredGrid of the grid's tributary cells in map coordinates [mm] with
+    ``values`` (P,) or (P, k) per node (grid order) as cell data ``name``."""
+    import pyvista as pv
+
+    corners = 1e3 * cell_corners(grid.plane)
+    x, y = corners[..., 0], corners[..., 1]
+    sg = pv.StructuredGrid(x, y, np.zeros_like(x))
+    n1, n2 = grid.shape
+    v = np.asarray(values).reshape(n1, n2, -1)
+    # VTK orders the cells of a structured grid with the first index fastest
+    sg.cell_data[name] = v.transpose(1, 0, 2).reshape(n1 * n2, -1).squeeze()
+    return sg
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One map: a patch, a value per node pair (a state, or a force [N]) and a caption."""
+
+    grid: PatchGrid
+    values: np.ndarray
+    caption: str
+
+
+@contextmanager
+def _quiet() -> Iterator[None]:
+    """VTK's warnings muted while a window is made and read (see geometry.preview)."""
+    from vtkmodules.vtkCommonCore import vtkObject
+
+    shown = vtkObject.GetGlobalWarningDisplay()
+    vtkObject.GlobalWarningDisplayOff()
+    try:
+        yield
+    finally:
+        vtkObject.SetGlobalWarningDisplay(shown)
+
+
+def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
+    """Off-screen plotter: a title strip, rows x cols panels, a legend strip."""
+    import pyvista as pv
+
+    strip = max(1, round(panel[1] / 7))
+    size = [panel[0] * cols, panel[1] * rows + 2 * strip]
+    with _quiet():
+        pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
+                        row_weights=[strip] + [panel[1]] * rows + [strip],
+                        groups=[(0, np.s_[:]), (rows + 1, np.s_[:])], border=False)
+    pl.set_background("white", all_renderers=True)
+    pl.subplot(0, 0)
+    text = pl.add_text(title, position=(0.5, 0.5), viewport=True, font_size=11,
+                       color="black")
+    text.prop.justification_horizontal = "center"
+    text.prop.justification_vertical = "center"
+    return pl
+
+
+def _outline(pl, grid: PatchGrid) -> None:
+    """The patch outline (black) and its high-radius edge (thick, labelled)."""
+    import pyvista as pv
+
+    c = 1e3 * cell_corners(grid.plane)
+    ring = np.concatenate([c[:, 0], c[-1, 1:], c[-2::-1, -1], c[0, -2::-1]])
+    pts = np.column_stack([ring, np.full(len(ring), 0.01)])
+    pl.add_mesh(pv.lines_from_points(pts, close=True), color="black", line_width=2)
+    edge = (c[0], c[-1], c[:, 0], c[:, -1])[grid.high_edge]
+    e = np.column_stack([edge, np.full(len(edge), 0.02)])
+    pl.add_mesh(pv.lines_from_points(e), color=HIGH_RADIUS, line_width=6)
+    size = np.ptp(c.reshape(-1, 2), axis=0).max()
+    out = edge.mean(axis=0) - c.reshape(-1, 2).mean(axis=0)
+    at = edge.mean(axis=0) + 0.08 * size * out / max(np.linalg.norm(out), 1e-300)
+    pl.add_point_labels([[*at, 0.03]], ["high radius"], show_points=False, shape=None,
+                        text_color=HIGH_RADIUS, font_size=12, always_visible=True,
+                        justification_horizontal="center")
+
+
+def _view(pl, caption: str, grid: PatchGrid, aspect: float) -> None:
+    """Caption, and the camera on the map plane with the patch filling ~70 % of the panel
+    (``aspect``: its width / height)."""
+    pl.add_text(caption, position="upper_edge", font_size=8, color="black")
+    pl.view_xy()
+    pl.enable_parallel_projection()
+    pl.reset_camera()
+    c = 1e3 * cell_corners(grid.plane).reshape(-1, 2)
+    w, h = np.ptp(c, axis=0)
+    pl.camera.focal_point = (*c.min(axis=0) + 0.5 * np.array([w, h]), 0.0)
+    pl.camera.position = (*pl.camera.focal_point[:2], 10 * max(w, h))
+    pl.camera.parallel_scale = 0.5 * max(h, w / aspect) / 0.7
+
+
+def _legend(pl, entries: Sequence[tuple[str, str]]) -> None:
+    """A row of squares with black outlines and black names (VTK's legend writes each name
+    in its entry's colour: white is unreadable on white)."""
+    import pyvista as pv
+
+    for k, (name, colour) in enumerate(entries):
+        x = 4.0 * k
+        pl.add_mesh(pv.Rectangle([[x, 0, 0], [x + 0.6, 0, 0], [x + 0.6, 0.6, 0]]),
+                    color=colour, show_edges=True, edge_color="black", line_width=1,
+                    lighting=False)
+        pl.add_point_labels([[x + 0.8, 0.3, 0]], [name], show_points=False, shape=None,
+                            text_color="black", font_size=12, always_visible=True,
+                            justification_horizontal="left", justification_vertical="center")
+    pl.view_xy()
+    pl.enable_parallel_projection()
+    pl.camera.focal_point = (2.0 * len(entries), 0.3, 0.0)
+    pl.camera.position = (2.0 * len(entries), 0.3, 50.0)
+    pl.camera.parallel_scale = 0.9
+
+
+def _save(pl, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with _quiet():
+        pl.screenshot(str(path))
+    pl.close()
+    return path
+
+
+def status_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *,
+                colours: Mapping[int, str] = STATE_COLOURS,
+                panel: tuple[int, int] = PANEL) -> Path:
+    """A PNG of contact-status maps: rows x columns of panels (``values``: (P,) states),
+    the legend of the states below them."""
+    rows, cols = len(panels), max(len(r) for r in panels)
+    pl = _plotter(title, rows, cols, panel)
+    for i, row in enumerate(panels):
+        for j, p in enumerate(row):
+            pl.subplot(i + 1, j)
+            pl.add_mesh(cells(p.grid, state_rgb(p.values, colours), "rgb"), scalars="rgb",
+                        rgb=True, show_edges=True, edge_color="#c8c8c8", lighting=False)
+            _outline(pl, p.grid)
+            _view(pl, p.caption, p.grid, panel[0] / panel[1])
+    pl.subplot(rows + 1, 0)
+    _legend(pl, [(STATE_NAMES[s], colours[s]) for s in range(len(STATE_NAMES))])
+    return _save(pl, path)
+
+
+def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *,
+              label: str = "static normal load [N]", cmap: str = "viridis",
+              panel: tuple[int, int] = PANEL) -> Path:
+    """A PNG of maps of a force per node pair (``values``: (P,) [N]) on one colour scale
+    (shared by every panel, so two distributions compare by colour), its bar below."""
+    rows, cols = len(panels), max(len(r) for r in panels)
+    pl = _plotter(title, rows, cols, panel)
+    values = np.concatenate([np.ravel(p.values) for row in panels for p in row])
+    clim = (float(values.min()), float(values.max()))
+    if clim[1] <= clim[0]:
+        clim = (clim[0] - 0.5, clim[0] + 0.5)
+    for i, row in enumerate(panels):
+        for j, p in enumerate(row):
+            pl.subplot(i + 1, j)
+            pl.add_mesh(cells(p.grid, p.values, "force"), scalars="force", cmap=cmap,
+                        clim=clim, show_edges=True, edge_color="#c8c8c8", lighting=False,
+                        show_scalar_bar=False)
+            _outline(pl, p.grid)
+            _view(pl, p.caption, p.grid, panel[0] / panel[1])
+    pl.subplot(rows + 1, 0)
+    import pyvista as pv
+
+    bar = pv.PolyData(np.zeros((1, 3)))  # a hidden carrier of the colour scale
+    bar["force"] = values[:1]
+    pl.add_mesh(bar, scalars="force", cmap=cmap, clim=clim, opacity=0.0,
+                scalar_bar_args={"title": label, "vertical": False, "position_x": 0.2,
+                                 "position_y": 0.35, "width": 0.6, "height": 0.5,
+                                 "color": "black", "title_font_size": 14,
+                                 "label_font_size": 12, "fmt": "%.4g"})
+    return _save(pl, path)

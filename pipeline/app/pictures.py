@@ -1,0 +1,277 @@
+"""The pictures of an analysis, drawn from what results.h5 holds (nothing recomputed).
+
+``run`` calls these once an analysis is written; ``microslip render DIR`` calls them again
+on a finished results file, with other colours, another map point or another size. What a
+picture needs and the file does not hold is a defect of the file, not of the picture.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from microslip.pipeline.friction.laws import slip_share
+
+from . import maps, plots
+
+MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [m]",
+                 "harmonic": "first-harmonic amplitude of {} [m]"}
+STYLE = {"natural": "--", "natural-down": ":"}  # line style per continuation method
+MAP_TYPES = ("status", "normal_load")
+
+
+@dataclass(frozen=True)
+class Options:
+    """How pictures are drawn. colours: state -> colour of the status maps; panel: pixels
+    of one map (width, height); at: draw the maps at the computed point nearest this
+    parameter value on every curve instead of the case's map points; map_types: which
+    maps (None: the case's own)."""
+
+    colours: Mapping[int, str] = field(default_factory=lambda: dict(maps.STATE_COLOURS))
+    panel: tuple[int, int] = maps.PANEL
+    at: float | None = None
+    map_types: tuple[str, ...] | None = None
+
+
+def _text(value) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _list(value) -> list:
+    """An attribute written as a JSON list or as an array."""
+    if isinstance(value, (str, bytes)):
+        return list(json.loads(_text(value) or "[]"))
+    return list(np.atleast_1d(value))
+
+
+def curves(g: h5py.Group) -> list[tuple[str, h5py.Group]]:
+    """The analysis' curve groups in order."""
+    return sorted((k, v) for k, v in g.items() if k.startswith("curve_"))
+
+
+# --- frequency responses ------------------------------------------------------------------
+
+
+def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, list[dict]]]:
+    """(parameter, output -> line series, contact -> static-force line series) of an frf
+    analysis group, with the linear limits where written."""
+    par = _text(g.attrs.get("parameter", "frequency"))
+    series: dict[str, list[dict]] = {}
+    static: dict[str, list[dict]] = {}
+    for _, c in curves(g):
+        outs = [_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
+        style = STYLE.get(_text(c.attrs.get("method", "")), "-")
+        label = _text(c.attrs.get("label", "")) or None
+        x = c["parameter"][()]
+        tp = c["turning_points"][()] if "turning_points" in c else []
+        for k, n in enumerate(outs):
+            series.setdefault(n, []).append({"x": x, "y": c["response"][:, k], "label": label,
+                                             "turning_points": tp, "ls": style})
+        for cname, cd in c.get("contacts", {}).items():
+            for what, y in static_lines(cd["static_force"][()],
+                                        [_text(x) for x in cd["columns"][()]]):
+                static.setdefault(cname, []).append({
+                    "x": x, "y": y, "ls": style,
+                    "label": ", ".join(s for s in (label, what) if s)})
+    for springs in ("free", "stuck"):
+        lg = g.get(f"linear_{springs}")
+        if lg is None:
+            continue
+        for k, n in enumerate(series):
+            series[n].append({"x": lg["omega"][()], "y": lg["response"][:, k],
+                              "label": _text(lg.attrs["label"]), "color": "0.45", "lw": 1.0,
+                              "ls": ":" if springs == "free" else "-."})
+    return par, series, static
+
+
+def static_lines(static: np.ndarray, names: list[str]) -> list[tuple[str, np.ndarray]]:
+    """(label, (n,) force [N]) lines of a contact's static forces ``static`` (n points,
+    size x columns; ``names``: the columns' per contact point). A contact of several
+    points (a patch) gives its total per component, "sum N0" etc.: one line per pair and
+    component (108 for 36 pairs) is unreadable; the per-pair values stay in the file."""
+    if not names or static.shape[1] == 0 or static.shape[1] % len(names):
+        return []
+    size = static.shape[1] // len(names)
+    if size > 1:
+        total = static.reshape(static.shape[0], size, len(names)).sum(axis=1)
+        return [(f"sum {n}", total[:, j]) for j, n in enumerate(names)]
+    return [(n, static[:, j]) for j, n in enumerate(names)]
+
+
+def map_marks(g: h5py.Group) -> dict[str, list[dict]]:
+    """Per output, markers at the points that got maps (peaks, the solutions at a given
+    frequency), labelled by their letter."""
+    marks: dict[str, list[dict]] = {}
+    for _, c in curves(g):
+        outs = [_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
+        for _, p in sorted(c.get("maps", {}).items()):
+            for k, n in enumerate(outs):
+                marks.setdefault(n, []).append({
+                    "x": [p.attrs["parameter"]], "y": [p["response"][k]], "style": "ko",
+                    "label": None, "text": _text(p.attrs["letter"])})
+    return marks
+
+
+def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
+    """Every picture of an frf analysis: the response of each output (with the linear
+    limits and the map points marked), the static forces of each contact, and the maps."""
+    par, series, static = frf_series(g)
+    measure = _text(g.attrs.get("measure", "peak"))
+    marks = map_marks(g)
+    paths = []
+    for n, lines in series.items():
+        path = out / f"{name}_{n}.png"
+        plots.curves(path, f"{name}: response of {n}", plots.LABELS[par], lines,
+                     MEASURE_LABEL[measure].format(n), markers=marks.get(n, ()))
+        paths.append(path)
+    for cname, lines in static.items():
+        path = out / f"{name}_static_{cname}.png"
+        plots.curves(path, f"{name}: static forces, contact {cname}", plots.LABELS[par],
+                     lines, "static contact force [N]")
+        paths.append(path)
+    return paths + frf_maps(g, name, out, options)
+
+
+# --- maps -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MapPoint:
+    """A solution drawn in maps: its caption and, per patch, state (P,), static (P, 3)."""
+
+    caption: str
+    label: str
+    value: float
+    state: dict[str, np.ndarray]
+    static: dict[str, np.ndarray]
+
+
+def contact_grids(f: h5py.File) -> dict[str, maps.PatchGrid]:
+    """The patches' grids of a results file (/contact_grids)."""
+    return {k: maps.PatchGrid.from_group(k, v) for k, v in f.get("contact_grids", {}).items()}
+
+
+def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
+    """The points of an frf analysis that get maps: the case's (each curve's maps/ group),
+    or, with ``at``, the computed point of each curve nearest that parameter value."""
+    out = []
+    par = _text(g.attrs.get("parameter", "frequency"))
+    for _, c in curves(g):
+        label = _text(c.attrs.get("label", ""))
+        if at is not None:
+            if "patches" not in c or not len(c["parameter"]):
+                continue
+            i = int(np.argmin(np.abs(c["parameter"][()] - at)))
+            v = float(c["parameter"][i])
+            pg = c["patches"]
+            out.append(MapPoint(_caption(label, f"{par} {v:.6g}"), label, v,
+                                {p: pg[p]["state"][i] for p in pg},
+                                {p: pg[p]["static"][i] for p in pg}))
+            continue
+        for _, p in sorted(c.get("maps", {}).items()):
+            pg = p["patches"]
+            what = f"{_text(p.attrs['letter'])}: {_text(p.attrs['what'])}"
+            if _text(p.attrs["what"]) == "peak":
+                what += f" at {par} {float(p.attrs['parameter']):.6g}"
+            out.append(MapPoint(_caption(label, what), label, float(p.attrs["parameter"]),
+                                {k: pg[k]["state"][()] for k in pg},
+                                {k: pg[k]["static"][()] for k in pg}))
+    return out
+
+
+def _caption(label: str, what: str) -> str:
+    return ", ".join(s for s in (label, what) if s)
+
+
+def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
+    """Status maps (and static normal-load maps) of every map point: one row per point, one
+    column per patch. Nothing when the analysis has no map points."""
+    points = map_points(g, options.at)
+    kinds = options.map_types if options.map_types is not None else tuple(
+        _text(x) for x in _list(g.attrs.get("map_types", '["status"]')))
+    if not points or not kinds:
+        return []
+    grids = contact_grids(g.file)
+    patches = sorted(points[0].state)
+    paths = []
+    if "status" in kinds:
+        panels = [[maps.Panel(grids[p], pt.state[p], _panel_caption(pt, p, True))
+                   for p in patches] for pt in points]
+        path = out / f"{name}_status.png"
+        maps.status_maps(path, f"{name}: contact status over the period "
+                         f"({_seen(grids, patches)})", panels,
+                         colours=options.colours, panel=options.panel)
+        paths.append(path)
+    if "normal_load" in kinds:
+        panels = [[maps.Panel(grids[p], pt.static[p][:, 2], _panel_caption(pt, p, False))
+                   for p in patches] for pt in points]
+        path = out / f"{name}_normal_load.png"
+        maps.load_maps(path, f"{name}: static normal load per node pair "
+                       f"({_seen(grids, patches)})", panels,
+                       panel=options.panel)
+        paths.append(path)
+    return paths
+
+
+def _panel_caption(pt: MapPoint, patch: str, status: bool) -> str:
+    if status:
+        what = f"{slip_share(pt.state[patch]):.0%} of the node pairs slip"
+    else:
+        what = f"sum N0 = {pt.static[patch][:, 2].sum():.4g} N"
+    return f"{pt.caption}\n{patch}: {what}"
+
+
+def _seen(grids: Mapping[str, maps.PatchGrid], patches: list[str]) -> str:
+    """How the patches are seen, for a picture's title."""
+    pairs = sorted({(grids[p].body_b, grids[p].body_a) for p in patches})
+    return "; ".join(f"seen from {b} onto {a}" for b, a in pairs) + ", high radius up"
+
+
+# --- parameter curves -----------------------------------------------------------------------
+
+
+def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
+    """The peak response against the parameter (optimization or performance curve), its
+    minimum marked where the parameter is a preload or a mass, with the linear levels."""
+    par = _text(g.attrs["parameter"])
+    output = _text(g.attrs["output"])
+    lo, hi = _list(g.attrs["window"])
+    series = [{"x": c["parameter"][()], "y": c["amplitude"][()],
+               "label": _text(c.attrs.get("label", "")) or None} for _, c in curves(g)]
+    for key, label, style in (("level_free", "free (no damper)", ":"),
+                              ("level_stuck", "fully stuck", "-.")):
+        if key in g:
+            series.append({"x": g[key]["parameter"][()], "y": g[key]["amplitude"][()],
+                           "label": label, "ls": style, "color": "0.45", "lw": 1.0,
+                           "optimum": False})
+    path = out / f"{name}.png"
+    what = MEASURE_LABEL[_text(g.attrs.get("measure", "peak"))].format(output)
+    plots.curves(path, f"{name}: peak response of {output}", plots.LABELS[par], series,
+                 f"resonance peak of {what}\n(w in {lo:g} to {hi:g} rad/s)",
+                 optimum=(par, "m") if par in ("preload", "mass") else None)
+    return [path]
+
+
+DRAWERS = {"frf": frf, "peak": peak}
+
+
+def render(results: Path, out: Path | None = None, options: Options = Options(),
+           analyses: list[str] | None = None) -> list[Path]:
+    """Redraw the pictures of every analysis of a results file that has them (frf, peak)
+    into ``out`` (default: the file's folder). Returns the files written."""
+    from .results import open_results
+
+    out = out or results.parent
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    with open_results(results) as f:
+        for name, g in f.items():
+            kind = _text(g.attrs.get("type", ""))
+            if kind in DRAWERS and (analyses is None or name in analyses):
+                paths += DRAWERS[kind](g, name, out, options)
+    return paths

@@ -1,0 +1,103 @@
+"""Contact-status and static-load maps: every node's cell carries its own state's colour, the
+map is oriented by the radius, and a real off-screen render gives a PNG of the asked size."""
+
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgb
+
+from microslip.pipeline.app import maps
+from microslip.pipeline.friction.laws import (
+    GROSS_SLIP,
+    OPEN,
+    PARTIAL_LIFTOFF,
+    STICK,
+    STICK_SLIP,
+    slip_share,
+)
+
+
+def flank(n1: int = 5, n2: int = 3) -> maps.PatchGrid:
+    """A 45 deg flank at radius ~0.2 m: a skewed, unevenly spaced n1 x n2 grid (the tributary
+    cells must still hold their own node)."""
+    s = np.cumsum(np.r_[0.0, 1.0 + 0.3 * np.arange(n1 - 1)]) * 1e-3  # uneven along i
+    t = np.linspace(0.0, 4e-3, n2)
+    centre = np.array([0.0, 0.2, 0.0])
+    along = np.array([0.0, 0.0, 1.0])  # axial
+    up = np.array([0.5, 0.5, 0.0]) * np.sqrt(2)  # in the plane, with a radial component
+    points = centre + s[:, None, None] * along + t[None, :, None] * up
+    n = np.cross(along, up)
+    frame = np.stack([along, np.cross(n, along), n])
+    return maps.PatchGrid("flank", "damper", "blisk", points, frame,
+                          maps.map_axes(points, frame), maps.high_radius_edge(points),
+                          np.arange(n1 * n2).reshape(n1, n2),
+                          np.arange(n1 * n2).reshape(n1, n2) + 100)
+
+
+def test_each_node_sits_in_its_own_cell_with_its_own_states_colour():
+    import pyvista as pv  # noqa: F401 (the cells are a pyvista grid)
+
+    grid = flank()
+    states = np.array([STICK, STICK_SLIP, GROSS_SLIP, PARTIAL_LIFTOFF, OPEN] * 3)
+    sg = maps.cells(grid, maps.state_rgb(states), "rgb")
+    assert sg.n_cells == states.size
+    plane = 1e3 * grid.plane.reshape(-1, 2)  # the cells are in mm
+    for k, (x, y) in enumerate(plane):
+        cell = sg.find_containing_cell([x, y, 0.0])
+        assert cell >= 0
+        expected = np.round(255 * np.array(to_rgb(maps.STATE_COLOURS[states[k]])))
+        np.testing.assert_array_equal(sg.cell_data["rgb"][cell], expected)
+
+
+def test_the_cells_tile_the_patch_without_overlap():
+    # the tributary areas add up to the patch's outline area: halfway between the nodes,
+    # half a spacing beyond the outer ones
+    grid = flank(4, 4)
+    c = maps.cell_corners(grid.plane)
+    area = 0.0
+    for i in range(c.shape[0] - 1):
+        for j in range(c.shape[1] - 1):
+            q = np.array([c[i, j], c[i + 1, j], c[i + 1, j + 1], c[i, j + 1]])
+            d1, d2 = q[2] - q[0], q[3] - q[1]
+            area += 0.5 * abs(d1[0] * d2[1] - d1[1] * d2[0])
+    s = np.cumsum(np.r_[0.0, 1.0 + 0.3 * np.arange(3)]) * 1e-3
+    width = s[-1] + 0.5 * (s[1] - s[0]) + 0.5 * (s[-1] - s[-2])
+    height = 4e-3 * (1 + 1 / 3)  # 3 spacings of 4/3 mm, plus half of one at each end
+    assert area == pytest.approx(width * height, rel=1e-12)
+
+
+def test_the_map_looks_along_the_normal_with_the_radius_up():
+    grid = flank()
+    right, up = grid.axes
+    assert np.cross(right, up) == pytest.approx(grid.frame[2])
+    # up: towards growing radius; the high-radius edge is the last column (t grows radially)
+    centre = grid.points.reshape(-1, 3).mean(axis=0)
+    assert np.hypot(*(centre + 1e-3 * up)[:2]) > np.hypot(*centre[:2])
+    assert maps.EDGES[grid.high_edge].startswith("last column")
+    r = np.hypot(grid.points[..., 0], grid.points[..., 1])
+    assert grid.plane[..., 1].ravel() @ (r.ravel() - r.mean()) > 0  # up on the map = radius
+
+
+def test_the_slip_share_counts_stick_slip_and_gross_slip_only():
+    states = np.array([STICK, STICK_SLIP, GROSS_SLIP, PARTIAL_LIFTOFF, OPEN, STICK_SLIP])
+    assert slip_share(states) == pytest.approx(3 / 6)
+    assert slip_share(np.zeros(0, dtype=int)) == 0.0
+
+
+def test_an_off_screen_status_map_is_a_png_of_the_asked_size(tmp_path):
+    from PIL import Image
+
+    grid = flank()
+    states = np.full(15, STICK)
+    states[7] = OPEN  # the middle node
+    states[[0, 1]] = PARTIAL_LIFTOFF
+    panel = (300, 240)
+    path = maps.status_maps(tmp_path / "status.png", "one map",
+                            [[maps.Panel(grid, states, "test")]], panel=panel)
+    image = np.asarray(Image.open(path).convert("RGB"))
+    strip = max(1, round(panel[1] / 7))
+    assert image.shape == (panel[1] + 2 * strip, panel[0], 3)
+    assert image.std() > 10  # not blank
+    open_rgb = np.round(255 * np.array(to_rgb(maps.STATE_COLOURS[OPEN])))
+    hits = np.all(np.abs(image[strip: strip + panel[1]] - open_rgb) < 3, axis=-1)
+    assert hits.sum() > 50  # the open node's cell is drawn in the map itself
+
