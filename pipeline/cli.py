@@ -227,6 +227,99 @@ def show(argv: list[str]) -> int:
     return 0
 
 
+def _render_options(args) -> tuple[object, list[str]]:
+    """The pictures.Options of `render`'s arguments, and one line per bad one."""
+    from matplotlib.colors import is_color_like
+
+    from microslip.pipeline.app import maps, pictures
+    from microslip.pipeline.friction.laws import STATE_NAMES
+
+    faults: list[str] = []
+    colours = dict(maps.STATE_COLOURS)
+    for item in args.colour:
+        state, _, colour = item.partition("=")
+        if state not in STATE_NAMES:
+            faults.append(f"--colour {item}: {state!r} is not a state; states: "
+                          f"{list(STATE_NAMES)}")
+        elif not is_color_like(colour):
+            faults.append(f"--colour {item}: {colour!r} is not a colour (a name like 'gold' "
+                          "or #rrggbb)")
+        else:
+            colours[STATE_NAMES.index(state)] = colour
+    panel = maps.PANEL
+    if args.size is not None:
+        w, _, h = args.size.partition("x")
+        if not (w.isdigit() and h.isdigit() and 100 <= int(w) <= 4000
+                and 100 <= int(h) <= 4000):
+            faults.append(f"--size {args.size}: expected WIDTHxHEIGHT in pixels of one map, "
+                          "each 100..4000 (e.g. 800x600)")
+        else:
+            panel = (int(w), int(h))
+    kinds = None
+    if args.maps is not None:
+        kinds = tuple(k for k in args.maps.split(",") if k)
+        bad = [k for k in kinds if k not in pictures.MAP_TYPES]
+        if bad:
+            faults.append(f"--maps {args.maps}: {bad} not among {list(pictures.MAP_TYPES)}")
+    return pictures.Options(colours, panel, args.at, kinds), faults
+
+
+def render(argv: list[str]) -> int:
+    """Redraw the pictures of a results folder from its results.h5 alone (FRFs, peak
+    curves, contact-status and static-load maps): other colours, another point, another
+    size. Nothing is recomputed."""
+    from microslip.pipeline.app import pictures
+    from microslip.pipeline.app.results import ResultsError
+
+    parser = argparse.ArgumentParser(prog="microslip render", description=render.__doc__)
+    parser.add_argument("path", type=Path, help="results folder (or its results.h5)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder of the pictures (default: the results folder)")
+    parser.add_argument("--at", type=float, default=None, metavar="VALUE",
+                        help="draw the maps at the computed point nearest this parameter "
+                        "value (rad/s for a frequency sweep) of every curve")
+    parser.add_argument("--size", default=None, metavar="WxH",
+                        help=f"pixels of one map (default {maps_panel()})")
+    parser.add_argument("--colour", action="append", default=[], metavar="STATE=COLOUR",
+                        help="colour of a contact state in the status maps, e.g. "
+                        "'open=gold' or 'stick-slip=#777777' (repeatable)")
+    parser.add_argument("--maps", default=None, metavar="TYPES",
+                        help="which maps: status, normal_load, or both comma-separated "
+                        "(default: the case's)")
+    parser.add_argument("--analysis", action="append", default=None, metavar="NAME",
+                        help="only this analysis (repeatable)")
+    args = parser.parse_args(argv)
+    target = args.path / "results.h5" if args.path.is_dir() else args.path
+    if not target.is_file():
+        print(f"microslip render: no results file at {target}", file=sys.stderr)
+        return 2
+    options, faults = _render_options(args)
+    if faults:
+        print("\n".join(f"microslip render: {f}" for f in faults), file=sys.stderr)
+        return 2
+    out = args.out or target.parent
+    if not _output_folder("render", out, args.out is not None):
+        return 2
+    try:
+        paths = pictures.render(target, out, options, args.analysis)
+    except ResultsError as err:
+        print(f"microslip render: {err}", file=sys.stderr)
+        return 2
+    for p in paths:
+        print(f"wrote {p}")
+    if not paths:
+        print(f"microslip render: {target} has no analysis with pictures to redraw"
+              + (f" among {args.analysis}" if args.analysis else ""), file=sys.stderr)
+        return 1
+    return 0
+
+
+def maps_panel() -> str:
+    from microslip.pipeline.app.maps import PANEL
+
+    return f"{PANEL[0]}x{PANEL[1]}"
+
+
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
     from microslip.pipeline.app.run import mesh_geometry
@@ -267,8 +360,8 @@ def bench(argv: list[str]) -> int:
     return importlib.import_module(BENCHES[argv[0]]).main(argv[1:])
 
 
-COMMANDS = {"demo": demo, "run": run, "check": check, "show": show, "mesh": mesh,
-            "bench": bench}
+COMMANDS = {"demo": demo, "run": run, "check": check, "show": show, "render": render,
+            "mesh": mesh, "bench": bench}
 
 
 def _version() -> str:
@@ -288,11 +381,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
         asked = bool(argv) and argv[0] in ("-h", "--help")
-        print("usage: microslip [--version] {demo,run,check,show,mesh,bench} ...\n\n"
+        print("usage: microslip [--version] {demo,run,check,show,render,mesh,bench} ...\n\n"
               "  demo             frequency response of the single-DOF Jenkins oscillator\n"
               "  run CASE.toml    run a case: results.h5 and pictures in out/<case>\n"
               "  check CASE.toml  validate a case file without running it\n"
               "  show DIR         summarise a results file\n"
+              "  render DIR       redraw a results folder's pictures from results.h5\n"
               "  mesh CASE.toml   mesh a case's geometry: .msh, .vtu, PNG previews\n"
               "  bench core       speed and accuracy of the numerical core\n"
               "  bench mesh       meshing time and size over a mesh-size sweep\n"

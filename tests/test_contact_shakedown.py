@@ -45,8 +45,10 @@ CASES = {
                             [[0.3, 0.2, 0, 0, 0], [0, 0, 0.3, 0, -0.1], [0, 0.3, 0, 0.2, 0]]),
     "D-uncoupled-corner": ("D", False, "corner",
                            [[0, 0.4, 0, 0.1, 0], [0, 0, 0.3, 0, -0.1], [0, 0.3, 0, 0, 0]]),
-    "D-uncoupled-remarched": ("D", False, "remarched",
-                              [[0, 0.4, 0, 0, 0], [0, 0, 0.3, 0, -0.1], [0, 0.3, 0, 0.2, 0]]),
+    # (was "remarched" while a slip onset after a stuck sample took radial return and the
+    # flow only continued slips: the march now closes on a corner of the stuck set)
+    "D-uncoupled-corner-2": ("D", False, "corner",
+                             [[0, 0.4, 0, 0, 0], [0, 0, 0.3, 0, -0.1], [0, 0.3, 0, 0.2, 0]]),
     "C-coupled-plain": ("C", True, "plain",
                         [[0.4, -0.2, -0.2, 0, 0.3], [0.4, 0.2, 0.1, -0.1, 0.2]]),
     "C-coupled-corner": ("C", True, "corner",

@@ -30,7 +30,8 @@ CASE = {
         "outputs": [{"name": "tip", "node_set": "blisk/response", "direction": "tangential"}],
     },
     "analysis": [{"name": "frf", "type": "frf", "start": 3200.0, "stop": 3300.0,
-                  "outputs": ["tip"]}],
+                  "outputs": ["tip"], "maps": ["peak", 3250.0],
+                  "map_types": ["status", "normal_load"]}],
 }
 
 
@@ -61,6 +62,10 @@ def test_the_shipped_case_is_valid():
      "a coupled case sweeps"),
     (lambda d: d["analysis"][0].update(type="dti"), "a coupled case runs"),
     (lambda d: d.update(model={"dofs": ["x"]}), "remove [model]"),
+    (lambda d: d["analysis"][0].update(maps=["top"]),
+     "maps: 'top' is neither 'peak' nor a parameter value in the range 3200..3300"),
+    (lambda d: d["analysis"][0].update(maps=[4000.0]), "maps: 4000.0 is neither"),
+    (lambda d: d["analysis"][0].update(map_types=["shape"]), "map_types = ['shape']"),
 ])
 def test_faults_are_reported_before_any_meshing(monkeypatch, mutate, expected):
     monkeypatch.setitem(geometry.MODELS, "blisk_sector",
@@ -68,10 +73,17 @@ def test_faults_are_reported_before_any_meshing(monkeypatch, mutate, expected):
     assert any(expected in f for f in faults(mutate)), faults(mutate)
 
 
-def test_a_coupled_case_runs_end_to_end(tmp_path):
-    path = run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), tmp_path,
-                    progress=lambda s: None)
-    with h5py.File(path) as f:
+@pytest.fixture(scope="module")
+def coarse_run(tmp_path_factory):
+    """The coarse case run once (mesh, reduction, FRF with maps): its results folder."""
+    out = tmp_path_factory.mktemp("coarse")
+    run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), out, progress=lambda s: None)
+    return out
+
+
+def test_a_coupled_case_runs_end_to_end(coarse_run):
+    tmp_path = coarse_run
+    with h5py.File(tmp_path / "results.h5") as f:
         assert f.attrs["status"] == "complete"
         curve = f["frf/curve_000"]
         assert curve.attrs["status"] == "complete"
@@ -107,3 +119,96 @@ def test_a_patch_draws_its_total_static_forces_per_component():
     single = static_lines(static[:, :2], ["T0", "N0"])
     assert [w for w, _ in single] == ["T0", "N0"]
     np.testing.assert_array_equal(single[1][1], static[:, 1])
+
+
+def test_the_patches_hold_each_pairs_state_and_the_share_of_slipping_pairs(coarse_run):
+    from microslip.pipeline.friction.laws import GROSS_SLIP, STICK_SLIP
+
+    with h5py.File(coarse_run / "results.h5") as f:
+        curve = f["frf/curve_000"]
+        n = curve["parameter"].shape[0]
+        for patch, parts in (("damper_left", ["damper_left"]),
+                             ("damper_right", ["damper_right.t1", "damper_right.t2"])):
+            p = curve["patches"][patch]
+            state = p["state"][()]
+            assert state.shape == (n, 6) and p["static"].shape == (n, 6, 3)
+            # a 1D+1D pair is as bad as its worse element (they share the normal)
+            expected = np.max([curve["contacts"][c]["node_state"][()] for c in parts], axis=0)
+            np.testing.assert_array_equal(state, expected)
+            share = np.isin(state, (STICK_SLIP, GROSS_SLIP)).mean(axis=1)
+            np.testing.assert_allclose(p["slip_share"][()], share, rtol=0, atol=1e-15)
+            # static forces: [T1, T2, N] of the 2D element, or T of each 1D one and N summed
+            static = curve["contacts"][parts[0]]["static_force"][()].reshape(n, 6, -1)
+            if len(parts) == 1:
+                np.testing.assert_array_equal(p["static"][()], static)
+            else:
+                other = curve["contacts"][parts[1]]["static_force"][()].reshape(n, 6, -1)
+                np.testing.assert_array_equal(p["static"][:, :, 1], other[:, :, 0])
+                np.testing.assert_allclose(p["static"][:, :, 2], static[:, :, 1] + other[:, :, 1])
+
+
+def test_the_map_points_are_solutions_at_the_peak_and_at_the_asked_frequency(coarse_run):
+    with h5py.File(coarse_run / "results.h5") as f:
+        curve = f["frf/curve_000"]
+        points = {k: p for k, p in curve["maps"].items()}
+        assert sorted(points) == ["point_a", "point_b"]
+        peak, at = points["point_a"], points["point_b"]
+        assert peak.attrs["what"] == "peak"
+        # the peak is at least the largest computed response of the branch
+        assert peak["response"][0] >= curve["response"][:, 0].max() * (1 - 1e-12)
+        assert at.attrs["parameter"] == 3250.0
+        lam, resp = curve["parameter"][()], curve["response"][:, 0]
+        # the solution at 3250 lies between its computed neighbours' responses
+        j = np.searchsorted(lam, 3250.0)
+        lo, hi = sorted(resp[j - 1: j + 1])
+        assert lo - 1e-12 <= at["response"][0] <= hi + 1e-12
+
+
+def test_the_map_colours_of_the_nodes_equal_their_stored_states(coarse_run):
+    from matplotlib.colors import to_rgb
+
+    from microslip.pipeline.app import maps
+
+    with h5py.File(coarse_run / "results.h5") as f:
+        point = f["frf/curve_000/maps/point_a/patches"]
+        for name, g in f["contact_grids"].items():
+            grid = maps.PatchGrid.from_group(name, g)
+            state = point[name]["state"][()]
+            sg = maps.cells(grid, maps.state_rgb(state), "rgb")
+            for k, (x, y) in enumerate(1e3 * grid.plane.reshape(-1, 2)):
+                cell = sg.find_containing_cell([x, y, 0.0])
+                rgb = np.round(255 * np.array(to_rgb(maps.STATE_COLOURS[state[k]])))
+                np.testing.assert_array_equal(sg.cell_data["rgb"][cell], rgb)
+
+
+def test_render_redraws_the_pictures_from_the_results_file_alone(coarse_run, tmp_path,
+                                                                   monkeypatch):
+    from PIL import Image
+
+    # no model may be rebuilt: render reads results.h5 only
+    monkeypatch.setitem(geometry.MODELS, "blisk_sector",
+                        lambda *a, **k: pytest.fail("render meshed"))
+    assert main(["render", str(coarse_run), "--out", str(tmp_path), "--at", "3260",
+                 "--size", "300x200", "--colour", "stick=lightyellow"]) == 0
+    names = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert names == sorted(["frf_tip.png", "frf_status.png", "frf_normal_load.png",
+                            "frf_static_damper_left.png", "frf_static_damper_right.t1.png",
+                            "frf_static_damper_right.t2.png"])
+    # one row of maps (--at: one point per curve), two patches of 300 x 200 pixels
+    w, h = Image.open(tmp_path / "frf_status.png").size
+    assert (w, h) == (600, 200 + 2 * round(200 / 7))
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["render", "nowhere"], "no results file at nowhere"),
+    (["render", "{run}", "--colour", "wet=blue"], "'wet' is not a state"),
+    (["render", "{run}", "--colour", "open=notacolour"], "is not a colour"),
+    (["render", "{run}", "--size", "10x10"], "--size 10x10: expected WIDTHxHEIGHT"),
+    (["render", "{run}", "--maps", "shapes"], "not among ['status', 'normal_load']"),
+])
+def test_render_rejects_bad_input_with_one_line_and_exit_2(coarse_run, capsys, args,
+                                                            expected):
+    argv = [a.replace("{run}", str(coarse_run)) for a in args]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err

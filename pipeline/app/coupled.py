@@ -7,6 +7,7 @@ speed = "frequency"          # centrifugal load's speed: rad/s, or "frequency": 
 centrifugal = ["damper"]     # bodies under centrifugal load (default: none)
 mass_bodies = ["damper"]     # bodies the mass multiplier scales (default: the non-cyclic ones)
 mass_multiplier = 1.0        # their mass as a multiple of the meshed one (analyses may sweep it)
+static_anchor = 1e-3         # order-0 spring on each pair's mean tangential slip, x kt (0: none)
 [[coupling.contacts]]        # one per patch: a contact element per node pair
 patch = "damper_left"
 mu = 0.5
@@ -47,7 +48,7 @@ from microslip.pipeline.coupling.spec import (
 from .checks import is_int, is_number, number, unknown_keys
 
 KEYS = {"engine_order", "speed", "centrifugal", "mass_bodies", "mass_multiplier", "contacts",
-        "loads", "outputs"}
+        "loads", "outputs", "static_anchor"}
 CONTACT_KEYS = {"patch", "mu", "interference", "elements"}
 LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase"}
 OUTPUT_KEYS = {"name", "node_set", "direction"}
@@ -101,6 +102,10 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
                                f"{list(names['bodies'])}")
     if "mass_multiplier" in table:
         number("coupling.mass_multiplier", table["mass_multiplier"], out, positive=True)
+    anchor = table.get("static_anchor", 1e-3)
+    if not (is_number(anchor) and 0 <= anchor < 1):
+        out.append(f"coupling.static_anchor = {anchor!r}: expected a ratio 0 <= r < 1 of the "
+                   "tangential contact stiffness (0: no anchor)")
     if table.get("centrifugal") and "speed" not in table:
         out.append("coupling.speed: missing; the centrifugal load needs a speed [rad/s] or "
                    "'frequency'")
@@ -198,6 +203,7 @@ def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> Coupli
         centrifugal=tuple(table.get("centrifugal", ())),
         mass_bodies=tuple(table.get("mass_bodies",
                                     [b for b in bodies if b not in cyclic_bodies])),
+        static_anchor=float(table.get("static_anchor", 1e-3)),
     )
 
 

@@ -78,14 +78,17 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
                 static.setdefault(cname, []).append({
                     "x": x, "y": y, "ls": style,
                     "label": ", ".join(s for s in (label, what) if s)})
-    for springs in ("free", "stuck"):
-        lg = g.get(f"linear_{springs}")
-        if lg is None:
+    masses = [float(c.attrs.get("mass_multiplier", 1.0)) for _, c in curves(g)]
+    for key, lg in sorted(g.items()):
+        if not key.startswith("linear_"):
             continue
+        colour = "0.45"  # one limit: grey; one stuck limit per mass: its curves' colour
+        if key.startswith("linear_stuck_") and float(lg.attrs["mass_multiplier"]) in masses:
+            colour = f"C{masses.index(float(lg.attrs['mass_multiplier'])) % 10}"
         for k, n in enumerate(series):
             series[n].append({"x": lg["omega"][()], "y": lg["response"][:, k],
-                              "label": _text(lg.attrs["label"]), "color": "0.45", "lw": 1.0,
-                              "ls": ":" if springs == "free" else "-."})
+                              "label": _text(lg.attrs["label"]), "lw": 1.0, "color": colour,
+                              "ls": ":" if key == "linear_free" else "-."})
     return par, series, static
 
 

@@ -405,7 +405,8 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
                      "message": b.message, "turning_points": b.turning_points,
                      "elapsed_s": elapsed, "outputs": names,
                      "harmonic_orders": list(hb.harmonics.orders),
-                     "samples": hb.harmonics.n_samples}
+                     "samples": hb.harmonics.n_samples,
+                     "mass_multiplier": base.mass_multiplier}
             w.write_group(group, f"curve_{j:03d}", data, attrs)
             w.flush()
             j += 1
@@ -423,8 +424,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models):
             break
     if isinstance(models, CoupledModels) and par == "frequency" and statuses and \
             statuses[-1][0] != "interrupted":
-        _linear_limits(models.coupled(case.with_values(a.get("set", {}))), case, a, names,
-                       measure, w, group)
+        _linear_limits(models, case, a, names, measure, w, group)
     group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
     drawn[name] = dict(zip(("parameter", "series", "static"), pictures.frf_series(group)))
     pictures.frf(group, name, out)
@@ -435,20 +435,29 @@ def _attr_list(values: list[str]) -> str:
     return json.dumps(list(values))
 
 
-def _linear_limits(cm, case: cs.Case, a: dict, names: list[str], measure: str, w,
-                   group) -> None:
+def _linear_limits(models: CoupledModels, case: cs.Case, a: dict, names: list[str],
+                   measure: str, w, group) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
-    directly (linear): written beside the curves (the pictures draw them with them)."""
+    directly (linear): written beside the curves (the pictures draw them with them). The
+    stuck system once per damper mass the curves have (a mass family: one each)."""
     ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
-    base = cs.operating_point(a, case)
-    for springs, label in (("free", "free (no damper)"), ("stuck", "fully stuck")):
+    variants = {}  # mass multiplier -> (coupled model, operating point)
+    for c, _, _ in _family(case, a):
+        point = cs.operating_point(a, c)
+        variants.setdefault(point.mass_multiplier, (models.coupled(c), point))
+    masses = sorted(variants)
+    runs = [("free", "free (no damper)", masses[0], "linear_free")]
+    for k, m in enumerate(masses):
+        runs.append(("stuck", "fully stuck" + (f", mass x {m:g}" if len(masses) > 1 else ""),
+                     m, "linear_stuck" + (f"_{k:03d}" if len(masses) > 1 else "")))
+    for springs, label, m, key in runs:
+        cm, base = variants[m]
         coef = np.array([cm.linear_outputs(base.set("frequency", x), springs, names)
                          for x in ws])
         shown = _measure(coef, cm.hb.harmonics, measure)
-        w.write_group(group, f"linear_{springs}", {"omega": ws, "coefficients": coef,
-                                                   "response": shown},
+        w.write_group(group, key, {"omega": ws, "coefficients": coef, "response": shown},
                       {"label": label, "status": "complete", "message": "linear, solved "
-                       "directly"})
+                       "directly", "mass_multiplier": m})
 
 
 LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF

@@ -108,6 +108,8 @@ class CouplingSpec:
         excitation frequency (speed = w / EO) along a sweep.
     centrifugal: bodies whose centrifugal load enters (static, harmonic 0).
     mass_bodies: bodies whose mass the mass multiplier scales (the damper mass studies).
+    static_anchor: the order-0 anchor of the pairs' mean tangential displacement, as a
+        fraction of their kt (assemble.static_anchor); 0: none.
     """
 
     contacts: tuple[PatchContact, ...]
@@ -117,12 +119,15 @@ class CouplingSpec:
     speed: float | None = None
     centrifugal: tuple[str, ...] = ()
     mass_bodies: tuple[str, ...] = ()
+    static_anchor: float = 1e-3
 
     def __post_init__(self):
         if not (isinstance(self.engine_order, int) and self.engine_order >= 1):
             raise ValueError(f"engine_order = {self.engine_order!r}: expected an integer >= 1")
         if self.speed is not None:
             _finite("speed", self.speed, nonneg=True)
+        if not 0 <= _finite("static_anchor", self.static_anchor, nonneg=True) < 1:
+            raise ValueError(f"static_anchor = {self.static_anchor!r}: expected 0 <= ratio < 1")
         names = [c.patch for c in self.contacts]
         if len(set(names)) != len(names):
             raise ValueError(f"contacts: a patch is named twice in {names}")

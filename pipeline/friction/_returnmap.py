@@ -663,7 +663,8 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
     modulo ns), T and dT holding the state at the sample before; with ``store``
     each sample's dT goes to G. Returns the force scale met (max |T| and mu N),
     for the periodicity test. cn0: the n0 column of dT (< 0: its last);
-    prev_slip: the sample before slipped (2D slip then follows the exact flow)."""
+    prev_slip: the sample before slipped (2D slip continues along the exact flow; a slip
+    that starts between two stuck-then-slipping samples follows it from the onset)."""
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = dT.shape[1]
@@ -672,9 +673,11 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
     vcol = d * nc
     scale = 0.0
     kprev = (k0 - 1) % ns
+    N_prev = max(n0[p] + kn[p] * v[p, kprev], 0.0)
     for i in range(count):
         k = (k0 + i) % ns
         N = n0[p] + kn[p] * v[p, k]
+        reclosed = was_open and N > 0.0
         if was_open and N > 0.0:
             _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, cn0, Tp, dT)
         else:
@@ -710,8 +713,9 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                 for j in range(d):
                     T[j] = Tp[j]
                 state_out[p, k] = STICK
-            elif d == 2 and prev_slip and _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal,
-                                                      want_jac, lim, T, Tp, dT, cn0):
+            elif d == 2 and not reclosed and _slip_flow(
+                    p, k, kprev, kt, kn, mu, E, has_normal, want_jac, lim, T, Tp, dT, cn0,
+                    -1.0 if prev_slip else mu[p] * N_prev):
                 state_out[p, k] = SLIP
             else:
                 ratio = lim / norm
@@ -738,6 +742,7 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                 state_out[p, k] = SLIP
         was_open = N == 0.0
         prev_slip = state_out[p, k] == SLIP
+        N_prev = N
         N_out[p, k] = N
         for j in range(d):
             T_out[p, j, k] = T[j]
@@ -792,26 +797,51 @@ def _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
 
 @njit(cache=True)
 def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
-               cn0):  # pragma: no cover
-    """2D slip continued from a slipping sample, integrated exactly over the step.
+               cn0, Lp):  # pragma: no cover
+    """2D slip over the step from sample kprev to k, integrated exactly.
 
     With the predictor's increment q = kt du (linear in the step) and the limit
-    L(s) linear from L0 = |T_prev| to L1, slip keeps T = L t on the circle and
-    turns t towards q: dt/ds = (I - t t^T) q / L(s), so the angle a between t and
-    q obeys tan(a / 2) ~ exp(-|q| int ds / L). Radial return is the one-step
-    backward Euler of this flow (first order in the sample spacing). Applies
-    while the motion pushes outwards (t . q >= L1 - L0, the slip rate >= 0) and
-    the start angle is below 120 deg; returns False to leave the sample to
-    radial return. T and dT (holding dTp on entry) receive the new state."""
+    L(s) linear in the step, slip keeps T = L t on the circle and turns t towards
+    q: dt/ds = (I - t t^T) q / L(s), so the angle a between t and q obeys
+    tan(a / 2) ~ exp(-|q| int ds / L). Radial return is the one-step backward
+    Euler of this flow (first order in the sample spacing).
+
+    Lp < 0: the slip continues from a slipping sample (T_prev on the circle).
+    Lp >= 0: the previous sample stuck under its limit Lp (= mu N_prev); the
+    predictor crosses the limit at the onset s in (0, 1], |T_prev + s q| = Lp + s
+    (L1 - Lp), and the flow runs from there over the rest of the step. The update
+    is then continuous in whether the previous sample slipped (an onset at s -> 0
+    is a continued slip, one at s -> 1 radial return onto the circle): with radial
+    return after a stuck sample and the flow after a slipping one, the period map
+    jumped where a sample changed state, and the march could alternate between two
+    cycles for ever.
+
+    Applies while the motion pushes outwards (t . q >= L1 - L0, the slip rate
+    >= 0) and the start angle is below 120 deg; returns False to leave the sample
+    to radial return. T and dT (holding dTp on entry) receive the new state."""
     nc = E.shape[1]
     m = dT.shape[1]
     vcol = 2 * nc
-    q0, q1 = Tp[0] - T[0], Tp[1] - T[1]
-    L0 = np.sqrt(T[0] * T[0] + T[1] * T[1])
+    Q0, Q1 = Tp[0] - T[0], Tp[1] - T[1]  # the whole step's increment
+    s = 0.0
+    dS = L1 - Lp
+    if Lp >= 0.0:  # the onset: f(s) = |T + s Q|^2 - (Lp + s dS)^2 = 0, rising through 0
+        a = Q0 * Q0 + Q1 * Q1 - dS * dS
+        b = T[0] * Q0 + T[1] * Q1 - Lp * dS
+        c = T[0] * T[0] + T[1] * T[1] - Lp * Lp
+        if c < 0.0:
+            disc = max(b * b - a * c, 0.0)
+            den = b + np.sqrt(disc)
+            if den <= 0.0:
+                return False
+            s = min(-c / den, 1.0)
+    Ts0, Ts1 = T[0] + s * Q0, T[1] + s * Q1
+    q0, q1 = (1.0 - s) * Q0, (1.0 - s) * Q1
+    L0 = np.sqrt(Ts0 * Ts0 + Ts1 * Ts1)
     nq = np.sqrt(q0 * q0 + q1 * q1)
     if L0 <= 0.0 or L1 <= 0.0 or nq <= 1e-14 * L1:
         return False
-    t0, t1 = T[0] / L0, T[1] / L0
+    t0, t1 = Ts0 / L0, Ts1 / L0
     if t0 * q0 + t1 * q1 < L1 - L0:
         return False
     h0, h1 = q0 / nq, q1 / nq
@@ -826,38 +856,52 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
     Iint = np.log(L1 / L0) / dL if general else 2.0 / (L0 + L1)
     Ex = np.exp(-nq * Iint)
     tau1 = tau0 * Ex
-    den = 1.0 + tau1 * tau1
-    C = (1.0 - tau1 * tau1) / den
-    beta = 2.0 * Ex / ((1.0 + c0) * den)
+    den1 = 1.0 + tau1 * tau1
+    C = (1.0 - tau1 * tau1) / den1
+    beta = 2.0 * Ex / ((1.0 + c0) * den1)
     r0, r1 = C * h0 + beta * p0, C * h1 + beta * p1
     T[0], T[1] = L1 * r0, L1 * r1
     if not want_jac:
         return True
-    # the update depends on five numbers (T_prev, q, L1; L0 = |T_prev|): its local
+    # the update depends on five numbers (T_start, q, L1; L0 = |T_start|): its local
     # Jacobian once per sample, then applied to every column (as cheap as radial return)
     a00, a10 = _flow_derivative(1.0, 0.0, 0.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
     a01, a11 = _flow_derivative(0.0, 1.0, 0.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
     b00, b10 = _flow_derivative(0.0, 0.0, 1.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
     b01, b11 = _flow_derivative(0.0, 0.0, 0.0, 1.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
     e0, e1 = _flow_derivative(0.0, 0.0, 0.0, 0.0, 1.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                              p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1)
+                              p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
+    # the onset moves with the inputs: ds = -(df) / (df/ds), f as above
+    onset = Lp >= 0.0 and s > 0.0
+    fs = 2.0 * (Ts0 * Q0 + Ts1 * Q1 - L0 * dS) if onset else 1.0
     for col in range(m):
-        # derivatives of q (u columns) and of T_prev (dT holds dTp = dT_prev + dq)
-        dq0 = dq1 = 0.0
+        # derivatives of the step's increment Q (u columns) and of T_prev (dT holds dTp
+        # = dT_prev + dQ); of the limits at both ends (v columns, n0)
+        dQ0 = dQ1 = 0.0
         if col < nc:
-            dq0 = kt[p, 0] * (E[k, col] - E[kprev, col])
+            dQ0 = kt[p, 0] * (E[k, col] - E[kprev, col])
         elif col < 2 * nc:
-            dq1 = kt[p, 1] * (E[k, col - nc] - E[kprev, col - nc])
-        dT0, dT1 = dT[0, col] - dq0, dT[1, col] - dq1
-        dL1 = 0.0
+            dQ1 = kt[p, 1] * (E[k, col - nc] - E[kprev, col - nc])
+        dP0, dP1 = dT[0, col] - dQ0, dT[1, col] - dQ1
+        dL1 = dLp = 0.0
         if col == cn0:
-            dL1 = mu[p]
+            dL1 = dLp = mu[p]
         elif has_normal and vcol <= col < vcol + nc:
             dL1 = mu[p] * kn[p] * E[k, col - vcol]
+            dLp = mu[p] * kn[p] * E[kprev, col - vcol]
+        ds = 0.0
+        if onset:
+            df = 2.0 * (Ts0 * (dP0 + s * dQ0) + Ts1 * (dP1 + s * dQ1)
+                        - L0 * ((1.0 - s) * dLp + s * dL1))
+            ds = -df / fs if fs != 0.0 else 0.0
+        dT0 = dP0 + ds * Q0 + s * dQ0
+        dT1 = dP1 + ds * Q1 + s * dQ1
+        dq0 = (1.0 - s) * dQ0 - ds * Q0
+        dq1 = (1.0 - s) * dQ1 - ds * Q1
         dT[0, col] = a00 * dT0 + a01 * dT1 + b00 * dq0 + b01 * dq1 + e0 * dL1
         dT[1, col] = a10 * dT0 + a11 * dT1 + b10 * dq0 + b11 * dq1 + e1 * dL1
     return True
