@@ -146,6 +146,9 @@ def run(argv: list[str]) -> int:
     parser.add_argument("case", type=Path, help="case file (TOML)")
     parser.add_argument("--out", type=Path, default=None,
                         help="output folder (default: out/<case name>)")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="compute every curve afresh (by default a curve whose inputs "
+                        "did not change since a run into the same folder is reused)")
     args = parser.parse_args(argv)
     c = _load_case("run", args.case)
     if c is None:
@@ -156,7 +159,8 @@ def run(argv: list[str]) -> int:
     t = time.perf_counter()
     with _sigterm_as_interrupt() as received:
         try:
-            path = run_case(c, out, progress=lambda msg: print(msg, flush=True))
+            path = run_case(c, out, progress=lambda msg: print(msg, flush=True),
+                            cache=not args.no_cache)
             status, message = _report_run(path, out, t)
         except KeyboardInterrupt:  # Terminated too
             why = "terminated (SIGTERM)" if received else "interrupted"

@@ -151,8 +151,8 @@ def test_the_map_points_are_solutions_at_the_peak_and_at_the_asked_frequency(coa
     with h5py.File(coarse_run / "results.h5") as f:
         curve = f["frf/curve_000"]
         points = {k: p for k, p in curve["maps"].items()}
-        assert sorted(points) == ["point_a", "point_b"]
-        peak, at = points["point_a"], points["point_b"]
+        assert sorted(points) == ["point_00", "point_01"]
+        peak, at = points["point_00"], points["point_01"]
         assert peak.attrs["what"] == "peak"
         # the peak is at least the largest computed response of the branch
         assert peak["response"][0] >= curve["response"][:, 0].max() * (1 - 1e-12)
@@ -170,7 +170,7 @@ def test_the_map_colours_of_the_nodes_equal_their_stored_states(coarse_run):
     from microslip.pipeline.app import maps
 
     with h5py.File(coarse_run / "results.h5") as f:
-        point = f["frf/curve_000/maps/point_a/patches"]
+        point = f["frf/curve_000/maps/point_00/patches"]
         for name, g in f["contact_grids"].items():
             grid = maps.PatchGrid.from_group(name, g)
             state = point[name]["state"][()]

@@ -106,17 +106,29 @@ def static_lines(static: np.ndarray, names: list[str]) -> list[tuple[str, np.nda
     return [(n, static[:, j]) for j, n in enumerate(names)]
 
 
+LETTERS = "abcdefghijklmnopqrstuvwxyz"
+
+
+def _map_groups(g: h5py.Group) -> list[tuple[str, h5py.Group, h5py.Group]]:
+    """(letter, curve, point) of every map point of an frf analysis, lettered a, b, c...
+    in curve order."""
+    out = []
+    for _, c in curves(g):
+        for _, p in sorted(c.get("maps", {}).items()):
+            out.append((LETTERS[len(out) % len(LETTERS)], c, p))
+    return out
+
+
 def map_marks(g: h5py.Group) -> dict[str, list[dict]]:
     """Per output, markers at the points that got maps (peaks, the solutions at a given
     frequency), labelled by their letter."""
     marks: dict[str, list[dict]] = {}
-    for _, c in curves(g):
+    for letter, c, p in _map_groups(g):
         outs = [_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
-        for _, p in sorted(c.get("maps", {}).items()):
-            for k, n in enumerate(outs):
-                marks.setdefault(n, []).append({
-                    "x": [p.attrs["parameter"]], "y": [p["response"][k]], "style": "ko",
-                    "label": None, "text": _text(p.attrs["letter"])})
+        for k, n in enumerate(outs):
+            marks.setdefault(n, []).append({
+                "x": [p.attrs["parameter"]], "y": [p["response"][k]], "style": "ko",
+                "label": None, "text": letter})
     return marks
 
 
@@ -164,9 +176,9 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     or, with ``at``, the computed point of each curve nearest that parameter value."""
     out = []
     par = _text(g.attrs.get("parameter", "frequency"))
-    for _, c in curves(g):
-        label = _text(c.attrs.get("label", ""))
-        if at is not None:
+    if at is not None:
+        for _, c in curves(g):
+            label = _text(c.attrs.get("label", ""))
             if "patches" not in c or not len(c["parameter"]):
                 continue
             i = int(np.argmin(np.abs(c["parameter"][()] - at)))
@@ -175,15 +187,16 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
             out.append(MapPoint(_caption(label, f"{par} {v:.6g}"), label, v,
                                 {p: pg[p]["state"][i] for p in pg},
                                 {p: pg[p]["static"][i] for p in pg}))
-            continue
-        for _, p in sorted(c.get("maps", {}).items()):
-            pg = p["patches"]
-            what = f"{_text(p.attrs['letter'])}: {_text(p.attrs['what'])}"
-            if _text(p.attrs["what"]) == "peak":
-                what += f" at {par} {float(p.attrs['parameter']):.6g}"
-            out.append(MapPoint(_caption(label, what), label, float(p.attrs["parameter"]),
-                                {k: pg[k]["state"][()] for k in pg},
-                                {k: pg[k]["static"][()] for k in pg}))
+        return out
+    for letter, c, p in _map_groups(g):
+        label = _text(c.attrs.get("label", ""))
+        pg = p["patches"]
+        what = f"{letter}: {_text(p.attrs['what'])}"
+        if _text(p.attrs["what"]) == "peak":
+            what += f" at {par} {float(p.attrs['parameter']):.6g}"
+        out.append(MapPoint(_caption(label, what), label, float(p.attrs["parameter"]),
+                            {k: pg[k]["state"][()] for k in pg},
+                            {k: pg[k]["static"][()] for k in pg}))
     return out
 
 

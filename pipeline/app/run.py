@@ -32,6 +32,7 @@ from .maps import EDGES
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
 from .results import ATTRS, ResultsWriter, undersampled_warning
+from .store import CurveStore
 
 if TYPE_CHECKING:
     from microslip.pipeline.coupling.model import PatchState
@@ -41,10 +42,15 @@ if TYPE_CHECKING:
 Progress = Callable[[str], None]
 
 
-def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> Path:
-    """Compute every analysis of ``case`` into ``out_dir``; returns results.h5."""
+def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print,
+             cache: bool = True) -> Path:
+    """Compute every analysis of ``case`` into ``out_dir``; returns results.h5.
+
+    cache: reuse the curves kept in ``out_dir/cache`` whose inputs are unchanged (and keep
+    the new ones); False computes everything afresh (and keeps nothing)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    store = CurveStore(out / "cache" / "curves" if cache else None)
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
                        case_hash=case.content_hash, case=case.data) as w:
         stopped = ""
@@ -75,7 +81,7 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print) -> 
                                                      or "coupling" in case.data):
                 warm_up(progress)  # says so when a first run compiles the contact kernels
             status, message = RUNNERS[kind](case, a, name, w, group, out, progress, drawn,
-                                            models)
+                                            models, store)
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t
@@ -324,140 +330,165 @@ def _vertex(x: np.ndarray, y: np.ndarray) -> float | None:
     return float(v) if min(x0, x2) < v < max(x0, x2) else None
 
 
-def _map_groups(cm, r: Response, solutions, rows, measure: str, letters) -> dict:
-    """The maps/ subgroups of a curve: per solution its letter, parameter, response,
-    unknowns and patch states."""
+def _map_groups(cm, r: Response, solutions, rows, measure: str) -> dict:
+    """The maps/ subgroups of a curve: per solution its parameter, response, unknowns and
+    patch states (the pictures letter them a, b, c... over the analysis)."""
     groups = {}
-    for what, v, x in solutions:
+    for k, (what, v, x) in enumerate(solutions):
         point = r.base.set(r.parameter, v)
         patches = cm.patches(x, point)
-        letter = next(letters)
-        groups[f"point_{letter}"] = {
-            ATTRS: {"what": what, "letter": letter, "parameter": v, "omega": point.omega},
+        groups[f"point_{k:02d}"] = {
+            ATTRS: {"what": what, "parameter": v, "omega": point.omega},
             "unknowns": x, "response": _response_at(r.model, x, point, rows, measure),
             "patches": {p: {"state": s.state, "static": s.static,
                             "slip_share": s.slip_share} for p, s in patches.items()}}
     return groups
 
 
-def run_frf(case, a, name, w, group, out, progress, drawn, models):
+def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
     par = a.get("parameter", "frequency")
-    names, idx = _outputs(case, a, models)
     methods = a.get("method", "arclength")
     methods = methods if isinstance(methods, list) else [methods]
-    measure = a.get("measure", "peak")
-    wanted = a.get("maps", [])
-    letters = iter("abcdefghijklmnopqrstuvwxyz")
     statuses = []
     j = 0
     for c, label, value in _family(case, a):
         for method in methods:
-            start, stop = a["start"], a["stop"]
-            if method == "natural-down":
-                start, stop = stop, start
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
-            hb = models.model(c)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
-            t = time.perf_counter()
-            base = cs.operating_point(a, c).set(par, start)
-            r = sweep(hb, par, start, stop, base,
-                      method="natural" if method.startswith("natural") else method,
-                      settings=cs.settings(c), progress=_ticker(progress, which, start, stop))
-            elapsed = time.perf_counter() - t
-            b = r.branch
-            coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx),
-                                                                hb.harmonics.n_coeffs))
-            amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
-            shown = _measure(coef, hb.harmonics, measure) if len(r) else amp
-            per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
-            data = {
-                "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
-                "coefficients": coef, "amplitude": amp, "response": shown,
-                "residual": b.residuals, "iterations": b.iterations,
-                "turning_points": np.array(b.turning_points, dtype=np.int64),
-                "unknowns": b.x, "unknown_dofs": hb.dofs,
-                "contacts": _contact_data(r, per_point),
-            }
-            if isinstance(models, CoupledModels):  # each unknown's mesh node and x/y/z
-                from microslip.pipeline.coupling.model import patch_states
-
-                cm = models.coupled(c)
-                data["unknown_nodes"] = cm.dof_nodes[hb.dofs]
-                data["unknown_directions"] = hb.dofs % 3
-                names_c = [ct.name for ct in hb.contacts]
-                data["patches"] = _patch_data([patch_states(names_c, cm.points, p)
-                                               for p in per_point])
-                if wanted and b.status != "interrupted":
-                    sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
-                    data["maps"] = _map_groups(cm, r, sols, idx, measure, letters)
-                    for m in data["maps"].values():
-                        progress(f"{which}: map point {m[ATTRS]['letter']}, {m[ATTRS]['what']}"
-                                 f" at {par} {m[ATTRS]['parameter']:.6g}: response "
-                                 f"{m['response'][0]:.4g} m")
-                    missing = [x for x in wanted if x != "peak" and not any(
-                        s[1] == x for s in sols)]
-                    if missing:
-                        progress(f"warning: {which}: no solution found at {par} = "
-                                 f"{', '.join(f'{x:g}' for x in missing)} for its maps")
-            attrs = {"label": tag, "method": method, "measure": measure,
-                     "family_key": (a.get("family") or {}).get("key", ""),
-                     "family_value": value if value is not None else "", "status": b.status,
-                     "message": b.message, "turning_points": b.turning_points,
-                     "elapsed_s": elapsed, "outputs": names,
-                     "harmonic_orders": list(hb.harmonics.orders),
-                     "samples": hb.harmonics.n_samples,
-                     "mass_multiplier": base.mass_multiplier}
-            w.write_group(group, f"curve_{j:03d}", data, attrs)
+            key = store.key(c.data, a, method=method, curve="frf")
+            cname = f"curve_{j:03d}"
+            if store.load(key, group, cname):
+                g = group[cname]
+                status, message = str(g.attrs["status"]), str(g.attrs["message"])
+                progress(f"{which}: {g['parameter'].shape[0]} points, {status}, from the "
+                         f"cache (computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
+            else:
+                status, message = _frf_curve(c, a, method, tag, value, which, w, group, cname,
+                                             progress, models)
+                if status in ("complete", "stopped"):
+                    store.save(key, group[cname])
             w.flush()
             j += 1
-            statuses.append((b.status, b.message))
-            progress(f"{which}: {len(r)} points, {b.status} "
-                     f"({elapsed:.2f} s) {b.message}".rstrip())
-            coarse = undersampled_warning({k: cd["undersampled"] for k, cd in
-                                           data["contacts"].items()}, hb.harmonics.n_samples)
+            statuses.append((status, message))
+            g = group[cname]
+            coarse = undersampled_warning(
+                {k: cd["undersampled"][()] for k, cd in g["contacts"].items()},
+                int(g.attrs["samples"]))
             if coarse:
-                where = " ".join(x for x in (f"[{name}] curve {j}", tag) if x)
-                progress(f"warning: {where}: {coarse}")
-            if b.status == "interrupted":
+                progress(f"warning: {which}: {coarse}")
+            if status == "interrupted":
                 break
         if statuses and statuses[-1][0] == "interrupted":
             break
     if isinstance(models, CoupledModels) and par == "frequency" and statuses and \
             statuses[-1][0] != "interrupted":
-        _linear_limits(models, case, a, names, measure, w, group)
+        _linear_limits(models, case, a, w, group, store, progress, name)
     group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
     drawn[name] = dict(zip(("parameter", "series", "static"), pictures.frf_series(group)))
     pictures.frf(group, name, out)
     return _worst(statuses)
 
 
+def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w, group,
+               cname: str, progress: Progress, models) -> tuple[str, str]:
+    """Compute one FRF branch (and its map points) into ``group[cname]``; (status,
+    message)."""
+    par = a.get("parameter", "frequency")
+    names, idx = _outputs(c, a, models)
+    measure = a.get("measure", "peak")
+    wanted = a.get("maps", [])
+    start, stop = a["start"], a["stop"]
+    if method == "natural-down":
+        start, stop = stop, start
+    hb = models.model(c)
+    t = time.perf_counter()
+    base = cs.operating_point(a, c).set(par, start)
+    r = sweep(hb, par, start, stop, base,
+              method="natural" if method.startswith("natural") else method,
+              settings=cs.settings(c), progress=_ticker(progress, which, start, stop))
+    elapsed = time.perf_counter() - t
+    b = r.branch
+    coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
+    amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
+    shown = _measure(coef, hb.harmonics, measure) if len(r) else amp
+    per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
+    data = {
+        "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
+        "coefficients": coef, "amplitude": amp, "response": shown,
+        "residual": b.residuals, "iterations": b.iterations,
+        "turning_points": np.array(b.turning_points, dtype=np.int64),
+        "unknowns": b.x, "unknown_dofs": hb.dofs,
+        "contacts": _contact_data(r, per_point),
+    }
+    if isinstance(models, CoupledModels):  # each unknown's mesh node and x/y/z
+        from microslip.pipeline.coupling.model import patch_states
+
+        cm = models.coupled(c)
+        data["unknown_nodes"] = cm.dof_nodes[hb.dofs]
+        data["unknown_directions"] = hb.dofs % 3
+        names_c = [ct.name for ct in hb.contacts]
+        data["patches"] = _patch_data([patch_states(names_c, cm.points, p)
+                                       for p in per_point])
+        if wanted and b.status != "interrupted":
+            sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
+            data["maps"] = _map_groups(cm, r, sols, idx, measure)
+            for m in data["maps"].values():
+                progress(f"{which}: map point, {m[ATTRS]['what']} at {par} "
+                         f"{m[ATTRS]['parameter']:.6g}: response {m['response'][0]:.4g} m")
+            missing = [x for x in wanted if x != "peak" and not any(s[1] == x for s in sols)]
+            if missing:
+                progress(f"warning: {which}: no solution found at {par} = "
+                         f"{', '.join(f'{x:g}' for x in missing)} for its maps")
+    attrs = {"label": tag, "method": method, "measure": measure,
+             "family_key": (a.get("family") or {}).get("key", ""),
+             "family_value": value if value is not None else "", "status": b.status,
+             "message": b.message, "turning_points": b.turning_points,
+             "elapsed_s": elapsed, "outputs": names,
+             "harmonic_orders": list(hb.harmonics.orders),
+             "samples": hb.harmonics.n_samples, "mass_multiplier": base.mass_multiplier}
+    w.write_group(group, cname, data, attrs)
+    progress(f"{which}: {len(r)} points, {b.status} ({elapsed:.2f} s) {b.message}".rstrip())
+    return b.status, b.message
+
+
 def _attr_list(values: list[str]) -> str:
     return json.dumps(list(values))
 
 
-def _linear_limits(models: CoupledModels, case: cs.Case, a: dict, names: list[str],
-                   measure: str, w, group) -> None:
+def _linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
+                   store, progress: Progress, name: str) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
     directly (linear): written beside the curves (the pictures draw them with them). The
     stuck system once per damper mass the curves have (a mass family: one each)."""
+    names = a.get("outputs", models.names(case))
+    measure = a.get("measure", "peak")
     ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
-    variants = {}  # mass multiplier -> (coupled model, operating point)
+    variants = {}  # mass multiplier -> (case variant, coupled model, operating point)
     for c, _, _ in _family(case, a):
         point = cs.operating_point(a, c)
-        variants.setdefault(point.mass_multiplier, (models.coupled(c), point))
+        variants.setdefault(point.mass_multiplier, (c, point))
     masses = sorted(variants)
     runs = [("free", "free (no damper)", masses[0], "linear_free")]
     for k, m in enumerate(masses):
         runs.append(("stuck", "fully stuck" + (f", mass x {m:g}" if len(masses) > 1 else ""),
                      m, "linear_stuck" + (f"_{k:03d}" if len(masses) > 1 else "")))
+    t = time.perf_counter()
     for springs, label, m, key in runs:
-        cm, base = variants[m]
+        c, base = variants[m]
+        stored = store.key(c.data, a, curve="linear", springs=springs, points=LINEAR_POINTS,
+                           outputs=names)
+        if store.load(stored, group, key):
+            group[key].attrs["label"] = label
+            continue
+        cm = models.coupled(c)
         coef = np.array([cm.linear_outputs(base.set("frequency", x), springs, names)
                          for x in ws])
         shown = _measure(coef, cm.hb.harmonics, measure)
         w.write_group(group, key, {"omega": ws, "coefficients": coef, "response": shown},
                       {"label": label, "status": "complete", "message": "linear, solved "
                        "directly", "mass_multiplier": m})
+        store.save(stored, group[key])
+    progress(f"[{name}] linear limits ({len(runs)} curves) in {time.perf_counter() - t:.1f} s")
 
 
 LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
@@ -474,61 +505,94 @@ def _peak_ticker(progress: Progress, name: str, label: str, par: str):
     return tick
 
 
-def run_peak(case, a, name, w, group, out, progress, drawn, models):
+def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
     par = a["parameter"]
-    space = np.geomspace if a.get("spacing", "linear") == "log" else np.linspace
-    values = space(a["start"], a["stop"], a.get("points", 25))
-    k = _outputs(case, {"outputs": [a["output"]]}, models)[1][0]
-    lo, hi = a["window"]
-    vibration = a.get("measure", "peak") == "vibration"
     statuses = []
     for j, (c, label, fvalue) in enumerate(_family(case, a)):
-        hb = models.model(c)
-        base = cs.operating_point({"start": lo}, c)
-        t = time.perf_counter()
-        tick = _peak_ticker(progress, name, label, par)
-        if a.get("tracking", "continuation") == "continuation":
-            try:
-                pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=cs.settings(c),
-                                progress=tick, vibration=vibration)
-            except KeyboardInterrupt:
-                statuses.append(("interrupted", "interrupted by the user"))
-                break
-            omega, amp, how = list(pc.omega), list(pc.amplitude), pc.how
-            done = [bool(np.isfinite(x)) for x in amp]
-            statuses.append(("complete", "") if all(done) else
-                            ("stopped", "no solution at some values"))
+        key = store.key(c.data, a, curve="peak")
+        cname = f"curve_{j:03d}"
+        if store.load(key, group, cname):
+            g = group[cname]
+            status, message = str(g.attrs["status"]), str(g.attrs["message"])
+            progress(f"[{name}] {label or 'curve'}: {g['parameter'].shape[0]} values, "
+                     f"{status}, from the cache (computed in {g.attrs['elapsed_s']:.1f} s)")
         else:
-            omega, amp, done, how = [], [], [], []
-            for i, v in enumerate(values):
-                r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=cs.settings(c))
-                if r.branch.status == "interrupted":
-                    statuses.append(("interrupted", r.branch.message))
-                    break
-                wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
-                omega.append(wk)
-                amp.append(ak)
-                done.append(r.branch.complete)
-                how.append("swept")
-                statuses.append((r.branch.status, r.branch.message))
-                tick(i, v, wk, ak, "swept")
-        n = len(amp)
-        data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
-                "complete": np.array(done), "how": np.array(how)}
-        w.write_group(group, f"curve_{j:03d}", data, {
-            "label": label or f"peak of {a['output']}", "family_value": fvalue or "",
-            "status": _worst(statuses)[0], "message": _worst(statuses)[1],
-            "elapsed_s": time.perf_counter() - t})
+            status, message = _peak_curve(c, a, label, fvalue, name, w, group, cname,
+                                          progress, models)
+            if status in ("complete", "stopped"):
+                store.save(key, group[cname])
+        statuses.append((status, message))
         w.flush()
-        if statuses and statuses[-1][0] == "interrupted":
+        if status == "interrupted":
             break
     if a.get("levels", False) and isinstance(models, CoupledModels) and not (
             statuses and statuses[-1][0] == "interrupted"):
         c = case.with_values(a.get("set", {}))
-        _peak_levels(models.coupled(c), cs.operating_point({"start": lo}, c), par, values,
-                     a["output"], (lo, hi), vibration, w, group, progress, name)
+        key = store.key(c.data, a, curve="levels", points=LEVEL_POINTS)
+        if not (store.load(key + "f", group, "level_free")
+                and store.load(key + "s", group, "level_stuck")):
+            for k in ("level_free", "level_stuck"):
+                if k in group:
+                    del group[k]
+            _peak_levels(models.coupled(c), cs.operating_point({"start": a["window"][0]}, c),
+                         par, _peak_values(a), a["output"], tuple(a["window"]),
+                         a.get("measure", "peak") == "vibration", w, group, progress, name)
+            store.save(key + "f", group["level_free"])
+            store.save(key + "s", group["level_stuck"])
     pictures.peak(group, name, out)
     return _worst(statuses)
+
+
+def _peak_values(a: dict) -> np.ndarray:
+    space = np.geomspace if a.get("spacing", "linear") == "log" else np.linspace
+    return space(a["start"], a["stop"], a.get("points", 25))
+
+
+def _peak_curve(c: cs.Case, a: dict, label: str, fvalue, name: str, w, group, cname: str,
+                progress: Progress, models) -> tuple[str, str]:
+    """One peak curve (a family value's) into ``group[cname]``; (status, message)."""
+    par = a["parameter"]
+    values = _peak_values(a)
+    k = _outputs(c, {"outputs": [a["output"]]}, models)[1][0]
+    lo, hi = a["window"]
+    vibration = a.get("measure", "peak") == "vibration"
+    hb = models.model(c)
+    base = cs.operating_point({"start": lo}, c)
+    t = time.perf_counter()
+    tick = _peak_ticker(progress, name, label, par)
+    statuses = []
+    if a.get("tracking", "continuation") == "continuation":
+        try:
+            pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=cs.settings(c),
+                            progress=tick, vibration=vibration)
+        except KeyboardInterrupt:
+            return "interrupted", "interrupted by the user"
+        omega, amp, how = list(pc.omega), list(pc.amplitude), pc.how
+        done = [bool(np.isfinite(x)) for x in amp]
+        statuses.append(("complete", "") if all(done) else
+                        ("stopped", "no solution at some values"))
+    else:
+        omega, amp, done, how = [], [], [], []
+        for i, v in enumerate(values):
+            r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=cs.settings(c))
+            if r.branch.status == "interrupted":
+                statuses.append(("interrupted", r.branch.message))
+                break
+            wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
+            omega.append(wk)
+            amp.append(ak)
+            done.append(r.branch.complete)
+            how.append("swept")
+            statuses.append((r.branch.status, r.branch.message))
+            tick(i, v, wk, ak, "swept")
+    n = len(amp)
+    data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
+            "complete": np.array(done), "how": np.array(how)}
+    status, message = _worst(statuses)
+    w.write_group(group, cname, data, {
+        "label": label or f"peak of {a['output']}", "family_value": fvalue or "",
+        "status": status, "message": message, "elapsed_s": time.perf_counter() - t})
+    return status, message
 
 
 LEVEL_POINTS = 5  # parameter values at which the fully stuck peak level is computed
@@ -581,7 +645,7 @@ def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
     return (float(res.x), float(-res.fun)) if -res.fun >= a[i] else (float(ws[i]), float(a[i]))
 
 
-def run_loops(case, a, name, w, group, out, progress, drawn, models=None):
+def run_loops(case, a, name, w, group, out, progress, drawn, models=None, store=None):
     table = next(c for c in case.data["contacts"] if c.get("name") == a["contact"])
     amps = np.asarray(a["amplitudes"], dtype=float)
     base = cs.contact_elements(table)
@@ -631,7 +695,7 @@ def _time_model(case: cs.Case, a: dict):
     return c, hb, names, idx, tm, loads
 
 
-def run_dti(case, a, name, w, group, out, progress, drawn, models=None):
+def run_dti(case, a, name, w, group, out, progress, drawn, models=None, store=None):
     from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)
@@ -712,7 +776,8 @@ def _join_responses(parts):
                        parts[-1].end)
 
 
-def run_transient(case, a, name, w, group, out, progress, drawn, models=None):
+def run_transient(case, a, name, w, group, out, progress, drawn, models=None,
+                  store=None):
     from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)

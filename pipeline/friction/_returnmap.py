@@ -336,11 +336,24 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
       limit at one sample is reached in finitely many periods, a few tens in
       the cases met).
 
+    In 2D the plain march is first watched for CORNER_PERIODS periods
+    (:func:`_plain_corner`): a march that keeps slipping at the same few samples is
+    closing in on a corner of the stuck set, the one its own state approaches (a
+    Newton jump lands near another corner by chance, and which one it was changed
+    from one input to the next: the forces jumped by a percent).
+
     Returns the periods, how the cycle was reached (PLAIN: by the march alone,
     replayable with derivatives; SHOT: an isolated cycle, by jumps; CORNER) and
     the corner's samples a, b (-1 unless CORNER)."""
     d, ns = u.shape[1], u.shape[2]
     shooting = rtol > 0.0 and not want_jac
+    if d == 2 and shooting:
+        periods, a, b = _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp,
+                                      dT, G, T_out, N_out, state_out)
+        if a >= 0:
+            return periods, CORNER, a, b
+        if a == -2:  # the plain march settled by itself
+            return periods, PLAIN, -1, -1
     periods, jumped, isolated, a, b = _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
                                                max_periods, rtol, shooting, T, Tp, dT, G,
                                                T_out, N_out, state_out)
@@ -362,6 +375,104 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
                                    max_periods, rtol, np.bool_(False), T, Tp, dT, G, T_out,
                                    N_out, state_out)
     return periods, PLAIN, -1, -1
+
+
+CORNER_PERIODS = 10  # plain periods watched for a corner of the stuck set (2D)
+CORNER_SAMPLES = 4  # at most this many slipping samples per period to try pairs of
+
+
+@njit(cache=True)
+def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_out, N_out,
+                  state_out):  # pragma: no cover
+    """The plain march (no jumps, from the start convention) for up to CORNER_PERIODS
+    periods, watched for a corner of the stuck set from period SHOOT_AFTER + 1 on: the same
+    2..CORNER_SAMPLES samples slipping in two periods running, the contact closed all
+    period. The corner is then
+    the crossing of two of their limit circles that satisfies every sample's limit (the
+    stuck cycle ``T = c + kt u`` through it), the feasible one nearest the march's own
+    state; it is marched one period to confirm it sticks everywhere.
+
+    Returns (periods, a, b): the corner's samples; a = -2 if the march settled by itself
+    (the outputs then hold its last period, as _periods leaves them); a = -1 if neither
+    (the caller starts over)."""
+    d, ns = u.shape[1], u.shape[2]
+    no = np.bool_(False)
+    closed = n0[p] + kn[p] * v[p, ns - 1] > 0.0
+    for j in range(d):
+        T[j] = kt[p, j] * u[p, j, ns - 1] if closed else 0.0
+    Tend = T.copy()
+    last = np.full(CORNER_SAMPLES, -1)
+    slips = np.full(CORNER_SAMPLES, -1)
+    for period in range(CORNER_PERIODS):
+        was_open = not closed if period == 0 else state_out[p, ns - 1] == OPEN
+        slipped = period > 0 and state_out[p, ns - 1] == SLIP
+        scale = _steps(p, np.int64(0), ns, was_open, u, v, kt, kn, mu, n0, E, has_normal, no,
+                       no, T, Tp, dT, G, T_out, N_out, state_out, np.int64(-1), slipped)
+        diff = 0.0
+        for j in range(d):
+            diff = max(diff, abs(T[j] - Tend[j]))
+        if diff <= rtol * scale or scale == 0.0:
+            return period + 1, -2, -2
+        for j in range(d):
+            Tend[j] = T[j]
+        count = 0
+        opened = False
+        slips[:] = -1
+        for k in range(ns):
+            if state_out[p, k] == OPEN:
+                opened = True
+            elif state_out[p, k] == SLIP:
+                if count < CORNER_SAMPLES:
+                    slips[count] = k
+                count += 1
+        same = 2 <= count <= CORNER_SAMPLES and not opened
+        for i in range(CORNER_SAMPLES):
+            same = same and slips[i] == last[i]
+        last[:] = slips
+        if not same or period < SHOOT_AFTER:  # a march settling within a few periods stays
+            continue                            # plain (replayed as it is, to the bit)
+        # the feasible crossing nearest the march's state c = T - kt u (end of period)
+        c0 = T_out[p, 0, ns - 1] - kt[p, 0] * u[p, 0, ns - 1]
+        c1 = T_out[p, 1, ns - 1] - kt[p, 1] * u[p, 1, ns - 1]
+        best, ba, bb, bc0, bc1 = np.inf, -1, -1, 0.0, 0.0
+        for i in range(count):
+            for k in range(i + 1, count):
+                ok, x0, x1 = _corner_point(p, slips[i], slips[k], u, v, kt, kn, mu, n0, c0,
+                                           c1)
+                if not ok or not _stuck_everywhere(p, x0, x1, u, v, kt, kn, mu, n0):
+                    continue
+                dist = (x0 - c0) ** 2 + (x1 - c1) ** 2
+                if dist < best:
+                    best, ba, bb, bc0, bc1 = dist, slips[i], slips[k], x0, x1
+        if ba < 0:
+            continue
+        T[0] = bc0 + kt[p, 0] * u[p, 0, ns - 1]
+        T[1] = bc1 + kt[p, 1] * u[p, 1, ns - 1]
+        _steps(p, np.int64(0), ns, no, u, v, kt, kn, mu, n0, E, has_normal, no, no, T, Tp, dT,
+               G, T_out, N_out, state_out, np.int64(-1), no)
+        for k in range(ns):
+            if state_out[p, k] != STICK:
+                return period + 2, -1, -1
+        return period + 2, ba, bb
+    return CORNER_PERIODS, -1, -1
+
+
+@njit(cache=True)
+def _stuck_everywhere(p, c0, c1, u, v, kt, kn, mu, n0):  # pragma: no cover
+    """Whether the stuck cycle T = c + kt u is within every sample's limit (to the stick
+    slack) with the contact closed all period."""
+    ns = u.shape[2]
+    for k in range(ns):
+        N = n0[p] + kn[p] * v[p, k]
+        if N <= 0.0:
+            return False
+        t0 = c0 + kt[p, 0] * u[p, 0, k]
+        t1 = c1 + kt[p, 1] * u[p, 1, k]
+        lim = mu[p] * N
+        slack = lim + kt[p, 0] * abs(u[p, 0, k]) + kt[p, 1] * abs(u[p, 1, k])
+        if np.sqrt(t0 * t0 + t1 * t1) > lim + 1e3 * STICK_SLACK * slack:
+            return False
+    return True
 
 
 @njit(cache=True)

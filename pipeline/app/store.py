@@ -1,0 +1,93 @@
+"""Computed curves kept between runs: a re-run recomputes only what changed.
+
+Each curve an analysis computes (an FRF branch with its maps, a linear limit, a peak curve)
+is a pure function of the case variant that produced it (the case with the analysis' ``set``
+and family value applied), of the analysis' own keys and of the code. Its results.h5 group is
+stored under ``<out>/cache/curves/<key>.h5``, the key a SHA-256 of those inputs (the code by a
+digest of the package's source files: any change of the code invalidates every curve).
+Only finished curves are stored (complete, or stopped for a reason a re-run would meet
+again); an interrupted one is computed again. The files are HDF5, safe to open.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import h5py
+
+#: Case tables that do not change what a curve computes.
+NEUTRAL = ("title", "description", "analysis")
+#: Analysis keys that do not change a curve (naming, drawing, the family itself: its value
+#: is in the case variant).
+DRAWING = ("name", "family", "set", "map_types")
+FORMAT = 1  # bump when the stored layout changes
+
+
+def code_digest() -> str:
+    """SHA-256 of the package's Python sources (file names and contents)."""
+    root = Path(__file__).resolve().parents[2]
+    h = hashlib.sha256()
+    for path in sorted(root.glob("**/*.py")):
+        rel = path.relative_to(root)
+        if rel.parts[0] in ("tests", "cases") or any(p.startswith(".") for p in rel.parts):
+            continue
+        h.update(str(rel).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+class CurveStore:
+    """The curves of one output folder. ``folder`` None: a store that keeps nothing."""
+
+    def __init__(self, folder: Path | None, code: str | None = None):
+        self.folder = folder
+        self.code = code if code is not None else (code_digest() if folder else "")
+        self.hits = 0
+        self.misses = 0
+
+    def key(self, data: Mapping[str, Any], analysis: Mapping[str, Any],
+            **extra: Any) -> str:
+        """The key of a curve: the case variant's computing tables, the analysis' computing
+        keys and ``extra`` (method, family value, what is computed)."""
+        inputs = {"case": {k: v for k, v in data.items() if k not in NEUTRAL},
+                  "analysis": {k: v for k, v in analysis.items() if k not in DRAWING},
+                  "extra": extra, "code": self.code, "format": FORMAT}
+        text = json.dumps(inputs, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+    def _path(self, key: str) -> Path:
+        assert self.folder is not None
+        return self.folder / f"{key}.h5"
+
+    def load(self, key: str, parent: h5py.Group, name: str) -> bool:
+        """Copy a stored curve into ``parent[name]``; False if there is none (or it cannot
+        be read: it is then computed again)."""
+        if self.folder is None or not self._path(key).is_file():
+            self.misses += 1
+            return False
+        try:
+            with h5py.File(self._path(key), "r") as f:
+                f.copy(f["curve"], parent, name=name)
+        except (OSError, KeyError):
+            self.misses += 1
+            return False
+        self.hits += 1
+        return True
+
+    def save(self, key: str, group: h5py.Group) -> None:
+        """Keep a written curve group (atomically: a partial file is never read)."""
+        if self.folder is None:
+            return
+        self.folder.mkdir(parents=True, exist_ok=True)
+        tmp = self._path(key).with_suffix(".tmp")
+        with h5py.File(tmp, "w") as f:
+            group.file.copy(group, f, name="curve")
+        os.replace(tmp, self._path(key))
+
+    def has(self, key: str) -> bool:
+        return self.folder is not None and self._path(key).is_file()
