@@ -13,9 +13,10 @@ replayed with derivatives; ``corner``, the march closes in on a corner of the st
 cycle is the stuck one touching the limit at both, differentiated implicitly;
 (a third path, ``remarched``: a Newton jump on the periodicity landed in the stuck set
 elsewhere and the march is repeated without jumps, is now rare: the 2D plain march is watched
-for its own corner before any jump, and its two former cases close on corners). The 1D laws shake down in two periods (a 1D slip erases
-the memory); there the failure was the sample touching the limit flipping between stick
-and slip with the last bits of the forces, and with it the sub-sample kink term.
+for its own corner before any jump, and its two former cases close on corners). The 1D
+laws shake down in two periods (a 1D slip erases the memory); there the failure was the
+sample touching the limit flipping between stick and slip with the last bits of the forces,
+and with it the sub-sample kink term.
 """
 
 import numpy as np

@@ -66,6 +66,9 @@ def test_the_shipped_case_is_valid():
      "maps: 'top' is neither 'peak' nor a parameter value in the range 3200..3300"),
     (lambda d: d["analysis"][0].update(maps=[4000.0]), "maps: 4000.0 is neither"),
     (lambda d: d["analysis"][0].update(map_types=["shape"]), "map_types = ['shape']"),
+    (lambda d: d["coupling"].update(excitation=0), "coupling.excitation = 0: must be > 0"),
+    (lambda d: d["coupling"].update(static_anchor=2.0), "static_anchor = 2.0"),
+    (lambda d: d["analysis"][0].update(normalise="yes"), "normalise = 'yes'"),
 ])
 def test_faults_are_reported_before_any_meshing(monkeypatch, mutate, expected):
     monkeypatch.setitem(geometry.MODELS, "blisk_sector",
@@ -79,6 +82,13 @@ def coarse_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("coarse")
     run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), out, progress=lambda s: None)
     return out
+
+
+def test_the_multipliers_of_the_coupling_table_set_the_operating_point():
+    data = copy.deepcopy(CASE)
+    data["coupling"].update(excitation=3.0, mass_multiplier=5.0)
+    point = cs.operating_point({"start": 3100.0}, cs.Case(data, "c.toml"))
+    assert (point.omega, point.excitation, point.mass_multiplier) == (3100.0, 3.0, 5.0)
 
 
 def test_a_coupled_case_runs_end_to_end(coarse_run):
@@ -212,3 +222,43 @@ def test_render_rejects_bad_input_with_one_line_and_exit_2(coarse_run, capsys, a
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert expected in err and "Traceback" not in err
+
+
+def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coarse_run,
+                                                                            tmp_path):
+    import shutil
+
+    shutil.copytree(coarse_run, tmp_path, dirs_exist_ok=True)
+    lines: list[str] = []
+    run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), tmp_path, progress=lines.append)
+    assert any("curve 1: 1" in x or "from the cache" in x for x in lines)
+    assert not any(" point 1, value" in x for x in lines)  # no continuation ran
+    with h5py.File(coarse_run / "results.h5") as a, h5py.File(tmp_path / "results.h5") as b:
+        for key in ("parameter", "response", "unknowns"):
+            np.testing.assert_array_equal(a["frf/curve_000"][key][()],
+                                          b["frf/curve_000"][key][()])
+        np.testing.assert_array_equal(a["frf/linear_stuck/response"][()],
+                                      b["frf/linear_stuck/response"][()])
+    # another damper mass: that curve (and its stuck limit) again, the free limit reused
+    changed = copy.deepcopy(CASE)
+    changed["coupling"]["mass_multiplier"] = 3.0
+    lines.clear()
+    run_case(cs.Case(changed, "coarse.toml"), tmp_path, progress=lines.append)
+    assert any(" point 1, value" in x for x in lines)
+    assert not any("from the cache" in x for x in lines if "curve 1" in x)
+    with h5py.File(tmp_path / "results.h5") as f:
+        assert f["frf/curve_000"].attrs["mass_multiplier"] == 3.0
+        assert f["frf/linear_stuck"].attrs["mass_multiplier"] == 3.0
+
+
+def test_no_cache_computes_afresh_and_keeps_nothing(tmp_path):
+    from microslip.pipeline.app.store import CurveStore
+
+    store = CurveStore(None)
+    key = store.key({"a": 1}, {"type": "frf"}, method="arclength")
+    assert not store.has(key) and store.key({"a": 1}, {"type": "frf", "name": "x"},
+                                            method="arclength") == key
+    # a drawing key does not change the curve; a computing key does
+    assert store.key({"a": 1}, {"type": "frf", "map_types": ["status"]},
+                     method="arclength") == key
+    assert store.key({"a": 2}, {"type": "frf"}, method="arclength") != key

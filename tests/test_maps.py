@@ -101,3 +101,54 @@ def test_an_off_screen_status_map_is_a_png_of_the_asked_size(tmp_path):
     hits = np.all(np.abs(image[strip: strip + panel[1]] - open_rgb) < 3, axis=-1)
     assert hits.sum() > 50  # the open node's cell is drawn in the map itself
 
+
+
+def test_the_slip_at_each_peak_is_the_share_of_slipping_pairs_against_the_family(tmp_path):
+    import h5py
+
+    from microslip.pipeline.app import pictures
+
+    states = {1.0: ([STICK] * 5 + [STICK_SLIP], [STICK] * 6),
+              3.0: ([STICK_SLIP] * 3 + [STICK] * 3, [GROSS_SLIP, PARTIAL_LIFTOFF] + [STICK] * 4)}
+    with h5py.File(tmp_path / "r.h5", "w") as f:
+        g = f.create_group("frf")
+        g.attrs["family"] = '{"key": "coupling.excitation", "label": "excitation [N]"}'
+        for j, (value, (left, right)) in enumerate(states.items()):
+            c = g.create_group(f"curve_{j:03d}")
+            c.attrs["family_value"] = value
+            p = c.create_group("maps/point_00")
+            p.attrs["what"] = "peak"
+            p.create_dataset("patches/left/state", data=np.array(left, dtype=np.int8))
+            p.create_dataset("patches/right/state", data=np.array(right, dtype=np.int8))
+        x, shares = pictures.slip_at_peaks(g)
+        np.testing.assert_array_equal(x, [1.0, 3.0])
+        np.testing.assert_allclose(shares["left"], [100 / 6, 50.0])
+        np.testing.assert_allclose(shares["right"], [0.0, 100 / 6])  # lift-off is not slip
+        np.testing.assert_allclose(shares["all patches"], [100 / 12, 400 / 12])
+        np.testing.assert_allclose(shares["all patches, not stuck (slip or lift-off)"],
+                                   [100 / 12, 500 / 12])
+        assert pictures.slip_growth(g, "frf", tmp_path) == [tmp_path / "frf_slip.png"]
+    assert (tmp_path / "frf_slip.png").stat().st_size > 10_000
+
+
+def test_the_refined_peak_of_a_map_is_the_golden_section_peak():
+    # the Jenkins oscillator's FRF: the maps' peak (successive parabolas, <= 8 solves) against
+    # Response.peak (golden section to 1e-9 of the bracket, ~45 solves): the same maximum
+    from microslip.pipeline.app.run import map_solutions
+    from microslip.pipeline.bench.demos import jenkins_oscillator
+    from microslip.pipeline.solve.continuation import Settings
+    from microslip.pipeline.solve.hbm import OperatingPoint
+    from microslip.pipeline.solve.response import sweep
+
+    hb = jenkins_oscillator(3, 128)
+    r = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5), settings=Settings(max_step=0.2))
+    (what, w, x), = map_solutions(r, ["peak"], [0], "peak", Settings(tol=1e-11))
+    w_ref, a_ref = r.peak(0)
+    a = hb.harmonics.peak(hb.recover(x, OperatingPoint(w))[0])
+    assert what == "peak"
+    # the top is a kink (a stick-slip transition of the sampled period): there the amplitude
+    # changes linearly, ~1.4 per rad/s, and the maps stop at 1e-4 of the 2.6e-3 rad/s
+    # bracket: ~4e-7 of the amplitude at most; 1e-6 (golden section: to 1e-9)
+    assert a == pytest.approx(a_ref, rel=1e-6)
+    assert w == pytest.approx(w_ref, rel=1e-4)
+    assert a >= np.max(r.amplitude([0])) - 1e-15  # never below the computed points

@@ -76,7 +76,7 @@ SOLVER_KEYS = {"tol", "max_iter", "step", "min_step", "max_step", "max_turn", "t
                "max_points", "sub_sample"}
 ANALYSIS_KEYS = {
     "frf": {"type", "name", "parameter", "start", "stop", "method", "frequency", "outputs",
-            "family", "set", "measure", "maps", "map_types"},
+            "family", "set", "measure", "maps", "map_types", "normalise"},
     "peak": {"type", "name", "parameter", "start", "stop", "window", "output", "points", "set",
              "family", "spacing", "tracking", "measure", "levels"},
     "loops": {"type", "name", "contact", "u", "u2", "v", "amplitudes", "scale", "samples"},
@@ -501,6 +501,9 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
             _family(pre, fam, data, out)
         if kind == "frf" and ("maps" in a or "map_types" in a):
             _maps(pre, a, data, out)
+        if kind == "frf" and not isinstance(a.get("normalise", False), bool):
+            out.append(f"{pre}.normalise = {a['normalise']!r}: expected true or false (the "
+                       "response per unit of the excitation multiplier)")
     if kind == "peak" and a.get("measure", "peak") not in ("peak", "vibration"):
         out.append(f"{pre}.measure = {a.get('measure')!r}: expected 'peak' or 'vibration'")
     if kind == "peak" and "levels" in a and not isinstance(a["levels"], bool):
@@ -944,8 +947,10 @@ def model(case: Case) -> HarmonicBalance:
 
 def operating_point(analysis: dict, case: Case | None = None) -> OperatingPoint:
     """The fixed values of the parameters an analysis does not sweep (a coupled case's
-    damper mass multiplier from [coupling] mass_multiplier)."""
+    damper mass multiplier and excitation multiplier from [coupling] mass_multiplier and
+    excitation)."""
     par = analysis.get("parameter", "frequency")
     omega = analysis["start"] if par == "frequency" else analysis["frequency"]
-    mass = 1.0 if case is None else case.data.get("coupling", {}).get("mass_multiplier", 1.0)
-    return OperatingPoint(float(omega), mass_multiplier=float(mass))
+    table = {} if case is None else case.data.get("coupling", {})
+    return OperatingPoint(float(omega), excitation=float(table.get("excitation", 1.0)),
+                          mass_multiplier=float(table.get("mass_multiplier", 1.0)))

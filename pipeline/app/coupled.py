@@ -7,6 +7,7 @@ speed = "frequency"          # centrifugal load's speed: rad/s, or "frequency": 
 centrifugal = ["damper"]     # bodies under centrifugal load (default: none)
 mass_bodies = ["damper"]     # bodies the mass multiplier scales (default: the non-cyclic ones)
 mass_multiplier = 1.0        # their mass as a multiple of the meshed one (analyses may sweep it)
+excitation = 1.0             # multiplier of every load (a family over it: excitation levels)
 static_anchor = 1e-3         # order-0 spring on each pair's mean tangential slip, x kt (0: none)
 [[coupling.contacts]]        # one per patch: a contact element per node pair
 patch = "damper_left"
@@ -48,7 +49,7 @@ from microslip.pipeline.coupling.spec import (
 from .checks import is_int, is_number, number, unknown_keys
 
 KEYS = {"engine_order", "speed", "centrifugal", "mass_bodies", "mass_multiplier", "contacts",
-        "loads", "outputs", "static_anchor"}
+        "loads", "outputs", "static_anchor", "excitation"}
 CONTACT_KEYS = {"patch", "mu", "interference", "elements"}
 LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase"}
 OUTPUT_KEYS = {"name", "node_set", "direction"}
@@ -100,8 +101,9 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
                 if b not in names["bodies"]:
                     out.append(f"coupling.{key}: {b!r} is not a body; bodies: "
                                f"{list(names['bodies'])}")
-    if "mass_multiplier" in table:
-        number("coupling.mass_multiplier", table["mass_multiplier"], out, positive=True)
+    for key in ("mass_multiplier", "excitation"):
+        if key in table:
+            number(f"coupling.{key}", table[key], out, positive=True)
     anchor = table.get("static_anchor", 1e-3)
     if not (is_number(anchor) and 0 <= anchor < 1):
         out.append(f"coupling.static_anchor = {anchor!r}: expected a ratio 0 <= r < 1 of the "

@@ -220,18 +220,25 @@ def _outline(pl, grid: PatchGrid) -> None:
                         justification_horizontal="center")
 
 
+FILL = 0.55  # share of a panel's height (or width) the patch fills
+LOWER = 0.12  # the patch sits this share of the panel's height below its centre (the
+              # caption and the high-radius label above it keep their room)
+
+
 def _view(pl, caption: str, grid: PatchGrid, aspect: float) -> None:
-    """Caption, and the camera on the map plane with the patch filling ~70 % of the panel
-    (``aspect``: its width / height)."""
+    """Caption, and the camera on the map plane with the patch filling FILL of the panel,
+    below its centre (``aspect``: the panel's width / height)."""
     pl.add_text(caption, position="upper_edge", font_size=8, color="black")
     pl.view_xy()
     pl.enable_parallel_projection()
     pl.reset_camera()
     c = 1e3 * cell_corners(grid.plane).reshape(-1, 2)
     w, h = np.ptp(c, axis=0)
-    pl.camera.focal_point = (*c.min(axis=0) + 0.5 * np.array([w, h]), 0.0)
-    pl.camera.position = (*pl.camera.focal_point[:2], 10 * max(w, h))
-    pl.camera.parallel_scale = 0.5 * max(h, w / aspect) / 0.7
+    scale = 0.5 * max(h, w / aspect) / FILL  # half the panel's height in mm
+    centre = c.min(axis=0) + 0.5 * np.array([w, h]) + np.array([0.0, 2 * LOWER * scale])
+    pl.camera.focal_point = (*centre, 0.0)
+    pl.camera.position = (*centre, 10 * max(w, h))
+    pl.camera.parallel_scale = scale
 
 
 def _legend(pl, entries: Sequence[tuple[str, str]]) -> None:

@@ -35,7 +35,8 @@ class LumpedModels:
 class CoupledModels:
     """A [coupling] case: the mesh and reduced bodies are built once; each variant of the
     case (an analysis' ``set``, a family value) gets its coupled model, kept while its
-    coupling (but for the mass multiplier), harmonics and solver tables are unchanged."""
+    coupling (but for the mass and excitation multipliers), harmonics and solver tables are
+    unchanged."""
 
     def __init__(self, mesh: Any, structure: Any):
         self.mesh = mesh
@@ -45,11 +46,11 @@ class CoupledModels:
     def coupled(self, case: cs.Case) -> CoupledModel:
         from microslip.pipeline.coupling.assemble import couple  # the FE stages, when needed
 
-        # the mass multiplier enters per operating point (hb.linear's mass part): a damper
-        # mass study shares one coupled model
+        # the mass and excitation multipliers enter per operating point (hb.linear's mass
+        # part, the loads' scale): a damper mass study or excitation levels share one model
         table = {k: case.data.get(k) for k in ("coupling", "harmonics", "solver")}
         table["coupling"] = {k: v for k, v in (table["coupling"] or {}).items()
-                             if k != "mass_multiplier"}
+                             if k not in ("mass_multiplier", "excitation")}
         key = json.dumps(table, sort_keys=True, default=str)
         if key not in self._built:
             if len(self._built) >= 8:

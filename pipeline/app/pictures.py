@@ -15,7 +15,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from microslip.pipeline.friction.laws import slip_share
+from microslip.pipeline.friction.laws import STICK, slip_share
 
 from . import maps, plots
 
@@ -138,18 +138,64 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     par, series, static = frf_series(g)
     measure = _text(g.attrs.get("measure", "peak"))
     marks = map_marks(g)
+    normalised = any(bool(c.attrs.get("normalised", False)) for _, c in curves(g))
     paths = []
     for n, lines in series.items():
         path = out / f"{name}_{n}.png"
-        plots.curves(path, f"{name}: response of {n}", plots.LABELS[par], lines,
-                     MEASURE_LABEL[measure].format(n), markers=marks.get(n, ()))
+        label = MEASURE_LABEL[measure].format(n)
+        if normalised:
+            label = label.replace(" [m]", " / excitation [m per unit]")
+        plots.curves(path, f"{name}: response of {n}" + (
+            ", normalised by the excitation" if normalised else ""), plots.LABELS[par], lines,
+                     label, markers=marks.get(n, ()))
         paths.append(path)
     for cname, lines in static.items():
         path = out / f"{name}_static_{cname}.png"
         plots.curves(path, f"{name}: static forces, contact {cname}", plots.LABELS[par],
                      lines, "static contact force [N]")
         paths.append(path)
-    return paths + frf_maps(g, name, out, options)
+    return paths + frf_maps(g, name, out, options) + slip_growth(g, name, out)
+
+
+def slip_at_peaks(g: h5py.Group) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(family values, patch -> slipping share [%] of its node pairs at that curve's peak,
+    "all patches", and the share of all that do not stick, slipping or lifting off) over
+    the curves of an frf analysis with maps at their peaks."""
+    x, shares = [], {}
+    for _, c in curves(g):
+        peaks = [p for _, p in sorted(c.get("maps", {}).items())
+                 if _text(p.attrs["what"]) == "peak"]
+        value = c.attrs.get("family_value", "")
+        if not peaks or isinstance(value, (str, bytes)):
+            continue
+        x.append(float(value))
+        pg = peaks[0]["patches"]
+        states = {k: pg[k]["state"][()] for k in sorted(pg)}
+        for k, st in states.items():
+            shares.setdefault(k, []).append(100 * slip_share(st))
+        every = np.concatenate(list(states.values()))
+        shares.setdefault("all patches", []).append(100 * slip_share(every))
+        shares.setdefault("all patches, not stuck (slip or lift-off)", []).append(
+            100 * float(np.mean(every != STICK)))
+    return np.array(x), {k: np.array(v) for k, v in shares.items()}
+
+
+def slip_growth(g: h5py.Group, name: str, out: Path) -> list[Path]:
+    """The slipping share of each patch's node pairs (and of all) at each curve's peak
+    against the family value (seed Fig. 20 right: slip growing with the excitation). Only
+    for a family of at least two curves with maps at their peaks."""
+    x, shares = slip_at_peaks(g)
+    if len(x) < 2:
+        return []
+    fam = g.attrs.get("family", "")
+    family = json.loads(_text(fam)) if isinstance(fam, (str, bytes)) and _text(fam) else {}
+    series = [{"x": x, "y": v, "label": k, "lw": 2.2 if k.startswith("all") else 1.2,
+               "ls": ":" if "not stuck" in k else "-"} for k, v in shares.items()]
+    path = out / f"{name}_slip.png"
+    what = _text(family.get("label", family.get("key", "family value")))
+    plots.curves(path, f"{name}: slipping area at the resonance peak", what, series,
+                 "node pairs in stick-slip or gross slip [%]", logy=False)
+    return [path]
 
 
 # --- maps -----------------------------------------------------------------------------------
@@ -184,24 +230,21 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
             i = int(np.argmin(np.abs(c["parameter"][()] - at)))
             v = float(c["parameter"][i])
             pg = c["patches"]
-            out.append(MapPoint(_caption(label, f"{par} {v:.6g}"), label, v,
+            out.append(MapPoint("\n".join(x for x in (label, f"{par} {v:.6g}") if x), label, v,
                                 {p: pg[p]["state"][i] for p in pg},
                                 {p: pg[p]["static"][i] for p in pg}))
         return out
     for letter, c, p in _map_groups(g):
         label = _text(c.attrs.get("label", ""))
         pg = p["patches"]
-        what = f"{letter}: {_text(p.attrs['what'])}"
-        if _text(p.attrs["what"]) == "peak":
+        what = _text(p.attrs["what"])
+        if what == "peak":
             what += f" at {par} {float(p.attrs['parameter']):.6g}"
-        out.append(MapPoint(_caption(label, what), label, float(p.attrs["parameter"]),
+        out.append(MapPoint(f"{letter}: {label}\n{what}" if label else f"{letter}: {what}",
+                            label, float(p.attrs["parameter"]),
                             {k: pg[k]["state"][()] for k in pg},
                             {k: pg[k]["static"][()] for k in pg}))
     return out
-
-
-def _caption(label: str, what: str) -> str:
-    return ", ".join(s for s in (label, what) if s)
 
 
 def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
@@ -236,7 +279,7 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
 
 def _panel_caption(pt: MapPoint, patch: str, status: bool) -> str:
     if status:
-        what = f"{slip_share(pt.state[patch]):.0%} of the node pairs slip"
+        what = f"{slip_share(pt.state[patch]):.0%} of its node pairs slip"
     else:
         what = f"sum N0 = {pt.static[patch][:, 2].sum():.4g} N"
     return f"{pt.caption}\n{patch}: {what}"

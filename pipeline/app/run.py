@@ -274,11 +274,11 @@ def map_solutions(r: Response, wanted: list, rows, measure: str, settings
                   ) -> list[tuple[str, float, np.ndarray]]:
     """(what, parameter value, x) of the solutions a curve draws maps of.
 
-    "peak": the largest response of the first output, refined by one parabola through the
-    three computed points around it and a Newton solve there (the computed point if that
-    fails or is lower). A number: every solution of the branch at that parameter value
-    (a fold gives several), each from the secant between the two points that bracket it,
-    solved there at the value itself."""
+    "peak": the largest response of the first output, refined by Brent's method between
+    its computed neighbours (:func:`_refined_peak`; the computed point if no trial does
+    better). A number: every solution of the branch at that parameter value (a fold gives several),
+    each from the secant between the two points that bracket it, solved there at the value
+    itself."""
     hb, lam = r.model, r.values
     if not len(r):
         return []
@@ -287,17 +287,7 @@ def map_solutions(r: Response, wanted: list, rows, measure: str, settings
     out = []
     for w in wanted:
         if w == "peak":
-            i = int(np.argmax(shown))
-            v, x = float(lam[i]), r.branch.x[i]
-            if 0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0:
-                trial = _vertex(lam[i - 1: i + 2], shown[i - 1: i + 2])
-                if trial is not None:
-                    s = solve_point(hb, r.base.set(r.parameter, trial), settings=settings,
-                                    x0=x, retry=False)
-                    if s.converged and _response_at(hb, s.x, r.base.set(r.parameter, trial),
-                                                    rows, measure)[0] >= shown[i]:
-                        v, x = trial, s.x
-            out.append(("peak", v, x))
+            out.append(("peak", *_refined_peak(r, shown, rows, measure, settings)))
             continue
         found: list[tuple[float, np.ndarray]] = []
         for j in np.flatnonzero((lam[:-1] - w) * (lam[1:] - w) <= 0):
@@ -317,6 +307,42 @@ def map_solutions(r: Response, wanted: list, rows, measure: str, settings
     return out
 
 
+PEAK_XTOL = 1e-4  # the refined peak's parameter to this share of its bracket
+
+
+def _refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
+                  ) -> tuple[float, np.ndarray]:
+    """(parameter value, x) at the largest response of the first output (map_solutions):
+    Brent's bounded method between the computed neighbours of the largest computed point
+    (parabolic steps where the response is smooth, golden ones where a stick/slip kink
+    sits at the top), each trial a Newton solve from the nearest solution so far."""
+    from scipy.optimize import minimize_scalar
+
+    lam = r.values
+    i = int(np.argmax(shown))
+    best = [float(shown[i]), float(lam[i]), r.branch.x[i]]
+    if not (0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0):
+        return best[1], best[2]  # at an end of the branch, or on a fold: as computed
+    tried = [(float(lam[j]), r.branch.x[j]) for j in (i - 1, i, i + 1)]
+
+    def minus_response(v: float) -> float:
+        near = min(tried, key=lambda t: abs(t[0] - v))[1]
+        point = r.base.set(r.parameter, v)
+        sol = solve_point(r.model, point, settings=settings, x0=near, retry=False)
+        if not sol.converged:
+            return np.inf
+        tried.append((v, sol.x))
+        a = float(_response_at(r.model, sol.x, point, rows, measure)[0])
+        if a > best[0]:
+            best[:] = [a, v, sol.x]
+        return -a
+
+    lo, hi = sorted((float(lam[i - 1]), float(lam[i + 1])))
+    minimize_scalar(minus_response, bounds=(lo, hi), method="bounded",
+                    options={"xatol": PEAK_XTOL * (hi - lo)})
+    return best[1], best[2]
+
+
 def _vertex(x: np.ndarray, y: np.ndarray) -> float | None:
     """The abscissa of the parabola's vertex through three points, if it is a maximum
     inside their span."""
@@ -330,16 +356,20 @@ def _vertex(x: np.ndarray, y: np.ndarray) -> float | None:
     return float(v) if min(x0, x2) < v < max(x0, x2) else None
 
 
-def _map_groups(cm, r: Response, solutions, rows, measure: str) -> dict:
-    """The maps/ subgroups of a curve: per solution its parameter, response, unknowns and
-    patch states (the pictures letter them a, b, c... over the analysis)."""
+def _map_groups(cm, r: Response, solutions, rows, measure: str,
+                normalise: bool = False) -> dict:
+    """The maps/ subgroups of a curve: per solution its parameter, response (per unit
+    excitation with ``normalise``), unknowns and patch states (the pictures letter them a,
+    b, c... over the analysis)."""
     groups = {}
     for k, (what, v, x) in enumerate(solutions):
         point = r.base.set(r.parameter, v)
         patches = cm.patches(x, point)
+        response = _response_at(r.model, x, point, rows, measure)
         groups[f"point_{k:02d}"] = {
-            ATTRS: {"what": what, "parameter": v, "omega": point.omega},
-            "unknowns": x, "response": _response_at(r.model, x, point, rows, measure),
+            ATTRS: {"what": what, "parameter": v, "omega": point.omega,
+                    "excitation": point.excitation},
+            "unknowns": x, "response": response / point.excitation if normalise else response,
             "patches": {p: {"state": s.state, "static": s.static,
                             "slip_share": s.slip_share} for p, s in patches.items()}}
     return groups
@@ -411,6 +441,8 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
     amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
     shown = _measure(coef, hb.harmonics, measure) if len(r) else amp
+    if a.get("normalise", False) and len(r):  # per unit of the excitation multiplier
+        shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
     data = {
         "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
@@ -431,7 +463,8 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
                                        for p in per_point])
         if wanted and b.status != "interrupted":
             sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
-            data["maps"] = _map_groups(cm, r, sols, idx, measure)
+            data["maps"] = _map_groups(cm, r, sols, idx, measure,
+                                       bool(a.get("normalise", False)))
             for m in data["maps"].values():
                 progress(f"{which}: map point, {m[ATTRS]['what']} at {par} "
                          f"{m[ATTRS]['parameter']:.6g}: response {m['response'][0]:.4g} m")
@@ -445,7 +478,8 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
              "message": b.message, "turning_points": b.turning_points,
              "elapsed_s": elapsed, "outputs": names,
              "harmonic_orders": list(hb.harmonics.orders),
-             "samples": hb.harmonics.n_samples, "mass_multiplier": base.mass_multiplier}
+             "samples": hb.harmonics.n_samples, "mass_multiplier": base.mass_multiplier,
+             "excitation": base.excitation, "normalised": bool(a.get("normalise", False))}
     w.write_group(group, cname, data, attrs)
     progress(f"{which}: {len(r)} points, {b.status} ({elapsed:.2f} s) {b.message}".rstrip())
     return b.status, b.message
@@ -476,22 +510,48 @@ def _linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
     for springs, label, m, key in runs:
         c, base = variants[m]
         stored = store.key(c.data, a, curve="linear", springs=springs, points=LINEAR_POINTS,
-                           outputs=names)
+                           peak_points=PEAK_POINTS, outputs=names)
         if store.load(stored, group, key):
             group[key].attrs["label"] = label
             continue
-        cm = models.coupled(c)
-        coef = np.array([cm.linear_outputs(base.set("frequency", x), springs, names)
-                         for x in ws])
-        shown = _measure(coef, cm.hb.harmonics, measure)
-        w.write_group(group, key, {"omega": ws, "coefficients": coef, "response": shown},
+        ws_all, coef, shown = _linear_curve(models.coupled(c), base, springs, names, measure,
+                                            ws)
+        if a.get("normalise", False):  # linear: the same for every excitation level
+            shown = shown / base.excitation
+        w.write_group(group, key, {"omega": ws_all, "coefficients": coef, "response": shown},
                       {"label": label, "status": "complete", "message": "linear, solved "
                        "directly", "mass_multiplier": m})
         store.save(stored, group[key])
     progress(f"[{name}] linear limits ({len(runs)} curves) in {time.perf_counter() - t:.1f} s")
 
 
+def _linear_curve(cm, base: OperatingPoint, springs: str, names: list[str], measure: str,
+                  ws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(frequencies, coefficients, response) of a linear limit on the grid ``ws`` and,
+    since a lightly damped peak is narrower than the grid, PEAK_POINTS more around each
+    local maximum of the first output, within a grid spacing on either side."""
+    static = measure == "peak"  # vibration and harmonic measures leave order 0 out
+
+    def response(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        coef = np.array([cm.linear_outputs(base.set("frequency", f), springs, names, static)
+                         for f in x])
+        return coef, _measure(coef, cm.hb.harmonics, measure)
+
+    coef, shown = response(ws)
+    peaks = [i for i in range(1, ws.size - 1)
+             if shown[i, 0] >= shown[i - 1, 0] and shown[i, 0] >= shown[i + 1, 0]]
+    if not peaks:
+        return ws, coef, shown
+    extra = np.concatenate([np.linspace(ws[i - 1], ws[i + 1], PEAK_POINTS + 2)[1:-1]
+                            for i in peaks])
+    c2, s2 = response(extra)
+    order = np.argsort(np.concatenate([ws, extra]), kind="stable")
+    return (np.concatenate([ws, extra])[order], np.concatenate([coef, c2])[order],
+            np.concatenate([shown, s2])[order])
+
+
 LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
+PEAK_POINTS = 24  # more frequencies around each peak of a linear limit
 
 
 def _normal(hb, contact: str) -> bool:
@@ -633,7 +693,8 @@ def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
     h = cm.hb.harmonics
 
     def amp(x: float) -> float:
-        coef = cm.linear_outputs(point.set("frequency", x), springs, [output_name])[0]
+        coef = cm.linear_outputs(point.set("frequency", x), springs, [output_name],
+                                 static=not vibration)[0]
         return float(amplitude(h, coef, vibration))
 
     ws = np.linspace(*window, grid)
