@@ -67,16 +67,17 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
         outs = [_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
         style = STYLE.get(_text(c.attrs.get("method", "")), "-")
         label = _text(c.attrs.get("label", "")) or None
-        x = c["parameter"][()]
-        tp = c["turning_points"][()] if "turning_points" in c else []
+        x, y, at = _with_peak(c)
+        tp = c["turning_points"][()] if "turning_points" in c else np.zeros(0, int)
+        tp = np.asarray(tp, dtype=int) + (np.asarray(tp, dtype=int) >= at)
         for k, n in enumerate(outs):
-            series.setdefault(n, []).append({"x": x, "y": c["response"][:, k], "label": label,
+            series.setdefault(n, []).append({"x": x, "y": y[:, k], "label": label,
                                              "turning_points": tp, "ls": style})
         for cname, cd in c.get("contacts", {}).items():
             for what, y in static_lines(cd["static_force"][()],
                                         [_text(x) for x in cd["columns"][()]]):
                 static.setdefault(cname, []).append({
-                    "x": x, "y": y, "ls": style,
+                    "x": c["parameter"][()], "y": y, "ls": style,
                     "label": ", ".join(s for s in (label, what) if s)})
     masses = [float(c.attrs.get("mass_multiplier", 1.0)) for _, c in curves(g)]
     for key, lg in sorted(g.items()):
@@ -90,6 +91,26 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
                               "label": _text(lg.attrs["label"]), "lw": 1.0, "color": colour,
                               "ls": ":" if key == "linear_free" else "-."})
     return par, series, static
+
+
+def _with_peak(c: h5py.Group) -> tuple[np.ndarray, np.ndarray, int]:
+    """(parameter, response, where inserted) of a curve with its refined peak (a map point)
+    drawn in: a lightly damped peak is narrower than the continuation's steps, and the line
+    would pass below the marked peak. The peak goes between the computed points around it
+    (inserted at the end index, len(x), when there is none)."""
+    x, y = c["parameter"][()], c["response"][()]
+    for _, p in sorted(c.get("maps", {}).items()):
+        if _text(p.attrs["what"]) != "peak" or not len(x):
+            continue
+        v = float(p.attrs["parameter"])
+        if np.any(x == v):
+            break  # the peak is a computed point
+        i = int(np.argmax(y[:, 0]))
+        j = i + 1 if (i + 1 < len(x) and (x[i + 1] - v) * (x[i] - v) <= 0) else i
+        if j == i and i > 0 and (x[i - 1] - v) * (x[i] - v) > 0:
+            continue  # not between the computed points around the maximum
+        return np.insert(x, j, v), np.insert(y, j, p["response"][()], axis=0), j
+    return x, y, len(x)
 
 
 def static_lines(static: np.ndarray, names: list[str]) -> list[tuple[str, np.ndarray]]:
