@@ -149,11 +149,21 @@ def run(argv: list[str]) -> int:
     parser.add_argument("--no-cache", action="store_true",
                         help="compute every curve afresh (by default a curve whose inputs "
                         "did not change since a run into the same folder is reused)")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="list the stages the run would compute and those it would read "
+                        "from the caches, with rough time and memory; compute nothing")
     args = parser.parse_args(argv)
     c = _load_case("run", args.case)
     if c is None:
         return 2
     out = args.out or Path("out") / args.case.stem
+    if args.dry_run:
+        from microslip.pipeline.app import plan
+
+        stages = plan.plan(c, out, cache=not args.no_cache)
+        print(f"{args.case} into {out} (dry run: nothing computed)")
+        print(plan.text(stages))
+        return 0
     if not _output_folder("run", out, args.out is not None):
         return 2
     t = time.perf_counter()

@@ -78,3 +78,13 @@ def test_bench_reduction_prints_each_row_once(capsys):
     rows = [line for line in out.splitlines() if line.split()[:3] == ["superlu", "blisk", "0"]]
     assert len(rows) == 1, out
     assert reduction._runs(3) == "median of 3 runs"
+
+
+def test_run_dry_run_lists_the_stages_and_computes_nothing(tmp_path, capsys):
+    from microslip.pipeline.cli import main
+
+    assert main(["run", "cases/sdof_wall.toml", "--dry-run", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "dry run: nothing computed" in out and "stages run" in out
+    assert "frf_force: curve 1" in out
+    assert not (tmp_path / "results.h5").exists()

@@ -262,3 +262,28 @@ def test_no_cache_computes_afresh_and_keeps_nothing(tmp_path):
     assert store.key({"a": 1}, {"type": "frf", "map_types": ["status"]},
                      method="arclength") == key
     assert store.key({"a": 2}, {"type": "frf"}, method="arclength") != key
+
+
+def test_a_dry_run_lists_what_comes_from_the_caches_and_what_runs(coarse_run, monkeypatch):
+    from microslip.pipeline.app import plan
+    from microslip.pipeline.solve import response
+
+    monkeypatch.setattr(response, "sweep", lambda *a, **k: pytest.fail("a dry run solved"))
+    stages = plan.plan(cs.Case(copy.deepcopy(CASE), "coarse.toml"), coarse_run)
+    by_name = {s.name: s for s in stages}
+    assert by_name["reduction: blisk ND 0"].cached and by_name["reduction: damper"].cached
+    assert by_name["frf: curve 1"].cached
+    assert not by_name["geometry: Gmsh mesh and previews"].cached
+    # another damper mass: the models are reused, the curve runs, with an estimate
+    changed = copy.deepcopy(CASE)
+    changed["coupling"]["mass_multiplier"] = 7.0
+    stages = {s.name: s for s in plan.plan(cs.Case(changed, "c.toml"), coarse_run)}
+    assert stages["reduction: blisk ND 1"].cached
+    assert not stages["frf: curve 1"].cached and stages["frf: curve 1"].seconds > 0
+    assert stages["frf: curve 1"].nbytes > 0
+    # no cache at all: every curve runs
+    fresh = {s.name: s for s in plan.plan(cs.Case(copy.deepcopy(CASE), "c.toml"),
+                                          coarse_run, cache=False)}
+    assert not fresh["frf: curve 1"].cached
+    text = plan.text(list(fresh.values()))
+    assert "stages run" in text and "cached" in text

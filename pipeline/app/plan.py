@@ -1,0 +1,176 @@
+"""What a run will do, before it does it (``microslip run --dry-run``): each stage, whether it
+comes from a cache (the reduced models in ``<out>/models``, the curves in ``<out>/cache``) or
+runs, and a rough estimate of its time and memory.
+
+Nothing is computed: a meshed case is meshed (a few seconds) because the reduced models'
+cache names depend on the mesh. The time estimates scale measured figures of this project
+(two cores; see the README's benchmarks) by the sizes of the case: they are good to a factor
+of about two, enough to tell a minute from an hour.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import case as cs
+from .checks import memory_text
+from .store import CurveStore
+
+#: Measured anchors of the estimates (two cores): a Craig-Bampton model per 1000 vertex nodes
+#: of its body (P2; P1 a fifth of it) [s]; a harmonic-balance point of 1296 real unknowns at
+#: 64 samples (its growth with the unknowns: exponent 1.8); points of a typical curve; solves
+#: per value of a peak curve; a linear limit of 1296 unknowns (225 frequencies) [s].
+REDUCTION_S_PER_KNODE = 6.0
+POINT_S = 0.5
+POINT_UNKNOWNS = 1296
+POINT_EXPONENT = 1.8
+CURVE_POINTS = 50
+PEAK_SOLVES = 12
+LINEAR_S = 7.0
+MESH_S = 3.0
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One step of a run: ``cached`` ones are read, the others run for ~``seconds``."""
+
+    name: str
+    cached: bool
+    seconds: float = 0.0
+    nbytes: int = 0
+    detail: str = ""
+
+
+def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
+    """The stages of a run of ``case`` into ``out`` (see the module); ``cache`` False: the
+    curves are computed afresh (``run --no-cache``)."""
+    stages: list[Stage] = []
+    data = case.data
+    if "geometry" in data:
+        from microslip import geometry
+
+        geo = data["geometry"]
+        mesh = geometry.MODELS[geo["model"]](**geo.get("parameters", {}))
+        stages.append(Stage("geometry: Gmsh mesh and previews", False, MESH_S, 0,
+                            f"{mesh.points.shape[0]} nodes, {mesh.tetrahedra.shape[0]} "
+                            "tetrahedra; every run"))
+        if "reduction" in data:
+            orders = cs.harmonics(case).orders if "harmonics" in data else None
+            stages += _reduction(mesh, data["reduction"], out / "models", orders)
+    store = CurveStore(out / "cache" / "curves" if cache else None)
+    sizes = {s.analysis: s for s in cs.sizes(data)}
+    from .run import _family
+
+    for i, a in enumerate(case.analyses):
+        name = str(a.get("name", f"analysis{i}"))
+        size = sizes.get(name)
+        unknowns = size.unknowns if size else 0
+        nbytes = size.nbytes if size else 0
+        kind = a["type"]
+        if kind not in ("frf", "peak"):
+            stages.append(Stage(f"{name}: {kind}", False, 0.0, nbytes, "not cached (short)"))
+            continue
+        samples = cs.harmonics(case).n_samples if "harmonics" in data else 64
+        t_point = _point_seconds(unknowns, samples)
+        methods = a.get("method", "arclength") if kind == "frf" else "continuation"
+        methods = methods if isinstance(methods, list) else [methods]
+        for j, (c, label, _) in enumerate(_family(case, a)):
+            for method in methods:
+                if kind == "frf":
+                    cached = store.has(store.key(c.data, a, method=method, curve="frf"))
+                    seconds = CURVE_POINTS * t_point + (20 * t_point if a.get("maps") else 0)
+                else:
+                    cached = store.has(store.key(c.data, a, curve="peak"))
+                    seconds = (CURVE_POINTS + a.get("points", 25) * PEAK_SOLVES) * t_point
+                what = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
+                stages.append(Stage(f"{name}: curve {j + 1}" + (f" ({what})" if what else ""),
+                                    cached, 0.0 if cached else seconds, nbytes,
+                                    f"{unknowns:,} unknowns"))
+        if "coupling" in data and kind == "frf" and a.get("parameter", "frequency") == \
+                "frequency":
+            masses = {cs.operating_point(a, c).mass_multiplier for c, _, _ in _family(case, a)}
+            seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** 2
+            stages.append(Stage(f"{name}: linear limits (free, stuck x {len(masses)})", False,
+                                seconds * (1 + len(masses)), 0,
+                                "each reused from the cache when unchanged"))
+    return stages
+
+
+def _point_seconds(unknowns: int, samples: int) -> float:
+    """Seconds per continuation point of a harmonic balance of ``unknowns`` real unknowns."""
+    if unknowns <= 0:
+        return 0.0
+    scale = (unknowns / POINT_UNKNOWNS) ** POINT_EXPONENT * (samples / 64) ** 0.5
+    return max(0.005, POINT_S * scale)
+
+
+def _reduction(mesh, red: dict, cache: Path, orders) -> list[Stage]:
+    """Per body and nodal diameter: the reduced model's cache file exists, or it runs."""
+    import numpy as np
+
+    from microslip.pipeline.fe import reduction
+
+    from .structure import body_specs, needed_nodal_diameters
+
+    sectors = {b.sectors for b in mesh.cyclic.values()}
+    nds = needed_nodal_diameters(red, max(sectors), orders) if sectors else (0,)
+    stages = []
+    cyclic_cached = True
+    for spec in sorted(body_specs(mesh, red), key=lambda s: s.body not in mesh.cyclic):
+        nodes = np.unique(mesh.tetrahedra[mesh.bodies[spec.body]]).size
+        seconds = REDUCTION_S_PER_KNODE * nodes / 1000 * (1.0 if spec.order == 2 else 0.2)
+        is_cyclic = spec.body in mesh.cyclic
+        for h in (nds if is_cyclic else (None,)):
+            if not is_cyclic and spec.f_max is None and spec.n_modes == "auto":
+                if not cyclic_cached:  # its modes follow the cyclic bodies' reduced models
+                    stages.append(Stage(f"reduction: {spec.body}", False, seconds, 0,
+                                        "after the cyclic bodies (its mode count follows "
+                                        "theirs)"))
+                    continue
+                spec = _with_reference(spec, mesh, red, nds, cache)
+            path = reduction.model_path(mesh, spec, h, cache)
+            cached = path.is_file()
+            cyclic_cached = cyclic_cached and (cached or not is_cyclic)
+            where = f"{spec.body} ND {h}" if is_cyclic else spec.body
+            stages.append(Stage(f"reduction: {where}", cached, 0.0 if cached else seconds, 0,
+                                f"{nodes} vertex nodes, P{spec.order}"))
+    return stages
+
+
+def _with_reference(spec, mesh, red: dict, nds, cache: Path):
+    """A non-cyclic body's spec with the f_max its run would infer from the cyclic bodies'
+    (cached) models."""
+    from dataclasses import replace
+
+    from microslip.pipeline.fe import reduction
+
+    from .structure import body_specs
+
+    models = [reduction.ReducedModel.load(reduction.model_path(mesh, s, h, cache))
+              for s in body_specs(mesh, red) if s.body in mesh.cyclic for h in nds]
+    f_ref = reduction.reference_frequency(models)
+    return spec if f_ref is None else replace(spec, f_max=f_ref)
+
+
+def text(stages: list[Stage]) -> str:
+    """The plan as a table, with the totals."""
+    rows = [f"{'stage':<58} {'':>7} {'time':>9} {'memory':>9}"]
+    for s in stages:
+        state = "cached" if s.cached else "runs"
+        time = "-" if s.cached else _duration(s.seconds)
+        mem = memory_text(s.nbytes).lstrip("~") if s.nbytes else "-"
+        rows.append(f"{s.name[:58]:<58} {state:>7} {time:>9} {mem:>9}"
+                    + (f"  {s.detail}" if s.detail else ""))
+    total = sum(s.seconds for s in stages if not s.cached)
+    peak = max((s.nbytes for s in stages), default=0)
+    runs = sum(not s.cached for s in stages)
+    rows.append(f"{runs} of {len(stages)} stages run, {_duration(total)} in all (rough: "
+                f"within about 2x), peak memory {memory_text(peak).lstrip('~')}")
+    return "\n".join(rows)
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 60:
+        return f"~{seconds:.0f} s"
+    return f"~{seconds / 60:.1f} min"
