@@ -287,3 +287,38 @@ def test_a_dry_run_lists_what_comes_from_the_caches_and_what_runs(coarse_run, mo
     assert not fresh["frf: curve 1"].cached
     text = plan.text(list(fresh.values()))
     assert "stages run" in text and "cached" in text
+
+
+def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp_path):
+    # Craig-Bampton keeps the masters' DOFs as they are (identity rows of the recovery):
+    # the response node, a master of the blisk and one of its recovery nodes, moves as the
+    # harmonic balance's shared DOFs say, order by order (the ND's complex wave included)
+    from microslip.pipeline.app.models import CoupledModels
+    from microslip.pipeline.app.run import mesh_geometry
+    from microslip.pipeline.app.structure import reduce_structure
+    from microslip.pipeline.solve.hbm import OperatingPoint
+
+    case = cs.Case(copy.deepcopy(CASE), "coarse.toml")
+    mesh = mesh_geometry(CASE["geometry"], tmp_path, progress=lambda s: None, pictures=False)
+    result = reduce_structure(mesh, CASE["reduction"], None, cs.harmonics(case).orders,
+                              progress=lambda s: None)
+    cm = CoupledModels(mesh, result).coupled(case)
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal(cm.hb.dofs.size * cm.hb.harmonics.n_coeffs) * 1e-6
+    point = OperatingPoint(3210.0, mass_multiplier=2.0)
+    node = int(np.ravel(mesh.node_sets["blisk/response"])[0])
+    nodes, U = cm.displacements(x, point, "blisk", np.array([node]))
+    Q = cm.hb.recover(x, point)
+    dof = int(np.flatnonzero(cm.dof_nodes == node)[0])
+    np.testing.assert_allclose(U[0], Q[dof: dof + 3], rtol=1e-12, atol=1e-18)
+    # and the modal part is there: the tip (not a master) moves, and by the reduced
+    # coordinates through the recovery matrix of each order's ND
+    tip_nodes, tip = cm.displacements(x, point, "blisk")
+    q = cm.body_coordinates(x, point)["blisk"]
+    b = next(b for b in cm.layout if b.body == "blisk")
+    for k, o in enumerate(cm.hb.harmonics.orders):
+        R = b.models[k].recovery.conj() if b.conjugate[k] else b.models[k].recovery
+        complex_tip = cm.hb.harmonics.to_complex(tip.reshape(-1, tip.shape[-1]))[o]
+        np.testing.assert_allclose(complex_tip.reshape(-1, 3), R @ q[k], rtol=1e-10,
+                                   atol=1e-18)
+    assert np.abs(tip).max() > 0

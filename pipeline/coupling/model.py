@@ -127,6 +127,40 @@ class CoupledModel:
         return patch_states([c.name for c in self.hb.contacts], self.points,
                             self.hb.contact_response(x, point))
 
+    def body_coordinates(self, x: np.ndarray, point: OperatingPoint
+                         ) -> dict[str, list[np.ndarray]]:
+        """Per body, per harmonic order, the (r,) complex reduced coordinates (its masters,
+        then its fixed-interface modes at the order's ND) of a solution ``x`` (seed eq. 9:
+        the modes recovered from the masters per order)."""
+        X = self.hb.recover_orders(x, point)
+        n_dof = self.hb.linear.n_dof
+        out: dict[str, list[np.ndarray]] = {b.body: [] for b in self.layout}
+        for k in range(len(self.hb.harmonics.orders)):
+            for b, idx in body_positions(self.layout, k, n_dof):
+                out[b.body].append(X[k][idx])
+        return out
+
+    def displacements(self, x: np.ndarray, point: OperatingPoint, body: str,
+                      nodes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(nodes (p,), coefficients (p, 3, n_coeffs) [m]) of one body's recovery nodes
+        (or the given ones among them) at a solution: the reduced coordinates through each
+        order's recovery matrix (conjugated for a backward wave), in the real harmonic
+        layout."""
+        b = next((b for b in self.layout if b.body == body), None)
+        if b is None:
+            raise ValueError(f"body {body!r}: not in the model; bodies "
+                             f"{[x.body for x in self.layout]}")
+        q = self.body_coordinates(x, point)[body]
+        h = self.hb.harmonics
+        U = {}
+        for k, o in enumerate(h.orders):
+            model = b.models[k]
+            u = model.recover(q[k].conj() if b.conjugate[k] else q[k], nodes)
+            U[o] = u.conj() if b.conjugate[k] else u
+        first = b.models[0]
+        chosen = first.recovery_nodes if nodes is None else np.asarray(nodes).ravel()
+        return chosen, h.from_complex(U, (len(chosen), 3))
+
     def output_coefficients(self, x: np.ndarray, point: OperatingPoint,
                             names: list[str] | None = None) -> np.ndarray:
         """(n_outputs, n_coeffs) real coefficients of the named outputs [m]."""
