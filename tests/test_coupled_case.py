@@ -322,3 +322,25 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
         np.testing.assert_allclose(complex_tip.reshape(-1, 3), R @ q[k], rtol=1e-10,
                                    atol=1e-18)
     assert np.abs(tip).max() > 0
+
+
+def test_the_code_digest_follows_the_computing_sources_only(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    from microslip.pipeline.app import store
+
+    root = Path(store.__file__).resolve().parents[2]
+    for part in store.COMPUTING:  # a copy of what counts, and the pictures' module beside
+        src, dst = root / part, tmp_path / part
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        (shutil.copy if src.is_file() else shutil.copytree)(src, dst)
+    shutil.copy(root / "pipeline/app/pictures.py", tmp_path / "pipeline/app/pictures.py")
+    before = store.code_digest(tmp_path)
+    assert before == store.code_digest(root)  # the copy is complete
+    with open(tmp_path / "pipeline/app/pictures.py", "a") as f:
+        f.write("# a comment\n")
+    assert store.code_digest(tmp_path) == before  # drawing: the curves stay
+    with open(tmp_path / "pipeline/solve/hbm.py", "a") as f:
+        f.write("# a comment\n")
+    assert store.code_digest(tmp_path) != before  # numerics: every curve is computed again

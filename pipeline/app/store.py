@@ -4,7 +4,8 @@ Each curve an analysis computes (an FRF branch with its maps, a linear limit, a 
 is a pure function of the case variant that produced it (the case with the analysis' ``set``
 and family value applied), of the analysis' own keys and of the code. Its results.h5 group is
 stored under ``<out>/cache/curves/<key>.h5``, the key a SHA-256 of those inputs (the code by a
-digest of the package's source files: any change of the code invalidates every curve).
+digest of the sources the numbers depend on, COMPUTING: any change there invalidates every
+curve).
 Only finished curves are stored (complete, or stopped for a reason a re-run would meet
 again); an interrupted one is computed again. The files are HDF5, safe to open.
 """
@@ -28,16 +29,26 @@ DRAWING = ("name", "family", "set", "map_types")
 FORMAT = 1  # bump when the stored layout changes
 
 
-def code_digest() -> str:
-    """SHA-256 of the package's Python sources (file names and contents)."""
-    root = Path(__file__).resolve().parents[2]
+#: The sources a curve's numbers depend on (relative to the package root): the geometry,
+#: the numerical stages, and the application modules that build the models and curves.
+#: Pictures, plans, benchmarks and the command line are left out: changing them keeps the
+#: stored curves.
+COMPUTING = ("geometry", "pipeline/fe", "pipeline/friction", "pipeline/solve",
+             "pipeline/coupling", "pipeline/app/case.py", "pipeline/app/coupled.py",
+             "pipeline/app/models.py", "pipeline/app/run.py", "pipeline/app/structure.py",
+             "pipeline/app/checks.py", "pipeline/app/store.py")
+
+
+def code_digest(root: Path | None = None) -> str:
+    """SHA-256 of the sources in COMPUTING (file names and contents) under the package's
+    root (or ``root``)."""
+    root = root or Path(__file__).resolve().parents[2]
     h = hashlib.sha256()
-    for path in sorted(root.glob("**/*.py")):
-        rel = path.relative_to(root)
-        if rel.parts[0] in ("tests", "cases") or any(p.startswith(".") for p in rel.parts):
-            continue
-        h.update(str(rel).encode())
-        h.update(path.read_bytes())
+    for part in COMPUTING:
+        paths = [root / part] if part.endswith(".py") else sorted((root / part).glob("**/*.py"))
+        for path in paths:
+            h.update(str(path.relative_to(root)).encode())
+            h.update(path.read_bytes())
     return h.hexdigest()
 
 
