@@ -233,6 +233,8 @@ def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coars
     run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), tmp_path, progress=lines.append)
     assert any("curve 1: 1" in x or "from the cache" in x for x in lines)
     assert not any(" point 1, value" in x for x in lines)  # no continuation ran
+    assert "[frf] pictures unchanged (6 files)" in lines  # nor any drawing
+    assert any("previews unchanged" in x for x in lines)
     with h5py.File(coarse_run / "results.h5") as a, h5py.File(tmp_path / "results.h5") as b:
         for key in ("parameter", "response", "unknowns"):
             np.testing.assert_array_equal(a["frf/curve_000"][key][()],
@@ -246,6 +248,7 @@ def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coars
     run_case(cs.Case(changed, "coarse.toml"), tmp_path, progress=lines.append)
     assert any(" point 1, value" in x for x in lines)
     assert not any("from the cache" in x for x in lines if "curve 1" in x)
+    assert not any("pictures unchanged" in x for x in lines)  # a new curve: drawn again
     with h5py.File(tmp_path / "results.h5") as f:
         assert f["frf/curve_000"].attrs["mass_multiplier"] == 3.0
         assert f["frf/linear_stuck"].attrs["mass_multiplier"] == 3.0

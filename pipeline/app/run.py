@@ -32,7 +32,7 @@ from .maps import EDGES
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
 from .results import ATTRS, ResultsWriter, undersampled_warning
-from .store import CurveStore
+from .store import CurveStore, PictureStamps
 
 if TYPE_CHECKING:
     from microslip.pipeline.coupling.model import PatchState
@@ -117,8 +117,16 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
     if pictures:
         from microslip.geometry.preview import render_previews
 
+        stamp = out / "cache" / "previews.hash"  # the mesh the previews show
+        names = [out / f"{m.model}_{x}.png" for x in ("sector", "contacts", "full_disk")]
+        drawn = [p for p in names if p.is_file()]
+        if stamp.is_file() and stamp.read_text() == m.content_hash and drawn:
+            progress(f"[geometry] previews unchanged ({', '.join(p.name for p in drawn)})")
+            return m
         for path in render_previews(m, out):
             progress(f"[geometry] wrote {path}")
+        stamp.parent.mkdir(parents=True, exist_ok=True)
+        stamp.write_text(m.content_hash)
     return m
 
 
@@ -380,12 +388,15 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
     methods = a.get("method", "arclength")
     methods = methods if isinstance(methods, list) else [methods]
     statuses = []
+    keys: list[str] = []
+    hits = store.hits
     j = 0
     for c, label, value in _family(case, a):
         for method in methods:
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
             key = store.key(c.data, a, method=method, curve="frf")
+            keys.append(key)
             cname = f"curve_{j:03d}"
             if store.load(key, group, cname):
                 g = group[cname]
@@ -415,8 +426,22 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
         _linear_limits(models, case, a, w, group, store, progress, name)
     group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
     drawn[name] = dict(zip(("parameter", "series", "static"), pictures.frf_series(group)))
-    pictures.frf(group, name, out)
+    every = len(keys) + sum(k.startswith("linear_") for k in group)
+    _draw(pictures.frf, group, name, out, a, keys, store.hits - hits == every, progress)
     return _worst(statuses)
+
+
+def _draw(draw, group, name: str, out: Path, a: dict, keys: list[str], cached: bool,
+          progress: Progress) -> None:
+    """Draw an analysis' pictures, unless every curve came from the store and the pictures
+    drawn from the same keys are all there (PictureStamps)."""
+    stamps = PictureStamps(out / "cache" / "pictures")
+    key = stamps.key(keys, a)
+    kept = stamps.current(name, key) if cached else None
+    if kept is not None:
+        progress(f"[{name}] pictures unchanged ({len(kept)} files)")
+        return
+    stamps.remember(name, key, draw(group, name, out))
 
 
 def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w, group,
@@ -568,8 +593,11 @@ def _peak_ticker(progress: Progress, name: str, label: str, par: str):
 def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
     par = a["parameter"]
     statuses = []
+    keys: list[str] = []
+    hits = store.hits
     for j, (c, label, fvalue) in enumerate(_family(case, a)):
         key = store.key(c.data, a, curve="peak")
+        keys.append(key)
         cname = f"curve_{j:03d}"
         if store.load(key, group, cname):
             g = group[cname]
@@ -599,7 +627,8 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
                          a.get("measure", "peak") == "vibration", w, group, progress, name)
             store.save(key + "f", group["level_free"])
             store.save(key + "s", group["level_stuck"])
-    pictures.peak(group, name, out)
+    every = len(keys) + sum(k.startswith("level_") for k in group)
+    _draw(pictures.peak, group, name, out, a, keys, store.hits - hits == every, progress)
     return _worst(statuses)
 
 

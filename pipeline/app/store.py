@@ -102,3 +102,47 @@ class CurveStore:
 
     def has(self, key: str) -> bool:
         return self.folder is not None and self._path(key).is_file()
+
+
+#: The sources of the pictures (relative to the package root).
+DRAWING_SOURCES = ("pipeline/app/pictures.py", "pipeline/app/maps.py", "pipeline/app/plots.py")
+
+
+class PictureStamps:
+    """Which pictures of an analysis are up to date: a stamp per analysis under
+    ``<out>/cache/pictures/<name>.json`` holds the key they were drawn from (the keys of its
+    curves, the analysis' keys, the drawing code) and their files. A re-run whose curves all
+    come from the store, with the same keys, leaves them as they are."""
+
+    def __init__(self, folder: Path | None):
+        self.folder = folder
+
+    @staticmethod
+    def key(curve_keys: list[str], analysis: Mapping[str, Any]) -> str:
+        root = Path(__file__).resolve().parents[2]
+        h = hashlib.sha256(json.dumps([curve_keys, analysis], sort_keys=True,
+                                      default=str).encode())
+        for part in DRAWING_SOURCES:
+            h.update((root / part).read_bytes())
+        return h.hexdigest()[:32]
+
+    def current(self, name: str, key: str) -> list[Path] | None:
+        """The pictures drawn from ``key``, if they are all still there."""
+        if self.folder is None or not (self.folder / f"{name}.json").is_file():
+            return None
+        try:
+            stamp = json.loads((self.folder / f"{name}.json").read_text())
+        except (OSError, ValueError):
+            return None
+        out = self.folder.parents[1]  # <out>/cache/pictures
+        paths = [out / p for p in stamp.get("files", [])]
+        if stamp.get("key") != key or not paths or not all(p.is_file() for p in paths):
+            return None
+        return paths
+
+    def remember(self, name: str, key: str, paths: list[Path]) -> None:
+        if self.folder is None:
+            return
+        self.folder.mkdir(parents=True, exist_ok=True)
+        (self.folder / f"{name}.json").write_text(
+            json.dumps({"key": key, "files": [Path(p).name for p in paths]}))
