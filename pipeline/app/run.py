@@ -527,7 +527,14 @@ def _linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
         point = cs.operating_point(a, c)
         variants.setdefault(point.mass_multiplier, (c, point))
     masses = sorted(variants)
-    runs = [("free", "free (no damper)", masses[0], "linear_free")]
+    # the free limit is the cyclic bodies alone: drawn only where every output is on them
+    # (a blade held by its root joint has no free limit)
+    cm0 = models.coupled(variants[masses[0]][0])
+    cyclic = np.zeros(cm0.hb.linear.n_dof, dtype=bool)
+    for b in cm0.layout:
+        cyclic[b.offset: b.offset + b.n_masters] = b.cyclic
+    free = all(not np.any(cm0.outputs[n][~cyclic]) for n in names)
+    runs = [("free", "free (no damper)", masses[0], "linear_free")] if free else []
     for k, m in enumerate(masses):
         runs.append(("stuck", "fully stuck" + (f", mass x {m:g}" if len(masses) > 1 else ""),
                      m, "linear_stuck" + (f"_{k:03d}" if len(masses) > 1 else "")))
