@@ -52,7 +52,7 @@ def test_version(capsys):
 def test_top_level_help_lists_version(capsys):
     assert main(["--help"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("usage: microslip [--version] {demo,run,check,show,mesh,bench}")
+    assert out.startswith("usage: microslip [--version] {demo,run,check,show,render,mesh,bench}")
 
 
 @pytest.mark.parametrize("command", [["run"], ["check"], ["show"], ["mesh"], ["demo"],

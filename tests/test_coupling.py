@@ -32,13 +32,13 @@ def sector():
 
 
 def spec(mu, eo=1, amplitude=1.0, contacts=("damper_left", "damper_right"), speed=SPEED,
-         elements="2D"):
+         elements="2D", anchor=1e-3):
     return CouplingSpec(
         contacts=tuple(PatchContact(p, mu, elements=elements) for p in contacts),
         engine_order=eo, loads=(NodalLoad("blisk/excitation", "tangential", amplitude),),
         outputs=(Output("tip", "blisk/response", "tangential"),), speed=speed,
         centrifugal=("damper",) if contacts else (),
-        mass_bodies=("damper",) if contacts else ())
+        mass_bodies=("damper",) if contacts else (), static_anchor=anchor)
 
 
 def model(sector, mu, h=None, **kw):
@@ -100,13 +100,14 @@ def test_no_damper_is_the_free_blisk(sector):
     assert w_free == pytest.approx(first_bending(sector), rel=2e-3)  # the blisk's own mode
 
 
-@pytest.mark.parametrize("mass", [1.0, 3.0])
-def test_static_contact_forces_balance_the_centrifugal_load(sector, mass):
+@pytest.mark.parametrize("mass, anchor", [(1.0, 0.0), (3.0, 0.0), (3.0, 1e-3)])
+def test_static_contact_forces_balance_the_centrifugal_load(sector, mass, anchor):
     """Order 0 of the damper's equilibrium: its centrifugal force (scaled with its mass by
     the mass multiplier) and the static contact forces on it sum to zero (the rigid
-    translations are in its Craig-Bampton basis)."""
+    translations are in its Craig-Bampton basis); with the static anchor, its springs'
+    forces ``anchor kt g0`` on each pair's mean tangential slip join the contact forces."""
     mesh, red = sector
-    cm = model(sector, 0.5)
+    cm = model(sector, 0.5, anchor=anchor)
     p = OperatingPoint(first_bending(sector), mass_multiplier=mass)
     r = solve_point(cm.hb, p)
     assert r.converged, r.reason
@@ -115,9 +116,12 @@ def test_static_contact_forces_balance_the_centrifugal_load(sector, mass):
     centrifugal = mass * SPEED**2 * np.array([damper.loads["centrifugal"][damper.dof_index(
         damper.master_nodes)[:, j]].sum().real for j in range(3)])
     total = np.zeros(3)
-    for c, r in zip(cm.hb.contacts, cm.hb.contact_response(x, p)):
+    gaps = cm.hb.relative_displacements(x)
+    for c, r, g in zip(cm.hb.contacts, cm.hb.contact_response(x, p), gaps):
         frames = cm.points[c.name].frames  # rows t1, t2, n; forces act on body a (damper)
-        total -= np.einsum("pji,pj->i", frames, r.forces[:, :, 0])
+        forces = r.forces[:, :, 0].copy()
+        forces[:, :2] += anchor * c.elements.kt * g[:, :2, 0]
+        total -= np.einsum("pji,pj->i", frames, forces)
     assert np.linalg.norm(centrifugal) > 100.0  # a load worth balancing (N)
     # Newton tolerance 1e-9 of the force scale, summed over 12 pairs: far below 1e-6
     assert np.linalg.norm(total + centrifugal) <= 1e-6 * np.linalg.norm(centrifugal)
@@ -242,7 +246,7 @@ def test_a_damper_nothing_holds_is_reported_not_solved(sector):
     """No centrifugal load and zero interference: nothing presses the damper on the flanks,
     its static position is undetermined (the order-0 block singular). The solve must stop
     saying so, never return NaN or a silent non-convergence."""
-    cm = model(sector, 0.5, speed=0.0)
+    cm = model(sector, 0.5, speed=0.0, anchor=0.0)
     r = solve_point(cm.hb, OperatingPoint(first_bending(sector)))
     assert not r.converged
     assert np.all(np.isfinite(r.x))

@@ -183,7 +183,9 @@ def _outputs(case: cs.Case, a: dict, models=None) -> tuple[list[str], object]:
     return names, models.selection(case, names)
 
 
-def _family(case: cs.Case, a: dict) -> list[tuple[cs.Case, str, object]]:
+def curve_variants(case: cs.Case, a: dict) -> list[tuple[cs.Case, str, object]]:
+    """(case variant, label, family value) per curve of an analysis: its ``set`` applied,
+    then each family value or table."""
     case = case.with_values(a.get("set", {}))
     fam = a.get("family")
     if not fam:
@@ -391,7 +393,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
     keys: list[str] = []
     hits = store.hits
     j = 0
-    for c, label, value in _family(case, a):
+    for c, label, value in curve_variants(case, a):
         for method in methods:
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
@@ -523,7 +525,7 @@ def _linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
     measure = a.get("measure", "peak")
     ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
     variants = {}  # mass multiplier -> (case variant, coupled model, operating point)
-    for c, _, _ in _family(case, a):
+    for c, _, _ in curve_variants(case, a):
         point = cs.operating_point(a, c)
         variants.setdefault(point.mass_multiplier, (c, point))
     masses = sorted(variants)
@@ -602,7 +604,7 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
     statuses = []
     keys: list[str] = []
     hits = store.hits
-    for j, (c, label, fvalue) in enumerate(_family(case, a)):
+    for j, (c, label, fvalue) in enumerate(curve_variants(case, a)):
         key = store.key(c.data, a, curve="peak")
         keys.append(key)
         cname = f"curve_{j:03d}"
