@@ -32,7 +32,7 @@ def patch_surface(points: np.ndarray) -> pv.StructuredGrid:
 
 
 @contextmanager
-def _vtk_warnings_off() -> Iterator[None]:
+def vtk_warnings_off() -> Iterator[None]:
     """VTK's warnings muted while a render window is made and read: without a display it
     first tries the X server and prints that failure (raw colour codes) before falling
     back to off-screen rendering (EGL, OSMesa), which is what a preview wants anyway."""
@@ -48,7 +48,7 @@ def _plotter(title: str) -> pv.Plotter:
     """An off-screen plotter with the title in a strip of its own (a title drawn over the
     model hides part of it, and a tall model runs into it); the model's renderer, below
     the strip, is left active."""
-    with _vtk_warnings_off():
+    with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=list(WINDOW), shape=(2, 1),
                         row_weights=TITLE_ROWS, border=False)
     pl.set_background("white", all_renderers=True)
@@ -62,7 +62,7 @@ def _plotter(title: str) -> pv.Plotter:
 
 
 def _save(pl: pv.Plotter, path: Path) -> Path:
-    with _vtk_warnings_off():
+    with vtk_warnings_off():
         pl.screenshot(str(path))
     pl.close()
     return path

@@ -14,8 +14,7 @@ not show, get colours of their own.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -169,26 +168,15 @@ class Panel:
     caption: str
 
 
-@contextmanager
-def _quiet() -> Iterator[None]:
-    """VTK's warnings muted while a window is made and read (see geometry.preview)."""
-    from vtkmodules.vtkCommonCore import vtkObject
-
-    shown = vtkObject.GetGlobalWarningDisplay()
-    vtkObject.GlobalWarningDisplayOff()
-    try:
-        yield
-    finally:
-        vtkObject.SetGlobalWarningDisplay(shown)
-
-
 def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
     """Off-screen plotter: a title strip, rows x cols panels, a legend strip."""
     import pyvista as pv
 
     strip = max(1, round(panel[1] / 7))
     size = [panel[0] * cols, panel[1] * rows + 2 * strip]
-    with _quiet():
+    from microslip.geometry.preview import vtk_warnings_off
+
+    with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
                         row_weights=[strip] + [panel[1]] * rows + [strip],
                         groups=[(0, np.s_[:]), (rows + 1, np.s_[:])], border=False)
@@ -264,7 +252,9 @@ def _legend(pl, entries: Sequence[tuple[str, str]]) -> None:
 def _save(pl, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with _quiet():
+    from microslip.geometry.preview import vtk_warnings_off
+
+    with vtk_warnings_off():
         pl.screenshot(str(path))
     pl.close()
     return path

@@ -353,19 +353,6 @@ def _refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
     return best[1], best[2]
 
 
-def _vertex(x: np.ndarray, y: np.ndarray) -> float | None:
-    """The abscissa of the parabola's vertex through three points, if it is a maximum
-    inside their span."""
-    (x0, x1, x2), (y0, y1, y2) = x, y
-    d = (x0 - x1) * (x0 - x2) * (x1 - x2)
-    a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d
-    b = (x2 ** 2 * (y0 - y1) + x1 ** 2 * (y2 - y0) + x0 ** 2 * (y1 - y2)) / d
-    if not a < 0:
-        return None
-    v = -b / (2 * a)
-    return float(v) if min(x0, x2) < v < max(x0, x2) else None
-
-
 def _map_groups(cm, r: Response, solutions, rows, measure: str,
                 normalise: bool = False) -> dict:
     """The maps/ subgroups of a curve: per solution its parameter, response (per unit
