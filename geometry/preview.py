@@ -51,14 +51,20 @@ def _plotter(title: str) -> pv.Plotter:
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=list(WINDOW), shape=(2, 1),
                         row_weights=TITLE_ROWS, border=False)
+    title_strip(pl, title, 12)
+    pl.subplot(1, 0)
+    return pl
+
+
+def title_strip(pl: pv.Plotter, title: str, font_size: int) -> None:
+    """White background everywhere and ``title`` centred in the first renderer (the strip
+    a picture keeps for its title)."""
     pl.set_background("white", all_renderers=True)
     pl.subplot(0, 0)
-    text = pl.add_text(title, position=(0.5, 0.5), viewport=True, font_size=12,
+    text = pl.add_text(title, position=(0.5, 0.5), viewport=True, font_size=font_size,
                        color="black")
     text.prop.justification_horizontal = "center"
     text.prop.justification_vertical = "center"
-    pl.subplot(1, 0)
-    return pl
 
 
 def _save(pl: pv.Plotter, path: Path) -> Path:

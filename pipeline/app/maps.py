@@ -174,18 +174,13 @@ def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
 
     strip = max(1, round(panel[1] / 7))
     size = [panel[0] * cols, panel[1] * rows + 2 * strip]
-    from microslip.geometry.preview import vtk_warnings_off
+    from microslip.geometry.preview import title_strip, vtk_warnings_off
 
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
                         row_weights=[strip] + [panel[1]] * rows + [strip],
                         groups=[(0, np.s_[:]), (rows + 1, np.s_[:])], border=False)
-    pl.set_background("white", all_renderers=True)
-    pl.subplot(0, 0)
-    text = pl.add_text(title, position=(0.5, 0.5), viewport=True, font_size=11,
-                       color="black")
-    text.prop.justification_horizontal = "center"
-    text.prop.justification_vertical = "center"
+    title_strip(pl, title, 11)
     return pl
 
 

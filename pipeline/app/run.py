@@ -387,16 +387,11 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
             key = store.key(c.data, a, method=method, curve="frf")
             keys.append(key)
             cname = f"curve_{j:03d}"
-            if store.load(key, group, cname):
-                g = group[cname]
-                status, message = str(g.attrs["status"]), str(g.attrs["message"])
-                progress(f"{which}: {g['parameter'].shape[0]} points, {status}, from the "
-                         f"cache (computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
-            else:
-                status, message = _frf_curve(c, a, method, tag, value, which, w, group, cname,
-                                             progress, models)
-                if status in ("complete", "stopped"):
-                    store.save(key, group[cname])
+            status, message = _stored_curve(
+                store, key, group, cname, f"{which}: {{}} points", progress,
+                lambda c=c, method=method, tag=tag, value=value, which=which, cname=cname:
+                _frf_curve(c, a, method, tag, value, which, w, group, cname, progress,
+                           models))
             w.flush()
             j += 1
             statuses.append((status, message))
@@ -431,6 +426,24 @@ def _draw(draw, group, name: str, out: Path, a: dict, keys: list[str], cached: b
         progress(f"[{name}] pictures unchanged ({len(kept)} files)")
         return
     stamps.remember(name, key, draw(group, name, out))
+
+
+def _stored_curve(store: CurveStore, key: str, group, cname: str, what: str,
+                  progress: Progress, compute: Callable[[], tuple[str, str]]
+                  ) -> tuple[str, str]:
+    """(status, message) of the curve ``group[cname]``: copied from the store, saying so
+    (``what`` formats its number of points), or computed by ``compute`` and kept there when
+    finished (complete, or stopped for a reason a re-run would meet again)."""
+    if store.load(key, group, cname):
+        g = group[cname]
+        status, message = str(g.attrs["status"]), str(g.attrs["message"])
+        progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
+                 f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
+        return status, message
+    status, message = compute()
+    if status in ("complete", "stopped"):
+        store.save(key, group[cname])
+    return status, message
 
 
 def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w, group,
@@ -595,16 +608,10 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
         key = store.key(c.data, a, curve="peak")
         keys.append(key)
         cname = f"curve_{j:03d}"
-        if store.load(key, group, cname):
-            g = group[cname]
-            status, message = str(g.attrs["status"]), str(g.attrs["message"])
-            progress(f"[{name}] {label or 'curve'}: {g['parameter'].shape[0]} values, "
-                     f"{status}, from the cache (computed in {g.attrs['elapsed_s']:.1f} s)")
-        else:
-            status, message = _peak_curve(c, a, label, fvalue, name, w, group, cname,
-                                          progress, models)
-            if status in ("complete", "stopped"):
-                store.save(key, group[cname])
+        status, message = _stored_curve(
+            store, key, group, cname, f"[{name}] {label or 'curve'}: {{}} values", progress,
+            lambda c=c, label=label, fvalue=fvalue, cname=cname:
+            _peak_curve(c, a, label, fvalue, name, w, group, cname, progress, models))
         statuses.append((status, message))
         w.flush()
         if status == "interrupted":
