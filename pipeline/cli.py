@@ -20,6 +20,7 @@ BENCHES = {
     "reduction": "microslip.pipeline.bench.reduction",
     "teaching": "microslip.pipeline.bench.teaching",
     "coupled": "microslip.pipeline.bench.coupled",
+    "trade": "microslip.pipeline.bench.trade",
 }
 
 

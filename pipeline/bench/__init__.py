@@ -4,5 +4,7 @@ core        FRF time per point, contact residual + Jacobian cost, harmonics/samp
 meshing     nodes, elements and meshing time over a mesh-size sweep
 reduction   assembly, cyclic matrices, Craig-Bampton per ND: time, memory, back-ends
 teaching    harmonic balance against time integration on the 9-DOF model
+coupled     the coupled harmonic balance at full scale: time per point against grid and H
+trade       speed against accuracy at full scale: grid, harmonics, modes, mesh (table + PNG)
 demos       the single-DOF Jenkins oscillator
 """

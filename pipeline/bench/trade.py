@@ -1,0 +1,289 @@
+"""Speed against accuracy at full scale: what each knob of the blisk-damper case buys and
+costs. The knobs: contact grid per damper flank, harmonics, fixed-interface modes kept per
+body, mesh size.
+
+    microslip bench trade                       # every setting of SETTINGS (~1 h)
+    microslip bench trade --only coarse,quick   # some of them
+    microslip bench trade --out trade/          # also trade.json and trade.png
+
+Each setting runs cold in a fresh process: mesh, Craig-Bampton reduction of every body and
+nodal diameter, coupling, and one arclength FRF of the blade tip over --start..--stop at
+the case's damper mass. The peak is refined by Brent's method, as the case's peak maps are.
+Printed per setting:
+- the peak frequency and vibration amplitude, and their change against the finest setting;
+- the time of the model (mesh + reduction + coupling) and of the FRF, their sum, and the
+  peak memory of its process.
+A design sweep pays the FRF time once per value, the model time once.
+
+The PNG plots the amplitude error against the total time, one marker per setting, with the
+Pareto front: the settings that no other setting beats in both.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import copy
+import json
+import multiprocessing
+import resource
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+FINE = (0.008, 0.004)  # m: tet size of the sector and of the blade (the case's defaults)
+COARSE = (0.010, 0.005)
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One combination of the knobs.
+
+    grid: node pairs per flank (axial, along the flank); harmonics: highest order H (orders
+    0..H, static included); modes: fixed-interface modes per body ("auto": every one below
+    4x the 10th); mesh: "fine" or "coarse" (FINE, COARSE tet sizes)."""
+
+    name: str
+    grid: tuple[int, int]
+    harmonics: int
+    modes: str | int
+    mesh: str
+
+    @property
+    def pairs(self) -> int:
+        """Node pairs per flank."""
+        return self.grid[0] * self.grid[1]
+
+    def describe(self) -> str:
+        return (f"2x{self.pairs} pairs, H 0-{self.harmonics}, modes {self.modes}, "
+                f"{self.mesh} mesh")
+
+
+# The finest setting first: every other is measured against it. The grids and H of the case
+# around it one at a time, then the modes and the mesh at the case's grid and H, then the
+# cheap corners (the README's quick case among them).
+SETTINGS = (
+    Setting("finest", (12, 6), 3, "auto", "fine"),
+    Setting("grid-72-H1", (12, 6), 1, "auto", "fine"),
+    Setting("grid-36-H3", (9, 4), 3, "auto", "fine"),
+    Setting("case", (9, 4), 1, "auto", "fine"),
+    Setting("grid-12-H3", (6, 2), 3, "auto", "fine"),
+    Setting("grid-12-H1", (6, 2), 1, "auto", "fine"),
+    Setting("modes-20", (9, 4), 1, 20, "fine"),
+    Setting("modes-8", (9, 4), 1, 8, "fine"),
+    Setting("coarse", (9, 4), 1, "auto", "coarse"),
+    Setting("quick", (6, 2), 1, "auto", "coarse"),
+    Setting("cheapest", (6, 2), 1, 8, "coarse"),
+)
+
+
+def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
+    """The base case's table with the setting's knobs and one FRF analysis (no maps, no
+    pictures: the bench reads the refined peak itself)."""
+    data = copy.deepcopy(base)
+    size, blade = FINE if s.mesh == "fine" else COARSE
+    data["geometry"].setdefault("parameters", {}).update(
+        contact_n_axial=s.grid[0], contact_n_flank=s.grid[1], size=size, blade_size=blade)
+    data["reduction"]["modes"] = s.modes
+    data["reduction"].pop("harmonics", None)  # the NDs follow [harmonics] max
+    data["harmonics"] = {**data.get("harmonics", {}), "max": s.harmonics}
+    output = data["coupling"]["outputs"][0]["name"]
+    data["analysis"] = [{"name": "frf", "type": "frf", "start": start, "stop": stop,
+                         "outputs": [output], "measure": "vibration"}]
+    return data
+
+
+def measure(data: dict, source: str) -> dict:
+    """One setting, cold, in this process: times [s], peak, sizes and peak memory [MB]."""
+    from microslip.pipeline.app import case as cs
+    from microslip.pipeline.app.models import CoupledModels
+    from microslip.pipeline.app.run import map_solutions, mesh_geometry
+    from microslip.pipeline.app.structure import reduce_structure
+    from microslip.pipeline.friction import warm_up
+    from microslip.pipeline.solve.response import sweep
+
+    def quiet(_: str) -> None:
+        pass
+
+    warm_up(quiet)  # the contact kernels load from numba's cache: not the setting's cost
+    case = cs.Case(data, source)
+    a = case.analyses[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        mesh = mesh_geometry(data["geometry"], Path(tmp), quiet, pictures=False)
+        t1 = time.perf_counter()
+        structure = reduce_structure(mesh, data["reduction"], Path(tmp) / "models",
+                                     cs.harmonics(case).orders, quiet)
+        t2 = time.perf_counter()
+        models = CoupledModels(mesh, structure)
+        hb = models.model(case)
+        rows = models.selection(case, a["outputs"])
+        t3 = time.perf_counter()
+        base = cs.operating_point(a, case).set("frequency", a["start"])
+        r = sweep(hb, "frequency", a["start"], a["stop"], base, settings=cs.settings(case))
+        found = map_solutions(r, ["peak"], rows, "vibration", cs.settings(case))
+        t4 = time.perf_counter()
+    omega, amplitude = float("nan"), float("nan")
+    if found:
+        from microslip.pipeline.app.run import _response_at
+
+        _, omega, x = found[0]
+        amplitude = float(_response_at(hb, x, base.set("frequency", omega), rows,
+                                       "vibration")[0])
+    modes = {body: max(m.n_modes for m in per_nd.values())
+             for body, per_nd in structure.models.items()}
+    return {"omega": omega, "amplitude": amplitude, "status": r.branch.status,
+            "points": len(r), "unknowns": int(hb.n_unknowns), "nodes": int(mesh.points.shape[0]),
+            "modes": modes, "mesh_s": t1 - t0, "reduction_s": t2 - t1, "coupling_s": t3 - t2,
+            "frf_s": t4 - t3, "total_s": t4 - t0,
+            "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+def pareto_front(cost: np.ndarray, error: np.ndarray) -> np.ndarray:
+    """Indices of the settings no other beats in both cost and error (ties kept), by cost.
+
+    cost, error: (n,), smaller is better; NaN errors never enter the front."""
+    cost, error = np.asarray(cost, float), np.asarray(error, float)
+    front, best = [], np.inf
+    for i in np.lexsort((error, cost)):
+        if np.isfinite(error[i]) and error[i] < best:
+            front.append(int(i))
+            best = error[i]
+    return np.array(front, dtype=int)
+
+
+def changes(rows: list[dict], reference: dict) -> list[dict]:
+    """Per row its peak frequency change [rad/s] and amplitude change [%] against the
+    reference row (the finest setting)."""
+    out = []
+    for r in rows:
+        d_omega = r["omega"] - reference["omega"]
+        d_amp = 100.0 * (r["amplitude"] / reference["amplitude"] - 1.0)
+        out.append({"d_omega": d_omega, "d_amplitude_pct": d_amp})
+    return out
+
+
+def table(rows: list[dict]) -> str:
+    """The trade table as Markdown (rows: measure() results with their setting and change)."""
+    lines = ["| setting | grid | H | modes (blisk/damper) | mesh | unknowns | peak [rad/s] "
+             "| change | peak [mm] | change | model [s] | FRF [s] | total [s] | memory [MB] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        s = r["setting"]
+        modes = "/".join(str(r["modes"][b]) for b in sorted(r["modes"]))
+        model_s = r["mesh_s"] + r["reduction_s"] + r["coupling_s"]
+        lines.append(
+            f"| {s['name']} | 2x{s['grid'][0] * s['grid'][1]} | 0-{s['harmonics']} | "
+            f"{s['modes']} ({modes}) | {s['mesh']} ({r['nodes']} vertices) | {r['unknowns']} | "
+            f"{r['omega']:.2f} | {r['d_omega']:+.2f} | {1e3 * r['amplitude']:.4f} | "
+            f"{r['d_amplitude_pct']:+.2f} % | {model_s:.0f} | {r['frf_s']:.0f} | "
+            f"{r['total_s']:.0f} | {r['memory_mb']:.0f} |")
+    return "\n".join(lines)
+
+
+def picture(rows: list[dict], path: Path) -> Path:
+    """Amplitude error [%] against total time [s], one marker per setting, Pareto front."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = np.array([r["total_s"] for r in rows])
+    err = np.array([abs(r["d_amplitude_pct"]) for r in rows])
+    shown = np.maximum(err, 1e-3)  # the reference itself (0 %) on a log axis
+    fig, ax = plt.subplots(figsize=(7.5, 5.0), dpi=120)
+    for r, x, y in zip(rows, t, shown):
+        s = r["setting"]
+        marker = "o" if s["harmonics"] == 1 else "s"
+        colour = "tab:blue" if s["mesh"] == "fine" else "tab:orange"
+        ax.scatter(x, y, marker=marker, color=colour, zorder=3)
+        ax.annotate(s["name"], (x, y), textcoords="offset points", xytext=(5, 4), fontsize=8)
+    front = pareto_front(t, err)
+    ax.plot(t[front], shown[front], "k--", lw=1, label="Pareto front", zorder=2)
+    for marker, label in (("o", "H 0-1"), ("s", "H 0-3")):
+        ax.scatter([], [], marker=marker, color="grey", label=label)
+    for colour, label in (("tab:blue", "fine mesh"), ("tab:orange", "coarse mesh")):
+        ax.scatter([], [], marker="o", color=colour, label=label)
+    ax.set(xscale="log", yscale="log", xlabel="time, cold: model + FRF [s]",
+           ylabel="peak amplitude error against the finest [%]",
+           title="Blisk + dampers: accuracy against time per setting")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _pick(text: str | None) -> list[Setting]:
+    """The settings named in --only (the finest always first: it is the reference)."""
+    if text is None:
+        return list(SETTINGS)
+    names = {s.name: s for s in SETTINGS}
+    asked = [n.strip() for n in text.split(",") if n.strip()]
+    bad = [n for n in asked if n not in names]
+    if bad:
+        raise ValueError(f"--only: unknown setting(s) {', '.join(bad)}; allowed: "
+                         f"{', '.join(names)}")
+    return [s for s in SETTINGS if s.name in asked]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="microslip bench trade", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--case", type=Path, default=Path("cases/blisk_damper.toml"),
+                        help="the blisk-damper case whose knobs are varied")
+    parser.add_argument("--only", default=None, metavar="NAMES",
+                        help="comma-separated setting names (default: all); the first run is "
+                             "the reference of the changes")
+    parser.add_argument("--start", type=float, default=3120.0, help="FRF start [rad/s]")
+    parser.add_argument("--stop", type=float, default=3180.0, help="FRF stop [rad/s]")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder for trade.json and trade.png")
+    args = parser.parse_args(argv)
+    from microslip.pipeline.app import case as cs
+
+    try:
+        settings = _pick(args.only)
+        if not 0 < args.start < args.stop:
+            raise ValueError(f"--start {args.start:g}, --stop {args.stop:g}: expected "
+                             "0 < start < stop")
+        base = cs.load(args.case).data
+        datas = [case_data(base, s, args.start, args.stop) for s in settings]
+        for d in datas:
+            cs.check(d, str(args.case))
+    except (ValueError, cs.CaseError) as err:
+        print(f"microslip bench trade: {err}", file=sys.stderr)
+        return 2
+    print(f"{len(settings)} settings of {args.case}, FRF {args.start:g}..{args.stop:g} rad/s, "
+          f"each cold in its own process", flush=True)
+    rows: list[dict] = []
+    ctx = multiprocessing.get_context("spawn")
+    t_all = time.perf_counter()
+    for k, (s, data) in enumerate(zip(settings, datas)):
+        with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
+            r = pool.submit(measure, data, str(args.case)).result()
+        rows.append(r | {"setting": asdict(s)})
+        spent = time.perf_counter() - t_all
+        left = spent / (k + 1) * (len(settings) - k - 1)
+        print(f"[{k + 1}/{len(settings)}] {s.name}: {s.describe()}: peak "
+              f"{1e3 * r['amplitude']:.4f} mm at {r['omega']:.2f} rad/s, {r['status']}, "
+              f"{r['total_s']:.0f} s, {r['memory_mb']:.0f} MB; about {left / 60:.0f} min left "
+              "(rough: the settings differ)", flush=True)
+    for r, c in zip(rows, changes(rows, rows[0])):
+        r.update(c)
+    print(f"\nchanges against {settings[0].name} ({settings[0].describe()}):")
+    print(table(rows))
+    front = pareto_front([r["total_s"] for r in rows],
+                         [abs(r["d_amplitude_pct"]) for r in rows])
+    print("Pareto front (time, amplitude error): "
+          + ", ".join(rows[i]["setting"]["name"] for i in front))
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "trade.json").write_text(json.dumps(rows, indent=1))
+        print(f"wrote {picture(rows, args.out / 'trade.png')}, {args.out / 'trade.json'}")
+    return 0 if all(r["status"] == "complete" for r in rows) else 1
