@@ -302,6 +302,11 @@ class Mesh:
             xyz = xyz @ rotation_z(angle).T
         return xyz
 
+    def surface(self, body: str) -> np.ndarray:
+        """(t, 3) int64 outer surface triangles of ``body`` (global node indices, normals
+        out of the body); a sector body's cyclic faces are part of it."""
+        return boundary_triangles(self.tetrahedra[self.bodies[body]])
+
     def body_volume(self, body: str) -> float:
         """Sum of the tet volumes of ``body`` (m^3)."""
         return float(signed_volumes(self.points, self.tetrahedra[self.bodies[body]]).sum())
@@ -402,3 +407,16 @@ def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     p = np.asarray(points)[np.asarray(tets)]
     d = p[:, 1:] - p[:, :1]
     return np.einsum("ij,ij->i", d[:, 0], np.cross(d[:, 1], d[:, 2])) / 6.0
+
+
+# The faces of a positively oriented tet (v0..v3) with their normals pointing out of it.
+_TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+
+
+def boundary_triangles(tets: np.ndarray) -> np.ndarray:
+    """(t, 3) faces of positively oriented tets (m, 4) that belong to one tet only: the
+    outer surface, each triangle ordered so that its normal points out of the solid."""
+    faces = np.asarray(tets, dtype=np.int64)[:, _TET_FACES].reshape(-1, 3)
+    _, index, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True,
+                                return_counts=True)
+    return faces[np.sort(index[count == 1])]

@@ -95,13 +95,13 @@ def render_sector(mesh: Mesh, path: Path) -> Path:
                           render_points_as_spheres=True, label=f"cyclic {cyc_body} {side}")
     _legend(pl, 0.26, len(mesh.bodies) + 2 * len(mesh.cyclic))
     pl.add_axes()
-    _axial_view(pl, mesh.points.mean(axis=0), np.ptp(mesh.points, axis=0).max())
+    axial_view(pl, mesh.points.mean(axis=0), np.ptp(mesh.points, axis=0).max())
     pl.reset_camera()
     pl.camera.zoom(0.92)  # a margin: the tilted view otherwise puts a tall blade on the edge
     return _save(pl, path)
 
 
-def _axial_view(pl: pv.Plotter, focus: np.ndarray, span: float) -> None:
+def axial_view(pl: pv.Plotter, focus: np.ndarray, span: float) -> None:
     """Look along +z from z < 0 (pocket and slot profiles lie in the xy plane), tilted so
     the axial faces show; +x (the blade) up, +y (theta > 0) to the right."""
     pl.camera.focal_point = focus
@@ -135,7 +135,7 @@ def render_contacts(mesh: Mesh, path: Path) -> Path:
     pl.add_axes()
     if centres:
         pts = np.array(centres)
-        _axial_view(pl, pts.mean(axis=0), max(np.ptp(pts, axis=0).max(), 1e-3))
+        axial_view(pl, pts.mean(axis=0), max(np.ptp(pts, axis=0).max(), 1e-3))
     return _save(pl, path)
 
 

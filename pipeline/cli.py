@@ -281,8 +281,8 @@ def _render_options(args) -> tuple[object, list[str]]:
 
 def render(argv: list[str]) -> int:
     """Redraw the pictures of a results folder from its results.h5 alone (FRFs, peak
-    curves, contact-status and static-load maps): other colours, another point, another
-    size. Nothing is recomputed."""
+    curves, contact-status and static-load maps, deformed shapes): other colours, another
+    point, another size. Nothing is recomputed."""
     from microslip.pipeline.app import pictures
     from microslip.pipeline.app.results import ResultsError
 
@@ -292,15 +292,16 @@ def render(argv: list[str]) -> int:
                         help="folder of the pictures (default: the results folder)")
     parser.add_argument("--at", type=float, default=None, metavar="VALUE",
                         help="draw the maps at the computed point nearest this parameter "
-                        "value (rad/s for a frequency sweep) of every curve")
+                        "value (rad/s for a frequency sweep) of every curve (deformed "
+                        "shapes exist at the case's own map points only)")
     parser.add_argument("--size", default=None, metavar="WxH",
-                        help=f"pixels of one map (default {maps_panel()})")
+                        help=f"pixels of one map or shape panel (default {maps_panel()})")
     parser.add_argument("--colour", action="append", default=[], metavar="STATE=COLOUR",
                         help="colour of a contact state in the status maps, e.g. "
                         "'open=gold' or 'stick-slip=#777777' (repeatable)")
     parser.add_argument("--maps", default=None, metavar="TYPES",
-                        help="which maps: status, normal_load, or both comma-separated "
-                        "(default: the case's)")
+                        help="which maps: status, normal_load, shape (deformed sector and "
+                        "full disk), comma-separated (default: the case's)")
     parser.add_argument("--analysis", action="append", default=None, metavar="NAME",
                         help="only this analysis (repeatable)")
     args = parser.parse_args(argv)
@@ -330,9 +331,10 @@ def render(argv: list[str]) -> int:
 
 
 def maps_panel() -> str:
-    from microslip.pipeline.app.maps import PANEL
+    from microslip.pipeline.app import maps, shapes
 
-    return f"{PANEL[0]}x{PANEL[1]}"
+    return (f"{maps.PANEL[0]}x{maps.PANEL[1]} per map, {shapes.PANEL[0]}x{shapes.PANEL[1]} "
+            "per shape panel")
 
 
 def mesh(argv: list[str]) -> int:

@@ -31,7 +31,7 @@ CASE = {
     },
     "analysis": [{"name": "frf", "type": "frf", "start": 3200.0, "stop": 3300.0,
                   "outputs": ["tip"], "maps": ["peak", 3250.0],
-                  "map_types": ["status", "normal_load"]}],
+                  "map_types": ["status", "normal_load", "shape"]}],
 }
 
 
@@ -65,7 +65,7 @@ def test_the_shipped_case_is_valid():
     (lambda d: d["analysis"][0].update(maps=["top"]),
      "maps: 'top' is neither 'peak' nor a parameter value in the range 3200..3300"),
     (lambda d: d["analysis"][0].update(maps=[4000.0]), "maps: 4000.0 is neither"),
-    (lambda d: d["analysis"][0].update(map_types=["shape"]), "map_types = ['shape']"),
+    (lambda d: d["analysis"][0].update(map_types=["modes"]), "map_types = ['modes']"),
     (lambda d: d["coupling"].update(excitation=0), "coupling.excitation = 0: must be > 0"),
     (lambda d: d["coupling"].update(static_anchor=2.0), "static_anchor = 2.0"),
     (lambda d: d["analysis"][0].update(normalise="yes"), "normalise = 'yes'"),
@@ -209,12 +209,68 @@ def test_render_redraws_the_pictures_from_the_results_file_alone(coarse_run, tmp
     assert (w, h) == (600, 200 + 2 * round(200 / 7))
 
 
+def test_the_shapes_at_the_map_points_are_the_solution_on_the_contact_nodes(coarse_run):
+    # every contact node is a master and on its body's surface: its recovered displacement
+    # there must be the harmonic-balance unknowns of that node, coefficient for coefficient
+    with h5py.File(coarse_run / "results.h5") as f:
+        curve = f["frf/curve_000"]
+        dof_nodes, dirs = curve["unknown_nodes"][()], curve["unknown_directions"][()]
+        n_coeffs = 3
+        for point in curve["maps"].values():
+            x = point["unknowns"][()].reshape(-1, n_coeffs)  # (n_dof, n_coeffs)
+            checked = 0
+            for body, g in f["surfaces"].items():
+                nodes, u = g["nodes"][()], point["shapes"][body][()]
+                assert u.shape == (len(nodes), 3, n_coeffs)
+                for k in np.flatnonzero(np.isin(dof_nodes, nodes)):
+                    i = np.searchsorted(nodes, dof_nodes[k])
+                    # recovery is a product with the identity rows of the masters: rounding
+                    np.testing.assert_allclose(u[i, dirs[k]], x[k], rtol=1e-9,
+                                               atol=1e-12 * np.abs(x).max())
+                    checked += 1
+            assert checked == x.shape[0]  # every contact DOF is a surface DOF of its body
+
+
+def test_the_full_disk_is_continuous_across_every_sector_boundary(coarse_run):
+    from microslip.pipeline.app import shapes
+
+    # copy s's right cyclic face is copy s+1's left face: one node of the disk, one motion.
+    # Wrong phases (or a wrong sign of the wave) tear the disk apart at these faces.
+    mesh = geometry.MODELS["blisk_sector"](**CASE["geometry"]["parameters"])
+    cyc = mesh.cyclic["blisk"]
+    with h5py.File(coarse_run / "results.h5") as f:
+        surfaces, shape = shapes.read(f, f["frf/curve_000/maps/point_00"])
+        nodes = f["surfaces/blisk/nodes"][()]
+    assert shape.sectors == 6 and shape.wave_numbers == (0, 1)
+    left, right = np.searchsorted(nodes, cyc.left), np.searchsorted(nodes, cyc.right)
+    scale = max(np.abs(shape.vibration("blisk", t)).max() for t in (0.0, 1.0))
+    for theta in (0.0, 1.0, 2.5):
+        for s in range(6):
+            a = shape.vibration("blisk", theta, s)[right]
+            b = shape.vibration("blisk", theta, (s + 1) % 6)[left]
+            # the cyclic constraint holds to the reduced model's rounding
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * scale)
+
+
+def test_a_shape_picture_is_a_non_blank_png_of_the_asked_size(coarse_run, tmp_path):
+    from PIL import Image
+
+    assert main(["render", str(coarse_run), "--out", str(tmp_path), "--maps", "shape",
+                 "--size", "400x300"]) == 0
+    names = sorted(p.name for p in tmp_path.glob("frf_shape_*.png"))
+    assert names == ["frf_shape_a.png", "frf_shape_b.png"]
+    image = np.asarray(Image.open(tmp_path / "frf_shape_a.png").convert("RGB"))
+    # two panels of 400 x 300 below a title strip of a ninth of their height
+    assert image.shape == (300 + round(300 / 9), 800, 3)
+    assert (image.min(axis=2) < 200).mean() > 0.05  # a drawn model, not a white page
+
+
 @pytest.mark.parametrize("args, expected", [
     (["render", "nowhere"], "no results file at nowhere"),
     (["render", "{run}", "--colour", "wet=blue"], "'wet' is not a state"),
     (["render", "{run}", "--colour", "open=notacolour"], "is not a colour"),
     (["render", "{run}", "--size", "10x10"], "--size 10x10: expected WIDTHxHEIGHT"),
-    (["render", "{run}", "--maps", "shapes"], "not among ['status', 'normal_load']"),
+    (["render", "{run}", "--maps", "shapes"], "not among ['status', 'normal_load', 'shape']"),
 ])
 def test_render_rejects_bad_input_with_one_line_and_exit_2(coarse_run, capsys, args,
                                                             expected):
@@ -233,7 +289,7 @@ def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coars
     run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), tmp_path, progress=lines.append)
     assert any("curve 1: 1" in x or "from the cache" in x for x in lines)
     assert not any(" point 1, value" in x for x in lines)  # no continuation ran
-    assert "[frf] pictures unchanged (6 files)" in lines  # nor any drawing
+    assert "[frf] pictures unchanged (8 files)" in lines  # nor any drawing (2 shapes)
     assert any("previews unchanged" in x for x in lines)
     with h5py.File(coarse_run / "results.h5") as a, h5py.File(tmp_path / "results.h5") as b:
         for key in ("parameter", "response", "unknowns"):

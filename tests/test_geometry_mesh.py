@@ -11,6 +11,7 @@ from microslip.geometry.mesh import (
     CyclicBoundary,
     Mesh,
     MeshValidationError,
+    boundary_triangles,
     rotation_z,
     signed_volumes,
 )
@@ -27,6 +28,29 @@ def two_tets() -> tuple[np.ndarray, np.ndarray]:
 def test_signed_volume_of_unit_tet_is_one_sixth():
     assert signed_volumes(UNIT_TET, np.array([[0, 1, 2, 3]]))[0] == pytest.approx(1 / 6)
     assert signed_volumes(UNIT_TET, np.array([[0, 2, 1, 3]]))[0] == pytest.approx(-1 / 6)
+
+
+def test_the_boundary_of_a_cube_of_six_tets_is_its_twelve_outward_triangles():
+    from itertools import permutations
+
+    corners = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], float)
+    tets = []
+    for order in permutations(range(3)):  # Kuhn's split: one tet per path 0 -> 7
+        path = [0]
+        for axis in order:
+            path.append(path[-1] | (1 << axis))
+        tets.append(path)
+    tets = np.array(tets)
+    flip = signed_volumes(corners, tets) < 0
+    tets[flip] = tets[flip][:, [0, 2, 1, 3]]
+    tri = boundary_triangles(tets)
+    assert tri.shape == (12, 3)  # two per face: the inner faces are shared and left out
+    # closed: every edge twice, once each way; outward: the divergence theorem's volume
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    assert sorted(map(tuple, edges)) == sorted(map(tuple, edges[:, ::-1]))
+    p = corners[tri]
+    volume = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6
+    assert volume == pytest.approx(1.0, rel=1e-12)
 
 
 def test_sicn_is_one_for_regular_and_negative_for_inverted_tet():

@@ -579,7 +579,14 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                        f"{names}")
 
 
-MAP_TYPES = ("status", "normal_load")
+MAP_TYPES = ("status", "normal_load", "shape")
+
+
+def wants_shapes(data: dict) -> bool:
+    """Whether an frf of the case draws deformed shapes at its map points: then every body
+    is recovered on its outer surface too."""
+    return any(isinstance(a, dict) and a.get("maps") and "shape" in a.get("map_types", [])
+               for a in data.get("analysis", []))
 
 
 def _maps(pre: str, a: dict, data: dict, out: list[str]) -> None:

@@ -17,12 +17,12 @@ import numpy as np
 
 from microslip.pipeline.friction.laws import STICK, slip_share
 
-from . import maps, plots
+from . import maps, plots, shapes
 
 MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [m]",
                  "harmonic": "first-harmonic amplitude of {} [m]"}
 STYLE = {"natural": "--", "natural-down": ":"}  # line style per continuation method
-MAP_TYPES = ("status", "normal_load")
+MAP_TYPES = ("status", "normal_load", "shape")
 
 
 @dataclass(frozen=True)
@@ -295,6 +295,28 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
                        f"({_seen(grids, patches)})", panels,
                        panel=options.panel)
         paths.append(path)
+    if "shape" in kinds and options.at is None:  # stored at the case's map points only
+        paths += frf_shapes(g, name, out, options)
+    return paths
+
+
+def frf_shapes(g: h5py.Group, name: str, out: Path, options: Options = Options()
+               ) -> list[Path]:
+    """The deformed sector and full disk at every map point that stored its shape,
+    ``<name>_shape_<letter>.png``."""
+    par = _text(g.attrs.get("parameter", "frequency"))
+    panel = shapes.PANEL if options.panel == maps.PANEL else options.panel
+    paths = []
+    for letter, c, p in _map_groups(g):
+        found = shapes.read(g.file, p)
+        if found is None:
+            continue
+        label = _text(c.attrs.get("label", ""))
+        what = _text(p.attrs["what"])
+        if what == "peak":
+            what += f" at {par} {float(p.attrs['parameter']):.6g}"
+        title = f"{name} ({letter}): " + ", ".join(x for x in (label, what) if x)
+        paths.append(shapes.draw(out / f"{name}_shape_{letter}.png", title, *found, panel))
     return paths
 
 

@@ -57,10 +57,11 @@ def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
                             "tetrahedra; every run"))
         if "reduction" in data:
             orders = cs.harmonics(case).orders if "harmonics" in data else None
-            stages += _reduction(mesh, data["reduction"], out / "models", orders)
+            stages += _reduction(mesh, data["reduction"], out / "models", orders,
+                                 cs.wants_shapes(data))
     store = CurveStore(out / "cache" / "curves" if cache else None)
     sizes = {s.analysis: s for s in cs.sizes(data)}
-    from .run import curve_variants
+    from .run import curve_variants, frf_key
 
     for i, a in enumerate(case.analyses):
         name = str(a.get("name", f"analysis{i}"))
@@ -78,7 +79,7 @@ def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
         for j, (c, label, _) in enumerate(curve_variants(case, a)):
             for method in methods:
                 if kind == "frf":
-                    cached = store.has(store.key(c.data, a, method=method, curve="frf"))
+                    cached = store.has(frf_key(store, c, a, method))
                     seconds = CURVE_POINTS * t_point + (20 * t_point if a.get("maps") else 0)
                 else:
                     cached = store.has(store.key(c.data, a, curve="peak"))
@@ -106,7 +107,7 @@ def _point_seconds(unknowns: int, samples: int) -> float:
     return max(0.005, POINT_S * scale)
 
 
-def _reduction(mesh, red: dict, cache: Path, orders) -> list[Stage]:
+def _reduction(mesh, red: dict, cache: Path, orders, surfaces: bool = False) -> list[Stage]:
     """Per body and nodal diameter: the reduced model's cache file exists, or it runs."""
     import numpy as np
 
@@ -118,7 +119,7 @@ def _reduction(mesh, red: dict, cache: Path, orders) -> list[Stage]:
     nds = needed_nodal_diameters(red, max(sectors), orders) if sectors else (0,)
     stages = []
     cyclic_cached = True
-    for spec in sorted(body_specs(mesh, red), key=lambda s: s.body not in mesh.cyclic):
+    for spec in sorted(body_specs(mesh, red, surfaces), key=lambda s: s.body not in mesh.cyclic):
         nodes = np.unique(mesh.tetrahedra[mesh.bodies[spec.body]]).size
         seconds = REDUCTION_S_PER_KNODE * nodes / 1000 * (1.0 if spec.order == 2 else 0.2)
         is_cyclic = spec.body in mesh.cyclic
@@ -129,7 +130,7 @@ def _reduction(mesh, red: dict, cache: Path, orders) -> list[Stage]:
                                         "after the cyclic bodies (its mode count follows "
                                         "theirs)"))
                     continue
-                spec = _with_reference(spec, mesh, red, nds, cache)
+                spec = _with_reference(spec, mesh, red, nds, cache, surfaces)
             path = reduction.model_path(mesh, spec, h, cache)
             cached = path.is_file()
             cyclic_cached = cyclic_cached and (cached or not is_cyclic)
@@ -139,7 +140,7 @@ def _reduction(mesh, red: dict, cache: Path, orders) -> list[Stage]:
     return stages
 
 
-def _with_reference(spec, mesh, red: dict, nds, cache: Path):
+def _with_reference(spec, mesh, red: dict, nds, cache: Path, surfaces: bool = False):
     """A non-cyclic body's spec with the f_max its run would infer from the cyclic bodies'
     (cached) models."""
     from dataclasses import replace
@@ -149,7 +150,7 @@ def _with_reference(spec, mesh, red: dict, nds, cache: Path):
     from .structure import body_specs
 
     models = [reduction.ReducedModel.load(reduction.model_path(mesh, s, h, cache))
-              for s in body_specs(mesh, red) if s.body in mesh.cyclic for h in nds]
+              for s in body_specs(mesh, red, surfaces) if s.body in mesh.cyclic for h in nds]
     f_ref = reduction.reference_frequency(models)
     return spec if f_ref is None else replace(spec, f_max=f_ref)
 

@@ -152,7 +152,11 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
 
     t = time.perf_counter()
     orders = cs.harmonics(case).orders if "harmonics" in case.data else None
-    result = reduce_structure(mesh, case.data["reduction"], out / "models", orders, progress)
+    shapes = cs.wants_shapes(case.data)
+    result = reduce_structure(mesh, case.data["reduction"], out / "models", orders, progress,
+                              surfaces=shapes)
+    if shapes:
+        write_surfaces(w, mesh)
     datasets: dict = {body: {f"nd{h}": {
         "frequencies_hz": result.frequencies[body, h], "mode_frequencies_hz": m.mode_frequencies,
         "master_nodes": m.master_nodes} for h, m in models.items()}
@@ -174,6 +178,25 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
     progress(f"[reduction] {len(result.cached)} of {len(result.seconds)} models from the "
              f"cache; stage {time.perf_counter() - t:.1f} s")
     return result
+
+
+def surfaces(mesh) -> dict[str, np.ndarray]:
+    """Per body its outer-surface vertices (sorted global node indices): where deformed
+    shapes are recovered and drawn."""
+    return {body: np.unique(mesh.surface(body)) for body in sorted(mesh.bodies)}
+
+
+def write_surfaces(w: ResultsWriter, mesh) -> None:
+    """/surfaces/<body>: nodes (p,) global indices, points (p, 3) [m], triangles (t, 3) into
+    the nodes (outward), attr cyclic (a sector body); /surfaces attr sectors (0: no cyclic
+    body). The shapes at the map points are given on these nodes."""
+    groups = {}
+    for body, nodes in surfaces(mesh).items():
+        tri = np.searchsorted(nodes, mesh.surface(body))
+        groups[body] = {ATTRS: {"cyclic": body in mesh.cyclic}, "nodes": nodes,
+                        "points": mesh.points[nodes], "triangles": tri}
+    sectors = sorted({c.sectors for c in mesh.cyclic.values()})
+    w.write_group(w.file, "surfaces", groups, {"sectors": sectors[0] if sectors else 0})
 
 
 def _outputs(case: cs.Case, a: dict, models=None) -> tuple[list[str], object]:
@@ -354,10 +377,11 @@ def _refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
 
 
 def _map_groups(cm, r: Response, solutions, rows, measure: str,
-                normalise: bool = False) -> dict:
+                normalise: bool = False, surfaces: dict | None = None) -> dict:
     """The maps/ subgroups of a curve: per solution its parameter, response (per unit
     excitation with ``normalise``), unknowns and patch states (the pictures letter them a,
-    b, c... over the analysis)."""
+    b, c... over the analysis); with ``surfaces`` (body -> its surface nodes), each body's
+    displacement coefficients there, ``shapes/<body>`` (p, 3, n_coeffs) [m]."""
     groups = {}
     for k, (what, v, x) in enumerate(solutions):
         point = r.base.set(r.parameter, v)
@@ -369,7 +393,20 @@ def _map_groups(cm, r: Response, solutions, rows, measure: str,
             "unknowns": x, "response": response / point.excitation if normalise else response,
             "patches": {p: {"state": s.state, "static": s.static,
                             "slip_share": s.slip_share} for p, s in patches.items()}}
+        if surfaces:
+            groups[f"point_{k:02d}"]["shapes"] = {
+                ATTRS: {"orders": list(r.model.harmonics.orders),
+                        "wave_numbers": list(cm.wave_numbers())},
+                **{body: cm.displacements(x, point, body, nodes)[1]
+                   for body, nodes in surfaces.items()}}
     return groups
+
+
+def frf_key(store: CurveStore, c: cs.Case, a: dict, method: str) -> str:
+    """The store key of one FRF branch; deformed shapes at its map points are part of what
+    it computes."""
+    return store.key(c.data, a, method=method, curve="frf",
+                     shapes="shape" in a.get("map_types", []))
 
 
 def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
@@ -384,7 +421,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
         for method in methods:
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
-            key = store.key(c.data, a, method=method, curve="frf")
+            key = frf_key(store, c, a, method)
             keys.append(key)
             cname = f"curve_{j:03d}"
             status, message = _stored_curve(
@@ -490,8 +527,10 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
                                        for p in per_point])
         if wanted and b.status != "interrupted":
             sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
+            shapes = "shape" in a.get("map_types", [])
             data["maps"] = _map_groups(cm, r, sols, idx, measure,
-                                       bool(a.get("normalise", False)))
+                                       bool(a.get("normalise", False)),
+                                       surfaces(models.mesh) if shapes else None)
             for m in data["maps"].values():
                 progress(f"{which}: map point, {m[ATTRS]['what']} at {par} "
                          f"{m[ATTRS]['parameter']:.6g}: response {m['response'][0]:.4g} m")

@@ -274,8 +274,9 @@ def _existing(mesh: Any, body: str, suffixes: Sequence[str]) -> tuple[str, ...]:
     return tuple(f"{body}/{s}" for s in suffixes if f"{body}/{s}" in mesh.node_sets)
 
 
-def body_specs(mesh: Any, red: Mapping[str, Any]) -> list[BodySpec]:
-    """One BodySpec per body of the mesh, by the naming conventions and the case's overrides."""
+def body_specs(mesh: Any, red: Mapping[str, Any], surfaces: bool = False) -> list[BodySpec]:
+    """One BodySpec per body of the mesh, by the naming conventions and the case's overrides;
+    ``surfaces``: every body also recovered on its outer surface (deformed-shape pictures)."""
     base = material(red.get("material"))
     specs = []
     for body in sorted(mesh.bodies):
@@ -289,6 +290,7 @@ def body_specs(mesh: Any, red: Mapping[str, Any]) -> list[BodySpec]:
             master_sets=tuple(b.get("masters", _existing(mesh, body, _MASTER_SETS))),
             patches=patches,
             recovery_sets=tuple(b.get("recovery", _existing(mesh, body, _RECOVERY_SETS))),
+            recovery_surface=surfaces,
             clamped_sets=tuple(b.get("clamped", _existing(mesh, body, _CLAMP_SETS))),
             n_modes=b.get("modes", red.get("modes", reduction.DEFAULT_MODES)),
             cutoff=float(red.get("cutoff", reduction.CUTOFF)),
@@ -322,15 +324,17 @@ def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec], red: Mapping[str, An
 
 
 def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | None,
-                     case_orders: Iterable[int] | None = None, progress: Progress = print
-                     ) -> StructureResult:
+                     case_orders: Iterable[int] | None = None, progress: Progress = print,
+                     surfaces: bool = False) -> StructureResult:
     """Reduce every body of ``mesh`` for the NDs the [reduction] table asks (see the module).
+    ``surfaces``: recover every body on its outer surface too (a case that draws deformed
+    shapes; part of each model's cache key).
 
     Everything the table names (node sets, bodies, patches, NDs) is checked before the first
     assembly. Cyclic bodies go first; without f_max, the others get the highest 10th
     fixed-interface frequency of the cyclic bodies as theirs.
     """
-    specs = body_specs(mesh, red)
+    specs = body_specs(mesh, red, surfaces)
     sectors = {b.sectors for b in mesh.cyclic.values()}
     if not sectors:
         nds: tuple[int, ...] = (0,)

@@ -140,6 +140,16 @@ class CoupledModel:
                 out[b.body].append(X[k][idx])
         return out
 
+    def wave_numbers(self) -> tuple[int, ...]:
+        """Per harmonic order, the signed ND of the wave that carries it: sector s of the
+        disk moves with exp(i n s 2 pi / Ns) times sector 0, every body of the sector alike
+        (n < 0: a backward wave, the complex conjugate model). Zeros without a cyclic body."""
+        b = next((b for b in self.layout if b.cyclic), None)
+        if b is None:
+            return (0,) * len(self.hb.harmonics.orders)
+        return tuple(-m.nodal_diameter if c else m.nodal_diameter
+                     for m, c in zip(b.models, b.conjugate))
+
     def displacements(self, x: np.ndarray, point: OperatingPoint, body: str,
                       nodes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(nodes (p,), coefficients (p, 3, n_coeffs) [m]) of one body's recovery nodes

@@ -618,6 +618,8 @@ class BodySpec:
     """What to reduce for one body of a mesh.
 
     master_sets / recovery_sets / clamped_sets: node-set names (see the geometry models).
+    recovery_surface: also recover the vertices of the body's outer surface (what a
+    picture of the deformed body draws).
     patches: contact-patch names whose nodes in this body are masters.
     n_modes, cutoff, f_max: fixed-interface mode selection (see ``craig_bampton``).
     order: element order.
@@ -628,6 +630,7 @@ class BodySpec:
     master_sets: tuple[str, ...] = ()
     patches: tuple[str, ...] = ()
     recovery_sets: tuple[str, ...] = ()
+    recovery_surface: bool = False
     clamped_sets: tuple[str, ...] = ()
     n_modes: int | str = DEFAULT_MODES
     cutoff: float = CUTOFF
@@ -657,6 +660,8 @@ def spec_nodes(mesh: MeshLike, spec: BodySpec) -> tuple[IntArray, dict, IntArray
     masters = [*patches.values(), fem.node_sets_union(mesh, list(spec.master_sets))]
     master_nodes = np.unique(np.concatenate(masters)).astype(np.int64)
     recovery = fem.node_sets_union(mesh, list(spec.recovery_sets))
+    if spec.recovery_surface:
+        recovery = np.union1d(recovery, mesh.surface(spec.body))
     clamped = fem.node_sets_union(mesh, list(spec.clamped_sets))
     return master_nodes, patches, recovery, clamped
 
