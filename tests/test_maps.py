@@ -134,7 +134,7 @@ def test_the_slip_at_each_peak_is_the_share_of_slipping_pairs_against_the_family
 def test_the_refined_peak_of_a_map_is_the_golden_section_peak():
     # the Jenkins oscillator's FRF: the maps' peak (successive parabolas, <= 8 solves) against
     # Response.peak (golden section to 1e-9 of the bracket, ~45 solves): the same maximum
-    from microslip.pipeline.app.run import map_solutions
+    from microslip.pipeline.app.solutions import map_solutions
     from microslip.pipeline.bench.demos import jenkins_oscillator
     from microslip.pipeline.solve.continuation import Settings
     from microslip.pipeline.solve.hbm import OperatingPoint

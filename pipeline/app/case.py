@@ -961,3 +961,23 @@ def operating_point(analysis: dict, case: Case | None = None) -> OperatingPoint:
     table = {} if case is None else case.data.get("coupling", {})
     return OperatingPoint(float(omega), excitation=float(table.get("excitation", 1.0)),
                           mass_multiplier=float(table.get("mass_multiplier", 1.0)))
+
+
+def curve_variants(case: Case, a: dict) -> list[tuple[Case, str, object]]:
+    """(case variant, label, family value) per curve of an analysis: its ``set`` applied,
+    then each family value or table."""
+    case = case.with_values(a.get("set", {}))
+    fam = a.get("family")
+    if not fam:
+        return [(case, "", None)]
+    if "sets" in fam:
+        return [(case.with_values(s), str(v), v) for v, s in zip(fam["values"], fam["sets"])]
+    label = fam.get("label", fam["key"])
+    return [(case.with_value(fam["key"], v), _value_label(label, v), v) for v in fam["values"]]
+
+
+def _value_label(label: str, v: float) -> str:
+    """("N0 [N]", 0.02) -> "N0 = 0.02 N": a legend reads the value with its unit."""
+    name, _, unit = label.partition(" [")
+    unit = unit.removesuffix("]")
+    return f"{name} = {v:g}" + (f" {unit}" if unit not in ("", "-") else "")

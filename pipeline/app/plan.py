@@ -61,7 +61,7 @@ def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
                                  cs.wants_shapes(data))
     store = CurveStore(out / "cache" / "curves" if cache else None)
     sizes = {s.analysis: s for s in cs.sizes(data)}
-    from .run import curve_variants, frf_key
+    from .run import frf_key
 
     for i, a in enumerate(case.analyses):
         name = str(a.get("name", f"analysis{i}"))
@@ -76,7 +76,7 @@ def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
         t_point = _point_seconds(unknowns, samples)
         methods = a.get("method", "arclength") if kind == "frf" else "continuation"
         methods = methods if isinstance(methods, list) else [methods]
-        for j, (c, label, _) in enumerate(curve_variants(case, a)):
+        for j, (c, label, _) in enumerate(cs.curve_variants(case, a)):
             for method in methods:
                 if kind == "frf":
                     cached = store.has(frf_key(store, c, a, method))
@@ -91,7 +91,7 @@ def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
         if "coupling" in data and kind == "frf" and a.get("parameter", "frequency") == \
                 "frequency":
             masses = {cs.operating_point(a, c).mass_multiplier
-                      for c, _, _ in curve_variants(case, a)}
+                      for c, _, _ in cs.curve_variants(case, a)}
             seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** 2
             stages.append(Stage(f"{name}: linear limits (free, stuck x {len(masses)})", False,
                                 seconds * (1 + len(masses)), 0,

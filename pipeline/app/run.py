@@ -17,21 +17,20 @@ import numpy as np
 from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import STATE_NAMES
-from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import (
     Response,
-    output,
     peak_curve,
-    solve_point,
     sweep,
 )
 
 from . import case as cs
 from . import pictures, plots
+from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .maps import EDGES
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
 from .results import ATTRS, ResultsWriter, undersampled_warning
+from .solutions import map_groups, map_solutions, response_measure, surfaces
 from .store import CurveStore, PictureStamps
 
 if TYPE_CHECKING:
@@ -180,12 +179,6 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
     return result
 
 
-def surfaces(mesh) -> dict[str, np.ndarray]:
-    """Per body its outer-surface vertices (sorted global node indices): where deformed
-    shapes are recovered and drawn."""
-    return {body: np.unique(mesh.surface(body)) for body in sorted(mesh.bodies)}
-
-
 def write_surfaces(w: ResultsWriter, mesh) -> None:
     """/surfaces/<body>: nodes (p,) global indices, points (p, 3) [m], triangles (t, 3) into
     the nodes (outward), attr cyclic (a sector body); /surfaces attr sectors (0: no cyclic
@@ -206,26 +199,6 @@ def _outputs(case: cs.Case, a: dict, models=None) -> tuple[list[str], object]:
     return names, models.selection(case, names)
 
 
-def curve_variants(case: cs.Case, a: dict) -> list[tuple[cs.Case, str, object]]:
-    """(case variant, label, family value) per curve of an analysis: its ``set`` applied,
-    then each family value or table."""
-    case = case.with_values(a.get("set", {}))
-    fam = a.get("family")
-    if not fam:
-        return [(case, "", None)]
-    if "sets" in fam:
-        return [(case.with_values(s), str(v), v) for v, s in zip(fam["values"], fam["sets"])]
-    label = fam.get("label", fam["key"])
-    return [(case.with_value(fam["key"], v), _value_label(label, v), v) for v in fam["values"]]
-
-
-def _value_label(label: str, v: float) -> str:
-    """("N0 [N]", 0.02) -> "N0 = 0.02 N": a legend reads the value with its unit."""
-    name, _, unit = label.partition(" [")
-    unit = unit.removesuffix("]")
-    return f"{name} = {v:g}" + (f" {unit}" if unit not in ("", "-") else "")
-
-
 def _ticker(progress: Progress, prefix: str, start: float, stop: float,
             clock: Callable[[], float] = time.perf_counter) -> Callable[[int, float, int], None]:
     """Continuation ticks, at most one line a second: the point, the share of the parameter
@@ -244,17 +217,6 @@ def _ticker(progress: Progress, prefix: str, start: float, stop: float,
                      f"{', ' + left if left else ''}), {iterations} Newton iterations")
 
     return tick
-
-
-def _measure(coefficients: np.ndarray, h: Harmonics, how: str) -> np.ndarray:
-    """(n, outputs) response measure of coefficient rows (n, outputs, nc)."""
-    c = np.array(coefficients, dtype=float)
-    if how == "harmonic":
-        k = h.dynamic_orders.index(min(h.dynamic_orders))
-        return np.hypot(c[..., h.cos_index[k]], c[..., h.sin_index[k]])
-    if how == "vibration" and h.has_static:
-        c[..., 0] = 0.0
-    return h.peak(c)
 
 
 def _contact_data(r: Response, per_point: list) -> dict:
@@ -297,111 +259,6 @@ def _patch_data(states: list[dict[str, PatchState]]) -> dict:
             for p in states[0]}
 
 
-def _response_at(hb, x: np.ndarray, point: OperatingPoint, rows, measure: str) -> np.ndarray:
-    """(n_outputs,) response measure of one solution."""
-    coef = output(hb.recover(x, point), rows)
-    return _measure(coef[None], hb.harmonics, measure)[0]
-
-
-def map_solutions(r: Response, wanted: list, rows, measure: str, settings
-                  ) -> list[tuple[str, float, np.ndarray]]:
-    """(what, parameter value, x) of the solutions a curve draws maps of.
-
-    "peak": the largest response of the first output, refined by Brent's method between
-    its computed neighbours (:func:`_refined_peak`; the computed point if no trial does
-    better). A number: every solution of the branch at that parameter value (a fold gives several),
-    each from the secant between the two points that bracket it, solved there at the value
-    itself."""
-    hb, lam = r.model, r.values
-    if not len(r):
-        return []
-    shown = np.array([_response_at(hb, x, r.point(i), rows, measure)[0]
-                      for i, x in enumerate(r.branch.x)])
-    out = []
-    for w in wanted:
-        if w == "peak":
-            out.append(("peak", *_refined_peak(r, shown, rows, measure, settings)))
-            continue
-        found: list[tuple[float, np.ndarray]] = []
-        for j in np.flatnonzero((lam[:-1] - w) * (lam[1:] - w) <= 0):
-            t = 0.0 if lam[j + 1] == lam[j] else (w - lam[j]) / (lam[j + 1] - lam[j])
-            x0 = r.branch.x[j] + t * (r.branch.x[j + 1] - r.branch.x[j])
-            s = solve_point(hb, r.base.set(r.parameter, w), settings=settings, x0=x0,
-                            retry=False)
-            if not s.converged:
-                continue
-            a = _response_at(hb, s.x, r.base.set(r.parameter, w), rows, measure)[0]
-            if all(abs(a - b) > 1e-6 * max(abs(a), abs(b)) for b, _ in found):
-                found.append((a, s.x))
-        found.sort(key=lambda f: -f[0])  # the highest first, as a fold's upper branch
-        for k, (_, x) in enumerate(found):
-            out.append((f"{r.parameter} = {w:g}, solution {k + 1} of {len(found)}", float(w),
-                        x))
-    return out
-
-
-PEAK_XTOL = 1e-4  # the refined peak's parameter to this share of its bracket
-
-
-def _refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
-                  ) -> tuple[float, np.ndarray]:
-    """(parameter value, x) at the largest response of the first output (map_solutions):
-    Brent's bounded method between the computed neighbours of the largest computed point
-    (parabolic steps where the response is smooth, golden ones where a stick/slip kink
-    sits at the top), each trial a Newton solve from the nearest solution so far."""
-    from scipy.optimize import minimize_scalar
-
-    lam = r.values
-    i = int(np.argmax(shown))
-    best = [float(shown[i]), float(lam[i]), r.branch.x[i]]
-    if not (0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0):
-        return best[1], best[2]  # at an end of the branch, or on a fold: as computed
-    tried = [(float(lam[j]), r.branch.x[j]) for j in (i - 1, i, i + 1)]
-
-    def minus_response(v: float) -> float:
-        near = min(tried, key=lambda t: abs(t[0] - v))[1]
-        point = r.base.set(r.parameter, v)
-        sol = solve_point(r.model, point, settings=settings, x0=near, retry=False)
-        if not sol.converged:
-            return np.inf
-        tried.append((v, sol.x))
-        a = float(_response_at(r.model, sol.x, point, rows, measure)[0])
-        if a > best[0]:
-            best[:] = [a, v, sol.x]
-        return -a
-
-    lo, hi = sorted((float(lam[i - 1]), float(lam[i + 1])))
-    minimize_scalar(minus_response, bounds=(lo, hi), method="bounded",
-                    options={"xatol": PEAK_XTOL * (hi - lo)})
-    return best[1], best[2]
-
-
-def _map_groups(cm, r: Response, solutions, rows, measure: str,
-                normalise: bool = False, surfaces: dict | None = None) -> dict:
-    """The maps/ subgroups of a curve: per solution its parameter, response (per unit
-    excitation with ``normalise``), unknowns and patch states (the pictures letter them a,
-    b, c... over the analysis); with ``surfaces`` (body -> its surface nodes), each body's
-    displacement coefficients there, ``shapes/<body>`` (p, 3, n_coeffs) [m]."""
-    groups = {}
-    for k, (what, v, x) in enumerate(solutions):
-        point = r.base.set(r.parameter, v)
-        patches = cm.patches(x, point)
-        response = _response_at(r.model, x, point, rows, measure)
-        groups[f"point_{k:02d}"] = {
-            ATTRS: {"what": what, "parameter": v, "omega": point.omega,
-                    "excitation": point.excitation},
-            "unknowns": x, "response": response / point.excitation if normalise else response,
-            "patches": {p: {"state": s.state, "static": s.static,
-                            "slip_share": s.slip_share} for p, s in patches.items()}}
-        if surfaces:
-            groups[f"point_{k:02d}"]["shapes"] = {
-                ATTRS: {"orders": list(r.model.harmonics.orders),
-                        "wave_numbers": list(cm.wave_numbers())},
-                **{body: cm.displacements(x, point, body, nodes)[1]
-                   for body, nodes in surfaces.items()}}
-    return groups
-
-
 def frf_key(store: CurveStore, c: cs.Case, a: dict, method: str) -> str:
     """The store key of one FRF branch; deformed shapes at its map points are part of what
     it computes."""
@@ -417,7 +274,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
     keys: list[str] = []
     hits = store.hits
     j = 0
-    for c, label, value in curve_variants(case, a):
+    for c, label, value in cs.curve_variants(case, a):
         for method in methods:
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
@@ -444,7 +301,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
             break
     if isinstance(models, CoupledModels) and par == "frequency" and statuses and \
             statuses[-1][0] != "interrupted":
-        _linear_limits(models, case, a, w, group, store, progress, name)
+        linear_limits(models, case, a, w, group, store, progress, name)
     group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
     drawn[name] = dict(zip(("parameter", "series", "static"), pictures.frf_series(group)))
     every = len(keys) + sum(k.startswith("linear_") for k in group)
@@ -504,7 +361,7 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
     b = r.branch
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
     amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
-    shown = _measure(coef, hb.harmonics, measure) if len(r) else amp
+    shown = response_measure(coef, hb.harmonics, measure) if len(r) else amp
     if a.get("normalise", False) and len(r):  # per unit of the excitation multiplier
         shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
@@ -528,7 +385,7 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
         if wanted and b.status != "interrupted":
             sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
             shapes = "shape" in a.get("map_types", [])
-            data["maps"] = _map_groups(cm, r, sols, idx, measure,
+            data["maps"] = map_groups(cm, r, sols, idx, measure,
                                        bool(a.get("normalise", False)),
                                        surfaces(models.mesh) if shapes else None)
             for m in data["maps"].values():
@@ -555,78 +412,6 @@ def _attr_list(values: list[str]) -> str:
     return json.dumps(list(values))
 
 
-def _linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
-                   store, progress: Progress, name: str) -> None:
-    """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
-    directly (linear): written beside the curves (the pictures draw them with them). The
-    stuck system once per damper mass the curves have (a mass family: one each)."""
-    names = a.get("outputs", models.names(case))
-    measure = a.get("measure", "peak")
-    ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
-    variants = {}  # mass multiplier -> (case variant, coupled model, operating point)
-    for c, _, _ in curve_variants(case, a):
-        point = cs.operating_point(a, c)
-        variants.setdefault(point.mass_multiplier, (c, point))
-    masses = sorted(variants)
-    # the free limit is the cyclic bodies alone: drawn only where every output is on them
-    # (a blade held by its root joint has no free limit)
-    cm0 = models.coupled(variants[masses[0]][0])
-    cyclic = np.zeros(cm0.hb.linear.n_dof, dtype=bool)
-    for b in cm0.layout:
-        cyclic[b.offset: b.offset + b.n_masters] = b.cyclic
-    free = all(not np.any(cm0.outputs[n][~cyclic]) for n in names)
-    runs = [("free", "free (no damper)", masses[0], "linear_free")] if free else []
-    for k, m in enumerate(masses):
-        runs.append(("stuck", "fully stuck" + (f", mass x {m:g}" if len(masses) > 1 else ""),
-                     m, "linear_stuck" + (f"_{k:03d}" if len(masses) > 1 else "")))
-    t = time.perf_counter()
-    for springs, label, m, key in runs:
-        c, base = variants[m]
-        stored = store.key(c.data, a, curve="linear", springs=springs, points=LINEAR_POINTS,
-                           peak_points=PEAK_POINTS, outputs=names)
-        if store.load(stored, group, key):
-            group[key].attrs["label"] = label
-            continue
-        ws_all, coef, shown = _linear_curve(models.coupled(c), base, springs, names, measure,
-                                            ws)
-        if a.get("normalise", False):  # linear: the same for every excitation level
-            shown = shown / base.excitation
-        w.write_group(group, key, {"omega": ws_all, "coefficients": coef, "response": shown},
-                      {"label": label, "status": "complete", "message": "linear, solved "
-                       "directly", "mass_multiplier": m})
-        store.save(stored, group[key])
-    progress(f"[{name}] linear limits ({len(runs)} curves) in {time.perf_counter() - t:.1f} s")
-
-
-def _linear_curve(cm, base: OperatingPoint, springs: str, names: list[str], measure: str,
-                  ws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(frequencies, coefficients, response) of a linear limit on the grid ``ws`` and,
-    since a lightly damped peak is narrower than the grid, PEAK_POINTS more around each
-    local maximum of the first output, within a grid spacing on either side."""
-    static = measure == "peak"  # vibration and harmonic measures leave order 0 out
-
-    def response(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        coef = np.array([cm.linear_outputs(base.set("frequency", f), springs, names, static)
-                         for f in x])
-        return coef, _measure(coef, cm.hb.harmonics, measure)
-
-    coef, shown = response(ws)
-    peaks = [i for i in range(1, ws.size - 1)
-             if shown[i, 0] >= shown[i - 1, 0] and shown[i, 0] >= shown[i + 1, 0]]
-    if not peaks:
-        return ws, coef, shown
-    extra = np.concatenate([np.linspace(ws[i - 1], ws[i + 1], PEAK_POINTS + 2)[1:-1]
-                            for i in peaks])
-    c2, s2 = response(extra)
-    order = np.argsort(np.concatenate([ws, extra]), kind="stable")
-    return (np.concatenate([ws, extra])[order], np.concatenate([coef, c2])[order],
-            np.concatenate([shown, s2])[order])
-
-
-LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
-PEAK_POINTS = 24  # more frequencies around each peak of a linear limit
-
-
 def _normal(hb, contact: str) -> bool:
     return next(c for c in hb.contacts if c.name == contact).elements.variable_normal
 
@@ -643,7 +428,7 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
     statuses = []
     keys: list[str] = []
     hits = store.hits
-    for j, (c, label, fvalue) in enumerate(curve_variants(case, a)):
+    for j, (c, label, fvalue) in enumerate(cs.curve_variants(case, a)):
         key = store.key(c.data, a, curve="peak")
         keys.append(key)
         cname = f"curve_{j:03d}"
@@ -664,7 +449,7 @@ def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
             for k in ("level_free", "level_stuck"):
                 if k in group:
                     del group[k]
-            _peak_levels(models.coupled(c), cs.operating_point({"start": a["window"][0]}, c),
+            peak_levels(models.coupled(c), cs.operating_point({"start": a["window"][0]}, c),
                          par, _peak_values(a), a["output"], tuple(a["window"]),
                          a.get("measure", "peak") == "vibration", w, group, progress, name)
             store.save(key + "f", group["level_free"])
@@ -724,57 +509,6 @@ def _peak_curve(c: cs.Case, a: dict, label: str, fvalue, name: str, w, group, cn
         "label": label or f"peak of {a['output']}", "family_value": fvalue or "",
         "status": status, "message": message, "elapsed_s": time.perf_counter() - t})
     return status, message
-
-
-LEVEL_POINTS = 5  # parameter values at which the fully stuck peak level is computed
-
-
-def _peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_name: str,
-                 window: tuple[float, float], vibration: bool, w, group, progress,
-                 name: str) -> None:
-    """The linear levels of a peak curve: the free blisk's peak (one value: no damper, no
-    parameter) and the fully stuck system's at LEVEL_POINTS values spread as ``values``."""
-    t = time.perf_counter()
-    ends = values[[0, -1]]
-    spread = (np.geomspace if values[0] > 0 and np.allclose(
-        values, np.geomspace(values[0], values[-1], values.size)) else np.linspace)
-    picks = spread(values[0], values[-1], min(LEVEL_POINTS, values.size))
-    for springs, pars in (("free", ends), ("stuck", picks)):
-        peaks = [linear_peak(cm, base.set(par, v), springs, output_name, window, vibration)
-                 for v in (pars[:1] if springs == "free" else pars)]
-        if springs == "free":
-            peaks = peaks * 2
-        w.write_group(group, f"level_{springs}", {
-            "parameter": pars, "omega": np.array([p[0] for p in peaks]),
-            "amplitude": np.array([p[1] for p in peaks])},
-            {"label": springs, "status": "complete", "message": "linear, solved directly"})
-    progress(f"[{name}] free and fully stuck peak levels in {time.perf_counter() - t:.1f} s")
-
-
-def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
-                window: tuple[float, float], vibration: bool,
-                grid: int = 101) -> tuple[float, float]:
-    """(w, amplitude) of the largest response of a linear limit of a coupled model in a
-    frequency window: a grid, then Brent's bounded search between the grid neighbours of
-    its maximum (to 1e-6 of the window)."""
-    from scipy.optimize import minimize_scalar
-
-    from microslip.pipeline.solve.response import amplitude
-
-    h = cm.hb.harmonics
-
-    def amp(x: float) -> float:
-        coef = cm.linear_outputs(point.set("frequency", x), springs, [output_name],
-                                 static=not vibration)[0]
-        return float(amplitude(h, coef, vibration))
-
-    ws = np.linspace(*window, grid)
-    a = np.array([amp(x) for x in ws])
-    i = int(np.argmax(a))
-    lo, hi = ws[max(i - 1, 0)], ws[min(i + 1, grid - 1)]
-    res = minimize_scalar(lambda x: -amp(x), bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-6 * (window[1] - window[0])})
-    return (float(res.x), float(-res.fun)) if -res.fun >= a[i] else (float(ws[i]), float(a[i]))
 
 
 def run_loops(case, a, name, w, group, out, progress, drawn, models=None, store=None):
@@ -863,7 +597,7 @@ def run_dti(case, a, name, w, group, out, progress, drawn, models=None, store=No
     shown = fr.amplitude[:, idx]
     if measure != "peak":
         hh = Harmonics(range(fr.coefficients.shape[2] // 2 + 1), spp)
-        shown = _measure(fr.coefficients[:, idx], hh, measure)
+        shown = response_measure(fr.coefficients[:, idx], hh, measure)
     data = {"omega": fr.omega, "amplitude": fr.amplitude[:, idx], "response": shown,
             "coefficients": fr.coefficients[:, idx], "periods": fr.periods,
             "converged": fr.converged, "seconds": fr.seconds, "contacts": contacts}

@@ -36,6 +36,7 @@ FORMAT = 1  # bump when the stored layout changes
 COMPUTING = ("geometry", "pipeline/fe", "pipeline/friction", "pipeline/solve",
              "pipeline/coupling", "pipeline/app/case.py", "pipeline/app/coupled.py",
              "pipeline/app/models.py", "pipeline/app/run.py", "pipeline/app/structure.py",
+             "pipeline/app/solutions.py", "pipeline/app/limits.py",
              "pipeline/app/checks.py", "pipeline/app/store.py")
 
 

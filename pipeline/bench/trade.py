@@ -101,7 +101,8 @@ def measure(data: dict, source: str) -> dict:
     """One setting, cold, in this process: times [s], peak, sizes and peak memory [MB]."""
     from microslip.pipeline.app import case as cs
     from microslip.pipeline.app.models import CoupledModels
-    from microslip.pipeline.app.run import map_solutions, mesh_geometry
+    from microslip.pipeline.app.run import mesh_geometry
+    from microslip.pipeline.app.solutions import map_solutions, response_at
     from microslip.pipeline.app.structure import reduce_structure
     from microslip.pipeline.friction import warm_up
     from microslip.pipeline.solve.response import sweep
@@ -129,10 +130,8 @@ def measure(data: dict, source: str) -> dict:
         t4 = time.perf_counter()
     omega, amplitude = float("nan"), float("nan")
     if found:
-        from microslip.pipeline.app.run import _response_at
-
         _, omega, x = found[0]
-        amplitude = float(_response_at(hb, x, base.set("frequency", omega), rows,
+        amplitude = float(response_at(hb, x, base.set("frequency", omega), rows,
                                        "vibration")[0])
     modes = {body: max(m.n_modes for m in per_nd.values())
              for body, per_nd in structure.models.items()}

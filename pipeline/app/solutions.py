@@ -1,0 +1,135 @@
+"""The solutions an FRF draws maps of: the refined resonance peak and every solution at a
+given parameter value, with their patch states and (for shape pictures) each body's
+displacements on its outer surface; the response measures they are ranked by."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import Response, output, solve_point
+
+from .results import ATTRS
+
+
+def response_measure(coefficients: np.ndarray, h: Harmonics, how: str) -> np.ndarray:
+    """(n, outputs) response measure of coefficient rows (n, outputs, nc)."""
+    c = np.array(coefficients, dtype=float)
+    if how == "harmonic":
+        k = h.dynamic_orders.index(min(h.dynamic_orders))
+        return np.hypot(c[..., h.cos_index[k]], c[..., h.sin_index[k]])
+    if how == "vibration" and h.has_static:
+        c[..., 0] = 0.0
+    return h.peak(c)
+
+
+def response_at(hb, x: np.ndarray, point: OperatingPoint, rows, measure: str) -> np.ndarray:
+    """(n_outputs,) response measure of one solution."""
+    coef = output(hb.recover(x, point), rows)
+    return response_measure(coef[None], hb.harmonics, measure)[0]
+
+
+def map_solutions(r: Response, wanted: list, rows, measure: str, settings
+                  ) -> list[tuple[str, float, np.ndarray]]:
+    """(what, parameter value, x) of the solutions a curve draws maps of.
+
+    "peak": the largest response of the first output, refined by Brent's method between
+    its computed neighbours (:func:`refined_peak`; the computed point if no trial does
+    better). A number: every solution of the branch at that parameter value (a fold gives several),
+    each from the secant between the two points that bracket it, solved there at the value
+    itself."""
+    hb, lam = r.model, r.values
+    if not len(r):
+        return []
+    shown = np.array([response_at(hb, x, r.point(i), rows, measure)[0]
+                      for i, x in enumerate(r.branch.x)])
+    out = []
+    for w in wanted:
+        if w == "peak":
+            out.append(("peak", *refined_peak(r, shown, rows, measure, settings)))
+            continue
+        found: list[tuple[float, np.ndarray]] = []
+        for j in np.flatnonzero((lam[:-1] - w) * (lam[1:] - w) <= 0):
+            t = 0.0 if lam[j + 1] == lam[j] else (w - lam[j]) / (lam[j + 1] - lam[j])
+            x0 = r.branch.x[j] + t * (r.branch.x[j + 1] - r.branch.x[j])
+            s = solve_point(hb, r.base.set(r.parameter, w), settings=settings, x0=x0,
+                            retry=False)
+            if not s.converged:
+                continue
+            a = response_at(hb, s.x, r.base.set(r.parameter, w), rows, measure)[0]
+            if all(abs(a - b) > 1e-6 * max(abs(a), abs(b)) for b, _ in found):
+                found.append((a, s.x))
+        found.sort(key=lambda f: -f[0])  # the highest first, as a fold's upper branch
+        for k, (_, x) in enumerate(found):
+            out.append((f"{r.parameter} = {w:g}, solution {k + 1} of {len(found)}", float(w),
+                        x))
+    return out
+
+
+PEAK_XTOL = 1e-4  # the refined peak's parameter to this share of its bracket
+
+
+def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
+                  ) -> tuple[float, np.ndarray]:
+    """(parameter value, x) at the largest response of the first output (map_solutions):
+    Brent's bounded method between the computed neighbours of the largest computed point
+    (parabolic steps where the response is smooth, golden ones where a stick/slip kink
+    sits at the top), each trial a Newton solve from the nearest solution so far."""
+    from scipy.optimize import minimize_scalar
+
+    lam = r.values
+    i = int(np.argmax(shown))
+    best = [float(shown[i]), float(lam[i]), r.branch.x[i]]
+    if not (0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0):
+        return best[1], best[2]  # at an end of the branch, or on a fold: as computed
+    tried = [(float(lam[j]), r.branch.x[j]) for j in (i - 1, i, i + 1)]
+
+    def minus_response(v: float) -> float:
+        near = min(tried, key=lambda t: abs(t[0] - v))[1]
+        point = r.base.set(r.parameter, v)
+        sol = solve_point(r.model, point, settings=settings, x0=near, retry=False)
+        if not sol.converged:
+            return np.inf
+        tried.append((v, sol.x))
+        a = float(response_at(r.model, sol.x, point, rows, measure)[0])
+        if a > best[0]:
+            best[:] = [a, v, sol.x]
+        return -a
+
+    lo, hi = sorted((float(lam[i - 1]), float(lam[i + 1])))
+    minimize_scalar(minus_response, bounds=(lo, hi), method="bounded",
+                    options={"xatol": PEAK_XTOL * (hi - lo)})
+    return best[1], best[2]
+
+
+def map_groups(cm, r: Response, solutions, rows, measure: str,
+                normalise: bool = False, surfaces: dict | None = None) -> dict:
+    """The maps/ subgroups of a curve: per solution its parameter, response (per unit
+    excitation with ``normalise``), unknowns and patch states (the pictures letter them a,
+    b, c... over the analysis); with ``surfaces`` (body -> its surface nodes), each body's
+    displacement coefficients there, ``shapes/<body>`` (p, 3, n_coeffs) [m]."""
+    groups = {}
+    for k, (what, v, x) in enumerate(solutions):
+        point = r.base.set(r.parameter, v)
+        patches = cm.patches(x, point)
+        response = response_at(r.model, x, point, rows, measure)
+        groups[f"point_{k:02d}"] = {
+            ATTRS: {"what": what, "parameter": v, "omega": point.omega,
+                    "excitation": point.excitation},
+            "unknowns": x, "response": response / point.excitation if normalise else response,
+            "patches": {p: {"state": s.state, "static": s.static,
+                            "slip_share": s.slip_share} for p, s in patches.items()}}
+        if surfaces:
+            groups[f"point_{k:02d}"]["shapes"] = {
+                ATTRS: {"orders": list(r.model.harmonics.orders),
+                        "wave_numbers": list(cm.wave_numbers())},
+                **{body: cm.displacements(x, point, body, nodes)[1]
+                   for body, nodes in surfaces.items()}}
+    return groups
+
+
+def surfaces(mesh) -> dict[str, np.ndarray]:
+    """Per body its outer-surface vertices (sorted global node indices): where deformed
+    shapes are recovered and drawn."""
+    return {body: np.unique(mesh.surface(body)) for body in sorted(mesh.bodies)}
