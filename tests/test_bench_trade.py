@@ -1,0 +1,80 @@
+"""`microslip bench trade`: the settings become valid cases of the blisk-damper study, the
+changes are measured against the first (finest) setting, the Pareto front is the set no
+other setting beats in both time and error; one real setting runs end to end (slow)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from microslip.pipeline.app import case as cs
+from microslip.pipeline.bench import trade
+from microslip.pipeline.cli import main
+
+
+def test_every_setting_is_a_valid_case_with_its_knobs_set():
+    base = cs.load("cases/blisk_damper.toml").data
+    for s in trade.SETTINGS:
+        data = trade.case_data(base, s, 3120.0, 3180.0)
+        cs.check(data, "trade")  # raises on any fault
+        p = data["geometry"]["parameters"]
+        assert (p["contact_n_axial"], p["contact_n_flank"]) == s.grid
+        assert data["harmonics"]["max"] == s.harmonics
+        assert data["reduction"]["modes"] == s.modes
+        assert p["size"] == (trade.FINE if s.mesh == "fine" else trade.COARSE)[0]
+        assert [a["type"] for a in data["analysis"]] == ["frf"]
+    assert base["analysis"][0]["name"] == "frf"  # the base case itself is left alone
+    # the reference is the finest in every knob
+    first = trade.SETTINGS[0]
+    assert first.pairs == max(s.pairs for s in trade.SETTINGS)
+    assert first.harmonics == max(s.harmonics for s in trade.SETTINGS)
+    assert first.modes == "auto" and first.mesh == "fine"
+
+
+def test_the_pareto_front_keeps_the_settings_no_other_beats_in_both():
+    cost = np.array([10.0, 1.0, 5.0, 2.0, 3.0, 7.0])
+    error = np.array([0.0, 4.0, 1.0, 4.0, 2.0, np.nan])
+    # 3 is beaten by 1 (cheaper, as good); 5 has no error measured
+    assert trade.pareto_front(cost, error).tolist() == [1, 4, 2, 0]
+    # against a brute force over random sets
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        c, e = rng.random(12), rng.random(12)
+        front = set(trade.pareto_front(c, e).tolist())
+        beaten = {i for i in range(12) for j in range(12)
+                  if j != i and c[j] <= c[i] and e[j] <= e[i] and (c[j] < c[i] or e[j] < e[i])}
+        assert front == set(range(12)) - beaten
+
+
+def test_the_changes_are_against_the_reference_row():
+    rows = [{"omega": 3150.0, "amplitude": 2.0e-3}, {"omega": 3151.5, "amplitude": 2.1e-3}]
+    ch = trade.changes(rows, rows[0])
+    assert ch[0] == {"d_omega": 0.0, "d_amplitude_pct": 0.0}
+    assert ch[1]["d_omega"] == pytest.approx(1.5)
+    assert ch[1]["d_amplitude_pct"] == pytest.approx(5.0)
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--only", "finest,nonsense"], "unknown setting(s) nonsense"),
+    (["--start", "3200", "--stop", "3100"], "expected 0 < start < stop"),
+    (["--case", "nowhere.toml"], "cannot read the file"),
+])
+def test_bad_input_is_one_line_and_exit_2(capsys, args, expected):
+    assert main(["bench", "trade", *args]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_the_cheapest_setting_runs_end_to_end(tmp_path, capsys):
+    assert main(["bench", "trade", "--only", "quick,cheapest", "--out", str(tmp_path)]) == 0
+    rows = json.loads((tmp_path / "trade.json").read_text())
+    assert [r["setting"]["name"] for r in rows] == ["quick", "cheapest"]
+    quick, cheapest = rows
+    # the README's quick case: peak 1.759 mm at 3157.2 rad/s (cases/blisk_quick.toml, whose
+    # FRF runs over 3100..3200 rad/s: the refined peak agrees to its tolerance)
+    assert quick["omega"] == pytest.approx(3157.2, abs=0.3)
+    assert quick["amplitude"] == pytest.approx(1.759e-3, rel=2e-3)
+    assert quick["d_amplitude_pct"] == 0.0 and cheapest["total_s"] > 0
+    assert (tmp_path / "trade.png").stat().st_size > 10_000
+    assert "Pareto front" in capsys.readouterr().out
