@@ -47,11 +47,33 @@ def test_the_pareto_front_keeps_the_settings_no_other_beats_in_both():
 
 
 def test_the_changes_are_against_the_reference_row():
-    rows = [{"omega": 3150.0, "amplitude": 2.0e-3}, {"omega": 3151.5, "amplitude": 2.1e-3}]
+    curve = [[3100.0, 3150.0, 3200.0], [1.0e-3, 2.0e-3, 1.0e-3]]
+    rows = [{"omega": 3150.0, "amplitude": 2.0e-3, "curve": curve},
+            {"omega": 3151.5, "amplitude": 2.1e-3, "curve": curve}]
     ch = trade.changes(rows, rows[0])
-    assert ch[0] == {"d_omega": 0.0, "d_amplitude_pct": 0.0}
+    assert ch[0] == {"d_omega": 0.0, "d_amplitude_pct": 0.0, "frf_error_pct": 0.0}
     assert ch[1]["d_omega"] == pytest.approx(1.5)
     assert ch[1]["d_amplitude_pct"] == pytest.approx(5.0)
+
+
+def test_the_frf_error_counts_a_shift_as_well_as_a_scale():
+    w = np.linspace(3100.0, 3200.0, 401)
+
+    def peak(w0, a=1.0):  # a resonance of half-power width ~2 rad/s
+        return a / np.sqrt(1.0 + ((w - w0) / 1.0) ** 2)
+
+    ref = [w, peak(3150.0)]
+    assert trade.frf_error(ref, ref) == 0.0
+    # 2 % higher everywhere: 2 % of the peak, where the peak is
+    assert trade.frf_error([w, peak(3150.0, 1.02)], ref) == pytest.approx(2.0, rel=1e-9)
+    # the same peak 10 widths away: nearly all of it missed (the peak against the tail)
+    shifted = trade.frf_error([w + 0.0, peak(3160.0)], ref)
+    assert shifted == pytest.approx(100 * (1 - 1 / np.sqrt(1 + 10.0**2)), rel=1e-3)
+    # compared where both are computed: a curve on other frequencies is interpolated; the
+    # bound is the reference's own linear interpolation at the top (spacing 0.25, width 1:
+    # h^2 |y''| / 8 = 1.6 % at most)
+    w2 = np.linspace(3120.0, 3180.0, 1201)
+    assert trade.frf_error([w2, 1.0 / np.sqrt(1 + (w2 - 3150.0) ** 2)], ref) < 1.6
 
 
 @pytest.mark.parametrize("args, expected", [
@@ -75,6 +97,7 @@ def test_the_cheapest_setting_runs_end_to_end(tmp_path, capsys):
     # FRF runs over 3100..3200 rad/s: the refined peak agrees to its tolerance)
     assert quick["omega"] == pytest.approx(3157.2, abs=0.3)
     assert quick["amplitude"] == pytest.approx(1.759e-3, rel=2e-3)
-    assert quick["d_amplitude_pct"] == 0.0 and cheapest["total_s"] > 0
+    assert quick["d_amplitude_pct"] == 0.0 and quick["frf_error_pct"] == 0.0
+    assert cheapest["total_s"] > 0
     assert (tmp_path / "trade.png").stat().st_size > 10_000
     assert "Pareto front" in capsys.readouterr().out

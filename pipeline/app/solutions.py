@@ -90,7 +90,7 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
         point = r.base.set(r.parameter, v)
         sol = solve_point(r.model, point, settings=settings, x0=near, retry=False)
         if not sol.converged:
-            return np.inf
+            return 0.0  # worse than any response (> 0): finite, as Brent's parabolas need
         tried.append((v, sol.x))
         a = float(response_at(r.model, sol.x, point, rows, measure)[0])
         if a > best[0]:
