@@ -218,17 +218,24 @@ def picture(rows: list[dict], path: Path) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FormatStrFormatter
 
     t = np.array([r["total_s"] for r in rows])
     err = np.array([r["frf_error_pct"] for r in rows])
-    shown = np.maximum(err, 1e-3)  # the reference itself (0 %) on a log axis
-    fig, ax = plt.subplots(figsize=(7.5, 5.0), dpi=120)
-    for r, x, y in zip(rows, t, shown):
+    positive = err[err > 0]
+    floor = positive.min() / 3 if positive.size else 1.0
+    shown = np.where(err > 0, err, floor)  # the reference (0 %) on the log axis' floor
+    fig, ax = plt.subplots(figsize=(8.0, 5.5), dpi=120)
+    rank = np.argsort(np.argsort(t))  # neighbours in time get labels above and below
+    for k, (r, x, y) in enumerate(zip(rows, t, shown)):
         s = r["setting"]
         marker = "o" if s["harmonics"] == 1 else "s"
         colour = "tab:blue" if s["mesh"] == "fine" else "tab:orange"
-        ax.scatter(x, y, marker=marker, color=colour, zorder=3)
-        ax.annotate(s["name"], (x, y), textcoords="offset points", xytext=(5, 4), fontsize=8)
+        name = s["name"] + (" (the reference: 0 %)" if err[k] == 0 else "")
+        ax.scatter(x, y, marker="*" if err[k] == 0 else marker, s=90 if err[k] == 0 else 36,
+                   color=colour, zorder=3)
+        ax.annotate(name, (x, y), textcoords="offset points", fontsize=8,
+                    xytext=(5, 4) if rank[k] % 2 == 0 else (5, -11))
     front = pareto_front(t, err)
     ax.plot(t[front], shown[front], "k--", lw=1, label="Pareto front", zorder=2)
     for marker, label in (("o", "H 0-1"), ("s", "H 0-3")):
@@ -238,6 +245,8 @@ def picture(rows: list[dict], path: Path) -> Path:
     ax.set(xscale="log", yscale="log", xlabel="time, cold: model + FRF [s]",
            ylabel="FRF error against the finest [% of its peak]",
            title="Blisk + dampers: accuracy against time per setting")
+    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
