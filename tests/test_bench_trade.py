@@ -48,10 +48,13 @@ def test_the_pareto_front_keeps_the_settings_no_other_beats_in_both():
 
 def test_the_changes_are_against_the_reference_row():
     curve = [[3100.0, 3150.0, 3200.0], [1.0e-3, 2.0e-3, 1.0e-3]]
-    rows = [{"omega": 3150.0, "amplitude": 2.0e-3, "curve": curve},
-            {"omega": 3151.5, "amplitude": 2.1e-3, "curve": curve}]
+    rows = [{"omega": 3150.0, "amplitude": 2.0e-3, "curve": curve, "stuck": [3152.0, 2.5e-3]},
+            {"omega": 3151.5, "amplitude": 2.1e-3, "curve": curve, "stuck": [3153.0, 3.0e-3]}]
     ch = trade.changes(rows, rows[0])
-    assert ch[0] == {"d_omega": 0.0, "d_amplitude_pct": 0.0, "frf_error_pct": 0.0}
+    assert ch[0] == {"d_omega": 0.0, "d_amplitude_pct": 0.0, "frf_error_pct": 0.0,
+                     "d_stuck_omega": 0.0, "d_ratio_pct": 0.0}
+    assert ch[1]["d_stuck_omega"] == pytest.approx(1.0)
+    assert ch[1]["d_ratio_pct"] == pytest.approx(100 * (0.7 / 0.8 - 1))  # 2.1/3 vs 2/2.5
     assert ch[1]["d_omega"] == pytest.approx(1.5)
     assert ch[1]["d_amplitude_pct"] == pytest.approx(5.0)
 

@@ -12,6 +12,9 @@ the case's damper mass. The peak is refined by Brent's method, as the case's pea
 Printed per setting:
 - the peak frequency and vibration amplitude, their change against the finest setting, and
   the FRF error (below);
+- the change of the fully stuck peak's frequency (the linear model's share: mesh, modes)
+  and of the peak over the stuck peak (the friction's share: contact grid, harmonics), each
+  against the finest setting;
 - the time of the model (mesh + reduction + coupling) and of the FRF, their sum, and the
   peak memory of its process.
 A design sweep pays the FRF time once per value, the model time once.
@@ -103,6 +106,7 @@ def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
 def measure(data: dict, source: str) -> dict:
     """One setting, cold, in this process: times [s], peak, sizes and peak memory [MB]."""
     from microslip.pipeline.app import case as cs
+    from microslip.pipeline.app.limits import linear_peak
     from microslip.pipeline.app.models import CoupledModels
     from microslip.pipeline.app.run import mesh_geometry
     from microslip.pipeline.app.solutions import map_solutions, response_at
@@ -131,6 +135,12 @@ def measure(data: dict, source: str) -> dict:
         r = sweep(hb, "frequency", a["start"], a["stop"], base, settings=cs.settings(case))
         found = map_solutions(r, ["peak"], rows, "vibration", cs.settings(case))
         t4 = time.perf_counter()
+        # the fully stuck and free linear peaks of the same model (not timed): they split
+        # a setting's change into the linear model's (mesh, modes) and the friction's
+        cm = models.coupled(case)
+        window = (a["start"], a["stop"])
+        stuck = linear_peak(cm, base, "stuck", a["outputs"][0], window, True)
+        free = linear_peak(cm, base, "free", a["outputs"][0], window, True)
     omega, amplitude = float("nan"), float("nan")
     if found:
         _, omega, x = found[0]
@@ -142,7 +152,7 @@ def measure(data: dict, source: str) -> dict:
     modes = {body: max(m.n_modes for m in per_nd.values())
              for body, per_nd in structure.models.items()}
     return {"omega": omega, "amplitude": amplitude, "status": r.branch.status,
-            "curve": [lam.tolist(), shown],
+            "curve": [lam.tolist(), shown], "stuck": list(stuck), "free": list(free),
             "points": len(r), "unknowns": int(hb.n_unknowns), "nodes": int(mesh.points.shape[0]),
             "modes": modes, "mesh_s": t1 - t0, "reduction_s": t2 - t1, "coupling_s": t3 - t2,
             "frf_s": t4 - t3, "total_s": t4 - t0,
@@ -187,17 +197,21 @@ def changes(rows: list[dict], reference: dict) -> list[dict]:
     for r in rows:
         d_omega = r["omega"] - reference["omega"]
         d_amp = 100.0 * (r["amplitude"] / reference["amplitude"] - 1.0)
+        ratio = r["amplitude"] / r["stuck"][1]  # the friction's share: on its own model
         out.append({"d_omega": d_omega, "d_amplitude_pct": d_amp,
-                    "frf_error_pct": frf_error(r["curve"], reference["curve"])})
+                    "frf_error_pct": frf_error(r["curve"], reference["curve"]),
+                    "d_stuck_omega": r["stuck"][0] - reference["stuck"][0],
+                    "d_ratio_pct": 100.0 * (ratio / (reference["amplitude"]
+                                                     / reference["stuck"][1]) - 1.0)})
     return out
 
 
 def table(rows: list[dict]) -> str:
     """The trade table as Markdown (rows: measure() results with their setting and change)."""
     lines = ["| setting | grid | H | modes (blisk/damper) | mesh | unknowns | peak [rad/s] "
-             "| change | peak [mm] | change | FRF error | model [s] | FRF [s] | total [s] "
-             "| memory [MB] |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| change | peak [mm] | change | FRF error | stuck peak: change [rad/s] "
+             "| peak / stuck: change | model [s] | FRF [s] | total [s] | memory [MB] |",
+             "|" + "---|" * 17]
     for r in rows:
         s = r["setting"]
         modes = "/".join(str(r["modes"][b]) for b in sorted(r["modes"]))
@@ -207,6 +221,7 @@ def table(rows: list[dict]) -> str:
             f"{s['modes']} ({modes}) | {s['mesh']} ({r['nodes']} vertices) | {r['unknowns']} | "
             f"{r['omega']:.2f} | {r['d_omega']:+.2f} | {1e3 * r['amplitude']:.4f} | "
             f"{r['d_amplitude_pct']:+.2f} % | {r['frf_error_pct']:.1f} % | "
+            f"{r['d_stuck_omega']:+.2f} | {r['d_ratio_pct']:+.2f} % | "
             f"{model_s:.0f} | {r['frf_s']:.0f} | "
             f"{r['total_s']:.0f} | {r['memory_mb']:.0f} |")
     return "\n".join(lines)
@@ -307,7 +322,8 @@ def main(argv: list[str] | None = None) -> int:
         spent = time.perf_counter() - t_all
         left = spent / (k + 1) * (len(settings) - k - 1)
         print(f"[{k + 1}/{len(settings)}] {s.name}: {s.describe()}: peak "
-              f"{1e3 * r['amplitude']:.4f} mm at {r['omega']:.2f} rad/s, {r['status']}, "
+              f"{1e3 * r['amplitude']:.4f} mm at {r['omega']:.2f} rad/s (stuck "
+              f"{1e3 * r['stuck'][1]:.4f} mm at {r['stuck'][0]:.2f}), {r['status']}, "
               f"{r['total_s']:.0f} s, {r['memory_mb']:.0f} MB; about {left / 60:.0f} min left "
               "(rough: the settings differ)", flush=True)
     for r, c in zip(rows, changes(rows, rows[0])):
