@@ -239,7 +239,7 @@ def test_show_only_a_leftover_tmp(tmp_path, capsys):
     assert main(["show", str(tmp_path)]) == 1
     cap = capsys.readouterr()
     assert f"{tmp_path / 'results.h5.tmp'}: left by a run that was killed" in cap.out
-    assert "frf_a: frf [partial]" in cap.out and "curve_000 : 7 points" in cap.out
+    assert "frf_a: frf [partial]" in cap.out and "curve_000: 7 points" in cap.out
     assert one_line(cap.err) == (f"microslip show: no results.h5 in {tmp_path}, only the "
                                  "leftover results.h5.tmp of an unfinished run (above)")
 

@@ -263,6 +263,11 @@ def test_a_shape_picture_is_a_non_blank_png_of_the_asked_size(coarse_run, tmp_pa
     # two panels of 400 x 300 below a title strip of a ninth of their height
     assert image.shape == (300 + round(300 / 9), 800, 3)
     assert (image.min(axis=2) < 200).mean() > 0.05  # a drawn model, not a white page
+    # the summary names the surfaces, not as an analysis of no points
+    from microslip.pipeline.app.results import summary
+
+    text = summary(coarse_run / "results.h5")
+    assert "surfaces (of the shape pictures): blisk" in text and " 0 points" not in text
 
 
 @pytest.mark.parametrize("args, expected", [

@@ -211,6 +211,10 @@ def _analysis_lines(f: h5py.File) -> list[str]:
     for name, g in f.items():
         if name in ("case", "contact_grids"):
             continue
+        if name == "surfaces":  # what the shape pictures draw on
+            lines.append("surfaces (of the shape pictures): " + ", ".join(
+                f"{b} {sg['nodes'].shape[0]} nodes" for b, sg in g.items()))
+            continue
         ga = g.attrs
         lines.append(f"{name}: {ga.get('type', '?')} [{ga.get('status', '?')}] "
                      f"{ga.get('elapsed_s', 0.0):.2f} s {ga.get('message', '')}".rstrip())
@@ -226,7 +230,8 @@ def _analysis_lines(f: h5py.File) -> list[str]:
             extra = ""
             if "amplitude" in c and c["amplitude"].size:
                 extra = f", max amplitude {np.max(c['amplitude'][()]):.6g}"
-            lines.append(f"  {cname} {ca.get('label', '')}: {npts} points "
+            label = f" {ca['label']}" if ca.get("label", "") else ""
+            lines.append(f"  {cname}{label}: {npts} points "
                          f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
             coarse = undersampled_warning(
                 {k: p["undersampled"][()] for k, p in c.get("contacts", {}).items()

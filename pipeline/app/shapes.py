@@ -142,7 +142,7 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
     title_strip(pl, f"{title}\nvibration (orders >= 1) at the instant of largest motion, "
                     f"drawn x {factor:.3g}", 10)
     bar = {"title": "displacement [mm] (true scale)", "vertical": False, "position_x": 0.2,
-           "position_y": 0.04, "width": 0.6, "height": 0.07, "color": "black",
+           "position_y": 0.01, "width": 0.6, "height": 0.06, "color": "black",
            "title_font_size": 12, "label_font_size": 10, "fmt": "%.3g"}
     pl.subplot(1, 0)
     for s in surfaces.values():
@@ -154,6 +154,7 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
     points = np.concatenate([s.points for s in surfaces.values()])
     axial_view(pl, points.mean(axis=0), np.ptp(points, axis=0).max())
     pl.reset_camera()
+    pl.camera.zoom(0.8)  # room for the colour bar below a tall sector
     if disk:
         pl.subplot(1, 1)
         pl.add_mesh(pv.merge(copies), scalars="|u| [mm]", cmap="plasma", clim=clim,
