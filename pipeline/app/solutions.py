@@ -62,7 +62,7 @@ def map_solutions(r: Response, wanted: list, rows, measure: str, settings
                 found.append((a, s.x))
         found.sort(key=lambda f: -f[0])  # the highest first, as a fold's upper branch
         for k, (_, x) in enumerate(found):
-            out.append((f"{r.parameter} = {w:g}, solution {k + 1} of {len(found)}", float(w),
+            out.append((f"{r.parameter} = {w:.7g}, solution {k + 1} of {len(found)}", float(w),
                         x))
     return out
 
