@@ -152,3 +152,15 @@ def test_the_refined_peak_of_a_map_is_the_golden_section_peak():
     assert a == pytest.approx(a_ref, rel=1e-6)
     assert w == pytest.approx(w_ref, rel=1e-4)
     assert a >= np.max(r.amplitude([0])) - 1e-15  # never below the computed points
+
+
+def test_only_turning_points_where_the_parameter_turns_back_are_drawn_as_folds():
+    from microslip.pipeline.app.pictures import folds
+
+    # a fold: the parameter goes 0, 1, 2, then back to 1.5, then on: turns at 2 and 3
+    x = np.array([0.0, 1.0, 2.0, 1.5, 1.8, 3.0])
+    assert folds(x, [2, 3]).tolist() == [2, 3]
+    assert folds(x, [4]).tolist() == [4]  # flagged one point late: its neighbour turns
+    # a near-vertical rise flagged in pairs, the parameter never going back: no fold drawn
+    rise = np.array([0.0, 1.0, 1.001, 1.002, 1.003, 2.0])
+    assert folds(rise, [2, 3]).size == 0

@@ -69,7 +69,8 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
         label = _text(c.attrs.get("label", "")) or None
         x, y, at = _with_peak(c)
         tp = c["turning_points"][()] if "turning_points" in c else np.zeros(0, int)
-        tp = np.asarray(tp, dtype=int) + (np.asarray(tp, dtype=int) >= at)
+        tp = folds(c["parameter"][()], tp)
+        tp = tp + (tp >= at)
         for k, n in enumerate(outs):
             series.setdefault(n, []).append({"x": x, "y": y[:, k], "label": label,
                                              "turning_points": tp, "ls": style})
@@ -91,6 +92,18 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
                               "label": _text(lg.attrs["label"]), "lw": 1.0, "color": colour,
                               "ls": ":" if key == "linear_free" else "-."})
     return par, series, static
+
+
+def folds(x: np.ndarray, turning_points) -> np.ndarray:
+    """The turning points (indices into the branch's parameter values ``x``) where the branch
+    does turn back: the parameter's direction reverses at the point or a neighbour. The
+    continuation flags one wherever its tangent's parameter component changes sign; at a
+    near-vertical rise that flips in pairs while the parameter never goes back (one solution
+    at every value), and a circle there would claim a fold that is not."""
+    tp = np.asarray(turning_points, dtype=int).ravel()
+    d = np.sign(np.diff(np.asarray(x, dtype=float)))
+    turns = {j for j in range(1, len(d)) if d[j - 1] * d[j] < 0}
+    return np.array([i for i in tp if turns & {i - 1, i, i + 1}], dtype=int)
 
 
 def _with_peak(c: h5py.Group) -> tuple[np.ndarray, np.ndarray, int]:
