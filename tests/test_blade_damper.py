@@ -158,8 +158,6 @@ def test_load_step_1_matches_hand_statics(base):
 
 
 # --------------------------------------------------- Fig. 16: HBM against DTI
-@pytest.mark.slow  # three DTI steady states (32 s); the fast suite keeps the static forces
-                   # against DTI below and the Jenkins peak against time integration
 def test_coupled_hbm_peak_matches_dti(coupled, dti_peak):
     """The issue's bound: coupled HBM (orders 0, 1) within 2 % of the DTI at the
     peak. Measured 0.03 % (the DTI's step error at 256 steps per period is 0.2 %;
