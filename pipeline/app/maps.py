@@ -244,7 +244,8 @@ def _legend(pl, entries: Sequence[tuple[str, str]]) -> None:
     pl.camera.parallel_scale = 0.9
 
 
-def _save(pl, path: Path) -> Path:
+def save(pl, path: str | Path) -> Path:
+    """Write an off-screen plotter's picture to ``path`` (its folder made) and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     from microslip.geometry.preview import vtk_warnings_off
@@ -271,7 +272,7 @@ def status_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]],
             _view(pl, p.caption, p.grid, panel[0] / panel[1])
     pl.subplot(rows + 1, 0)
     _legend(pl, [(STATE_NAMES[s], colours[s]) for s in range(len(STATE_NAMES))])
-    return _save(pl, path)
+    return save(pl, path)
 
 
 def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *,
@@ -303,4 +304,4 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
                                  "position_y": 0.35, "width": 0.6, "height": 0.5,
                                  "color": "black", "title_font_size": 14,
                                  "label_font_size": 12, "fmt": "%.4g"})
-    return _save(pl, path)
+    return save(pl, path)

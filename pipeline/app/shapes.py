@@ -20,6 +20,8 @@ import numpy as np
 from microslip.geometry.mesh import rotation_z
 from microslip.pipeline.friction.harmonics import Harmonics
 
+from .maps import save
+
 SCALE_SHARE = 0.08  # the largest displacement drawn as this share of the sector's size
 INSTANTS = 72  # phases tried for the instant of the largest motion (5 degrees apart)
 #: Pixels of one panel of a shape picture (sector, full disk).
@@ -166,9 +168,4 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
         pl.view_xy()
         pl.camera.elevation = -25.0
         pl.reset_camera()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with vtk_warnings_off():
-        pl.screenshot(str(path))
-    pl.close()
-    return path
+    return save(pl, path)
