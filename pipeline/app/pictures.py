@@ -271,14 +271,20 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     for letter, c, p in _map_groups(g):
         label = _text(c.attrs.get("label", ""))
         pg = p["patches"]
-        what = _text(p.attrs["what"])
-        if what == "peak":
-            what += f" at {par} {float(p.attrs['parameter']):.6g}"
+        what = _what(p, par)
         out.append(MapPoint(f"{letter}: {label}\n{what}" if label else f"{letter}: {what}",
                             label, float(p.attrs["parameter"]),
                             {k: pg[k]["state"][()] for k in pg},
                             {k: pg[k]["static"][()] for k in pg}))
     return out
+
+
+def _what(p: h5py.Group, par: str) -> str:
+    """A map point's description ("peak" with where it is)."""
+    what = _text(p.attrs["what"])
+    if what == "peak":
+        what += f" at {par} {float(p.attrs['parameter']):.6g}"
+    return what
 
 
 def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
@@ -325,10 +331,7 @@ def frf_shapes(g: h5py.Group, name: str, out: Path, options: Options = Options()
         if found is None:
             continue
         label = _text(c.attrs.get("label", ""))
-        what = _text(p.attrs["what"])
-        if what == "peak":
-            what += f" at {par} {float(p.attrs['parameter']):.6g}"
-        title = f"{name} ({letter}): " + ", ".join(x for x in (label, what) if x)
+        title = f"{name} ({letter}): " + ", ".join(x for x in (label, _what(p, par)) if x)
         paths.append(shapes.draw(out / f"{name}_shape_{letter}.png", title, *found, panel))
     return paths
 

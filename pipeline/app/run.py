@@ -184,10 +184,12 @@ def write_surfaces(w: ResultsWriter, mesh) -> None:
     the nodes (outward), attr cyclic (a sector body); /surfaces attr sectors (0: no cyclic
     body). The shapes at the map points are given on these nodes."""
     groups = {}
-    for body, nodes in surfaces(mesh).items():
-        tri = np.searchsorted(nodes, mesh.surface(body))
+    for body in sorted(mesh.bodies):
+        triangles = mesh.surface(body)
+        nodes = np.unique(triangles)  # as solutions.surfaces
         groups[body] = {ATTRS: {"cyclic": body in mesh.cyclic}, "nodes": nodes,
-                        "points": mesh.points[nodes], "triangles": tri}
+                        "points": mesh.points[nodes],
+                        "triangles": np.searchsorted(nodes, triangles)}
     sectors = sorted({c.sectors for c in mesh.cyclic.values()})
     w.write_group(w.file, "surfaces", groups, {"sectors": sectors[0] if sectors else 0})
 

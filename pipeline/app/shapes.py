@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -49,20 +50,24 @@ class Shape:
     wave_numbers: tuple[int, ...]
     sectors: int
 
+    @cached_property
+    def _phasors(self) -> dict[str, dict[int, np.ndarray]]:
+        h = Harmonics(self.orders)
+        return {b: {n: x for n, x in h.to_complex(c).items() if n > 0}
+                for b, c in self.coefficients.items()}
+
     def phasors(self, body: str) -> dict[int, np.ndarray]:
         """{order n >= 1: (p, 3) complex amplitude X_n}: u(t) = sum_n Re(X_n e^(i n w t))."""
-        h = Harmonics(self.orders)
-        return {n: x for n, x in h.to_complex(self.coefficients[body]).items() if n > 0}
+        return self._phasors[body]
 
     def vibration(self, body: str, theta: float, sector: int = 0) -> np.ndarray:
         """(p, 3) vibration [m] of the body in copy ``sector`` of the disk at phase
         ``theta`` = w t, in the disk's frame (the copy turned by sector 2 pi / Ns)."""
         phi = 2 * np.pi / self.sectors if self.sectors else 0.0
         waves = dict(zip(self.orders, self.wave_numbers))
-        u = sum(np.real(x * np.exp(1j * (waves[n] * sector * phi + n * theta)))
-                for n, x in self.phasors(body).items())
-        if isinstance(u, int):  # no dynamic order
-            u = np.zeros_like(self.coefficients[body][..., 0])
+        u = np.zeros(self.coefficients[body].shape[:2])
+        for n, x in self.phasors(body).items():
+            u += np.real(x * np.exp(1j * (waves[n] * sector * phi + n * theta)))
         return u @ rotation_z(sector * phi).T
 
     def instant(self) -> float:
@@ -96,12 +101,15 @@ def scale(surfaces: Mapping[str, Surface], shape: Shape, theta: float) -> float:
     return SCALE_SHARE * size / u if u > 0 else 1.0
 
 
-def _polydata(s: Surface, points: np.ndarray, u: np.ndarray):
+def _polydata(s: Surface, points: np.ndarray, u: np.ndarray | None = None):
+    """The surface's triangles over ``points``; with ``u``, its magnitude [mm] as a point
+    array "|u| [mm]"."""
     import pyvista as pv
 
     faces = np.hstack([np.full((len(s.triangles), 1), 3), s.triangles]).ravel()
     mesh = pv.PolyData(points, faces)
-    mesh["|u| [mm]"] = 1e3 * np.linalg.norm(u, axis=1)
+    if u is not None:
+        mesh["|u| [mm]"] = 1e3 * np.linalg.norm(u, axis=1)
     return mesh
 
 
@@ -132,9 +140,9 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
     disk = shape.sectors > 0
     cols = 2 if disk else 1
     strip = max(1, round(panel[1] / 9))
-    sector = sector_mesh(surfaces, shape, theta, factor)
     copies = [sector_mesh(surfaces, shape, theta, factor, s)
-              for s in range(shape.sectors)] if disk else []
+              for s in range(max(shape.sectors, 1))]
+    sector = copies[0]
     values = sector["|u| [mm]"]
     clim = (0.0, float(values.max()) if values.max() > 0 else 1.0)
     with vtk_warnings_off():
@@ -148,8 +156,7 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
            "title_font_size": 12, "label_font_size": 10, "fmt": "%.3g"}
     pl.subplot(1, 0)
     for s in surfaces.values():
-        faces = np.hstack([np.full((len(s.triangles), 1), 3), s.triangles]).ravel()
-        pl.add_mesh(pv.PolyData(s.points, faces), color="lightgrey", opacity=0.25)
+        pl.add_mesh(_polydata(s, s.points), color="lightgrey", opacity=0.25)
     pl.add_mesh(sector, scalars="|u| [mm]", cmap="plasma", clim=clim, scalar_bar_args=bar)
     pl.add_text("sector, every body (undeformed in grey)", position="upper_edge",
                 font_size=9, color="black")

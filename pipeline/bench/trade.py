@@ -41,6 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .coupled import unknowns
+
 FINE = (0.008, 0.004)  # m: tet size of the sector and of the blade (the case's defaults)
 COARSE = (0.010, 0.005)
 
@@ -109,7 +111,7 @@ def measure(data: dict, source: str) -> dict:
     from microslip.pipeline.app.limits import linear_peak
     from microslip.pipeline.app.models import CoupledModels
     from microslip.pipeline.app.run import mesh_geometry
-    from microslip.pipeline.app.solutions import map_solutions, response_at
+    from microslip.pipeline.app.solutions import map_solutions, response_at, response_measure
     from microslip.pipeline.app.structure import reduce_structure
     from microslip.pipeline.friction import warm_up
     from microslip.pipeline.solve.response import sweep
@@ -147,8 +149,8 @@ def measure(data: dict, source: str) -> dict:
         amplitude = float(response_at(hb, x, base.set("frequency", omega), rows,
                                        "vibration")[0])
     lam = np.append(r.values, omega) if found else r.values
-    shown = [float(response_at(hb, x, r.point(i), rows, "vibration")[0])
-             for i, x in enumerate(r.branch.x)] + ([amplitude] if found else [])
+    shown = response_measure(r.coefficients(rows), hb.harmonics, "vibration")[:, 0].tolist() \
+        + ([amplitude] if found else [])
     modes = {body: max(m.n_modes for m in per_nd.values())
              for body, per_nd in structure.models.items()}
     return {"omega": omega, "amplitude": amplitude, "status": r.branch.status,
@@ -162,8 +164,7 @@ def measure(data: dict, source: str) -> dict:
 def weight(s: Setting) -> float:
     """A setting's rough cost relative to the case's (2 x 36 pairs, H 0-1): the model, plus
     the FRF growing as the unknowns squared (measured: 17x for 4.7x the unknowns)."""
-    n = 12 * s.pairs * (2 * s.harmonics + 1)
-    return 1.0 + (n / 1296.0) ** 2
+    return 1.0 + (unknowns(*s.grid, s.harmonics) / 1296.0) ** 2
 
 
 def pareto_front(cost: np.ndarray, error: np.ndarray) -> np.ndarray:
