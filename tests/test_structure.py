@@ -199,3 +199,26 @@ def test_show_summarises_the_stage(stage):
     assert [line.split()[1] for line in lines] == ["nd0:", "nd5:"]
     assert all("master DOFs +" in line and "f [Hz]" in line for line in lines)
     assert any(line.startswith("  contact damper_left: kn") for line in text.splitlines())
+
+
+def test_a_failed_eigen_solve_names_body_and_nd(tmp_path, monkeypatch, capsys):
+    """An eigen-solve that cannot converge (a tolerance no solver meets) ends the run failed,
+    exit 1, with one message naming the body, the ND, what was tried and what to change,
+    kept in results.h5; no traceback."""
+    from microslip.pipeline import cli
+
+    path = tmp_path / "coarse.toml"
+    path.write_text(
+        '[geometry]\nmodel = "blisk_sector"\n'
+        "[geometry.parameters]\nsectors = 24\nsize = 0.016\nblade_size = 0.008\n"
+        "[reduction]\nnodal_diameters = [5]\nmodes = 6\n")
+    monkeypatch.setattr(reduction, "EIGEN_TOL", 1e-18)  # below any round-off floor
+    code = cli.main(["run", str(path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "reduction of body 'blisk' at ND 5" in err and "block shift-invert Lanczos" in err
+    assert "to change: set [reduction.bodies.blisk] modes to fewer" in err
+    assert "Traceback" not in err
+    with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
+        assert f.attrs["status"] == "failed"
+        assert "reduction of body 'blisk' at ND 5" in f.attrs["message"]

@@ -41,6 +41,11 @@ if TYPE_CHECKING:
 Progress = Callable[[str], None]
 
 
+class StageFailed(RuntimeError):
+    """A stage before the analyses failed for a numerical reason (the message says where
+    and what to change): the run ends ``failed``, exit 1."""
+
+
 def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print,
              cache: bool = True) -> Path:
     """Compute every analysis of ``case`` into ``out_dir``; returns results.h5.
@@ -64,7 +69,11 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print,
                 "elapsed_s": time.perf_counter() - t, "type": "geometry"})
             write_contact_grids(w, m)
             if "reduction" in case.data:
-                result = write_structure(w, m, case, out, progress)
+                try:
+                    result = write_structure(w, m, case, out, progress)
+                except StageFailed as err:  # numerical: said, kept in the file, exit 1
+                    progress(f"[reduction] failed: {err}")
+                    return w.close("failed", str(err))
                 if "coupling" in case.data:
                     models = CoupledModels(m, result)
         drawn: dict[str, dict] = {}  # analysis -> {output: series}, for comparisons
@@ -147,13 +156,18 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
     summary in results.h5 /reduction/<body>/nd<h> (frequencies of the reduced model with free
     masters, fixed-interface mode frequencies, master nodes; attrs: model file, sizes) and
     /reduction/contact_stiffness/<patch> (kn, kt per node pair [N/m])."""
+    from microslip.pipeline.fe.reduction import ReductionError
+
     from .structure import reduce_structure  # imports the FE stages only when needed
 
     t = time.perf_counter()
     orders = cs.harmonics(case).orders if "harmonics" in case.data else None
     shapes = cs.wants_shapes(case.data)
-    result = reduce_structure(mesh, case.data["reduction"], out / "models", orders, progress,
-                              surfaces=shapes)
+    try:
+        result = reduce_structure(mesh, case.data["reduction"], out / "models", orders,
+                                  progress, surfaces=shapes)
+    except ReductionError as err:
+        raise StageFailed(str(err)) from err
     if shapes:
         write_surfaces(w, mesh)
     datasets: dict = {body: {f"nd{h}": {

@@ -613,6 +613,11 @@ def modal_reduction(
 # --- stage function with the HDF5 cache --------------------------------------------------
 
 
+class ReductionError(RuntimeError):
+    """A body's reduction failed for a numerical reason (the message names the body, the
+    ND, what was tried and what to change)."""
+
+
 @dataclass(frozen=True)
 class BodySpec:
     """What to reduce for one body of a mesh.
@@ -696,6 +701,21 @@ def reference_frequency(models: Iterable[ReducedModel]) -> float | None:
     return float(max(f)) if f else None
 
 
+def _eigen_failure(spec: BodySpec, h: int, n_free: int, backend: str | None, is_cyclic: bool,
+                   err: Exception) -> str:
+    """What a failed fixed-interface eigen-solve says: where, what was tried, what to change."""
+    where = f"body {spec.body!r}" + (f" at ND {h}" if is_cyclic else "")
+    solver = linalg.check_backend(backend, n_free)
+    wanted = (f"every mode below {spec.cutoff:g} x the reference frequency" if spec.n_modes
+              == "auto" else f"{spec.n_modes} modes")
+    other = [b for b in linalg.available_backends() if b != solver]
+    fewer = ("lower [reduction] cutoff or set " if spec.n_modes == "auto" else "set ")
+    return (f"reduction of {where} ({n_free} free DOFs): the fixed-interface eigen-solve "
+            f"(block shift-invert Lanczos, {wanted}, {solver} factorization) failed: {err}; "
+            f"to change: {fewer}[reduction.bodies.{spec.body}] modes to fewer modes"
+            + (f", or set [reduction] backend = \"{other[0]}\"" if other else ""))
+
+
 def reduce_body(
     mesh: MeshLike,
     spec: BodySpec,
@@ -734,9 +754,13 @@ def reduce_body(
             sector = cyclic.sector_model(body_model, clamped, boundary, h)
             names = _body_load_names(h if boundary is not None else None)
             loads = {CENTRIFUGAL: fem.centrifugal_load(body_model)} if names else None
-            model = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
-                                  spec.damping, backend, cutoff=spec.cutoff, f_max=spec.f_max,
-                                  loads=loads)
+            try:
+                model = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
+                                      spec.damping, backend, cutoff=spec.cutoff,
+                                      f_max=spec.f_max, loads=loads)
+            except linalg.EigenSolverError as err:
+                raise ReductionError(_eigen_failure(spec, h, sector.n_free, backend,
+                                                    boundary is not None, err)) from err
             if path is not None:
                 _save_atomically(model, path)
         out[h] = model
