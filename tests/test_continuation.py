@@ -42,6 +42,29 @@ def test_natural_continuation_jumps_and_misses_the_middle_branch():
     middle = np.abs(up.x[:, 0]) < 1 / np.sqrt(3) - 0.05
     assert not middle.any()
     assert up.x[-1, 0] == pytest.approx(1.5214, abs=1e-3)
+    # one jump, from the fold at lam = 2 / (3 sqrt 3) (located to min_step x the range) to
+    # the upper branch one regular step on (x^3 - x = lam there, x > 1)
+    fold = 2 / (3 * np.sqrt(3))
+    assert len(up.jumps) == 1
+    i, j = up.jumps[0]
+    assert j == i + 1 and fold - 4 * 1e-6 <= up.values[i] <= fold
+    assert up.values[j] == pytest.approx(up.values[i] + 0.04, abs=4e-6)
+    assert up.x[j, 0] > 1 and abs(up.x[j, 0] ** 3 - up.x[j, 0] - up.values[j]) <= 1e-12
+    assert "jumped at the fold at lambda = 0.38489" in up.message
+
+
+def test_natural_sweep_stops_where_the_solution_set_ends():
+    """R = x^2 + lam: no solution at all for lam > 0; the sweep up ends at the fold, says so
+    and keeps what it computed."""
+    def parabola(x, lam, jac=True):
+        return np.array([x[0] ** 2 + lam]), np.array([[2 * x[0]]]), np.array([1.0])
+
+    b = cont.natural(parabola, np.array([1.0]), -1.0, 1.0, settings=cont.Settings(tol=1e-12))
+    assert b.status == "stopped" and not b.jumps
+    assert "the end of the solution set" in b.message
+    # the last point sits within min_step (1e-5 x the range) below the fold at lam = 0; at
+    # x ~ 1e-8 the residual's tol 1e-12 allows lam to round to just above 0
+    assert -1e-5 <= b.values[-1] <= 1e-12
 
 
 def test_softening_fold_of_the_variable_normal_load_oscillator():
@@ -62,18 +85,69 @@ def test_softening_fold_of_the_variable_normal_load_oscillator():
         assert sol.converged
         amps.append(np.hypot(sol.x[1], sol.x[2]))
     assert np.ptp(amps) > 0.1 and len(set(np.round(amps, 4))) == 3
-    # the upward natural sweep stops at the fold and says so
-    up = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5), method="natural")
-    assert not up.branch.complete and "fold" in up.branch.message
-    assert up.values[-1] == pytest.approx(hi, abs=0.01)
-    # the downward one jumps at the other fold: both miss the middle branch
-    down = sweep(hb, "frequency", 2.5, 0.5, OperatingPoint(2.5), method="natural")
-    assert down.branch.complete
+    up, down = _natural_sweeps_jump_at_the_folds(hb, arc, 0.5, 2.5)
     a_down = down.amplitude([0])[:, 0]
     inside = (down.omega > lo + 0.005) & (down.omega < hi - 0.005)
     a_arc = arc.amplitude([0])[:, 0]
     mid = a_arc[arc.branch.turning_points[0]:arc.branch.turning_points[1] + 1]
     assert not np.any((a_down[inside] > mid.min() + 0.01) & (a_down[inside] < mid.max() - 0.01))
+
+
+def test_fig24_natural_sweeps_jump_at_both_folds():
+    """Seed Fig. 24 (law B, a gap of 0.5 N / kn that closes during the motion: hardening):
+    the ascending and the descending natural sweeps each jump at their fold, onto the
+    branch that arclength continuation computes there."""
+    hb = normal_oscillator(-0.5, mu=0.1)
+    arc = sweep(hb, "frequency", 0.9, 1.6, OperatingPoint(0.9))
+    assert arc.branch.complete and len(arc.branch.turning_points) == 2
+    up, down = _natural_sweeps_jump_at_the_folds(hb, arc, 0.9, 1.6)
+    # the hardening peak leans right: the upward sweep stays on the resonant branch
+    # to the upper fold, then falls onto the lower one
+    i, j = up.branch.jumps[0]
+    assert up.amplitude([0])[j, 0] < 0.5 * up.amplitude([0])[i, 0]
+
+
+def _natural_sweeps_jump_at_the_folds(hb, arc, start, stop):
+    """The upward and the downward natural sweeps over [start, stop]: each complete with one
+    jump, up at the arclength curve's upper fold and down at its lower one, landing on the
+    branch arclength computed at the next value. Returns (up, down)."""
+    lo, hi = sorted(arc.values[arc.branch.turning_points])
+    up = sweep(hb, "frequency", start, stop, OperatingPoint(start), method="natural")
+    down = sweep(hb, "frequency", stop, start, OperatingPoint(stop), method="natural")
+    for r, fold in ((up, hi), (down, lo)):
+        assert r.branch.complete, r.branch.message
+        assert len(r.branch.jumps) == 1 and "jumped at the fold" in r.branch.message
+        i, j = r.branch.jumps[0]
+        assert r.values[i] == pytest.approx(fold, abs=_arc_spacing(arc, fold))
+        _assert_on_arclength_branch(hb, arc, r, j)
+    return up, down
+
+
+def _arc_spacing(arc, fold: float) -> float:
+    """How far the arclength curve's turning point may sit from the true fold: the parameter
+    spacing of its points around the one nearest ``fold`` (near a fold the parameter varies
+    quadratically along the arc, so the fold lies within one spacing of the extreme point)."""
+    w = arc.values
+    k = int(np.argmin(np.abs(w - fold)))
+    return float(np.max(np.abs(np.diff(w[max(k - 1, 0): k + 2]))))
+
+
+def _assert_on_arclength_branch(hb, arc, r, j):
+    """Point j of the natural sweep r is the solution of the arclength branch at its
+    frequency: one of the arclength's crossings of that value, solved there by Newton,
+    equals it to the Newton tolerance."""
+    w = r.values[j]
+    crossings = np.flatnonzero(np.diff(np.sign(arc.values - w)) != 0)
+    dist = []
+    for k in crossings:
+        t = (w - arc.values[k]) / (arc.values[k + 1] - arc.values[k])
+        guess = arc.branch.x[k] + t * (arc.branch.x[k + 1] - arc.branch.x[k])
+        sol = solve_point(hb, OperatingPoint(w), x0=guess)
+        assert sol.converged
+        dist.append(np.max(np.abs(sol.x - r.branch.x[j])))
+    # tol 1e-9 x the force scale on the residual: the same solution agrees to ~1e-8 x the
+    # amplitude; another branch is 0.1-1 m away
+    assert min(dist) <= 1e-6 * np.max(np.abs(r.branch.x[j]))
 
 
 @pytest.mark.parametrize("parameter,start,stop", [("preload", 0.01, 2.0),

@@ -35,11 +35,7 @@ def loops(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def normal(tmp_path_factory):
-    # Fig. 24's natural-down curve stops at the fold (the point of the figure), so the
-    # run is honestly partial, and says which analysis stopped and why
-    with run("normal_load", tmp_path_factory, status="partial") as f:
-        assert f.attrs["message"].startswith("analysis fig24 stopped: stopped at frequency")
-        assert "fold" in f.attrs["message"]
+    with run("normal_load", tmp_path_factory) as f:
         yield f
 
 
@@ -116,7 +112,7 @@ def test_fig8_gap_and_preload_limits(normal):
     assert peak(g["curve_001"])[0] > 1.0
 
 
-def test_fig24_natural_misses_the_middle_branch(normal):
+def test_fig24_natural_sweeps_jump_and_miss_the_middle_branch(normal):
     g = normal["fig24"]
     arc, up = g["curve_000"], g["curve_001"]
     tp = sorted(arc.attrs["turning_points"])
@@ -133,13 +129,21 @@ def test_fig24_natural_misses_the_middle_branch(normal):
         order = np.argsort(ws)
         return np.interp(w, ws[order], a[order])
 
-    w_up, a_up = up["parameter"][()], up["amplitude"][:, 0]
-    inside = (w_up > lo + 0.01 * (hi - lo)) & (w_up < hi - 0.01 * (hi - lo))
-    assert inside.sum() >= 3
-    for w, a in zip(w_up[inside], a_up[inside]):
-        dist = [abs(a - on(seg, w)) for seg in segments]
-        # on the upper or the lower branch, never on the middle one
-        assert int(np.argmin(dist)) != 1 and min(dist) < 0.01 * a
+    for sweep, fold in ((up, hi), (g["curve_002"], lo)):
+        w_up, a_up = sweep["parameter"][()], sweep["amplitude"][:, 0]
+        inside = (w_up > lo + 0.01 * (hi - lo)) & (w_up < hi - 0.01 * (hi - lo))
+        assert inside.sum() >= 3
+        for w, a in zip(w_up[inside], a_up[inside]):
+            dist = [abs(a - on(seg, w)) for seg in segments]
+            # on the upper or the lower branch, never on the middle one
+            assert int(np.argmin(dist)) != 1 and min(dist) < 0.01 * a
+        # complete, one jump recorded at the fold arclength found (within its point
+        # spacing there: the arclength point is the extreme of a parabola-like turn)
+        assert sweep.attrs["status"] == "complete" and sweep["jumps"].shape == (1, 2)
+        i, j = sweep["jumps"][0]
+        near = np.argsort(np.abs(w_arc - fold))[:3]
+        assert abs(w_up[i] - fold) <= np.ptp(w_arc[near])
+        assert np.array_equal(sweep["jump_parameter"][0], w_up[[i, j]])
 
 
 def test_fig10_two_directions_damp_more(tmp_path_factory):

@@ -71,14 +71,16 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
         tp = c["turning_points"][()] if "turning_points" in c else np.zeros(0, int)
         tp = folds(c["parameter"][()], tp)
         tp = tp + (tp >= at)
+        jumps = c["jumps"][()] if "jumps" in c else np.zeros((0, 2), int)
         for k, n in enumerate(outs):
             series.setdefault(n, []).append({"x": x, "y": y[:, k], "label": label,
-                                             "turning_points": tp, "ls": style})
+                                             "turning_points": tp, "ls": style,
+                                             "jumps": jumps + (jumps >= at)})
         for cname, cd in c.get("contacts", {}).items():
             for what, y in static_lines(cd["static_force"][()],
                                         [_text(x) for x in cd["columns"][()]]):
                 static.setdefault(cname, []).append({
-                    "x": c["parameter"][()], "y": y, "ls": style,
+                    "x": c["parameter"][()], "y": y, "ls": style, "jumps": jumps,
                     "label": ", ".join(s for s in (label, what) if s)})
     masses = [float(c.attrs.get("mass_multiplier", 1.0)) for _, c in curves(g)]
     for key, lg in sorted(g.items()):

@@ -62,17 +62,27 @@ def number(value: float, scale: float = 0.0, digits: int = 3) -> str:
 
 def _line(ax: Axes, s: dict) -> Line2D | None:
     """One computed curve: markers on its points when they are sparse, turning points
-    circled; a curve with no finite point is left out (and out of the legend)."""
+    circled, jumps at folds (``jumps``: (from, to) point indices) drawn as thin dashed
+    arrows between the branches rather than as part of the line; a curve with no finite
+    point is left out (and out of the legend)."""
     x, y = np.asarray(s["x"], dtype=float), np.asarray(s["y"], dtype=float)
     finite = np.isfinite(y)
     if not finite.any():
         return None
+    jumps = np.asarray(s.get("jumps", np.zeros((0, 2), int)), dtype=int).reshape(-1, 2)
+    xs, ys = x, y
+    if len(jumps):  # a NaN between the two points of a jump breaks the line there
+        xs, ys = np.insert(x, jumps[:, 1], np.nan), np.insert(y, jumps[:, 1], np.nan)
     marker = "o" if finite.sum() < SPARSE else None
-    (line,) = ax.plot(x, y, label=s.get("label"), lw=s.get("lw", 1.4), ls=s.get("ls", "-"),
+    (line,) = ax.plot(xs, ys, label=s.get("label"), lw=s.get("lw", 1.4), ls=s.get("ls", "-"),
                       color=s.get("color"), marker=marker, ms=3)
     tp = s.get("turning_points", [])
     if len(tp):
         ax.plot(x[tp], y[tp], "o", mfc="none", color=line.get_color(), ms=7)
+    for i, j in jumps:
+        ax.annotate("", xy=(x[j], y[j]), xytext=(x[i], y[i]),
+                    arrowprops={"arrowstyle": "->", "ls": "--", "lw": 0.8,
+                                "color": line.get_color(), "shrinkA": 0, "shrinkB": 0})
     return line
 
 

@@ -386,6 +386,9 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
         "coefficients": coef, "amplitude": amp, "response": shown,
         "residual": b.residuals, "iterations": b.iterations,
         "turning_points": np.array(b.turning_points, dtype=np.int64),
+        # natural sweeps: (from, to) points of each jump at a fold and their parameter values
+        "jumps": np.array(b.jumps, dtype=np.int64).reshape(-1, 2),
+        "jump_parameter": b.values[np.array(b.jumps, dtype=np.int64).reshape(-1, 2)],
         "unknowns": b.x, "unknown_dofs": hb.dofs,
         "contacts": _contact_data(r, per_point),
     }

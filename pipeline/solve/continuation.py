@@ -8,7 +8,8 @@ the arclength metric mean the same for a 1 N blade and a 30 kN disk.
 
 * :func:`newton` - damped Newton at fixed ``lam`` (backtracking on ||R||).
 * :func:`natural` - natural continuation (seed 7.1): ``lam`` stepped, the last
-  solutions extrapolated as predictor, the step halved where Newton fails.
+  solutions extrapolated as predictor, the step halved where Newton fails; at a fold
+  the sweep jumps to the other branch, as a slow physical sweep does (seed Fig. 24).
 * :func:`arclength` - pseudo-arclength continuation (seed 7.2, eqs. 55-56):
   tangent predictor, corrector on the hyperplane orthogonal to the tangent,
   adaptive step, turning points followed and reported.
@@ -19,6 +20,7 @@ Neither raises on non-convergence: the branch computed so far is returned with
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -52,6 +54,9 @@ class Branch:
     message: str = ""
     steps: int = 0  # predictor-corrector attempts, including rejected ones
     failed: tuple[float, np.ndarray] | None = None  # (lam, x) of the last failed attempt
+    #: natural sweeps: (i, i + 1) where point i + 1 lies on another branch than point i
+    #: (a jump at the fold next to point i)
+    jumps: list[tuple[int, int]] = field(default_factory=list)
 
     @property
     def complete(self) -> bool:
@@ -228,9 +233,13 @@ def natural(
     """Natural continuation from ``start`` to ``stop`` in steps of
     ``settings.step * |stop - start|`` (halved down to ``min_step`` on failure).
 
-    Where the predictor fails, Newton restarts from the last solution and then
-    from ``guesses(lam)``: past a fold that lets the sweep jump to the other
-    branch, as a physical slow sweep does (seed Fig. 24)."""
+    Where the predictor fails, Newton restarts from the last solution. Where the step has
+    fallen below ``min_step``, the branch ends within it: a fold. The sweep then jumps, as a
+    slow physical sweep does (seed Fig. 24): it lands at the next value, one regular step on,
+    on the branch that the fold's own branch reaches there after turning back (followed by
+    arclength, :func:`_detour`), else on a solution from ``guesses(value)``; the jump is kept
+    in ``Branch.jumps``. Where neither gives a solution (the end of the solution set), the
+    sweep stops and says so."""
     check_range(start, stop, parameter)
     span = stop - start
     out = _Collector(parameter)
@@ -257,18 +266,16 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
     while (lam - stop) * np.sign(span) < 0 and len(out) < settings.max_points:
         step_now = min(step, abs(stop - lam) / abs(span))
         new = lam + np.sign(span) * step_now * abs(span)
-        r = newton(fun, out.extrapolate(new), new, x_scale=x_scale, f_scale=f_scale,
-                   settings=settings)
+        pred = out.extrapolate(new)
+        r = newton(fun, pred, new, x_scale=x_scale, f_scale=f_scale, settings=settings)
         out.steps += 1
-        if not r.converged:
-            # past a fold the secant points off the branch; the last solution or
-            # the caller's guesses let Newton fall onto the other branch
-            for guess in [out.xs[-1]] + (list(guesses(new)) if guesses else []):
-                r = newton(fun, guess, new, x_scale=x_scale, f_scale=f_scale,
-                           settings=settings)
-                out.steps += 1
-                if r.converged:
-                    break
+        if not r.converged:  # past a bend the secant points off the branch
+            r = newton(fun, out.xs[-1], new, x_scale=x_scale, f_scale=f_scale,
+                       settings=settings)
+            out.steps += 1
+        if r.converged and _off_branch(out, r.x, pred, new, x_scale, span):
+            r = dataclasses.replace(r, converged=False, reason=(
+                "Newton converged far from the predictor (on another branch?)"))
         if r.converged:
             lam = new
             out.add(lam, r)
@@ -278,16 +285,127 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
             continue
         step /= 2
         out.failed = (new, r.x)
-        if step < settings.min_step:
+        if step >= settings.min_step:
+            continue
+        # the branch ends within min_step: a fold (or the end of the solution set)
+        target = lam + np.sign(span) * min(settings.step, abs(stop - lam) / abs(span)) * abs(span)
+        landed, turned = _jump(fun, out, target, start, stop, span, x_scale, f_scale, settings,
+                               guesses)
+        if landed is None:
             return out.finish(
                 "stopped",
                 f"stopped at {parameter} = {new:.6g} (last converged {lam:.6g}): "
-                f"{r.reason}; step fell below min_step = {settings.min_step:g} (a fold "
-                "of the branch? arclength continuation follows turning points)",
-            )
+                f"{r.reason}; the branch ends within min_step = {settings.min_step:g} of it "
+                f"and no other solution was found at {parameter} = {target:.6g} (neither "
+                "along the branch past the fold nor from the linear guesses): the end of "
+                "the solution set")
+        if turned:
+            out.jumps.append((len(out) - 1, len(out)))
+        lam, step = target, settings.step
+        out.add(lam, landed)
+        if progress:
+            progress(len(out), lam, landed.iterations)
     if len(out) >= settings.max_points and (lam - stop) * np.sign(span) < 0:
         return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")
-    return out.finish("complete", "")
+    jumps = "; ".join(f"jumped at the fold at {parameter} = {out.values[i]:.6g} to the other "
+                      f"branch at {out.values[j]:.6g}" for i, j in out.jumps)
+    return out.finish("complete", jumps)
+
+
+#: A natural step's solution lies on another branch when Newton moved it more than FAR times
+#: the predictor's own step from the last point (both in the scaled metric): the secant's
+#: error shrinks with the step squared on a smooth branch, and with the step across a kink,
+#: while another branch stays O(1) away however short the step.
+FAR = 10.0
+
+
+def _off_branch(out, x, pred, lam, x_scale, span) -> bool:
+    """True when the solution ``x`` at ``lam`` is far from the secant predictor ``pred``
+    (see FAR); never for the second point, which has no secant to go by."""
+    if len(out) < 2:
+        return False
+
+    def rms(v):
+        return float(np.sqrt(np.mean((v / x_scale) ** 2))) if v.size else 0.0
+
+    step = rms(pred - out.xs[-1]) + abs(lam - out.values[-1]) / abs(span)
+    return rms(x - pred) > FAR * step
+
+
+#: Most arclength points a jump's detour takes (round the fold, back along the branch
+#: between the folds and round the next one) before it gives up.
+DETOUR_POINTS = 500
+
+
+def _jump(fun, out, target, start, stop, span, x_scale, f_scale, settings, guesses):
+    """(solution at ``target`` or None, whether the branch turned back on the way): first
+    along the branch from the last point, past its fold (:func:`_detour`), then from the
+    caller's guesses. A guess that converges counts as a jump: the branch ended before."""
+    landed, turned = _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings)
+    if landed is not None:
+        return landed, turned
+    for guess in (list(guesses(target)) if guesses else []):
+        r = newton(fun, guess, target, x_scale=x_scale, f_scale=f_scale, settings=settings)
+        out.steps += 1
+        if r.converged:
+            return r, True
+    return None, False
+
+
+def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):
+    """Follow the branch from the sweep's last point by pseudo-arclength (in the sweep's
+    metric: unknowns by ``x_scale`` rms, parameter by ``|span|``) until the parameter passes
+    ``target``; Newton at ``target`` from the chord there. Returns (NewtonResult or None,
+    turned): ``turned`` when the parameter went back on the way (a fold passed: the landing
+    point lies on another branch of the sweep's). The detour keeps within one span of the
+    sweep's range and stops after DETOUR_POINTS points."""
+    x, lam = out.xs[-1], out.values[-1]
+    direction, lam_scale = np.sign(span), abs(span)
+    rms = _rms(x)
+    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x)) * rms
+    previous = None
+    if len(out) > 1:  # the secant: a regular bordered system at the fold itself
+        previous = np.append((out.xs[-1] - out.xs[-2]) / xs,
+                             (out.values[-1] - out.values[-2]) / lam_scale)
+        previous /= np.linalg.norm(previous)
+    first = _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction)
+    if first is None:
+        return None, False
+    tangent, orientation = first  # the branch's orientation: det [J dR; t] keeps its sign
+    lo, hi = min(start, stop) - lam_scale, max(start, stop) + lam_scale
+    h, turned, points = settings.step, False, 0
+    while points < DETOUR_POINTS:
+        pred = np.append(x / xs, lam / lam_scale) + h * tangent
+        ok, y, its, _, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings)
+        out.steps += 1
+        if not ok or np.linalg.norm(y - pred) > 10.0 * h:
+            h /= 2
+            if h < settings.min_step:
+                return None, turned
+            continue
+        points += 1
+        x_new, lam_new = y[:-1] * xs, y[-1] * lam_scale
+        turned = turned or (lam_new - lam) * direction < 0
+        if (lam_new - target) * direction >= 0:  # passed the target: land there
+            chord = x + (target - lam) / (lam_new - lam) * (x_new - x)
+            r = newton(fun, chord, target, x_scale=xs / rms, f_scale=f_scale,
+                       settings=settings)
+            out.steps += 1
+            return (r if r.converged else None), turned
+        if not (lo <= lam_new <= hi and settings.lower < lam_new < settings.upper):
+            return None, turned
+        new_tangent = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent,
+                               direction, info)
+        if new_tangent is None:
+            return None, turned
+        t_new = new_tangent[0] * new_tangent[1] * orientation
+        turn = np.arccos(np.clip(t_new @ tangent, -1.0, 1.0))
+        x, lam, tangent = x_new, lam_new, t_new
+        if turn > settings.max_turn:
+            h = max(h * 0.5, settings.min_step)
+        elif its <= settings.target_iter - 1:
+            h = min(h * 1.5, settings.max_step)
+    return None, turned
 
 
 def arclength(
@@ -608,6 +726,7 @@ class _Collector:
         self.res: list[float] = []
         self.its: list[int] = []
         self.turning_points: list[int] = []
+        self.jumps: list[tuple[int, int]] = []
         self.steps = 0
         self.failed: tuple[float, np.ndarray] | None = None
 
@@ -640,4 +759,5 @@ class _Collector:
             message,
             self.steps,
             self.failed,
+            list(self.jumps),
         )
