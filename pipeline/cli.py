@@ -410,6 +410,7 @@ def main(argv: list[str] | None = None) -> int:
               "  bench reduction  assembly, cyclic matrices and Craig-Bampton: time, memory\n"
               "  bench teaching   harmonic balance against time integration; the teaching set\n"
               "  bench coupled    coupled blisk + damper: time per point against contact grid\n"
+              "  bench trade      the blisk-damper study's knobs: accuracy against time\n"
               "\n"
               "microslip COMMAND --help: the options of a command; --version: the version",
               file=sys.stdout if asked else sys.stderr)

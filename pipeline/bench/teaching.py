@@ -41,8 +41,10 @@ from microslip.pipeline.solve.response import sweep
 
 from .core import median_time, reference_unit
 
-ROOT = Path(__file__).resolve().parents[1]
-CASE = ROOT / "cases" / "blade_damper.toml"
+#: The source checkout (this file is pipeline/bench/teaching.py): its cases/ are benchmarked.
+ROOT = Path(__file__).resolve().parents[2]
+CASES = ROOT / "cases"
+CASE = CASES / "blade_damper.toml"
 OUTPUT = "x2_l"
 SPP_REF = (256, 512, 1024)
 SPP_TABLE = (32, 64, 128, 256, 512, 1024)
@@ -140,9 +142,12 @@ def frf_table(repeat: int, unit: float, dti_points: int) -> list[str]:
     return lines
 
 
-def teaching_cases() -> list[Path]:
+def teaching_cases(only: list[str] | None = None) -> list[Path]:
+    """The shipped cases with an [[analysis]] (of the names in ``only``, when given)."""
     out = []
-    for path in sorted((ROOT / "cases").glob("*.toml")):
+    for path in sorted(CASES.glob("*.toml")):
+        if only is not None and path.stem not in only:
+            continue
         with open(path, "rb") as f:
             if tomllib.load(f).get("analysis"):
                 out.append(path)
@@ -159,7 +164,7 @@ def _status(results: Path) -> str:
         return "no results"
 
 
-def set_table(repeat: int) -> list[str]:
+def set_table(repeat: int, only: list[str] | None = None) -> list[str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in (
         env.get("PYTHONPATH", ""),) if p])
@@ -169,7 +174,7 @@ def set_table(repeat: int) -> list[str]:
              f"  {'case':<26} {'time s':>8} {'status':>10}"]
     total = 0.0
     with tempfile.TemporaryDirectory(prefix="microslip_bench_") as tmp:
-        for path in teaching_cases():
+        for path in teaching_cases(only):
             times, status = [], "?"
             for j in range(repeat):
                 out = Path(tmp) / f"{path.stem}_{j}"
@@ -197,7 +202,20 @@ def main(argv: list[str] | None = None) -> int:
                         help="runs of each teaching case per median (>= 1)")
     parser.add_argument("--skip-frf", action="store_true", help="skip the HBM/DTI table")
     parser.add_argument("--skip-set", action="store_true", help="skip the teaching set")
+    parser.add_argument("--cases", default=None, metavar="NAMES",
+                        help="comma-separated case names (file stems) of the teaching set; "
+                             "default: every case with an [[analysis]]")
     args = parser.parse_args(argv)
+    only = args.cases.split(",") if args.cases else None
+    problem = "" if CASE.is_file() else \
+        f"the cases are read from the source checkout: {CASE} not found"
+    unknown = sorted(set(only or ()) - {p.stem for p in CASES.glob("*.toml")})
+    if unknown and not problem:
+        problem = (f"--cases {args.cases}: no case {', '.join(unknown)} in {CASES} (allowed: "
+                   f"{', '.join(p.stem for p in teaching_cases())})")
+    if problem:
+        print(f"microslip bench teaching: {problem}", file=sys.stderr)
+        return 2
     for name in ("repeat", "set_repeat"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')} must be >= 1")
@@ -210,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
         print("\n".join(frf_table(args.repeat, unit, args.dti_points)), flush=True)
     if not args.skip_set:
         print()
-        print("\n".join(set_table(args.set_repeat)), flush=True)
+        print("\n".join(set_table(args.set_repeat, only)), flush=True)
     return 0
 
 

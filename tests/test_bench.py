@@ -1,0 +1,46 @@
+"""Every `microslip bench` command runs on its smallest setting and prints its figures
+(mesh, reduction and trade have their own tests beside their subjects)."""
+
+import pytest
+
+from microslip.pipeline.cli import main
+
+
+def test_bench_core_prints_time_per_point_and_contact_cost(capsys):
+    assert main(["bench", "core", "--repeat", "1", "--skip-accuracy"]) == 0
+    out = capsys.readouterr().out
+    assert "status complete" in out and "per point" in out
+    rows = [line.split() for line in out.splitlines() if "stick-slip" in line]
+    assert [r[0] for r in rows] == ["100", "1000", "10000"]
+    assert all(float(r[1]) > 0 for r in rows)  # time ms
+
+
+def test_bench_teaching_finds_and_runs_the_shipped_cases(capsys):
+    assert main(["bench", "teaching", "--skip-frf", "--cases", "sdof_wall"]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if "sdof_wall.toml" in line)
+    assert row.split()[-1] == "complete", out
+
+
+def test_bench_teaching_refuses_an_unknown_case_in_one_line(capsys):
+    assert main(["bench", "teaching", "--skip-frf", "--cases", "sdof_wall,nowhere"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--cases sdof_wall,nowhere: no case nowhere" in err
+
+
+@pytest.mark.slow
+def test_bench_teaching_frf_table_matches_hbm_and_dti(capsys):
+    assert main(["bench", "teaching", "--repeat", "1", "--dti-points", "2", "--skip-set"]) == 0
+    out = capsys.readouterr().out
+    # the DTI's error falls with the steps per period at the observed order ~2 (trapezoidal)
+    assert "Richardson (order 2." in out or "Richardson (order 1.9" in out, out
+    assert "HBM faster" in out
+
+
+@pytest.mark.slow
+def test_bench_coupled_smallest_grid(tmp_path, capsys):
+    args = ["--grids", "6x4", "--harmonics", "1", "--points", "2", "--cache", str(tmp_path)]
+    assert main(["bench", "coupled", *args]) == 0
+    rows = [line.split() for line in capsys.readouterr().out.splitlines()
+            if line.split()[:2] == ["2x24", "1"]]
+    assert len(rows) == 1 and rows[0][2] == "864"
