@@ -114,7 +114,7 @@ class Response:
                 d = a + g * (b - a)
                 fd = amplitude_at(d)
         best = max((fc, c), (fd, d), (float(amp[i]), float(lam[i])))
-        return best[1], best[0]
+        return float(best[1]), float(best[0])
 
     def contacts(self, i: int, histories: bool = False) -> list[ContactResponse]:
         """Contact forces, states and dissipation at point ``i``, per contact."""

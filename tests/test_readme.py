@@ -1,0 +1,155 @@
+"""The README tells the truth: its Python examples run and print what their comments say,
+and its key tables document exactly the keys the case reader accepts."""
+
+import contextlib
+import io
+import re
+from pathlib import Path
+
+import pytest
+
+from microslip.pipeline.app import case, coupled, structure
+
+README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
+
+
+def _section(heading: str) -> str:
+    """The README's text from the heading starting with ``heading`` to the next heading."""
+    m = re.search(rf"^#+ {re.escape(heading)}.*?$(.*?)(?=^#+ |\Z)", README, re.M | re.S)
+    assert m, heading
+    return m.group(1)
+
+
+def _python_blocks() -> list[str]:
+    return re.findall(r"^```python\n(.*?)^```", README, re.M | re.S)
+
+
+def test_the_library_example_prints_what_its_comments_say():
+    (code,) = _python_blocks()
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "README.md", "exec"), {})
+    peak = out.getvalue().splitlines()[0]
+    # the comment quotes the peak to the 4 digits it shows: (1.0019, 1.8414)
+    w, a = (float(v) for v in peak.strip("()").split(","))
+    expected = re.search(r"# \(w at the peak, max\|x\(t\)\|\): \(([\d.]+), ([\d.]+)\)", code)
+    assert w == pytest.approx(float(expected[1]), abs=1e-4)
+    assert a == pytest.approx(float(expected[2]), abs=1e-4)
+
+
+def _strip_parentheses(text: str) -> str:
+    """``text`` without its (possibly nested) parenthesised asides: they hold values and
+    units, not keys."""
+    out, depth = [], 0
+    for ch in text:
+        depth += ch == "("
+        if depth == 0:
+            out.append(ch)
+        depth -= ch == ")" and depth > 0
+    return "".join(out)
+
+
+def _cells(row: str) -> list[str]:
+    return [c.strip() for c in re.split(r"(?<!\\)\|", row.strip())[1:-1]]
+
+
+def _tables(text: str, first: str) -> list[list[list[str]]]:
+    """The markdown tables of ``text`` whose header's first cell is ``first``: rows of cells
+    (header and rule dropped)."""
+    tables, rows = [], None
+    for line in text.splitlines() + [""]:
+        if line.startswith("|"):
+            if rows is None:
+                rows = [_cells(line)]
+            else:
+                rows.append(_cells(line))
+        elif rows is not None:
+            if rows[0][0] == first:
+                tables.append(rows[2:])
+            rows = None
+    return tables
+
+
+def _documented_keys(text: str, section: str) -> set[str]:
+    """Dotted key paths of the key tables in ``text``: a first cell lists backticked keys
+    (asides in parentheses are not keys); ``[table] key`` or ``[[array]] key`` gives the
+    table for this key and the rows after it; other keys belong to the last table named
+    (``section`` at first). ``[table]`` alone documents the table itself."""
+    keys, current = set(), section
+    for table in _tables(text, "key"):
+        for row in table:
+            for token in re.findall(r"`([^`]+)`", _strip_parentheses(row[0])):
+                head = re.match(r"\[\[?([\w.<>]+)\]\]?\s*(.*)", token)
+                if head:
+                    current, token = head[1], head[2]
+                    if not token:
+                        keys.add(current)
+                        continue
+                for key in token.split(","):
+                    keys.add(".".join(p for p in (current, key.strip()) if p))
+    return keys
+
+
+def _analysis_keys() -> set[str]:
+    """analysis.<type>.<key> from the Analyses table (its keys column) and the sentence
+    that gives every analysis a ``name`` and a ``type``."""
+    text = _section("Case files")
+    assert "(`[[analysis]]`, each with a `name` and a `type`)" in text
+    keys = set()
+    for row in _tables(text, "type")[0]:
+        kind = row[0].strip("`")
+        found = re.findall(r"`(\w+)`", _strip_parentheses(row[1]))
+        keys |= {f"analysis.{kind}.{k}" for k in found + ["name", "type"]}
+    return keys
+
+
+def _documented() -> set[str]:
+    return (_documented_keys(_section("Case files"), "") | _analysis_keys()
+            | _documented_keys(_section("The `[reduction]` table"), "reduction")
+            | _documented_keys(_section("The `[coupling]` table"), "coupling"))
+
+
+def _accepted() -> set[str]:
+    """Every key path the case reader accepts (its key sets; tables given by their keys)."""
+    def under(prefix, names):
+        return {f"{prefix}.{k}" for k in names}
+
+    tables = {"model": case.MODEL_KEYS, "contacts": case.CONTACT_KEYS | {"coef", "lag"},
+              "loads": case.LOAD_KEYS, "harmonics": case.HARMONIC_KEYS,
+              "solver": case.SOLVER_KEYS, "geometry": {"model", "parameters"},
+              "analysis.family": case.FAMILY_KEYS,
+              "reduction": structure.KEYS - {"material", "damping", "bodies",
+                                             "contact_stiffness"},
+              "reduction.material": structure.MATERIAL_KEYS,
+              "reduction.damping": structure.DAMPING_KEYS,
+              "reduction.bodies.<body>": structure.BODY_KEYS,
+              "reduction.contact_stiffness.<patch>": structure.STIFFNESS_KEYS,
+              "coupling": coupled.KEYS - {"contacts", "loads", "outputs"},
+              "coupling.contacts": coupled.CONTACT_KEYS, "coupling.loads": coupled.LOAD_KEYS,
+              "coupling.outputs": coupled.OUTPUT_KEYS}
+    tables |= {f"analysis.{kind}": keys for kind, keys in case.ANALYSIS_KEYS.items()}
+    # every top-level key is a table above (or text): no table of the reader is left out
+    assert case.TOP_KEYS == {"title", "description"} | {p.split(".")[0] for p in tables}
+    out = {"title", "description"}
+    for prefix, names in tables.items():
+        out |= under(prefix, names)
+    return out
+
+
+def test_every_accepted_case_key_is_documented():
+    missing = _accepted() - _documented()
+    assert not missing, f"keys the reader accepts but the README does not document: {missing}"
+
+
+def test_every_documented_case_key_is_accepted():
+    extra = _documented() - _accepted()
+    assert not extra, f"keys the README documents but the reader refuses: {extra}"
+
+
+def test_the_commands_table_lists_every_command():
+    from microslip.pipeline.cli import BENCHES, COMMANDS
+
+    text = _section("Commands")
+    listed = set(re.findall(r"^\| `microslip (\w+)", text, re.M))
+    assert listed == set(COMMANDS)
+    assert set(re.findall(r"^\| `microslip bench (\w+)", text, re.M)) == set(BENCHES)
