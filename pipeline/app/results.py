@@ -233,29 +233,43 @@ def _analysis_lines(f: h5py.File) -> list[str]:
             label = f" {ca['label']}" if ca.get("label", "") else ""
             lines.append(f"  {cname}{label}: {npts} points "
                          f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
-            coarse = undersampled_warning(
-                {k: p["undersampled"][()] for k, p in c.get("contacts", {}).items()
-                 if isinstance(p, h5py.Group) and "undersampled" in p},
-                int(ca.get("samples", 0)))
+            coarse = sampling_warning(c)
             if coarse:
                 lines.append(f"    warning: {coarse}")
     return lines
 
 
-def undersampled_warning(undersampled: Mapping[str, np.ndarray], samples: int) -> str:
-    """What ``run`` and ``show`` say of a curve whose contacts had stick arcs within two time
-    samples (per contact, (n_points,) counts of ContactResponse.undersampled): the sampled
-    friction force moves in steps there, so accuracy and convergence hang on the samples.
-    "" where no point is flagged."""
-    flagged = {k: np.asarray(v) > 0 for k, v in undersampled.items()}
-    flagged = {k: f for k, f in flagged.items() if f.any()}
-    if not flagged:
+#: The largest first-order change a curve may show when its period is sampled twice as
+#: finely before ``run`` and ``show`` warn: 0.1 % of the response (the figures are given to
+#: four digits), or 0.1 % of the parameter's range in the parameter (a shift of the curve).
+SAMPLING_TOL = 1e-3
+
+
+def sampling_warning(c: h5py.Group) -> str:
+    """What ``run`` and ``show`` say of an FRF curve that depends on its time sampling: its
+    contacts' stick arcs fall within two samples at some points (``undersampled``) and
+    there, sampled twice as finely, the curve moves (``sampling_change`` of the response,
+    ``sampling_shift`` of the parameter, first order) by more than SAMPLING_TOL. "" where
+    it does not (a stick arc between samples, located by the sub-sample transitions, often
+    costs nothing)."""
+    if "sampling_change" not in c or not c["sampling_change"].size:
         return ""
-    points = int(np.logical_or.reduce(list(flagged.values())).sum())
-    total = next(iter(flagged.values())).size
-    which = f"contact{'s' if len(flagged) > 1 else ''} {', '.join(flagged)}"
-    return (f"stick arcs within two of the {samples:,} samples per period at {points} of "
-            f"{total} points ({which}): the sampled friction force is coarse there; raise "
+    par, samples = c["parameter"][()], int(c.attrs.get("samples", 0))
+    span = float(np.ptp(par)) or 1.0
+    change, shift = c["sampling_change"][()], c["sampling_shift"][()]
+    moved = np.fmax(change, np.abs(shift) / span)
+    if not np.nanmax(moved, initial=0.0) > SAMPLING_TOL:
+        return ""
+    i = int(np.nanargmax(moved))
+    flagged = {k: p["undersampled"][()] > 0 for k, p in c["contacts"].items()
+               if isinstance(p, h5py.Group) and "undersampled" in p}
+    which = [k for k, f in flagged.items() if f.any()]
+    points = int(np.logical_or.reduce([flagged[k] for k in which]).sum())
+    name = str(c.parent.attrs.get("parameter", "frequency"))
+    return (f"sampled twice as finely, the curve moves by {100 * change[i]:.2g} % of the "
+            f"response ({name} by {shift[i]:.3g}) at {name} = {par[i]:.6g}: stick arcs within "
+            f"two of the {samples:,} samples per period at {points} of {len(par)} points "
+            f"(contact{'s' if len(which) > 1 else ''} {', '.join(which)}); raise "
             f"harmonics.samples from {samples:,}, e.g. to {4 * samples:,}")
 
 

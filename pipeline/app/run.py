@@ -29,8 +29,8 @@ from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .maps import EDGES
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
-from .results import ATTRS, ResultsWriter, undersampled_warning
-from .solutions import map_groups, map_solutions, response_measure, surfaces
+from .results import ATTRS, ResultsWriter, sampling_warning
+from .solutions import map_groups, map_solutions, response_measure, sampling_change, surfaces
 from .store import CurveStore, PictureStamps
 
 if TYPE_CHECKING:
@@ -264,6 +264,20 @@ def _contact_data(r: Response, per_point: list) -> dict:
     return out
 
 
+def _sampling_changes(r: Response, contacts: dict, rows, measure: str, status: str
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) relative response change and (n,) parameter shift of each point whose stick
+    arcs fall within two samples, when the period is sampled twice as finely (first order,
+    :func:`sampling_change`); NaN at the other points (and all of an interrupted curve)."""
+    change, shift = np.full(len(r), np.nan), np.full(len(r), np.nan)
+    if status == "interrupted" or not contacts:
+        return change, shift
+    coarse = np.any([c["undersampled"] > 0 for c in contacts.values()], axis=0)
+    for i in np.flatnonzero(coarse):
+        change[i], shift[i] = sampling_change(r, int(i), rows, measure)
+    return change, shift
+
+
 def _patch_data(states: list[dict[str, PatchState]]) -> dict:
     """Per patch and point (n points, P node pairs): state (n, P), static forces
     [T0_1, T0_2, N0] (n, P, 3) [N], the share of slipping node pairs (n,)."""
@@ -306,9 +320,7 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
             j += 1
             statuses.append((status, message))
             g = group[cname]
-            coarse = undersampled_warning(
-                {k: cd["undersampled"][()] for k, cd in g["contacts"].items()},
-                int(g.attrs["samples"]))
+            coarse = sampling_warning(g)
             if coarse:
                 progress(f"warning: {which}: {coarse}")
             if status == "interrupted":
@@ -381,6 +393,8 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
     if a.get("normalise", False) and len(r):  # per unit of the excitation multiplier
         shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
+    contacts = _contact_data(r, per_point)
+    change, shift = _sampling_changes(r, contacts, idx, measure, b.status)
     data = {
         "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
         "coefficients": coef, "amplitude": amp, "response": shown,
@@ -390,7 +404,7 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
         "jumps": np.array(b.jumps, dtype=np.int64).reshape(-1, 2),
         "jump_parameter": b.values[np.array(b.jumps, dtype=np.int64).reshape(-1, 2)],
         "unknowns": b.x, "unknown_dofs": hb.dofs,
-        "contacts": _contact_data(r, per_point),
+        "contacts": contacts, "sampling_change": change, "sampling_shift": shift,
     }
     if isinstance(models, CoupledModels):  # each unknown's mesh node and x/y/z
         from microslip.pipeline.coupling.model import patch_states

@@ -30,6 +30,20 @@ def response_at(hb, x: np.ndarray, point: OperatingPoint, rows, measure: str) ->
     return response_measure(coef[None], hb.harmonics, measure)[0]
 
 
+def sampling_change(r: Response, i: int, rows, measure: str) -> tuple[float, float]:
+    """(relative change of the response measure, shift of the parameter) of point ``i`` of
+    a branch when the period is sampled twice as finely, to first order, normal to the
+    branch (:meth:`Response.sampling_shift`); the response's largest change over the
+    outputs relative to their largest response. NaN where it cannot be estimated."""
+    dx, dp = r.sampling_shift(i)
+    if not np.isfinite(dp):
+        return float("nan"), float("nan")
+    x, point = r.branch.x[i], r.point(i)
+    m0 = response_at(r.model, x, point, rows, measure)
+    m1 = response_at(r.model, x + dx, point.set(r.parameter, r.values[i] + dp), rows, measure)
+    return float(np.max(np.abs(m1 - m0)) / (np.max(np.abs(m0)) or 1.0)), dp
+
+
 def map_solutions(r: Response, wanted: list, rows, measure: str, settings
                   ) -> list[tuple[str, float, np.ndarray]]:
     """(what, parameter value, x) of the solutions a curve draws maps of.

@@ -263,6 +263,7 @@ def natural(
 
 def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, settings,
                    progress, guesses, parameter):
+    far = None  # (value, solution) Newton found far from the predictor, kept in case
     while (lam - stop) * np.sign(span) < 0 and len(out) < settings.max_points:
         step_now = min(step, abs(stop - lam) / abs(span))
         new = lam + np.sign(span) * step_now * abs(span)
@@ -274,10 +275,12 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
                        settings=settings)
             out.steps += 1
         if r.converged and _off_branch(out, r.x, pred, new, x_scale, span):
+            # another branch past a fold, or this one past a sharp kink: shorter steps tell
+            far = (new, r)
             r = dataclasses.replace(r, converged=False, reason=(
                 "Newton converged far from the predictor (on another branch?)"))
         if r.converged:
-            lam = new
+            lam, far = new, None
             out.add(lam, r)
             if progress:
                 progress(len(out), lam, r.iterations)
@@ -287,10 +290,18 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
         out.failed = (new, r.x)
         if step >= settings.min_step:
             continue
-        # the branch ends within min_step: a fold (or the end of the solution set)
+        # the branch ends or bends sharply within min_step: a fold, a kink (a contact
+        # changing state all at once), or the end of the solution set
         target = lam + np.sign(span) * min(settings.step, abs(stop - lam) / abs(span)) * abs(span)
-        landed, turned = _jump(fun, out, target, start, stop, span, x_scale, f_scale, settings,
-                               guesses)
+        landed, turned = _detour(fun, out, target, start, stop, span, x_scale, f_scale,
+                                 settings)
+        if landed is None and far is not None:
+            # the branch could not be followed round the bend, but Newton found a solution
+            # just past it: kept as before, not claimed as a jump
+            (target, landed), turned = far, False
+        if landed is None:
+            landed = _from_guesses(fun, out, target, x_scale, f_scale, settings, guesses)
+            turned = True  # the branch ended before: a solution elsewhere is another one
         if landed is None:
             return out.finish(
                 "stopped",
@@ -301,7 +312,7 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
                 "the solution set")
         if turned:
             out.jumps.append((len(out) - 1, len(out)))
-        lam, step = target, settings.step
+        lam, step, far = target, settings.step, None
         out.add(lam, landed)
         if progress:
             progress(len(out), lam, landed.iterations)
@@ -337,19 +348,15 @@ def _off_branch(out, x, pred, lam, x_scale, span) -> bool:
 DETOUR_POINTS = 500
 
 
-def _jump(fun, out, target, start, stop, span, x_scale, f_scale, settings, guesses):
-    """(solution at ``target`` or None, whether the branch turned back on the way): first
-    along the branch from the last point, past its fold (:func:`_detour`), then from the
-    caller's guesses. A guess that converges counts as a jump: the branch ended before."""
-    landed, turned = _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings)
-    if landed is not None:
-        return landed, turned
+def _from_guesses(fun, out, target, x_scale, f_scale, settings, guesses):
+    """The first of the caller's guesses at ``target`` that Newton turns into a solution,
+    or None."""
     for guess in (list(guesses(target)) if guesses else []):
         r = newton(fun, guess, target, x_scale=x_scale, f_scale=f_scale, settings=settings)
         out.steps += 1
         if r.converged:
-            return r, True
-    return None, False
+            return r
+    return None
 
 
 def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):

@@ -24,6 +24,7 @@ preload     multiplier of every contact's ``n0`` (``N0`` or ``kn * interference`
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
@@ -347,6 +348,13 @@ class HarmonicBalance:
         self._blocks = [_PointBlocks.of(Br, c.elements.size) for c, Br in
                         zip(self.contacts, self._Breal)]
         self._cache = _Cache()
+
+    def with_samples(self, n_samples: int) -> HarmonicBalance:
+        """The same model with the period sampled at ``n_samples`` instants: the linear part,
+        kinematics and their cache (none depends on the sampling) shared."""
+        out = copy.copy(self)
+        out.harmonics = Harmonics(self.harmonics.orders, n_samples)
+        return out
 
     @property
     def F_ext(self) -> np.ndarray:

@@ -9,6 +9,7 @@ contact states and dissipated energies point by point.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -115,6 +116,21 @@ class Response:
                 fd = amplitude_at(d)
         best = max((fc, c), (fd, d), (float(amp[i]), float(lam[i])))
         return float(best[1]), float(best[0])
+
+    def sampling_shift(self, i: int) -> tuple[np.ndarray, float]:
+        """(dx, d parameter): the first-order shift of point ``i`` normal to the branch
+        when the period is sampled twice as finely (:func:`sampling_shift`); the normal in
+        the continuation's metric (unknowns by their rms over the branch, the parameter by
+        its range), the tangent the secant through the neighbouring points."""
+        x, lam = self.branch.x, self.values
+        lo, hi = max(i - 1, 0), min(i + 1, len(self) - 1)
+        sx = float(np.sqrt(np.mean(x**2))) or 1.0
+        sl = float(np.ptp(lam)) or 1.0
+        if hi == lo:  # a single point: the parameter held
+            border = np.append(np.zeros(x.shape[1]), 1.0)
+        else:
+            border = np.append((x[hi] - x[lo]) / sx**2, (lam[hi] - lam[lo]) / sl**2)
+        return sampling_shift(self.model, x[i], self.point(i), self.parameter, border)
 
     def contacts(self, i: int, histories: bool = False) -> list[ContactResponse]:
         """Contact forces, states and dissipation at point ``i``, per contact."""
@@ -356,6 +372,31 @@ def resonance_hint(model: HarmonicBalance, point: OperatingPoint) -> str:
             f"linear part (contacts {state}; normalised dynamic stiffness {measure:.1e} < "
             f"{RESONANCE_TOL:g}) and no damping bounds it, so the Jacobian is (nearly) "
             "singular there: add damping or skip this frequency")
+
+
+def sampling_shift(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint,
+                   parameter: str, border: np.ndarray) -> tuple[np.ndarray, float]:
+    """First-order shift (dx (n_unknowns,), d parameter) of the branch point (``x``,
+    ``point``) when the period is sampled twice as finely, normal to the branch: the
+    bordered system [J dR/dp; border^T] [dx; dp] = [-(R_2N(x) - R_N(x)); 0], J at the
+    model's N samples, ``border`` (n_unknowns + 1,) the metric-weighted branch tangent
+    (regular at a fold, where J alone is singular; [0, ..., 0, 1] holds the parameter).
+
+    The residual difference isolates the sampling's share of the contact forces (R_N(x)
+    is zero to the solver's tolerance): a-posteriori, how much a converged point depends
+    on the sampling (a lightly damped resonance amplifies a small force error: hence the
+    solve, not the residual alone). NaN where the bordered system is singular."""
+    R, J, dR = model.residual(x, point, parameter)
+    fine = model.with_samples(2 * model.harmonics.n_samples)
+    A = np.block([[J, dR[:, None]], [border[None, :]]])
+    b = np.append(-(fine.residual(x, point, jacobian=False)[0] - R), 0.0)
+    try:
+        with warnings.catch_warnings():  # an ill-conditioned system gives a large shift
+            warnings.simplefilter("ignore", sla.LinAlgWarning)
+            d = sla.solve(A, b, check_finite=False)
+    except (np.linalg.LinAlgError, ValueError):
+        return np.full_like(x, np.nan), float("nan")
+    return d[:-1], float(d[-1])
 
 
 def sampling_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
