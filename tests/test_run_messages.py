@@ -125,7 +125,9 @@ def test_sampling_shift_stays_finite_at_a_fold_and_points_to_the_finer_branch():
     k = arc.branch.turning_points[0]
     dx, dp = arc.sampling_shift(k)
     x, w = arc.branch.x[k], arc.values[k]
-    sx, span = np.sqrt(np.mean(arc.branch.x ** 2)), np.ptp(arc.values)
+    # the continuation's metric: the unknowns by their rms, the parameter by its range
+    sx = np.sqrt(np.mean(arc.branch.x ** 2) * arc.branch.x.shape[1])
+    span = np.ptp(arc.values)
 
     def distance(y, v):  # to the finer branch's polyline, in the continuation's metric
         pts = np.column_stack([fine.branch.x / sx, fine.values / span])

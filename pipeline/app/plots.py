@@ -80,6 +80,8 @@ def _line(ax: Axes, s: dict) -> Line2D | None:
     if len(tp):
         ax.plot(x[tp], y[tp], "o", mfc="none", color=line.get_color(), ms=7)
     for i, j in jumps:
+        if not np.isfinite([x[i], y[i], x[j], y[j]]).all():
+            continue
         ax.annotate("", xy=(x[j], y[j]), xytext=(x[i], y[i]),
                     arrowprops={"arrowstyle": "->", "ls": "--", "lw": 0.8,
                                 "color": line.get_color(), "shrinkA": 0, "shrinkB": 0})

@@ -206,10 +206,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="comma-separated case names (file stems) of the teaching set; "
                              "default: every case with an [[analysis]]")
     args = parser.parse_args(argv)
-    only = args.cases.split(",") if args.cases else None
-    problem = "" if CASE.is_file() else \
+    only = [c.strip() for c in args.cases.split(",")] if args.cases else None
+    problem = "" if args.skip_frf or CASE.is_file() else \
         f"the cases are read from the source checkout: {CASE} not found"
-    unknown = sorted(set(only or ()) - {p.stem for p in CASES.glob("*.toml")})
+    unknown = sorted(set(only or ()) - {p.stem for p in teaching_cases()})
     if unknown and not problem:
         problem = (f"--cases {args.cases}: no case {', '.join(unknown)} in {CASES} (allowed: "
                    f"{', '.join(p.stem for p in teaching_cases())})")

@@ -309,7 +309,7 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
                 f"{r.reason}; the branch ends within min_step = {settings.min_step:g} of it "
                 f"and no other solution was found at {parameter} = {target:.6g} (neither "
                 "along the branch past the fold nor from the linear guesses): the end of "
-                "the solution set")
+                "the solution set, or a branch these solver settings cannot follow")
         if turned:
             out.jumps.append((len(out) - 1, len(out)))
         lam, step, far = target, settings.step, None
@@ -323,17 +323,20 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
     return out.finish("complete", jumps)
 
 
-#: A natural step's solution lies on another branch when Newton moved it more than FAR times
-#: the predictor's own step from the last point (both in the scaled metric): the secant's
-#: error shrinks with the step squared on a smooth branch, and with the step across a kink,
-#: while another branch stays O(1) away however short the step.
-FAR = 10.0
+#: A natural step's solution may lie on another branch when Newton moved it more than FAR
+#: times the predictor's own step from the last point (both in the scaled metric): the step
+#: is then halved. The secant's error shrinks with the step squared on a smooth branch (the
+#: ratio halves and the point is accepted), and with the step across a kink (the branch is
+#: followed round it by the detour), while another branch stays O(1) away however short
+#: the step.
+FAR = 3.0
 
 
 def _off_branch(out, x, pred, lam, x_scale, span) -> bool:
     """True when the solution ``x`` at ``lam`` is far from the secant predictor ``pred``
-    (see FAR); never for the second point, which has no secant to go by."""
-    if len(out) < 2:
+    (see FAR); never for the second point or the first after a jump, which have no secant
+    to go by."""
+    if len(out) < 2 or out.jumped():
         return False
 
     def rms(v):
@@ -371,7 +374,7 @@ def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):
     rms = _rms(x)
     xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x)) * rms
     previous = None
-    if len(out) > 1:  # the secant: a regular bordered system at the fold itself
+    if len(out) > 1 and not out.jumped():  # the secant: regular at the fold itself
         previous = np.append((out.xs[-1] - out.xs[-2]) / xs,
                              (out.values[-1] - out.values[-2]) / lam_scale)
         previous /= np.linalg.norm(previous)
@@ -747,11 +750,16 @@ class _Collector:
         self.its.append(r.iterations)
 
     def extrapolate(self, lam: float) -> np.ndarray:
-        """Secant predictor from the last two points (the last one if alone)."""
-        if len(self.values) < 2 or self.values[-1] == self.values[-2]:
+        """Secant predictor from the last two points (the last one if alone or if a jump
+        separates them: they lie on different branches)."""
+        if len(self.values) < 2 or self.values[-1] == self.values[-2] or self.jumped():
             return self.xs[-1].copy()
         a = (lam - self.values[-1]) / (self.values[-1] - self.values[-2])
         return self.xs[-1] + a * (self.xs[-1] - self.xs[-2])
+
+    def jumped(self) -> bool:
+        """Whether the last point is the landing of a jump (no secant to it)."""
+        return bool(self.jumps) and self.jumps[-1][1] == len(self.values) - 1
 
     def finish(self, status: str, message: str) -> Branch:
         n = self.xs[0].size if self.xs else 0

@@ -81,12 +81,15 @@ class Response:
         The sampled maximum is refined by a golden-section search on the
         parameter, solving the balance afresh at each trial value (warm start
         from the nearest point). Where the maximum sits on a fold (the branch
-        turns back around it) the sampled maximum is returned unrefined.
+        turns back around it) or next to a jump of a natural sweep the sampled maximum is
+        returned unrefined.
         ``xtol`` is relative to the bracket."""
         amp = self.amplitude(_one(dof), vibration=vibration)[:, 0]
         i = int(np.argmax(amp))
         lam = self.values
-        if i == 0 or i == len(self) - 1 or (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) <= 0:
+        jumps = {k for jump in self.branch.jumps for k in jump}  # no bracket across a jump
+        if i == 0 or i == len(self) - 1 or (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) <= 0 \
+                or i in jumps:
             return float(lam[i]), float(amp[i])
         h = self.model.harmonics
         settings = cont.Settings(tol=1e-11)
@@ -121,15 +124,20 @@ class Response:
         """(dx, d parameter): the first-order shift of point ``i`` normal to the branch
         when the period is sampled twice as finely (:func:`sampling_shift`); the normal in
         the continuation's metric (unknowns by their rms over the branch, the parameter by
-        its range), the tangent the secant through the neighbouring points."""
+        its range), the tangent the secant through the neighbouring points of its branch."""
         x, lam = self.branch.x, self.values
         lo, hi = max(i - 1, 0), min(i + 1, len(self) - 1)
+        jumps = {tuple(j) for j in self.branch.jumps}  # no secant across a jump
+        lo, hi = (i if (lo, i) in jumps else lo), (i if (i, hi) in jumps else hi)
         sx = float(np.sqrt(np.mean(x**2))) or 1.0
         sl = float(np.ptp(lam)) or 1.0
         if hi == lo:  # a single point: the parameter held
             border = np.append(np.zeros(x.shape[1]), 1.0)
         else:
-            border = np.append((x[hi] - x[lo]) / sx**2, (lam[hi] - lam[lo]) / sl**2)
+            # the continuation's metric: unknowns by their rms (hence the count), parameter
+            # by its range
+            border = np.append((x[hi] - x[lo]) / (x.shape[1] * sx**2),
+                               (lam[hi] - lam[lo]) / sl**2)
         return sampling_shift(self.model, x[i], self.point(i), self.parameter, border)
 
     def contacts(self, i: int, histories: bool = False) -> list[ContactResponse]:
