@@ -395,14 +395,14 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
     contacts = _contact_data(r, per_point)
     change, shift = _sampling_changes(r, contacts, idx, measure, b.status)
+    jumps = np.array(b.jumps, dtype=np.int64).reshape(-1, 2)
     data = {
         "parameter": b.values, "omega": r.omega if len(r) else np.zeros(0),
         "coefficients": coef, "amplitude": amp, "response": shown,
         "residual": b.residuals, "iterations": b.iterations,
         "turning_points": np.array(b.turning_points, dtype=np.int64),
         # natural sweeps: (from, to) points of each jump at a fold and their parameter values
-        "jumps": np.array(b.jumps, dtype=np.int64).reshape(-1, 2),
-        "jump_parameter": b.values[np.array(b.jumps, dtype=np.int64).reshape(-1, 2)],
+        "jumps": jumps, "jump_parameter": b.values[jumps],
         "unknowns": b.x, "unknown_dofs": hb.dofs,
         "contacts": contacts, "sampling_change": change, "sampling_shift": shift,
     }

@@ -409,13 +409,23 @@ def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):
         if new_tangent is None:
             return None, turned
         t_new = new_tangent[0] * new_tangent[1] * orientation
-        turn = np.arccos(np.clip(t_new @ tangent, -1.0, 1.0))
+        h = _adapted_step(h, t_new, tangent, its, settings)
         x, lam, tangent = x_new, lam_new, t_new
-        if turn > settings.max_turn:
-            h = max(h * 0.5, settings.min_step)
-        elif its <= settings.target_iter - 1:
-            h = min(h * 1.5, settings.max_step)
     return None, turned
+
+
+def _adapted_step(h: float, t_new: np.ndarray, tangent: np.ndarray, its: int,
+                  settings: Settings) -> float:
+    """The next arclength step after one of ``h``: adapted to how fast the branch turns
+    (tangent ``tangent`` -> ``t_new``) and to the corrector's effort (``its`` iterations)."""
+    turn = np.arccos(np.clip(t_new @ tangent, -1.0, 1.0))
+    if turn > settings.max_turn:
+        return max(h * 0.5, settings.min_step)
+    if its <= settings.target_iter - 1:
+        return min(h * 1.5, settings.max_step)
+    if its > settings.target_iter + 2:
+        return max(h * 0.6, settings.min_step)
+    return h
 
 
 def arclength(
@@ -554,15 +564,8 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
         stall = _stalled(out, lam_scale)
         if stall:
             return out.finish("stopped", f"stalled at {parameter} = {lam_new:.6g}: {stall}")
-        turn = np.arccos(np.clip(t_new @ tangent, -1.0, 1.0))
+        h = _adapted_step(h, t_new, tangent, its, settings)
         x, lam, tangent = x_new, lam_new, t_new
-        # adapt the step to the corrector's effort and to how fast the branch turns
-        if turn > settings.max_turn:
-            h = max(h * 0.5, settings.min_step)
-        elif its <= settings.target_iter - 1:
-            h = min(h * 1.5, settings.max_step)
-        elif its > settings.target_iter + 2:
-            h = max(h * 0.6, settings.min_step)
         # dynamic scaling: the unknowns' scale follows the largest amplitude met,
         # so a resonance 100x the start amplitude does not take 100x the points
         grow = np.max(np.abs(x)) * rms / xs

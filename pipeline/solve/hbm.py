@@ -348,13 +348,19 @@ class HarmonicBalance:
         self._blocks = [_PointBlocks.of(Br, c.elements.size) for c, Br in
                         zip(self.contacts, self._Breal)]
         self._cache = _Cache()
+        self._by_samples: dict[int, HarmonicBalance] = {}  # shared by every resampled copy
 
     def with_samples(self, n_samples: int) -> HarmonicBalance:
         """The same model with the period sampled at ``n_samples`` instants: the linear part,
-        kinematics and their cache (none depends on the sampling) shared."""
-        out = copy.copy(self)
-        out.harmonics = Harmonics(self.harmonics.orders, n_samples)
-        return out
+        kinematics and their cache (none depends on the sampling) shared; made once per
+        sample count (a check at many points asks for the same one)."""
+        if n_samples == self.harmonics.n_samples:
+            return self
+        if n_samples not in self._by_samples:
+            out = copy.copy(self)
+            out.harmonics = Harmonics(self.harmonics.orders, n_samples)
+            self._by_samples[n_samples] = out
+        return self._by_samples[n_samples]
 
     @property
     def F_ext(self) -> np.ndarray:
