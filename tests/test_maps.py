@@ -1,6 +1,8 @@
 """Contact-status and static-load maps: every node's cell carries its own state's colour, the
 map is oriented by the radius, and a real off-screen render gives a PNG of the asked size."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
@@ -164,3 +166,44 @@ def test_only_turning_points_where_the_parameter_turns_back_are_drawn_as_folds()
     # a near-vertical rise flagged in pairs, the parameter never going back: no fold drawn
     rise = np.array([0.0, 1.0, 1.001, 1.002, 1.003, 2.0])
     assert folds(rise, [2, 3]).size == 0
+
+
+@pytest.mark.parametrize("share", [0.5, 0.99])
+def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
+    # seed Fig. 24 (the hardening curve of cases/normal_load.toml): a fine arclength branch
+    # thinned to every 20th point before its first turning point and after its second, and
+    # the two turning points (the middle branch one chord between them, the secant guess far
+    # off the branch: it finds 2 of the 3 solutions); at a frequency at `share` of the
+    # fold from its lower turn (0.99: the lower and middle solutions 1 % of the fold apart),
+    # the three solutions match those solved from the fine branch's own short brackets
+    import dataclasses
+
+    from microslip.pipeline.app import case as cs
+    from microslip.pipeline.app.solutions import map_solutions, response_at
+    from microslip.pipeline.solve.continuation import Settings
+    from microslip.pipeline.solve.response import solve_point, sweep
+
+    case = cs.load(Path(__file__).parents[1] / "cases" / "normal_load.toml")
+    hb = cs.model(case.with_value("contacts.wall.n0", -0.5))
+    base = cs.operating_point({"start": 0.9})
+    fine = sweep(hb, "frequency", 0.9, 1.6, base, settings=Settings(max_step=0.005))
+    lam, xs = fine.values, fine.branch.x
+    turn = [i for i in range(1, len(lam) - 1) if (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) < 0]
+    assert len(turn) == 2  # the fold's two turning points
+    keep = [*range(turn[0] % 20, turn[0] + 1, 20), *range(turn[1], len(lam), 20)]
+    coarse = dataclasses.replace(fine, branch=dataclasses.replace(
+        fine.branch, values=lam[keep], x=xs[keep], residuals=fine.branch.residuals[keep],
+        iterations=fine.branch.iterations[keep], turning_points=[]))
+    w = lam[turn[1]] + share * (lam[turn[0]] - lam[turn[1]])
+    found = map_solutions(coarse, [w], [0], "peak", Settings(tol=1e-11))
+    assert [what for what, _, _ in found] == [
+        f"frequency = {w:.7g}, solution {k} of 3" for k in (1, 2, 3)]
+    at = base.set("frequency", w)
+    amplitude = [response_at(hb, x, at, [0], "peak")[0] for _, _, x in found]
+    reference = []
+    for j in np.flatnonzero((lam[:-1] - w) * (lam[1:] - w) <= 0):
+        t = (w - lam[j]) / (lam[j + 1] - lam[j])
+        r = solve_point(hb, at, settings=Settings(tol=1e-11), x0=xs[j] + t * (xs[j + 1] - xs[j]))
+        reference.append(response_at(hb, r.x, at, [0], "peak")[0])
+    # both solved to a residual of 1e-11 of the force scale: the amplitudes agree to ~1e-9
+    np.testing.assert_allclose(amplitude, sorted(reference, reverse=True), rtol=1e-8)

@@ -50,10 +50,9 @@ def map_solutions(r: Response, wanted: list, rows, measure: str, settings
 
     "peak": the largest response of the first output, refined by Brent's method between
     its computed neighbours (:func:`refined_peak`; the computed point if no trial does
-    better). A number: every solution of the branch at that parameter value (a fold gives several),
-    each from the secant between the two points that bracket it, solved there at the value
-    itself."""
-    hb, lam = r.model, r.values
+    better). A number: every solution of the branch at that parameter value (a fold gives
+    several: :meth:`Response.solutions_at`)."""
+    hb = r.model
     if not len(r):
         return []
     shown = np.array([response_at(hb, x, r.point(i), rows, measure)[0]
@@ -63,19 +62,10 @@ def map_solutions(r: Response, wanted: list, rows, measure: str, settings
         if w == "peak":
             out.append(("peak", *refined_peak(r, shown, rows, measure, settings)))
             continue
-        found: list[tuple[float, np.ndarray]] = []
-        for j in np.flatnonzero((lam[:-1] - w) * (lam[1:] - w) <= 0):
-            t = 0.0 if lam[j + 1] == lam[j] else (w - lam[j]) / (lam[j + 1] - lam[j])
-            x0 = r.branch.x[j] + t * (r.branch.x[j + 1] - r.branch.x[j])
-            s = solve_point(hb, r.base.set(r.parameter, w), settings=settings, x0=x0,
-                            retry=False)
-            if not s.converged:
-                continue
-            a = response_at(hb, s.x, r.base.set(r.parameter, w), rows, measure)[0]
-            if all(abs(a - b) > 1e-6 * max(abs(a), abs(b)) for b, _ in found):
-                found.append((a, s.x))
-        found.sort(key=lambda f: -f[0])  # the highest first, as a fold's upper branch
-        for k, (_, x) in enumerate(found):
+        at = r.base.set(r.parameter, w)
+        found = sorted(r.solutions_at(w, settings),  # the highest first, as a fold's upper
+                       key=lambda x: -response_at(hb, x, at, rows, measure)[0])  # branch
+        for k, x in enumerate(found):
             out.append((f"{r.parameter} = {w:.7g}, solution {k + 1} of {len(found)}", float(w),
                         x))
     return out

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -729,6 +729,82 @@ def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
         y, (R, J, dR, merit) = best
         merits.append(merit)
     return False, y, max_iter, res, f"no convergence (||R|| = {res:.3g} * f_scale)"
+
+
+#: Halvings of a segment before :func:`solutions_between` gives up on it: 2^-8 of its
+#: length is below any chord a continuation accepts, where the secant guess is good.
+SEGMENT_HALVINGS = 8
+
+
+def solutions_between(
+    fun: Problem,
+    a: tuple[float, np.ndarray],
+    b: tuple[float, np.ndarray],
+    target: float,
+    *,
+    x_scale: float | np.ndarray,
+    f_scale: float,
+    settings: Settings = DEFAULT,
+    known: Sequence[np.ndarray] = (),
+) -> list[NewtonResult]:
+    """Every solution at parameter ``target`` on the branch between two of its computed
+    points ``a`` and ``b`` (each (lam, x)), whose parameters bracket it, other than the
+    ``known`` ones (found on other segments).
+
+    Newton at ``target`` from the chord's secant guess, kept where it lands on the segment
+    (within half the chord of it, in the arclength metric of :func:`arclength` with the
+    segment's parameter span as its scale) and is new; elsewhere (a long chord across a
+    fold, where the guess falls on another part of the branch) the segment is halved by a
+    pseudo-arclength corrector on the plane normal to the chord through its middle, and
+    each half that brackets ``target`` is searched, at most SEGMENT_HALVINGS deep. Near a
+    turning point, where two solutions at ``target`` are close, the halving goes on until
+    the chord separates them. Empty where no new solution is found."""
+    lam_scale = abs(b[0] - a[0]) or 1.0
+    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(a[1])) * _rms(a[1])
+
+    def scaled(lam: float, x: np.ndarray) -> np.ndarray:
+        return np.append(x / xs, lam / lam_scale)
+
+    found: list[NewtonResult] = []
+
+    def new(x: np.ndarray) -> bool:
+        return all(not same_solution(x, y, x_scale) for y in [*known, *(f.x for f in found)])
+
+    def search(pa: np.ndarray, pb: np.ndarray, depth: int) -> None:
+        chord = pb - pa
+        length = float(np.linalg.norm(chord))
+        lam_a, lam_b = pa[-1] * lam_scale, pb[-1] * lam_scale
+        t = 0.0 if lam_a == lam_b else (target - lam_a) / (lam_b - lam_a)
+        guess = (pa + t * chord)[:-1] * xs
+        r = newton(fun, guess, target, x_scale=x_scale, f_scale=f_scale, settings=settings)
+        if r.converged:
+            y = scaled(target, r.x)
+            along = np.clip((y - pa) @ chord / max(length ** 2, 1e-300), 0.0, 1.0)
+            if np.linalg.norm(pa + along * chord - y) <= 0.5 * length and new(r.x):
+                found.append(r)
+                return
+        if depth == SEGMENT_HALVINGS or length == 0.0:
+            return
+        ok, middle, *_ = _correct(fun, 0.5 * (pa + pb), chord / length, xs, lam_scale,
+                                  f_scale, settings)
+        if not ok:
+            return
+        for p, q in ((pa, middle), (middle, pb)):
+            if (p[-1] * lam_scale - target) * (q[-1] * lam_scale - target) <= 0:
+                search(p, q, depth + 1)
+
+    search(scaled(*a), scaled(*b), 0)
+    return found
+
+
+#: Two converged solutions nearer than this share of the unknowns' scale are one (Newton
+#: stops at a residual of 1e-9 of the force scale by default: its solutions differ less)
+SAME_SOLUTION = 1e-6
+
+
+def same_solution(x: np.ndarray, y: np.ndarray, x_scale: float | np.ndarray) -> bool:
+    """Whether two solutions are one: max |x - y| / x_scale below SAME_SOLUTION."""
+    return bool(np.max(np.abs(x - y) / x_scale, initial=0.0) <= SAME_SOLUTION)
 
 
 class _Collector:
