@@ -364,6 +364,36 @@ def mesh(argv: list[str]) -> int:
     return 0
 
 
+def compare(argv: list[str]) -> int:
+    """Compare two results files (or folders) dataset by dataset: exit 0 when every number
+    agrees to --rtol, 1 when some differ (listed)."""
+    from microslip.pipeline.app.compare import report, results_path
+
+    parser = argparse.ArgumentParser(prog="microslip compare", description=compare.__doc__)
+    parser.add_argument("old", type=Path, help="results.h5 or the output folder holding it")
+    parser.add_argument("new", type=Path, help="results.h5 or the output folder holding it")
+    parser.add_argument("--rtol", type=float, default=1e-12,
+                        help="largest difference of a dataset, relative to its largest "
+                        "entry (default 1e-12)")
+    args = parser.parse_args(argv)
+    if not (np.isfinite(args.rtol) and args.rtol >= 0):
+        print(f"microslip compare: --rtol = {args.rtol}: expected a number >= 0",
+              file=sys.stderr)
+        return 2
+    for given in (args.old, args.new):
+        if not results_path(given).is_file():
+            print(f"microslip compare: no results file at {results_path(given)}",
+                  file=sys.stderr)
+            return 2
+    try:
+        same, text = report(args.old, args.new, args.rtol)
+    except OSError as err:
+        print(f"microslip compare: cannot read a results file: {err}", file=sys.stderr)
+        return 2
+    print(text)
+    return 0 if same else 1
+
+
 def bench(argv: list[str]) -> int:
     """Benchmarks that print measured figures."""
     if not argv or argv[0] not in BENCHES:
@@ -378,7 +408,7 @@ def bench(argv: list[str]) -> int:
 
 
 COMMANDS = {"demo": demo, "run": run, "check": check, "show": show, "render": render,
-            "mesh": mesh, "bench": bench}
+            "compare": compare, "mesh": mesh, "bench": bench}
 
 
 def _version() -> str:
@@ -398,12 +428,14 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
         asked = bool(argv) and argv[0] in ("-h", "--help")
-        print("usage: microslip [--version] {demo,run,check,show,render,mesh,bench} ...\n\n"
+        print("usage: microslip [--version] {demo,run,check,show,render,compare,mesh,bench} "
+              "...\n\n"
               "  demo             frequency response of the single-DOF Jenkins oscillator\n"
               "  run CASE.toml    run a case: results.h5 and pictures in out/<case>\n"
               "  check CASE.toml  validate a case file without running it\n"
               "  show DIR         summarise a results file\n"
               "  render DIR       redraw a results folder's pictures from results.h5\n"
+              "  compare OLD NEW  compare two results files' numbers, dataset by dataset\n"
               "  mesh CASE.toml   mesh a case's geometry: .msh, .vtu, PNG previews\n"
               "  bench core       speed and accuracy of the numerical core\n"
               "  bench mesh       meshing time and size over a mesh-size sweep\n"

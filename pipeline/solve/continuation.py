@@ -731,70 +731,95 @@ def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
     return False, y, max_iter, res, f"no convergence (||R|| = {res:.3g} * f_scale)"
 
 
-#: Halvings of a segment before :func:`solutions_between` gives up on it: 2^-8 of its
-#: length is below any chord a continuation accepts, where the secant guess is good.
+#: Halvings of a segment before :func:`solutions_at` gives up on it: 2^-8 of its length is
+#: below any chord a continuation accepts, where the secant guess is good.
 SEGMENT_HALVINGS = 8
 
 
-def solutions_between(
+@dataclass
+class _Segment:
+    """A chord of a branch in the scaled arclength metric: end points (n + 1,), the
+    halvings that made it, whether it is part of the branch (a natural sweep's jump is not)
+    and whether its search is over."""
+
+    a: np.ndarray
+    b: np.ndarray
+    depth: int = 0
+    real: bool = True
+    done: bool = False
+
+
+def solutions_at(
     fun: Problem,
-    a: tuple[float, np.ndarray],
-    b: tuple[float, np.ndarray],
+    values: np.ndarray,
+    x: np.ndarray,
     target: float,
     *,
     x_scale: float | np.ndarray,
     f_scale: float,
     settings: Settings = DEFAULT,
-    known: Sequence[np.ndarray] = (),
+    jumps: Sequence[int] = (),
 ) -> list[NewtonResult]:
-    """Every solution at parameter ``target`` on the branch between two of its computed
-    points ``a`` and ``b`` (each (lam, x)), whose parameters bracket it, other than the
-    ``known`` ones (found on other segments).
+    """Every solution at parameter ``target`` of the branch through the computed points
+    (``values`` (n,), ``x`` (n, n_unknowns)), one per segment whose ends bracket it; segment
+    i (points i, i + 1) with i in ``jumps`` is no part of the branch. In the order found.
 
-    Newton at ``target`` from the chord's secant guess, kept where it lands on the segment
-    (within half the chord of it, in the arclength metric of :func:`arclength` with the
-    segment's parameter span as its scale) and is new; elsewhere (a long chord across a
-    fold, where the guess falls on another part of the branch) the segment is halved by a
-    pseudo-arclength corrector on the plane normal to the chord through its middle, and
-    each half that brackets ``target`` is searched, at most SEGMENT_HALVINGS deep. Near a
-    turning point, where two solutions at ``target`` are close, the halving goes on until
-    the chord separates them. Empty where no new solution is found."""
-    lam_scale = abs(b[0] - a[0]) or 1.0
-    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(a[1])) * _rms(a[1])
-
-    def scaled(lam: float, x: np.ndarray) -> np.ndarray:
-        return np.append(x / xs, lam / lam_scale)
-
+    Newton at ``target`` from a bracketing segment's secant guess; the solution is the
+    segment's when it is new and nearer to this segment than to any other (in the
+    arclength metric of :func:`arclength`, the branch's parameter span as its scale).
+    Otherwise (a long chord across a fold, where the guess lands on another part of the
+    branch) the segment is halved by a pseudo-arclength corrector on the plane normal to
+    the chord through its middle, and its halves are searched in the next round, at most
+    SEGMENT_HALVINGS deep: near a turning point, where two solutions at ``target`` lie
+    close, the halving goes on until the segments separate them."""
+    lam_scale = float(np.ptp(values)) or 1.0
+    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(x[0])) * _rms(x[0])
+    points = [np.append(xi / xs, li / lam_scale) for li, xi in zip(values, x, strict=True)]
+    # a point at the target ends one segment's bracket and starts the next one's: the first
+    # segment holds it
+    segments = [_Segment(p, q, real=i not in set(jumps), done=i > 0 and values[i] == target)
+                for i, (p, q) in enumerate(zip(points[:-1], points[1:], strict=False))]
     found: list[NewtonResult] = []
 
-    def new(x: np.ndarray) -> bool:
-        return all(not same_solution(x, y, x_scale) for y in [*known, *(f.x for f in found)])
+    def brackets(seg: _Segment) -> bool:
+        return (seg.a[-1] * lam_scale - target) * (seg.b[-1] * lam_scale - target) <= 0
 
-    def search(pa: np.ndarray, pb: np.ndarray, depth: int) -> None:
-        chord = pb - pa
-        length = float(np.linalg.norm(chord))
-        lam_a, lam_b = pa[-1] * lam_scale, pb[-1] * lam_scale
-        t = 0.0 if lam_a == lam_b else (target - lam_a) / (lam_b - lam_a)
-        guess = (pa + t * chord)[:-1] * xs
-        r = newton(fun, guess, target, x_scale=x_scale, f_scale=f_scale, settings=settings)
-        if r.converged:
-            y = scaled(target, r.x)
-            along = np.clip((y - pa) @ chord / max(length ** 2, 1e-300), 0.0, 1.0)
-            if np.linalg.norm(pa + along * chord - y) <= 0.5 * length and new(r.x):
-                found.append(r)
-                return
-        if depth == SEGMENT_HALVINGS or length == 0.0:
-            return
-        ok, middle, *_ = _correct(fun, 0.5 * (pa + pb), chord / length, xs, lam_scale,
-                                  f_scale, settings)
-        if not ok:
-            return
-        for p, q in ((pa, middle), (middle, pb)):
-            if (p[-1] * lam_scale - target) * (q[-1] * lam_scale - target) <= 0:
-                search(p, q, depth + 1)
+    def distances(y: np.ndarray) -> np.ndarray:
+        a = np.array([seg.a for seg in segments])
+        d = np.array([seg.b for seg in segments]) - a
+        along = np.clip(np.einsum("ij,ij->i", y - a, d)
+                        / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+        out = np.linalg.norm(a + along[:, None] * d - y, axis=1)
+        out[[not seg.real for seg in segments]] = np.inf
+        return out
 
-    search(scaled(*a), scaled(*b), 0)
-    return found
+    while True:
+        todo = [seg for seg in segments if seg.real and not seg.done and brackets(seg)]
+        if not todo:
+            return found
+        for seg in todo:
+            lam_a, lam_b = seg.a[-1] * lam_scale, seg.b[-1] * lam_scale
+            t = 0.0 if lam_a == lam_b else (target - lam_a) / (lam_b - lam_a)
+            r = newton(fun, (seg.a + t * (seg.b - seg.a))[:-1] * xs, target, x_scale=x_scale,
+                       f_scale=f_scale, settings=settings)
+            if r.converged and all(not same_solution(r.x, f.x, x_scale) for f in found):
+                nearest = segments[int(np.argmin(distances(np.append(r.x / xs,
+                                                                     target / lam_scale))))]
+                if nearest is seg:
+                    found.append(r)
+                    seg.done = True
+                    continue
+            seg.done = True  # halved below, or given up
+            chord = seg.b - seg.a
+            length = float(np.linalg.norm(chord))
+            if seg.depth == SEGMENT_HALVINGS or length == 0.0:
+                continue
+            ok, middle, *_ = _correct(fun, 0.5 * (seg.a + seg.b), chord / length, xs,
+                                      lam_scale, f_scale, settings)
+            if ok:
+                k = next(i for i, s in enumerate(segments) if s is seg)
+                segments[k:k + 1] = [_Segment(seg.a, middle, seg.depth + 1),
+                                     _Segment(middle, seg.b, seg.depth + 1)]
 
 
 #: Two converged solutions nearer than this share of the unknowns' scale are one (Newton

@@ -124,29 +124,17 @@ class Response:
                      ) -> list[np.ndarray]:
         """(n_unknowns,) every solution of the branch at parameter ``value``: one per pair
         of consecutive points that brackets it (a fold gives several; a natural sweep's
-        jump is no part of the branch), each by :func:`continuation.solutions_between`;
-        distinct solutions only, in the branch's order."""
-        lam = self.values
-        jumps = {i for i, _ in self.branch.jumps}
+        jump is no part of the branch), by :func:`continuation.solutions_at`."""
         point = self.base.set(self.parameter, value)
         xs, fs = scales(self.model, point)
 
-        def fun(x, lam_, jac):
-            return self.model.residual(x, self.base.set(self.parameter, lam_), self.parameter,
+        def fun(x, lam, jac):
+            return self.model.residual(x, self.base.set(self.parameter, lam), self.parameter,
                                        jacobian=jac)
 
-        found: list[np.ndarray] = []
-        # a point exactly at the value ends one bracket, and starts the next one only at
-        # the branch's start
-        ends = (lam[:-1] - value) * (lam[1:] - value) <= 0
-        ends[1:] &= lam[1:-1] != value
-        for j in np.flatnonzero(ends):
-            if j in jumps:
-                continue
-            found += [r.x for r in cont.solutions_between(
-                fun, (lam[j], self.branch.x[j]), (lam[j + 1], self.branch.x[j + 1]), value,
-                x_scale=xs, f_scale=fs, settings=settings, known=found)]
-        return found
+        return [r.x for r in cont.solutions_at(
+            fun, self.values, self.branch.x, value, x_scale=xs, f_scale=fs, settings=settings,
+            jumps=[i for i, _ in self.branch.jumps])]
 
     def sampling_shift(self, i: int) -> tuple[np.ndarray, float]:
         """(dx, d parameter): the first-order shift of point ``i`` normal to the branch

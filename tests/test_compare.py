@@ -1,0 +1,53 @@
+"""`microslip compare`: two results files agree dataset by dataset, to a tolerance relative
+to each dataset's largest entry; structural and textual differences are named."""
+
+import h5py
+import numpy as np
+import pytest
+
+from microslip.pipeline.app.compare import differences
+from microslip.pipeline.cli import main
+
+
+def _results(path, *, scale=1.0, extra=False, label="a", created="2026-01-01"):
+    with h5py.File(path, "w") as f:
+        f.attrs["created"] = created  # volatile: never compared
+        f.attrs["status"] = "complete"
+        g = f.create_group("frf/curve_000")
+        g.attrs["label"] = label
+        g.attrs["elapsed_s"] = 3.0 * scale  # volatile
+        g.create_dataset("amplitude", data=np.array([1.0, 2.0, 1e-20]) * scale)
+        g.create_dataset("state", data=np.array([0, 1, 2], dtype=np.int8))
+        if extra:
+            g.create_dataset("jumps", data=np.zeros((0, 2)))
+    return path
+
+
+def test_the_same_numbers_agree_whatever_the_run_records(tmp_path):
+    a = _results(tmp_path / "a.h5")
+    b = _results(tmp_path / "b.h5", created="2026-02-02")
+    assert differences(a, b) == []
+    assert main(["compare", str(a), str(b)]) == 0
+
+
+def test_a_difference_is_measured_against_the_datasets_largest_entry(tmp_path):
+    a = _results(tmp_path / "a.h5")
+    # 1e-13 of 2.0 moves the tiny third entry by 1e7 of itself: still 1e-13 of the dataset
+    b = _results(tmp_path / "b.h5", scale=1 + 1e-13)
+    assert differences(a, b, rtol=1e-12) == []
+    c = _results(tmp_path / "c.h5", scale=1 + 1e-9)
+    (d,) = differences(a, c, rtol=1e-12)
+    assert d.path == "/frf/curve_000/amplitude"
+    assert d.relative == pytest.approx(1e-9, rel=1e-3)
+    assert main(["compare", str(a), str(c)]) == 1
+
+
+def test_missing_datasets_and_changed_text_are_named(tmp_path, capsys):
+    a = _results(tmp_path / "a.h5")
+    b = _results(tmp_path / "b.h5", extra=True, label="b")
+    found = {d.path: d.what for d in differences(a, b)}
+    assert found == {"/frf/curve_000@label": "'a' against 'b'",
+                     "/frf/curve_000/jumps": "only in the new file"}
+    assert main(["compare", str(tmp_path), str(b)]) == 2  # a folder without results.h5
+    assert "no results file at" in capsys.readouterr().err
+    assert main(["compare", str(a), str(b), "--rtol", "-1"]) == 2
