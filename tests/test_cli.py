@@ -52,10 +52,11 @@ def test_version(capsys):
 def test_top_level_help_lists_version(capsys):
     assert main(["--help"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("usage: microslip [--version] {demo,run,check,show,render,mesh,bench}")
+    assert out.startswith("usage: microslip [--version] {demo,run,check,show,render,compare,mesh,"
+                          "bench}")
 
 
-@pytest.mark.parametrize("command", [["run"], ["check"], ["show"], ["mesh"], ["demo"],
+@pytest.mark.parametrize("command", [["run"], ["check"], ["show"], ["mesh"], ["demo"], ["compare"],
                                      ["bench", "core"], ["bench", "mesh"],
                                      ["bench", "reduction"], ["bench", "teaching"],
                                      ["bench", "coupled"], ["bench", "trade"]])

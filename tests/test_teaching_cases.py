@@ -146,6 +146,7 @@ def test_fig24_natural_sweeps_jump_and_miss_the_middle_branch(normal):
         assert np.array_equal(sweep["jump_parameter"][0], w_up[[i, j]])
 
 
+@pytest.mark.slow  # the whole plane_circular case, 17 s cold: the fast suite's 5 min budget
 def test_fig10_two_directions_damp_more(tmp_path_factory):
     with run("plane_circular", tmp_path_factory) as f:
         g = f["fig10"]
