@@ -11,7 +11,7 @@ root_joint, RootJointParameters          dovetail disk sector + blade (geometry.
 full_disk, disk_node_map                 Ns rotated copies joined at the cyclic faces
 sicn                                     element quality (geometry.quality)
 GeometryParameterError, GeometryBuildError
-Previews: geometry.preview.render_previews(mesh, out_dir) (imports pyvista).
+Previews: microslip.pipeline.draw.previews.render_previews(mesh, out_dir) (pyvista).
 """
 
 from .blisk import BliskParameters, blisk_sector

@@ -131,7 +131,7 @@ def _report_run(path: Path, out: Path, start: float) -> tuple[str, str]:
     """Print the summary of a finished run; its (status, message)."""
     import h5py
 
-    from microslip.pipeline.app.results import summary
+    from microslip.pipeline.results.file import summary
 
     print(summary(path))
     print(f"wrote {out} in {time.perf_counter() - start:.1f} s")
@@ -214,7 +214,7 @@ def check(argv: list[str]) -> int:
 
 def show(argv: list[str]) -> int:
     """Summarise a results file (or the results.h5 of an output folder)."""
-    from microslip.pipeline.app.results import ResultsError, leftover, summary
+    from microslip.pipeline.results.file import ResultsError, leftover, summary
 
     parser = argparse.ArgumentParser(prog="microslip show", description=show.__doc__)
     parser.add_argument("path", type=Path, help="results.h5 or its folder")
@@ -246,7 +246,7 @@ def _render_options(args) -> tuple[object, list[str]]:
     """The pictures.Options of `render`'s arguments, and one line per bad one."""
     from matplotlib.colors import is_color_like
 
-    from microslip.pipeline.app import maps, pictures
+    from microslip.pipeline.draw import maps, pictures
     from microslip.pipeline.friction.laws import STATE_NAMES
 
     faults: list[str] = []
@@ -283,8 +283,8 @@ def render(argv: list[str]) -> int:
     """Redraw the pictures of a results folder from its results.h5 alone (FRFs, peak
     curves, contact-status and static-load maps, deformed shapes): other colours, another
     point, another size. Nothing is recomputed."""
-    from microslip.pipeline.app import pictures
-    from microslip.pipeline.app.results import ResultsError
+    from microslip.pipeline.draw import pictures
+    from microslip.pipeline.results.file import ResultsError
 
     parser = argparse.ArgumentParser(prog="microslip render", description=render.__doc__)
     parser.add_argument("path", type=Path, help="results folder (or its results.h5)")
@@ -331,7 +331,7 @@ def render(argv: list[str]) -> int:
 
 
 def maps_panel() -> str:
-    from microslip.pipeline.app import maps, shapes
+    from microslip.pipeline.draw import maps, shapes
 
     return (f"{maps.PANEL[0]}x{maps.PANEL[1]} per map, {shapes.PANEL[0]}x{shapes.PANEL[1]} "
             "per shape panel")
@@ -367,7 +367,7 @@ def mesh(argv: list[str]) -> int:
 def compare(argv: list[str]) -> int:
     """Compare two results files (or folders) dataset by dataset: exit 0 when every number
     agrees to --rtol, 1 when some differ (listed)."""
-    from microslip.pipeline.app.compare import report, results_path
+    from microslip.pipeline.results.compare import report, results_path
 
     parser = argparse.ArgumentParser(prog="microslip compare", description=compare.__doc__)
     parser.add_argument("old", type=Path, help="results.h5 or the output folder holding it")

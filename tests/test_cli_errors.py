@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from microslip.pipeline.app import run as app_run
-from microslip.pipeline.app.results import ResultsWriter
 from microslip.pipeline.cli import main
+from microslip.pipeline.results.file import ResultsWriter
 
 CLI = [sys.executable, "-m", "microslip.pipeline.cli"]
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -107,7 +107,7 @@ def test_sigterm_during_run_saves_a_partial_results_file(tmp_path):
 
 
 def test_ctrl_c_in_any_command_exits_130_without_traceback(tmp_path, monkeypatch, capsys):
-    from microslip.pipeline.app import results
+    from microslip.pipeline.results import file as results
 
     write_results(tmp_path)
 

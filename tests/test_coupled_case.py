@@ -118,7 +118,7 @@ def test_a_coupled_case_runs_end_to_end(coarse_run):
 
 def test_a_patch_draws_its_total_static_forces_per_component():
     # 3 node pairs x [T1, T2, N]: three lines, each the sum over the pairs (not nine)
-    from microslip.pipeline.app.pictures import static_lines
+    from microslip.pipeline.draw.pictures import static_lines
 
     static = np.arange(18.0).reshape(2, 9)  # 2 points of the curve
     patch = static_lines(static, ["T0_1", "T0_2", "N0"])
@@ -177,7 +177,7 @@ def test_the_map_points_are_solutions_at_the_peak_and_at_the_asked_frequency(coa
 def test_the_map_colours_of_the_nodes_equal_their_stored_states(coarse_run):
     from matplotlib.colors import to_rgb
 
-    from microslip.pipeline.app import maps
+    from microslip.pipeline.draw import maps
 
     with h5py.File(coarse_run / "results.h5") as f:
         point = f["frf/curve_000/maps/point_00/patches"]
@@ -232,7 +232,7 @@ def test_the_shapes_at_the_map_points_are_the_solution_on_the_contact_nodes(coar
 
 
 def test_the_full_disk_is_continuous_across_every_sector_boundary(coarse_run):
-    from microslip.pipeline.app import shapes
+    from microslip.pipeline.draw import shapes
 
     # copy s's right cyclic face is copy s+1's left face: one node of the disk, one motion.
     # Wrong phases (or a wrong sign of the wave) tear the disk apart at these faces.
@@ -264,7 +264,7 @@ def test_a_shape_picture_is_a_non_blank_png_of_the_asked_size(coarse_run, tmp_pa
     assert image.shape == (300 + round(300 / 9), 800, 3)
     assert (image.min(axis=2) < 200).mean() > 0.05  # a drawn model, not a white page
     # the summary names the surfaces, not as an analysis of no points
-    from microslip.pipeline.app.results import summary
+    from microslip.pipeline.results.file import summary
 
     text = summary(coarse_run / "results.h5")
     assert "surfaces (of the shape pictures): blisk" in text and " 0 points" not in text
@@ -395,16 +395,21 @@ def test_the_code_digest_follows_the_computing_sources_only(tmp_path):
     from microslip.pipeline.app import store
 
     root = Path(store.__file__).resolve().parents[2]
-    for part in store.COMPUTING:  # a copy of what counts, and the pictures' module beside
-        src, dst = root / part, tmp_path / part
-        dst.parent.mkdir(parents=True, exist_ok=True)
-        (shutil.copy if src.is_file() else shutil.copytree)(src, dst)
-    shutil.copy(root / "pipeline/app/pictures.py", tmp_path / "pipeline/app/pictures.py")
+    for part in store.COMPUTING:  # a copy of both folders
+        shutil.copytree(root / part, tmp_path / part,
+                        ignore=shutil.ignore_patterns("__pycache__"))
     before = store.code_digest(tmp_path)
+    drawn = store.code_digest(tmp_path, store.DRAWING, ())
     assert before == store.code_digest(root)  # the copy is complete
-    with open(tmp_path / "pipeline/app/pictures.py", "a") as f:
+    with open(tmp_path / "pipeline/draw/shapes.py", "a") as f:
         f.write("# a comment\n")
     assert store.code_digest(tmp_path) == before  # drawing: the curves stay
+    assert store.code_digest(tmp_path, store.DRAWING, ()) != drawn  # ... the pictures not
+    (tmp_path / "pipeline/draw/new_picture.py").write_text("# a module nobody listed\n")
+    assert store.code_digest(tmp_path, store.DRAWING, ()) != drawn
+    (tmp_path / "pipeline/app/new_runner.py").write_text("# a module nobody listed\n")
+    assert store.code_digest(tmp_path) != before  # a new computing module counts
+    (tmp_path / "pipeline/app/new_runner.py").unlink()
     with open(tmp_path / "pipeline/solve/hbm.py", "a") as f:
         f.write("# a comment\n")
     assert store.code_digest(tmp_path) != before  # numerics: every curve is computed again

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
 
-from microslip.pipeline.app import maps
+from microslip.pipeline.draw import maps
 from microslip.pipeline.friction.laws import (
     GROSS_SLIP,
     OPEN,
@@ -108,7 +108,7 @@ def test_an_off_screen_status_map_is_a_png_of_the_asked_size(tmp_path):
 def test_the_slip_at_each_peak_is_the_share_of_slipping_pairs_against_the_family(tmp_path):
     import h5py
 
-    from microslip.pipeline.app import pictures
+    from microslip.pipeline.draw import pictures
 
     states = {1.0: ([STICK] * 5 + [STICK_SLIP], [STICK] * 6),
               3.0: ([STICK_SLIP] * 3 + [STICK] * 3, [GROSS_SLIP, PARTIAL_LIFTOFF] + [STICK] * 4)}
@@ -157,7 +157,7 @@ def test_the_refined_peak_of_a_map_is_the_golden_section_peak():
 
 
 def test_only_turning_points_where_the_parameter_turns_back_are_drawn_as_folds():
-    from microslip.pipeline.app.pictures import folds
+    from microslip.pipeline.draw.pictures import folds
 
     # a fold: the parameter goes 0, 1, 2, then back to 1.5, then on: turns at 2 and 3
     x = np.array([0.0, 1.0, 2.0, 1.5, 1.8, 3.0])

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from microslip.pipeline.app import case as cs
-from microslip.pipeline.app import plots
 from microslip.pipeline.app.run import run_case
+from microslip.pipeline.draw import plots
 
 CASES = Path(__file__).parents[1] / "cases"
 
@@ -142,7 +142,7 @@ def test_loop_legends_say_amplitude_and_energy(tmp_path, monkeypatch):
 
 PREVIEW = """
 import sys
-from microslip.geometry.preview import render_previews
+from microslip.pipeline.draw.previews import render_previews
 from microslip.geometry.simple import annular_sector
 for p in render_previews(annular_sector(size=0.02), sys.argv[1]):
     print(p)

@@ -11,8 +11,8 @@ from models import jenkins_oscillator, normal_oscillator
 
 from microslip.pipeline.app import case as cs
 from microslip.pipeline.app import structure
-from microslip.pipeline.app.results import summary
 from microslip.pipeline.app.run import _ticker, run_case, time_left
+from microslip.pipeline.results.file import summary
 from microslip.pipeline.solve import continuation as cont
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import resonance_hint, sampling_shift, solve_point, sweep

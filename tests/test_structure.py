@@ -190,7 +190,7 @@ def test_rerun_reuses_unchanged_models(stage, monkeypatch):
 
 
 def test_show_summarises_the_stage(stage):
-    from microslip.pipeline.app.results import summary
+    from microslip.pipeline.results.file import summary
 
     _, _, path = stage
     text = summary(path)

@@ -14,9 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from microslip.pipeline.draw import pictures
+from microslip.pipeline.draw.maps import EDGES
 from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import STATE_NAMES
+from microslip.pipeline.results.file import ATTRS, ResultsWriter, sampling_warning
 from microslip.pipeline.solve.response import (
     Response,
     peak_curve,
@@ -24,12 +26,9 @@ from microslip.pipeline.solve.response import (
 )
 
 from . import case as cs
-from . import pictures, plots
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
-from .maps import EDGES
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
-from .results import ATTRS, ResultsWriter, sampling_warning
 from .solutions import map_groups, map_solutions, response_measure, sampling_change, surfaces
 from .store import CurveStore, PictureStamps
 
@@ -76,7 +75,6 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print,
                     return w.close("failed", str(err))
                 if "coupling" in case.data:
                     models = CoupledModels(m, result)
-        drawn: dict[str, dict] = {}  # analysis -> {output: series}, for comparisons
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
         for i, a in enumerate(case.analyses):
             name = str(a.get("name", f"analysis{i}"))
@@ -88,8 +86,8 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print,
             if kind in ("frf", "peak", "loops") and (case.contacts_enabled()
                                                      or "coupling" in case.data):
                 warm_up(progress)  # says so when a first run compiles the contact kernels
-            status, message = RUNNERS[kind](case, a, name, w, group, out, progress, drawn,
-                                            models, store)
+            status, message = RUNNERS[kind](case, a, name, w, group, out, progress, models,
+                                            store)
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t
@@ -123,7 +121,7 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
              f"tetrahedra, bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in "
              f"{elapsed:.2f} s; hash {m.content_hash[:12]}")
     if pictures:
-        from microslip.geometry.preview import render_previews
+        from microslip.pipeline.draw.previews import render_previews
 
         stamp = out / "cache" / "previews.hash"  # the mesh the previews show
         names = [out / f"{m.model}_{x}.png" for x in ("sector", "contacts", "full_disk")]
@@ -141,7 +139,7 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
 def write_contact_grids(w: ResultsWriter, mesh) -> None:
     """/contact_grids/<patch>: each patch's node grid, frame and map orientation
     (maps.PatchGrid), what the maps are drawn on."""
-    from .maps import PatchGrid
+    from microslip.pipeline.draw.maps import PatchGrid
 
     for name in sorted(mesh.contacts):
         grid = PatchGrid.from_mesh(mesh, name)
@@ -296,7 +294,7 @@ def frf_key(store: CurveStore, c: cs.Case, a: dict, method: str) -> str:
                      shapes="shape" in a.get("map_types", []))
 
 
-def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
+def run_frf(case, a, name, w, group, out, progress, models, store):
     par = a.get("parameter", "frequency")
     methods = a.get("method", "arclength")
     methods = methods if isinstance(methods, list) else [methods]
@@ -331,7 +329,6 @@ def run_frf(case, a, name, w, group, out, progress, drawn, models, store):
             statuses[-1][0] != "interrupted":
         linear_limits(models, case, a, w, group, store, progress, name)
     group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
-    drawn[name] = dict(zip(("parameter", "series", "static"), pictures.frf_series(group)))
     every = len(keys) + sum(k.startswith("linear_") for k in group)
     _draw(pictures.frf, group, name, out, a, keys, store.hits - hits == every, progress)
     return _worst(statuses)
@@ -456,7 +453,7 @@ def _peak_ticker(progress: Progress, name: str, label: str, par: str):
     return tick
 
 
-def run_peak(case, a, name, w, group, out, progress, drawn, models, store):
+def run_peak(case, a, name, w, group, out, progress, models, store):
     par = a["parameter"]
     statuses = []
     keys: list[str] = []
@@ -544,7 +541,7 @@ def _peak_curve(c: cs.Case, a: dict, label: str, fvalue, name: str, w, group, cn
     return status, message
 
 
-def run_loops(case, a, name, w, group, out, progress, drawn, models=None, store=None):
+def run_loops(case, a, name, w, group, out, progress, models=None, store=None):
     table = next(c for c in case.data["contacts"] if c.get("name") == a["contact"])
     amps = np.asarray(a["amplitudes"], dtype=float)
     base = cs.contact_elements(table)
@@ -560,23 +557,15 @@ def run_loops(case, a, name, w, group, out, progress, drawn, models=None, store=
         factor = amps if (is_v or not scale_v_only) else np.ones_like(amps)
         g[:, j, 1], g[:, j, 2] = factor * ca, factor * sa
     r = el.evaluate(g, h, jacobian=False, histories=True)
-    loops_ = []
-    # the scaled motion's amplitude in m; W to 3 digits, round-off (vs. T u) shown as 0
-    scaled = el.n_components - 1 if scale_v_only else 0
-    what = "v" if scale_v_only else ("u_x" if el.dim == 2 else "u")
-    work = np.abs(r.T).max() * np.abs(r.u).max()
-    for i, s in enumerate(amps):
-        amp = s * np.hypot(*motion[scaled])
-        label = (f"{what} amplitude {plots.number(amp)} m: {STATE_NAMES[r.state[i]]}, "
-                 f"W = {plots.number(r.dissipation[i], work)} J")
-        loops_.append({"u": r.u[i, 0], "T": r.T[i] if el.dim == 2 else r.T[i, 0],
-                       "limit": el.mu[i] * r.N[i], "label": label})
+    scaled = el.n_components - 1 if scale_v_only else 0  # the motion the amplitudes scale
     data = {"amplitude": amps, "u": r.u, "v": r.v, "T": r.T, "N": r.N,
-            "dissipation": r.dissipation, "state": r.state.astype(np.int8)}
-    w.write_group(group, "curve_000", data, {"label": f"loops of {a['contact']}",
-                                             "status": "complete", "message": ""})
-    plots.loops(out / f"{name}.png", f"{name}: law {el.law}, contact {a['contact']}", loops_,
-                two_d=el.dim == 2)
+            "dissipation": r.dissipation, "state": r.state.astype(np.int8),
+            "motion_amplitude": amps * np.hypot(*motion[scaled])}
+    w.write_group(group, "curve_000", data, {
+        "label": f"loops of {a['contact']}", "status": "complete", "message": "",
+        "law": el.law, "contact": a["contact"], "dim": el.dim, "mu": float(base.mu[0]),
+        "motion": "v" if scale_v_only else ("u_x" if el.dim == 2 else "u")})
+    _draw(pictures.loops, group, name, out, a, [], False, progress)
     return "complete", ""
 
 
@@ -594,7 +583,7 @@ def _time_model(case: cs.Case, a: dict):
     return c, hb, names, idx, tm, loads
 
 
-def run_dti(case, a, name, w, group, out, progress, drawn, models=None, store=None):
+def run_dti(case, a, name, w, group, out, progress, models=None, store=None):
     from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)
@@ -625,7 +614,8 @@ def run_dti(case, a, name, w, group, out, progress, drawn, models=None, store=No
         return "interrupted", "time integration interrupted by the user"
     contacts = {}
     for ci, ct in enumerate(c.contacts_enabled()):
-        contacts[ct] = {"N0": fr.N0[ci], "T0": fr.T0[ci]}
+        contacts[ct] = {"N0": fr.N0[ci], "T0": fr.T0[ci],
+                        ATTRS: {"variable_normal": _normal(hb, ct)}}
     measure = a.get("measure", "peak")
     shown = fr.amplitude[:, idx]
     if measure != "peak":
@@ -639,26 +629,8 @@ def run_dti(case, a, name, w, group, out, progress, drawn, models=None, store=No
     w.write_group(group, "curve_000", data, {"label": "time integration",
                                              "status": "complete" if ok else "stopped",
                                              "message": message, "outputs": names,
-                                             "steps_per_period": spp})
-    ref = drawn.get(a.get("compare", ""), {})
-    for ci, cname in enumerate(c.contacts_enabled()):
-        lines = ref.get("static", {}).get(cname, [])
-        if not lines:
-            continue
-        marks = [{"x": fr.omega, "y": fr.N0[ci][:, 0], "label": "N0, time integration",
-                  "style": "kD"}] if _normal(hb, cname) else []
-        marks.append({"x": fr.omega, "y": fr.T0[ci][:, 0, 0], "label": "T0, time integration",
-                      "style": "ks"})
-        plots.curves(out / f"{name}_static_{cname}.png", f"{name}: static forces, contact "
-                     f"{cname}", plots.LABELS["frequency"], lines, "static contact force [N]",
-                     markers=marks)
-    for k, n in enumerate(names):
-        series = ref.get("series", {}).get(n, [])
-        plots.curves(out / f"{name}_{n}.png", f"{name}: response of {n}",
-                     plots.LABELS["frequency"], series,
-                     pictures.MEASURE_LABEL[measure].format(n),
-                     markers=[{"x": fr.omega, "y": shown[:, k],
-                               "label": f"time integration ({spp} steps/period)"}])
+                                             "steps_per_period": spp, "measure": measure})
+    _draw(pictures.dti, group, name, out, a, [], False, progress)
     return ("complete" if ok else "stopped"), message
 
 
@@ -675,8 +647,7 @@ def _join_responses(parts):
                        parts[-1].end)
 
 
-def run_transient(case, a, name, w, group, out, progress, drawn, models=None,
-                  store=None):
+def run_transient(case, a, name, w, group, out, progress, models=None, store=None):
     from microslip.pipeline.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, a)
@@ -684,25 +655,17 @@ def run_transient(case, a, name, w, group, out, progress, drawn, models=None,
     steps = dti.load_steps(tm, loads, a["frequency"],
                            steps_per_period=a.get("steps_per_period", 256))
     progress(f"[{name}] load steps integrated in {time.perf_counter() - t0:.2f} s")
-    first = hb.contacts[0] if hb.contacts else None
-    drawn_steps = []
     for k, (label, tr) in enumerate(zip(("load step 1", "load step 2"), steps)):
         if tr is None:
             continue
         data = {"t": tr.t, "q": tr.q[:, idx], "F": tr.F[:, idx],
-                "contacts": {ct.name: {"T": h.T, "N": h.N, "state": h.state}
+                "contacts": {ct.name: {"T": h.T, "N": h.N, "state": h.state,
+                                       ATTRS: {"mu": float(ct.elements.mu[0])}}
                              for ct, h in zip(hb.contacts, tr.contacts)}}
-        w.write_group(group, f"step_{k + 1}", data, {"label": label, "status": "complete",
-                                                     "message": "", "outputs": names})
-        entry = {"t": tr.t, "label": label,
-                 "outputs": {n: tr.q[:, i] for n, i in zip(names, idx)}}
-        if first is not None:
-            h = tr.contacts[0]
-            entry.update(T=h.T[:, 0, 0], limit=first.elements.mu[0] * h.N[:, 0],
-                         contact=first.name)
-        drawn_steps.append(entry)
-    if drawn_steps and first is not None:
-        plots.transient(out / f"{name}.png", name, drawn_steps)
+        w.write_group(group, f"step_{k + 1}", data, {
+            "label": label, "status": "complete", "message": "", "outputs": names,
+            "contacts": _attr_list([ct.name for ct in hb.contacts])})
+    _draw(pictures.transient, group, name, out, a, [], False, progress)
     return "complete", ""
 
 

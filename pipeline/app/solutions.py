@@ -7,10 +7,9 @@ from __future__ import annotations
 import numpy as np
 
 from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.results.file import ATTRS
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import Response, output, solve_point
-
-from .results import ATTRS
 
 
 def response_measure(coefficients: np.ndarray, h: Harmonics, how: str) -> np.ndarray:

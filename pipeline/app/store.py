@@ -25,31 +25,41 @@ import h5py
 NEUTRAL = ("title", "description", "analysis")
 #: Analysis keys that do not change a curve (naming, drawing, the family itself: its value
 #: is in the case variant).
-DRAWING = ("name", "family", "set", "map_types")
+DRAWING_KEYS = ("name", "family", "set", "map_types")
 FORMAT = 1  # bump when the stored layout changes
 
 
-#: The sources a curve's numbers depend on (relative to the package root): the geometry,
-#: the numerical stages, and the application modules that build the models and curves.
-#: Pictures, plans, benchmarks and the command line are left out: changing them keeps the
-#: stored curves.
-COMPUTING = ("geometry", "pipeline/fe", "pipeline/friction", "pipeline/solve",
-             "pipeline/coupling", "pipeline/app/case.py", "pipeline/app/coupled.py",
-             "pipeline/app/models.py", "pipeline/app/run.py", "pipeline/app/structure.py",
-             "pipeline/app/solutions.py", "pipeline/app/limits.py",
-             "pipeline/app/checks.py", "pipeline/app/store.py")
+#: The sources a curve's numbers do not depend on (relative to the package root): the
+#: drawing package, the benchmarks and the command line. Every other module of the two
+#: folders counts (COMPUTING): changing one invalidates every stored curve; changing these
+#: keeps them. Folders, not file lists, so that a new module is counted without a thought.
+COMPUTING = ("geometry", "pipeline")
+NOT_COMPUTING = ("pipeline/draw", "pipeline/bench", "pipeline/cli.py")
+#: The sources of the pictures: the drawing package and the results file it reads.
+DRAWING = ("pipeline/draw", "pipeline/results")
 
 
-def code_digest(root: Path | None = None) -> str:
-    """SHA-256 of the sources in COMPUTING (file names and contents) under the package's
-    root (or ``root``)."""
+def sources(parts: tuple[str, ...], root: Path, leave_out: tuple[str, ...] = ()) -> list[Path]:
+    """The Python sources under ``parts`` (folders or files, relative to ``root``), without
+    those under ``leave_out``, in a fixed order."""
+    found = set()
+    for part in parts:
+        path = root / part
+        found |= {path} if path.suffix == ".py" else set(path.glob("**/*.py"))
+    out = [root / x for x in leave_out]
+    return sorted(p for p in found
+                  if not any(p == o or o in p.parents for o in out))
+
+
+def code_digest(root: Path | None = None, parts: tuple[str, ...] = COMPUTING,
+                leave_out: tuple[str, ...] = NOT_COMPUTING) -> str:
+    """SHA-256 of the sources (file names and contents) under the package's root (or
+    ``root``): by default those a curve's numbers depend on."""
     root = root or Path(__file__).resolve().parents[2]
     h = hashlib.sha256()
-    for part in COMPUTING:
-        paths = [root / part] if part.endswith(".py") else sorted((root / part).glob("**/*.py"))
-        for path in paths:
-            h.update(str(path.relative_to(root)).encode())
-            h.update(path.read_bytes())
+    for path in sources(parts, root, leave_out):
+        h.update(str(path.relative_to(root)).encode())
+        h.update(path.read_bytes())
     return h.hexdigest()
 
 
@@ -67,7 +77,7 @@ class CurveStore:
         """The key of a curve: the case variant's computing tables, the analysis' computing
         keys and ``extra`` (method, family value, what is computed)."""
         inputs = {"case": {k: v for k, v in data.items() if k not in NEUTRAL},
-                  "analysis": {k: v for k, v in analysis.items() if k not in DRAWING},
+                  "analysis": {k: v for k, v in analysis.items() if k not in DRAWING_KEYS},
                   "extra": extra, "code": self.code, "format": FORMAT}
         text = json.dumps(inputs, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:32]
@@ -105,10 +115,6 @@ class CurveStore:
         return self.folder is not None and self._path(key).is_file()
 
 
-#: The sources of the pictures (relative to the package root).
-DRAWING_SOURCES = ("pipeline/app/pictures.py", "pipeline/app/maps.py", "pipeline/app/plots.py")
-
-
 class PictureStamps:
     """Which pictures of an analysis are up to date: a stamp per analysis under
     ``<out>/cache/pictures/<name>.json`` holds the key they were drawn from (the keys of its
@@ -120,11 +126,9 @@ class PictureStamps:
 
     @staticmethod
     def key(curve_keys: list[str], analysis: Mapping[str, Any]) -> str:
-        root = Path(__file__).resolve().parents[2]
         h = hashlib.sha256(json.dumps([curve_keys, analysis], sort_keys=True,
                                       default=str).encode())
-        for part in DRAWING_SOURCES:
-            h.update((root / part).read_bytes())
+        h.update(code_digest(parts=DRAWING, leave_out=()).encode())
         return h.hexdigest()[:32]
 
     def current(self, name: str, key: str) -> list[Path] | None:

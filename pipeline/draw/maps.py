@@ -174,7 +174,7 @@ def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
 
     strip = max(1, round(panel[1] / 7))
     size = [panel[0] * cols, panel[1] * rows + 2 * strip]
-    from microslip.geometry.preview import title_strip, vtk_warnings_off
+    from microslip.pipeline.draw.previews import title_strip, vtk_warnings_off
 
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
@@ -248,7 +248,7 @@ def save(pl, path: str | Path) -> Path:
     """Write an off-screen plotter's picture to ``path`` (its folder made) and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    from microslip.geometry.preview import vtk_warnings_off
+    from microslip.pipeline.draw.previews import vtk_warnings_off
 
     with vtk_warnings_off():
         pl.screenshot(str(path))

@@ -15,7 +15,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from microslip.pipeline.friction.laws import STICK, slip_share
+from microslip.pipeline.friction.laws import STATE_NAMES, STICK, slip_share
 
 from . import maps, plots, shapes
 
@@ -377,14 +377,99 @@ def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> l
     return [path]
 
 
-DRAWERS = {"frf": frf, "peak": peak}
+# --- contact laws alone, time integration ---------------------------------------------------
+
+
+def loops(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
+    """Hysteresis loops T(u) of one contact law (1D) or its force trajectories (2D), one
+    per amplitude of the prescribed motion, each labelled with its state and dissipation."""
+    c = g["curve_000"]
+    u, T, N = c["u"][()], c["T"][()], c["N"][()]
+    two_d = int(c.attrs["dim"]) == 2
+    mu = float(c.attrs["mu"])
+    work = np.abs(T).max() * np.abs(u).max()  # W to 3 digits, round-off (vs. T u) shown as 0
+    what = _text(c.attrs["motion"])
+    loops_ = []
+    for i, (amp, state, w) in enumerate(zip(c["motion_amplitude"][()], c["state"][()],
+                                            c["dissipation"][()], strict=True)):
+        label = (f"{what} amplitude {plots.number(amp)} m: {STATE_NAMES[state]}, "
+                 f"W = {plots.number(w, work)} J")
+        loops_.append({"u": u[i, 0], "T": T[i] if two_d else T[i, 0], "limit": mu * N[i],
+                       "label": label})
+    path = out / f"{name}.png"
+    plots.loops(path, f"{name}: law {_text(c.attrs['law'])}, contact "
+                f"{_text(c.attrs['contact'])}", loops_, two_d=two_d)
+    return [path]
+
+
+def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
+    """Steady responses by time integration as markers over the FRF they are compared with
+    (the analysis ``compare`` names), per output; the static contact forces likewise."""
+    c = g["curve_000"]
+    compare = _text(g.attrs.get("compare", ""))
+    ref = g.file.get(compare) if compare else None
+    _, series, static = frf_series(ref) if ref is not None else ("", {}, {})
+    omega, spp = c["omega"][()], int(c.attrs["steps_per_period"])
+    paths = []
+    for contact, cd in c.get("contacts", {}).items():
+        lines = static.get(contact, [])
+        if not lines:
+            continue
+        marks = [{"x": omega, "y": cd["N0"][()][:, 0], "label": "N0, time integration",
+                  "style": "kD"}] if bool(cd.attrs.get("variable_normal", False)) else []
+        marks.append({"x": omega, "y": cd["T0"][()][:, 0, 0], "label": "T0, time integration",
+                      "style": "ks"})
+        path = out / f"{name}_static_{contact}.png"
+        plots.curves(path, f"{name}: static forces, contact {contact}",
+                     plots.LABELS["frequency"], lines, "static contact force [N]",
+                     markers=marks)
+        paths.append(path)
+    measure = _text(c.attrs.get("measure", "peak"))
+    shown = c["response"][()]
+    for k, output in enumerate(_text(x) for x in _list(c.attrs["outputs"])):
+        path = out / f"{name}_{output}.png"
+        plots.curves(path, f"{name}: response of {output}", plots.LABELS["frequency"],
+                     series.get(output, []), MEASURE_LABEL[measure].format(output),
+                     markers=[{"x": omega, "y": shown[:, k],
+                               "label": f"time integration ({spp} steps/period)"}])
+        paths.append(path)
+    return paths
+
+
+def transient(g: h5py.Group, name: str, out: Path, options: Options = Options()
+              ) -> list[Path]:
+    """The load steps (seed Fig. 13): the outputs over time and the first contact's
+    tangential force within its slip limits +- mu N."""
+    steps = []
+    for key in sorted(k for k in g if k.startswith("step_")):
+        st = g[key]
+        contacts = [_text(x) for x in _list(st.attrs.get("contacts", "[]"))]
+        if not contacts:
+            continue
+        outputs = [_text(x) for x in _list(st.attrs["outputs"])]
+        q, first = st["q"][()], st["contacts"][contacts[0]]
+        steps.append({"t": st["t"][()], "label": _text(st.attrs["label"]),
+                      "outputs": {n: q[:, i] for i, n in enumerate(outputs)},
+                      "T": first["T"][()][:, 0, 0],
+                      "limit": float(first.attrs["mu"]) * first["N"][()][:, 0],
+                      "contact": contacts[0]})
+    if not steps:
+        return []
+    path = out / f"{name}.png"
+    plots.transient(path, name, steps)
+    return [path]
+
+
+#: Every analysis type's pictures: ``run`` draws them once an analysis is written, ``render``
+#: again from a finished file. A new analysis type registers its drawer here.
+DRAWERS = {"frf": frf, "peak": peak, "loops": loops, "dti": dti, "transient": transient}
 
 
 def render(results: Path, out: Path | None = None, options: Options = Options(),
            analyses: list[str] | None = None) -> list[Path]:
-    """Redraw the pictures of every analysis of a results file that has them (frf, peak)
-    into ``out`` (default: the file's folder). Returns the files written."""
-    from .results import open_results
+    """Redraw the pictures of every analysis of a results file (DRAWERS) into ``out``
+    (default: the file's folder). Returns the files written."""
+    from microslip.pipeline.results.file import open_results
 
     out = out or results.parent
     out.mkdir(parents=True, exist_ok=True)

@@ -133,7 +133,7 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
     one colour scale of |u| [mm], the undeformed sector in light grey behind."""
     import pyvista as pv
 
-    from microslip.geometry.preview import axial_view, title_strip, vtk_warnings_off
+    from microslip.pipeline.draw.previews import axial_view, title_strip, vtk_warnings_off
 
     theta = shape.instant()
     factor = scale(surfaces, shape, theta)

@@ -10,7 +10,7 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkObject
 
-from .mesh import Mesh, rotation_z
+from microslip.geometry.mesh import Mesh, rotation_z
 
 BODY_COLOURS = ("lightsteelblue", "orange", "palegreen", "plum", "khaki")
 PATCH_COLOURS = ("red", "blue", "magenta", "darkgreen")

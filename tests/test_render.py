@@ -1,0 +1,50 @@
+"""`microslip render` redraws every picture a run draws, from results.h5 alone: the same
+files, pixel for pixel (matplotlib draws the same data the same way)."""
+
+import copy
+
+import matplotlib.image as mpimg
+import numpy as np
+
+from microslip.pipeline.app import case as cs
+from microslip.pipeline.app.run import run_case
+from microslip.pipeline.cli import main
+from microslip.pipeline.draw.pictures import DRAWERS
+
+# a 2-DOF model with a law-B contact (variable normal load) and every lumped analysis type;
+# the time integration is compared with the FRF
+EVERY_KIND = {
+    "title": "every picture",
+    "model": {"dofs": ["x", "y"], "mass": [1.0, 2.0], "stiffness": [[2.0, -1.0], [-1.0, 2.0]],
+              "damping": [0.05, 0.05]},
+    "contacts": [{"name": "c", "law": "B", "kt": 1.0, "kn": 2.0, "mu": 0.3, "n0": 0.5,
+                  "u": {"x": 1.0}, "v": {"y": 1.0, "x": -0.5}}],
+    "loads": [{"dof": "x", "amplitude": 0.1, "harmonic": 1}],
+    "harmonics": {"max": 3, "samples": 64},
+    "analysis": [
+        {"name": "curve", "type": "frf", "start": 0.8, "stop": 1.2, "outputs": ["x"]},
+        {"name": "loops", "type": "loops", "contact": "c", "u": [1.0, 0.0], "v": [0.5, 0.0],
+         "amplitudes": [0.5, 2.0]},
+        {"name": "steady", "type": "dti", "frequencies": [0.9, 1.1], "outputs": ["x"],
+         "steps_per_period": 64, "ramp_periods": 20, "max_periods": 200, "compare": "curve"},
+        {"name": "steps", "type": "transient", "frequency": 1.0, "outputs": ["x", "y"],
+         "steps_per_period": 64, "ramp_periods": 5},
+    ],
+}
+
+
+def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):
+    assert {a["type"] for a in EVERY_KIND["analysis"]} | {"peak"} == set(DRAWERS)
+    run = tmp_path / "run"
+    path = run_case(cs.Case(copy.deepcopy(EVERY_KIND), "every.toml"), run,
+                    progress=lambda m: None)
+    drawn = sorted(p.name for p in run.glob("*.png"))
+    # one picture per analysis at least, the dti's per output and per contact
+    assert {"curve_x.png", "loops.png", "steady_x.png", "steady_static_c.png",
+            "steps.png"} <= set(drawn)
+    again = tmp_path / "again"
+    assert main(["render", str(path), "--out", str(again)]) == 0
+    assert sorted(p.name for p in again.glob("*.png")) == drawn
+    for name in drawn:
+        np.testing.assert_array_equal(mpimg.imread(again / name), mpimg.imread(run / name),
+                                      err_msg=name)
