@@ -45,9 +45,18 @@ def test_a_difference_is_measured_against_the_datasets_largest_entry(tmp_path):
 def test_missing_datasets_and_changed_text_are_named(tmp_path, capsys):
     a = _results(tmp_path / "a.h5")
     b = _results(tmp_path / "b.h5", extra=True, label="b")
-    found = {d.path: d.what for d in differences(a, b)}
-    assert found == {"/frf/curve_000@label": "'a' against 'b'",
-                     "/frf/curve_000/jumps": "only in the new file"}
+    found = {d.path: (d.what, d.added) for d in differences(a, b)}
+    assert found == {"/frf/curve_000@label": ("'a' against 'b'", False),
+                     "/frf/curve_000/jumps": ("only in the new file", True)}
+    assert main(["compare", str(b), str(a)]) == 1  # a dataset lost, a label changed
     assert main(["compare", str(tmp_path), str(b)]) == 2  # a folder without results.h5
     assert "no results file at" in capsys.readouterr().err
     assert main(["compare", str(a), str(b), "--rtol", "-1"]) == 2
+
+
+def test_additions_leave_every_old_number_in_place(tmp_path, capsys):
+    a = _results(tmp_path / "a.h5")
+    b = _results(tmp_path / "b.h5", extra=True)
+    assert main(["compare", str(a), str(b)]) == 0
+    out = capsys.readouterr().out
+    assert "the same numbers, 1 addition(s)" in out and "jumps: only in the new file" in out

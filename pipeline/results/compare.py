@@ -4,7 +4,9 @@
 A numerical dataset agrees when its shape is the same and max |b - a| <= rtol max |a| (the
 difference measured against the dataset's largest entry: an entry near zero in a dataset of
 large ones is not held to 1e-12 of itself); NaN agrees with NaN only. Text and integer data
-agree when equal. What records when and where a run happened (VOLATILE) is not compared.
+agree when equal. What records when, where and how fast a run happened (VOLATILE) is not
+compared. Datasets and attributes only in the new file are additions: listed, but every
+number of the old file is still there and the same, so they do not make the files differ.
 """
 
 from __future__ import annotations
@@ -16,18 +18,22 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-#: Attributes that record the run, not its numbers: when, with which versions, how long
-VOLATILE = frozenset({"created", "versions", "elapsed_s", "message"})
+#: Attributes and datasets that record the run, not its numbers: when, with which versions,
+#: how long (elapsed_s, a time integration's seconds per frequency), and the messages that
+#: quote those times
+VOLATILE = frozenset({"created", "versions", "elapsed_s", "message", "seconds"})
 
 
 @dataclass(frozen=True)
 class Difference:
     """One disagreement: the HDF5 path (attribute as path@name), what differs, and the
-    relative size of a numerical difference (NaN for a structural one)."""
+    relative size of a numerical difference (NaN for a structural one). ``added``: only in
+    the new file (not a difference of the old numbers)."""
 
     path: str
     what: str
     relative: float = float("nan")
+    added: bool = False
 
 
 def results_path(path: str | Path) -> Path:
@@ -44,12 +50,12 @@ def differences(old: str | Path, new: str | Path, rtol: float = 1e-12) -> list[D
 
 def _group(a: h5py.Group, b: h5py.Group, rtol: float) -> Iterator[Difference]:
     yield from _attributes(a, b, rtol)
-    for name in sorted(set(a) | set(b)):
+    for name in sorted((set(a) | set(b)) - VOLATILE):
         path = f"{a.name.rstrip('/')}/{name}"
         if name not in b:
             yield Difference(path, "only in the old file")
         elif name not in a:
-            yield Difference(path, "only in the new file")
+            yield Difference(path, "only in the new file", added=True)
         elif isinstance(a[name], h5py.Group) != isinstance(b[name], h5py.Group):
             yield Difference(path, "a group in one file, a dataset in the other")
         elif isinstance(a[name], h5py.Group):
@@ -68,7 +74,7 @@ def _attributes(a: h5py.HLObject, b: h5py.HLObject, rtol: float) -> Iterator[Dif
         if key not in b.attrs:
             yield Difference(path, "only in the old file")
         elif key not in a.attrs:
-            yield Difference(path, "only in the new file")
+            yield Difference(path, "only in the new file", added=True)
         else:
             found = _values(path, a.attrs[key], b.attrs[key], rtol)
             if found:
@@ -109,13 +115,16 @@ def _short(value: np.ndarray) -> str:
 
 def report(old: str | Path, new: str | Path, rtol: float = 1e-12, shown: int = 20
            ) -> tuple[bool, str]:
-    """(same, text): the comparison's verdict and its lines for the terminal."""
+    """(same, text): whether every number of the old file is in the new one and agrees, and
+    the lines for the terminal (the differences first, then the additions)."""
     found = differences(old, new, rtol)
+    changed = [d for d in found if not d.added]
+    added = [d for d in found if d.added]
     head = f"{results_path(old)} against {results_path(new)}, rtol {rtol:g}"
-    if not found:
-        return True, f"{head}: the same numbers"
-    lines = [f"{head}: {len(found)} difference(s)"]
-    lines += [f"  {d.path}: {d.what}" for d in found[:shown]]
+    verdict = (f"{len(changed)} difference(s)" if changed else "the same numbers")
+    lines = [f"{head}: {verdict}" + (f", {len(added)} addition(s)" if added else "")]
+    for d in (changed + added)[:shown]:
+        lines.append(f"  {d.path}: {d.what}")
     if len(found) > shown:
         lines.append(f"  ... and {len(found) - shown} more")
-    return False, "\n".join(lines)
+    return not changed, "\n".join(lines)
