@@ -6,23 +6,14 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from case_helpers import case_faults
+from case_helpers import TWO_DOF, case_faults
 
 from microslip.pipeline.app import case as cs
 from microslip.pipeline.app.run import run_case
 
 CASES = Path(__file__).parents[1] / "cases"
 
-GOOD = {
-    "title": "t",
-    "model": {"dofs": ["x", "y"], "mass": [1.0, 2.0], "stiffness": [[2.0, -1.0], [-1.0, 2.0]],
-              "damping": [0.01, 0.01]},
-    "contacts": [{"name": "c", "law": "B", "kt": 1.0, "kn": 2.0, "mu": 0.3, "n0": 0.5,
-                  "u": {"x": 1.0}, "v": {"y": 1.0, "x": -0.5}}],
-    "loads": [{"dof": "x", "amplitude": 0.1, "harmonic": 1}],
-    "harmonics": {"max": 3, "samples": 64},
-    "analysis": [{"name": "a", "type": "frf", "start": 0.5, "stop": 2.0}],
-}
+GOOD = TWO_DOF
 
 
 def faults(mutate) -> list[str]:

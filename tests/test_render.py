@@ -5,32 +5,25 @@ import copy
 
 import matplotlib.image as mpimg
 import numpy as np
+from case_helpers import TWO_DOF
 
 from microslip.pipeline.app import case as cs
 from microslip.pipeline.app.run import run_case
 from microslip.pipeline.cli import main
 from microslip.pipeline.draw.pictures import DRAWERS
 
-# a 2-DOF model with a law-B contact (variable normal load) and every lumped analysis type;
+# the 2-DOF law-B case (variable normal load), more damped, with every lumped analysis type;
 # the time integration is compared with the FRF
-EVERY_KIND = {
-    "title": "every picture",
-    "model": {"dofs": ["x", "y"], "mass": [1.0, 2.0], "stiffness": [[2.0, -1.0], [-1.0, 2.0]],
-              "damping": [0.05, 0.05]},
-    "contacts": [{"name": "c", "law": "B", "kt": 1.0, "kn": 2.0, "mu": 0.3, "n0": 0.5,
-                  "u": {"x": 1.0}, "v": {"y": 1.0, "x": -0.5}}],
-    "loads": [{"dof": "x", "amplitude": 0.1, "harmonic": 1}],
-    "harmonics": {"max": 3, "samples": 64},
-    "analysis": [
-        {"name": "curve", "type": "frf", "start": 0.8, "stop": 1.2, "outputs": ["x"]},
-        {"name": "loops", "type": "loops", "contact": "c", "u": [1.0, 0.0], "v": [0.5, 0.0],
-         "amplitudes": [0.5, 2.0]},
-        {"name": "steady", "type": "dti", "frequencies": [0.9, 1.1], "outputs": ["x"],
-         "steps_per_period": 64, "ramp_periods": 20, "max_periods": 200, "compare": "curve"},
-        {"name": "steps", "type": "transient", "frequency": 1.0, "outputs": ["x", "y"],
-         "steps_per_period": 64, "ramp_periods": 5},
-    ],
-}
+EVERY_KIND = copy.deepcopy(TWO_DOF) | {"title": "every picture", "analysis": [
+    {"name": "curve", "type": "frf", "start": 0.8, "stop": 1.2, "outputs": ["x"]},
+    {"name": "loops", "type": "loops", "contact": "c", "u": [1.0, 0.0], "v": [0.5, 0.0],
+     "amplitudes": [0.5, 2.0]},
+    {"name": "steady", "type": "dti", "frequencies": [0.9, 1.1], "outputs": ["x"],
+     "steps_per_period": 64, "ramp_periods": 20, "max_periods": 200, "compare": "curve"},
+    {"name": "steps", "type": "transient", "frequency": 1.0, "outputs": ["x", "y"],
+     "steps_per_period": 64, "ramp_periods": 5},
+]}
+EVERY_KIND["model"]["damping"] = [0.05, 0.05]
 
 
 def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):

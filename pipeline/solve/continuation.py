@@ -777,7 +777,8 @@ def solutions_at(
     points = [np.append(xi / xs, li / lam_scale) for li, xi in zip(values, x, strict=True)]
     # a point at the target ends one segment's bracket and starts the next one's: the first
     # segment holds it
-    segments = [_Segment(p, q, real=i not in set(jumps), done=i > 0 and values[i] == target)
+    off_branch = set(jumps)
+    segments = [_Segment(p, q, real=i not in off_branch, done=i > 0 and values[i] == target)
                 for i, (p, q) in enumerate(zip(points[:-1], points[1:], strict=False))]
     found: list[NewtonResult] = []
 

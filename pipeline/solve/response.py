@@ -125,16 +125,10 @@ class Response:
         """(n_unknowns,) every solution of the branch at parameter ``value``: one per pair
         of consecutive points that brackets it (a fold gives several; a natural sweep's
         jump is no part of the branch), by :func:`continuation.solutions_at`."""
-        point = self.base.set(self.parameter, value)
-        xs, fs = scales(self.model, point)
-
-        def fun(x, lam, jac):
-            return self.model.residual(x, self.base.set(self.parameter, lam), self.parameter,
-                                       jacobian=jac)
-
+        xs, fs = scales(self.model, self.base.set(self.parameter, value))
         return [r.x for r in cont.solutions_at(
-            fun, self.values, self.branch.x, value, x_scale=xs, f_scale=fs, settings=settings,
-            jumps=[i for i, _ in self.branch.jumps])]
+            problem(self.model, self.base, self.parameter), self.values, self.branch.x, value,
+            x_scale=xs, f_scale=fs, settings=settings, jumps=[i for i, _ in self.branch.jumps])]
 
     def sampling_shift(self, i: int) -> tuple[np.ndarray, float]:
         """(dx, d parameter): the first-order shift of point ``i`` normal to the branch
@@ -190,6 +184,16 @@ def _one(dof: int | np.ndarray) -> list[int] | np.ndarray:
     """One output as a selection: a DOF index, or an (n_dof,) row."""
     row = np.asarray(dof)
     return row[None, :] if row.ndim == 1 else [int(dof)]
+
+
+def problem(model: HarmonicBalance, base: OperatingPoint, parameter: str) -> cont.Problem:
+    """The continuation problem of ``model`` in ``parameter``: (x, value, jacobian) ->
+    (R, dR/dx, dR/d parameter) at ``base`` with the parameter set to the value."""
+
+    def fun(x: np.ndarray, value: float, jac: bool):
+        return model.residual(x, base.set(parameter, value), parameter, jacobian=jac)
+
+    return fun
 
 
 def scales(model: HarmonicBalance, point: OperatingPoint) -> tuple[float, float]:
@@ -274,8 +278,7 @@ def sweep(
     if cold:
         x0 = initial_guess(model, p0, fs)
 
-    def fun(x, lam, jac):
-        return model.residual(x, base.set(parameter, lam), parameter, jacobian=jac)
+    fun = problem(model, base, parameter)
 
     def follow(x_start: np.ndarray) -> cont.Branch:
         if method == "arclength":
@@ -492,8 +495,7 @@ def excitation_ramp(
     # never through zero load (arclength could turn back there)
     ramp_settings = dataclasses.replace(settings, lower=0.0) if full > 0 else settings
 
-    def fun(x, lam, jac):
-        return model.residual(x, point.set("excitation", lam), "excitation", jacobian=jac)
+    fun = problem(model, point, "excitation")
 
     def at_point(x, lam, jac):
         return model.residual(x, point, None, jacobian=jac)
