@@ -131,6 +131,13 @@ def test_a_patch_draws_its_total_static_forces_per_component():
     np.testing.assert_array_equal(single[1][1], static[:, 1])
 
 
+def test_the_results_file_follows_the_layout(coarse_run):
+    from microslip.pipeline.results import schema
+
+    with h5py.File(coarse_run / "results.h5") as f:  # geometry, reduction, maps, shapes
+        assert schema.undescribed(f) == []
+
+
 def test_the_patches_hold_each_pairs_state_and_the_share_of_slipping_pairs(coarse_run):
     from microslip.pipeline.friction.laws import GROSS_SLIP, STICK_SLIP
 

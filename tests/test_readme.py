@@ -153,3 +153,11 @@ def test_the_commands_table_lists_every_command():
     listed = set(re.findall(r"^\| `microslip (\w+)", text, re.M))
     assert listed == set(COMMANDS)
     assert set(re.findall(r"^\| `microslip bench (\w+)", text, re.M)) == set(BENCHES)
+
+
+def test_the_results_layout_section_is_the_schema():
+    from microslip.pipeline.results import schema
+
+    block = re.search(r"^### Results \(`results.h5`\).*?^```\n(.*?)^```", README,
+                      re.M | re.S).group(1)
+    assert block == schema.layout_text()

@@ -1,8 +1,10 @@
 """`microslip render` redraws every picture a run draws, from results.h5 alone: the same
-files, pixel for pixel (matplotlib draws the same data the same way)."""
+files, pixel for pixel (matplotlib draws the same data the same way); what the run writes
+follows the results layout."""
 
 import copy
 
+import h5py
 import matplotlib.image as mpimg
 import numpy as np
 from case_helpers import TWO_DOF
@@ -11,6 +13,7 @@ from microslip.pipeline.app import case as cs
 from microslip.pipeline.app.run import run_case
 from microslip.pipeline.cli import main
 from microslip.pipeline.draw.pictures import DRAWERS
+from microslip.pipeline.results import schema
 
 # the 2-DOF law-B case (variable normal load), more damped, with every lumped analysis type;
 # the time integration is compared with the FRF
@@ -22,19 +25,23 @@ EVERY_KIND = copy.deepcopy(TWO_DOF) | {"title": "every picture", "analysis": [
      "steps_per_period": 64, "ramp_periods": 20, "max_periods": 200, "compare": "curve"},
     {"name": "steps", "type": "transient", "frequency": 1.0, "outputs": ["x", "y"],
      "steps_per_period": 64, "ramp_periods": 5},
+    {"name": "top", "type": "peak", "parameter": "excitation", "start": 0.5, "stop": 1.0,
+     "points": 3, "window": [0.8, 1.2], "output": "x"},
 ]}
 EVERY_KIND["model"]["damping"] = [0.05, 0.05]
 
 
 def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):
-    assert {a["type"] for a in EVERY_KIND["analysis"]} | {"peak"} == set(DRAWERS)
+    assert {a["type"] for a in EVERY_KIND["analysis"]} == set(DRAWERS)
     run = tmp_path / "run"
     path = run_case(cs.Case(copy.deepcopy(EVERY_KIND), "every.toml"), run,
                     progress=lambda m: None)
     drawn = sorted(p.name for p in run.glob("*.png"))
     # one picture per analysis at least, the dti's per output and per contact
     assert {"curve_x.png", "loops.png", "steady_x.png", "steady_static_c.png",
-            "steps.png"} <= set(drawn)
+            "steps.png", "top.png"} <= set(drawn)
+    with h5py.File(path) as f:  # every object written is in the layout (results/schema.py)
+        assert schema.undescribed(f) == []
     again = tmp_path / "again"
     assert main(["render", str(path), "--out", str(again)]) == 0
     assert sorted(p.name for p in again.glob("*.png")) == drawn

@@ -9,6 +9,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from microslip.pipeline.results import schema
 from microslip.pipeline.solve.hbm import OperatingPoint
 
 from . import case as cs
@@ -38,10 +39,10 @@ def linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
     for b in cm0.layout:
         cyclic[b.offset: b.offset + b.n_masters] = b.cyclic
     free = all(not np.any(cm0.outputs[n][~cyclic]) for n in names)
-    runs = [("free", "free (no damper)", masses[0], "linear_free")] if free else []
+    runs = [("free", "free (no damper)", masses[0], schema.LINEAR_FREE)] if free else []
     for k, m in enumerate(masses):
         runs.append(("stuck", "fully stuck" + (f", mass x {m:g}" if len(masses) > 1 else ""),
-                     m, "linear_stuck" + (f"_{k:03d}" if len(masses) > 1 else "")))
+                     m, schema.linear_stuck(k, len(masses))))
     t = time.perf_counter()
     for springs, label, m, key in runs:
         c, base = variants[m]
@@ -108,7 +109,7 @@ def peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_n
                  for v in (pars[:1] if springs == "free" else pars)]
         if springs == "free":
             peaks = peaks * 2
-        w.write_group(group, f"level_{springs}", {
+        w.write_group(group, {"free": schema.LEVEL_FREE, "stuck": schema.LEVEL_STUCK}[springs], {
             "parameter": pars, "omega": np.array([p[0] for p in peaks]),
             "amplitude": np.array([p[1] for p in peaks])},
             {"label": springs, "status": "complete", "message": "linear, solved directly"})

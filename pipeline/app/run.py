@@ -18,6 +18,7 @@ from microslip.pipeline.draw import pictures
 from microslip.pipeline.draw.maps import EDGES
 from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.results import schema
 from microslip.pipeline.results.file import ATTRS, ResultsWriter, sampling_warning
 from microslip.pipeline.solve.response import (
     Response,
@@ -61,7 +62,7 @@ def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print,
         if "geometry" in case.data:
             t = time.perf_counter()
             m = mesh_geometry(case.data["geometry"], out, progress)
-            w.write_group(w.file, "geometry", {}, {
+            w.write_group(w.file, schema.GEOMETRY, {}, {
                 "model": m.model, "content_hash": m.content_hash, "nodes": m.points.shape[0],
                 "tetrahedra": m.tetrahedra.shape[0], "bodies": sorted(m.bodies),
                 "contacts": sorted(m.contacts), "parameters": m.parameters, "status": "complete",
@@ -143,7 +144,7 @@ def write_contact_grids(w: ResultsWriter, mesh) -> None:
 
     for name in sorted(mesh.contacts):
         grid = PatchGrid.from_mesh(mesh, name)
-        w.write_group(w.file.require_group("contact_grids"), name, grid.datasets(),
+        w.write_group(w.file.require_group(schema.CONTACT_GRIDS), name, grid.datasets(),
                       {"body_a": grid.body_a, "body_b": grid.body_b,
                        "high_edge": grid.high_edge, "high_edge_name": EDGES[grid.high_edge]})
 
@@ -168,21 +169,21 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
         raise StageFailed(str(err)) from err
     if shapes:
         write_surfaces(w, mesh)
-    datasets: dict = {body: {f"nd{h}": {
+    datasets: dict = {body: {schema.nodal_diameter(h): {
         "frequencies_hz": result.frequencies[body, h], "mode_frequencies_hz": m.mode_frequencies,
         "master_nodes": m.master_nodes} for h, m in models.items()}
         for body, models in result.models.items()}
-    datasets["contact_stiffness"] = {
+    datasets[schema.CONTACT_STIFFNESS] = {
         name: {"normal_n_per_m": s.normal, "tangential_n_per_m": s.tangential}
         for name, s in result.patch_stiffness.items()}
-    w.write_group(w.file, "reduction", datasets, {
+    w.write_group(w.file, schema.REDUCTION, datasets, {
         "nodal_diameters": list(result.nodal_diameters), "status": "complete",
         "f_max_hz": -1.0 if result.f_max is None else result.f_max,
         "cached": [f"{b} ND {h}" for b, h in result.cached], "type": "reduction",
         "elapsed_s": time.perf_counter() - t})
     for body, models in result.models.items():
         for h, m in models.items():
-            attrs = w.file["reduction"][body][f"nd{h}"].attrs
+            attrs = w.file[schema.REDUCTION][body][schema.nodal_diameter(h)].attrs
             attrs["n_modes"], attrs["n_master_dofs"] = m.n_modes, m.n_masters
             path = result.files.get((body, h))
             attrs["file"] = "" if path is None else str(path.relative_to(out))
@@ -203,7 +204,7 @@ def write_surfaces(w: ResultsWriter, mesh) -> None:
                         "points": mesh.points[nodes],
                         "triangles": np.searchsorted(nodes, triangles)}
     sectors = sorted({c.sectors for c in mesh.cyclic.values()})
-    w.write_group(w.file, "surfaces", groups, {"sectors": sectors[0] if sectors else 0})
+    w.write_group(w.file, schema.SURFACES, groups, {"sectors": sectors[0] if sectors else 0})
 
 
 def _outputs(case: cs.Case, a: dict, models=None) -> tuple[list[str], object]:
@@ -308,7 +309,7 @@ def run_frf(case, a, name, w, group, out, progress, models, store):
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
             key = frf_key(store, c, a, method)
             keys.append(key)
-            cname = f"curve_{j:03d}"
+            cname = schema.curve(j)
             status, message = _stored_curve(
                 store, key, group, cname, f"{which}: {{}} points", progress,
                 lambda c=c, method=method, tag=tag, value=value, which=which, cname=cname:
@@ -329,7 +330,7 @@ def run_frf(case, a, name, w, group, out, progress, models, store):
             statuses[-1][0] != "interrupted":
         linear_limits(models, case, a, w, group, store, progress, name)
     group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
-    every = len(keys) + sum(k.startswith("linear_") for k in group)
+    every = len(keys) + sum(schema.is_linear(k) for k in group)
     _draw(pictures.frf, group, name, out, a, keys, store.hits - hits == every, progress)
     return _worst(statuses)
 
@@ -401,7 +402,7 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
         # natural sweeps: (from, to) points of each jump at a fold and their parameter values
         "jumps": jumps, "jump_parameter": b.values[jumps],
         "unknowns": b.x, "unknown_dofs": hb.dofs,
-        "contacts": contacts, "sampling_change": change, "sampling_shift": shift,
+        schema.CONTACTS: contacts, "sampling_change": change, "sampling_shift": shift,
     }
     if isinstance(models, CoupledModels):  # each unknown's mesh node and x/y/z
         from microslip.pipeline.coupling.model import patch_states
@@ -410,15 +411,15 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
         data["unknown_nodes"] = cm.dof_nodes[hb.dofs]
         data["unknown_directions"] = hb.dofs % 3
         names_c = [ct.name for ct in hb.contacts]
-        data["patches"] = _patch_data([patch_states(names_c, cm.points, p)
+        data[schema.PATCHES] = _patch_data([patch_states(names_c, cm.points, p)
                                        for p in per_point])
         if wanted and b.status != "interrupted":
             sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
             shapes = "shape" in a.get("map_types", [])
-            data["maps"] = map_groups(cm, r, sols, idx, measure,
+            data[schema.MAPS] = map_groups(cm, r, sols, idx, measure,
                                        bool(a.get("normalise", False)),
                                        surfaces(models.mesh) if shapes else None)
-            for m in data["maps"].values():
+            for m in data[schema.MAPS].values():
                 progress(f"{which}: map point, {m[ATTRS]['what']} at {par} "
                          f"{m[ATTRS]['parameter']:.6g}: response {m['response'][0]:.4g} m")
             missing = [x for x in wanted if x != "peak" and not any(s[1] == x for s in sols)]
@@ -461,7 +462,7 @@ def run_peak(case, a, name, w, group, out, progress, models, store):
     for j, (c, label, fvalue) in enumerate(cs.curve_variants(case, a)):
         key = store.key(c.data, a, curve="peak")
         keys.append(key)
-        cname = f"curve_{j:03d}"
+        cname = schema.curve(j)
         status, message = _stored_curve(
             store, key, group, cname, f"[{name}] {label or 'curve'}: {{}} values", progress,
             lambda c=c, label=label, fvalue=fvalue, cname=cname:
@@ -474,17 +475,17 @@ def run_peak(case, a, name, w, group, out, progress, models, store):
             statuses and statuses[-1][0] == "interrupted"):
         c = case.with_values(a.get("set", {}))
         key = store.key(c.data, a, curve="levels", points=LEVEL_POINTS)
-        if not (store.load(key + "f", group, "level_free")
-                and store.load(key + "s", group, "level_stuck")):
-            for k in ("level_free", "level_stuck"):
+        if not (store.load(key + "f", group, schema.LEVEL_FREE)
+                and store.load(key + "s", group, schema.LEVEL_STUCK)):
+            for k in (schema.LEVEL_FREE, schema.LEVEL_STUCK):
                 if k in group:
                     del group[k]
             peak_levels(models.coupled(c), cs.operating_point({"start": a["window"][0]}, c),
                          par, _peak_values(a), a["output"], tuple(a["window"]),
                          a.get("measure", "peak") == "vibration", w, group, progress, name)
-            store.save(key + "f", group["level_free"])
-            store.save(key + "s", group["level_stuck"])
-    every = len(keys) + sum(k.startswith("level_") for k in group)
+            store.save(key + "f", group[schema.LEVEL_FREE])
+            store.save(key + "s", group[schema.LEVEL_STUCK])
+    every = len(keys) + sum(schema.is_level(k) for k in group)
     _draw(pictures.peak, group, name, out, a, keys, store.hits - hits == every, progress)
     return _worst(statuses)
 
@@ -561,7 +562,7 @@ def run_loops(case, a, name, w, group, out, progress, models=None, store=None):
     data = {"amplitude": amps, "u": r.u, "v": r.v, "T": r.T, "N": r.N,
             "dissipation": r.dissipation, "state": r.state.astype(np.int8),
             "motion_amplitude": amps * np.hypot(*motion[scaled])}
-    w.write_group(group, "curve_000", data, {
+    w.write_group(group, schema.curve(0), data, {
         "label": f"loops of {a['contact']}", "status": "complete", "message": "",
         "law": el.law, "contact": a["contact"], "dim": el.dim, "mu": float(base.mu[0]),
         "motion": "v" if scale_v_only else ("u_x" if el.dim == 2 else "u")})
@@ -623,10 +624,10 @@ def run_dti(case, a, name, w, group, out, progress, models=None, store=None):
         shown = response_measure(fr.coefficients[:, idx], hh, measure)
     data = {"omega": fr.omega, "amplitude": fr.amplitude[:, idx], "response": shown,
             "coefficients": fr.coefficients[:, idx], "periods": fr.periods,
-            "converged": fr.converged, "seconds": fr.seconds, "contacts": contacts}
+            "converged": fr.converged, "seconds": fr.seconds, schema.CONTACTS: contacts}
     ok = bool(np.all(fr.converged))
     message = "" if ok else f"{int(np.sum(~fr.converged))} frequencies not periodic yet"
-    w.write_group(group, "curve_000", data, {"label": "time integration",
+    w.write_group(group, schema.curve(0), data, {"label": "time integration",
                                              "status": "complete" if ok else "stopped",
                                              "message": message, "outputs": names,
                                              "steps_per_period": spp, "measure": measure})
@@ -659,10 +660,10 @@ def run_transient(case, a, name, w, group, out, progress, models=None, store=Non
         if tr is None:
             continue
         data = {"t": tr.t, "q": tr.q[:, idx], "F": tr.F[:, idx],
-                "contacts": {ct.name: {"T": h.T, "N": h.N, "state": h.state,
+                schema.CONTACTS: {ct.name: {"T": h.T, "N": h.N, "state": h.state,
                                        ATTRS: {"mu": float(ct.elements.mu[0])}}
                              for ct, h in zip(hb.contacts, tr.contacts)}}
-        w.write_group(group, f"step_{k + 1}", data, {
+        w.write_group(group, schema.step(k + 1), data, {
             "label": label, "status": "complete", "message": "", "outputs": names,
             "contacts": _attr_list([ct.name for ct in hb.contacts])})
     _draw(pictures.transient, group, name, out, a, [], False, progress)

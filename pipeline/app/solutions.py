@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.results import schema
 from microslip.pipeline.results.file import ATTRS
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import Response, output, solve_point
@@ -117,14 +118,14 @@ def map_groups(cm, r: Response, solutions, rows, measure: str,
         point = r.base.set(r.parameter, v)
         patches = cm.patches(x, point)
         response = response_at(r.model, x, point, rows, measure)
-        groups[f"point_{k:02d}"] = {
+        groups[schema.point(k)] = {
             ATTRS: {"what": what, "parameter": v, "omega": point.omega,
                     "excitation": point.excitation},
             "unknowns": x, "response": response / point.excitation if normalise else response,
-            "patches": {p: {"state": s.state, "static": s.static,
+            schema.PATCHES: {p: {"state": s.state, "static": s.static,
                             "slip_share": s.slip_share} for p, s in patches.items()}}
         if surfaces:
-            groups[f"point_{k:02d}"]["shapes"] = {
+            groups[schema.point(k)][schema.SHAPES] = {
                 ATTRS: {"orders": list(r.model.harmonics.orders),
                         "wave_numbers": list(cm.wave_numbers())},
                 **{body: cm.displacements(x, point, body, nodes)[1]

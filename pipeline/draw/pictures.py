@@ -16,6 +16,7 @@ import h5py
 import numpy as np
 
 from microslip.pipeline.friction.laws import STATE_NAMES, STICK, slip_share
+from microslip.pipeline.results import schema
 
 from . import maps, plots, shapes
 
@@ -51,7 +52,7 @@ def _list(value) -> list:
 
 def curves(g: h5py.Group) -> list[tuple[str, h5py.Group]]:
     """The analysis' curve groups in order."""
-    return sorted((k, v) for k, v in g.items() if k.startswith("curve_"))
+    return sorted((k, v) for k, v in g.items() if schema.is_curve(k))
 
 
 # --- frequency responses ------------------------------------------------------------------
@@ -76,7 +77,7 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
             series.setdefault(n, []).append({"x": x, "y": y[:, k], "label": label,
                                              "turning_points": tp, "ls": style,
                                              "jumps": jumps + (jumps >= at)})
-        for cname, cd in c.get("contacts", {}).items():
+        for cname, cd in c.get(schema.CONTACTS, {}).items():
             for what, y in static_lines(cd["static_force"][()],
                                         [_text(x) for x in cd["columns"][()]]):
                 static.setdefault(cname, []).append({
@@ -84,15 +85,16 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
                     "label": ", ".join(s for s in (label, what) if s)})
     masses = [float(c.attrs.get("mass_multiplier", 1.0)) for _, c in curves(g)]
     for key, lg in sorted(g.items()):
-        if not key.startswith("linear_"):
+        if not schema.is_linear(key):
             continue
         colour = "0.45"  # one limit: grey; one stuck limit per mass: its curves' colour
-        if key.startswith("linear_stuck_") and float(lg.attrs["mass_multiplier"]) in masses:
-            colour = f"C{masses.index(float(lg.attrs['mass_multiplier'])) % 10}"
+        mass = float(lg.attrs["mass_multiplier"])
+        if key not in (schema.LINEAR_FREE, schema.LINEAR_STUCK) and mass in masses:
+            colour = f"C{masses.index(mass) % 10}"
         for k, n in enumerate(series):
             series[n].append({"x": lg["omega"][()], "y": lg["response"][:, k],
                               "label": _text(lg.attrs["label"]), "lw": 1.0, "color": colour,
-                              "ls": ":" if key == "linear_free" else "-."})
+                              "ls": ":" if key == schema.LINEAR_FREE else "-."})
     return par, series, static
 
 
@@ -114,7 +116,7 @@ def _with_peak(c: h5py.Group) -> tuple[np.ndarray, np.ndarray, int]:
     would pass below the marked peak. The peak goes between the computed points around it
     (inserted at the end index, len(x), when there is none)."""
     x, y = c["parameter"][()], c["response"][()]
-    for _, p in sorted(c.get("maps", {}).items()):
+    for _, p in sorted(c.get(schema.MAPS, {}).items()):
         if _text(p.attrs["what"]) != "peak" or not len(x):
             continue
         v = float(p.attrs["parameter"])
@@ -150,7 +152,7 @@ def _map_groups(g: h5py.Group) -> list[tuple[str, h5py.Group, h5py.Group]]:
     in curve order."""
     out = []
     for _, c in curves(g):
-        for _, p in sorted(c.get("maps", {}).items()):
+        for _, p in sorted(c.get(schema.MAPS, {}).items()):
             out.append((LETTERS[len(out) % len(LETTERS)], c, p))
     return out
 
@@ -199,13 +201,13 @@ def slip_at_peaks(g: h5py.Group) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     the curves of an frf analysis with maps at their peaks."""
     x, shares = [], {}
     for _, c in curves(g):
-        peaks = [p for _, p in sorted(c.get("maps", {}).items())
+        peaks = [p for _, p in sorted(c.get(schema.MAPS, {}).items())
                  if _text(p.attrs["what"]) == "peak"]
         value = c.attrs.get("family_value", "")
         if not peaks or isinstance(value, (str, bytes)):
             continue
         x.append(float(value))
-        pg = peaks[0]["patches"]
+        pg = peaks[0][schema.PATCHES]
         states = {k: pg[k]["state"][()] for k in sorted(pg)}
         for k, st in states.items():
             shares.setdefault(k, []).append(100 * slip_share(st))
@@ -250,7 +252,7 @@ class MapPoint:
 
 def contact_grids(f: h5py.File) -> dict[str, maps.PatchGrid]:
     """The patches' grids of a results file (/contact_grids)."""
-    return {k: maps.PatchGrid.from_group(k, v) for k, v in f.get("contact_grids", {}).items()}
+    return {k: maps.PatchGrid.from_group(k, v) for k, v in f.get(schema.CONTACT_GRIDS, {}).items()}
 
 
 def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
@@ -261,18 +263,18 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     if at is not None:
         for _, c in curves(g):
             label = _text(c.attrs.get("label", ""))
-            if "patches" not in c or not len(c["parameter"]):
+            if schema.PATCHES not in c or not len(c["parameter"]):
                 continue
             i = int(np.argmin(np.abs(c["parameter"][()] - at)))
             v = float(c["parameter"][i])
-            pg = c["patches"]
+            pg = c[schema.PATCHES]
             out.append(MapPoint("\n".join(x for x in (label, f"{par} {v:.6g}") if x), label, v,
                                 {p: pg[p]["state"][i] for p in pg},
                                 {p: pg[p]["static"][i] for p in pg}))
         return out
     for letter, c, p in _map_groups(g):
         label = _text(c.attrs.get("label", ""))
-        pg = p["patches"]
+        pg = p[schema.PATCHES]
         what = _what(p, par)
         out.append(MapPoint(f"{letter}: {label}\n{what}" if label else f"{letter}: {what}",
                             label, float(p.attrs["parameter"]),
@@ -363,8 +365,8 @@ def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> l
     lo, hi = _list(g.attrs["window"])
     series = [{"x": c["parameter"][()], "y": c["amplitude"][()],
                "label": _text(c.attrs.get("label", "")) or None} for _, c in curves(g)]
-    for key, label, style in (("level_free", "free (no damper)", ":"),
-                              ("level_stuck", "fully stuck", "-.")):
+    for key, label, style in ((schema.LEVEL_FREE, "free (no damper)", ":"),
+                              (schema.LEVEL_STUCK, "fully stuck", "-.")):
         if key in g:
             series.append({"x": g[key]["parameter"][()], "y": g[key]["amplitude"][()],
                            "label": label, "ls": style, "color": "0.45", "lw": 1.0,
@@ -383,7 +385,7 @@ def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> l
 def loops(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """Hysteresis loops T(u) of one contact law (1D) or its force trajectories (2D), one
     per amplitude of the prescribed motion, each labelled with its state and dissipation."""
-    c = g["curve_000"]
+    c = g[schema.curve(0)]
     u, T, N = c["u"][()], c["T"][()], c["N"][()]
     two_d = int(c.attrs["dim"]) == 2
     mu = float(c.attrs["mu"])
@@ -405,13 +407,13 @@ def loops(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> 
 def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """Steady responses by time integration as markers over the FRF they are compared with
     (the analysis ``compare`` names), per output; the static contact forces likewise."""
-    c = g["curve_000"]
+    c = g[schema.curve(0)]
     compare = _text(g.attrs.get("compare", ""))
     ref = g.file.get(compare) if compare else None
     _, series, static = frf_series(ref) if ref is not None else ("", {}, {})
     omega, spp = c["omega"][()], int(c.attrs["steps_per_period"])
     paths = []
-    for contact, cd in c.get("contacts", {}).items():
+    for contact, cd in c.get(schema.CONTACTS, {}).items():
         lines = static.get(contact, [])
         if not lines:
             continue
@@ -441,13 +443,13 @@ def transient(g: h5py.Group, name: str, out: Path, options: Options = Options()
     """The load steps (seed Fig. 13): the outputs over time and the first contact's
     tangential force within its slip limits +- mu N."""
     steps = []
-    for key in sorted(k for k in g if k.startswith("step_")):
+    for key in sorted(k for k in g if schema.is_step(k)):
         st = g[key]
-        contacts = [_text(x) for x in _list(st.attrs.get("contacts", "[]"))]
+        contacts = [_text(x) for x in _list(st.attrs.get(schema.CONTACTS, "[]"))]
         if not contacts:
             continue
         outputs = [_text(x) for x in _list(st.attrs["outputs"])]
-        q, first = st["q"][()], st["contacts"][contacts[0]]
+        q, first = st["q"][()], st[schema.CONTACTS][contacts[0]]
         steps.append({"t": st["t"][()], "label": _text(st.attrs["label"]),
                       "outputs": {n: q[:, i] for i, n in enumerate(outputs)},
                       "T": first["T"][()][:, 0, 0],

@@ -20,6 +20,7 @@ import numpy as np
 
 from microslip.geometry.mesh import rotation_z
 from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.results import schema
 
 from .maps import save
 
@@ -81,9 +82,9 @@ class Shape:
 
 def read(f, point) -> tuple[dict[str, Surface], Shape] | None:
     """The surfaces of a results file and a map point's shape; None if either is missing."""
-    if "surfaces" not in f or "shapes" not in point:
+    if schema.SURFACES not in f or schema.SHAPES not in point:
         return None
-    sg, pg = f["surfaces"], point["shapes"]
+    sg, pg = f[schema.SURFACES], point[schema.SHAPES]
     surfaces = {b: Surface(b, g["points"][()], g["triangles"][()], bool(g.attrs["cyclic"]))
                 for b, g in sg.items() if b in pg}
     shape = Shape({b: pg[b][()] for b in surfaces},

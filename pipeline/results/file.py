@@ -1,14 +1,6 @@
 """``results.h5``: what a run computed, safe to open (HDF5 via h5py, no pickle).
 
-Layout (documented in the README)::
-
-    /                       attrs: title, source, case_hash, status ("complete" |
-                            "partial" | "failed"), message, created, versions (JSON)
-    /case                   attrs: json (the case as run)
-    /<analysis>/            attrs: type, status, message, elapsed_s, + analysis keys
-      curve_000/ ...        one group per curve (one per family value), attrs:
-                            label, family_key, family_value, status, message,
-                            turning_points, elapsed_s; datasets by analysis type
+The names and layout are :mod:`.schema`'s (the README shows them).
 
 The file is written under a temporary name and renamed when closed, so a
 results file is never half written; a run that stops early (Ctrl-C, an error)
@@ -27,6 +19,8 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+
+from . import schema
 
 
 def versions() -> dict[str, str]:
@@ -70,7 +64,7 @@ class ResultsWriter:
         root["message"] = ""
         root["created"] = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
         root["versions"] = json.dumps(versions())
-        self.file.create_group("case").attrs["json"] = json.dumps(case, default=str)
+        self.file.create_group(schema.CASE).attrs["json"] = json.dumps(case, default=str)
 
     def __enter__(self) -> ResultsWriter:
         return self
@@ -209,9 +203,9 @@ def _analysis_lines(f: h5py.File) -> list[str]:
     """Per analysis: type, status, time; per curve: points, status, largest amplitude."""
     lines = []
     for name, g in f.items():
-        if name in ("case", "contact_grids"):
+        if name in (schema.CASE, schema.CONTACT_GRIDS):
             continue
-        if name == "surfaces":  # what the shape pictures draw on
+        if name == schema.SURFACES:  # what the shape pictures draw on
             lines.append("surfaces (of the shape pictures): " + ", ".join(
                 f"{b} {sg['nodes'].shape[0]} nodes" for b, sg in g.items()))
             continue
@@ -261,7 +255,7 @@ def sampling_warning(c: h5py.Group) -> str:
     if not np.nanmax(moved, initial=0.0) > SAMPLING_TOL:
         return ""
     i = int(np.nanargmax(moved))
-    flagged = {k: p["undersampled"][()] > 0 for k, p in c["contacts"].items()
+    flagged = {k: p["undersampled"][()] > 0 for k, p in c[schema.CONTACTS].items()
                if isinstance(p, h5py.Group) and "undersampled" in p}
     which = [k for k, f in flagged.items() if f.any()]
     points = int(np.logical_or.reduce([flagged[k] for k in which]).sum())
@@ -279,7 +273,7 @@ def _reduction_lines(g: h5py.Group) -> list[str]:
     lines = [f"  nodal diameters {nds}, {len(json.loads(g.attrs['cached']))} models from the "
              "cache"]
     for body, b in g.items():
-        if body == "contact_stiffness":
+        if body == schema.CONTACT_STIFFNESS:
             for patch, p in b.items():
                 lines.append(f"  contact {patch}: kn {np.sum(p['normal_n_per_m'][()]):.4g} N/m, "
                              f"kt {np.sum(p['tangential_n_per_m'][()]):.4g} N/m over "
