@@ -26,8 +26,8 @@ BENCHES = {
 
 def demo(argv: list[str]) -> int:
     """Frequency response of the single-DOF Jenkins oscillator, as a table."""
-    from microslip.pipeline.app.checks import samples_rule
     from microslip.pipeline.bench.demos import jenkins_oscillator
+    from microslip.pipeline.case.checks import samples_rule
     from microslip.pipeline.solve.hbm import OperatingPoint
     from microslip.pipeline.solve.response import sweep
 
@@ -69,11 +69,11 @@ BROKEN_PIPE = 141  # stdout closed early, e.g. `| head` (128 + SIGPIPE, as for o
 
 def _load_case(command: str, path):
     """The validated case, or None after printing its faults (one line when one fault)."""
-    from microslip.pipeline.app import case as cs
+    from microslip.pipeline.case import CaseError, load
 
     try:
-        return cs.load(path)
-    except cs.CaseError as err:
+        return load(path)
+    except CaseError as err:
         text = f"{path}: {err.faults[0]}" if len(err.faults) == 1 else str(err)
         print(f"microslip {command}: {text}", file=sys.stderr)
         return None
@@ -191,7 +191,7 @@ def check(argv: list[str]) -> int:
     """Validate a case file without running it."""
     from pathlib import Path
 
-    from microslip.pipeline.app import case as cs
+    from microslip.pipeline.case import CaseError, load, notes, sizes
 
     parser = argparse.ArgumentParser(prog="microslip check", description=check.__doc__)
     parser.add_argument("case", type=Path, nargs="+", help="case file(s) (TOML)")
@@ -199,14 +199,14 @@ def check(argv: list[str]) -> int:
     bad = 0
     for path in args.case:
         try:
-            c = cs.load(path)
-            largest = max(cs.sizes(c.data), key=lambda s: s.nbytes, default=None)
+            c = load(path)
+            largest = max(sizes(c.data), key=lambda s: s.nbytes, default=None)
             size = f"; largest analysis: {largest}" if largest else ""
             print(f"{path}: ok ({len(c.analyses)} analyses: "
                   f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)}{size})")
-            for note in cs.notes(c.data):
+            for note in notes(c.data):
                 print(f"{path}: note: {note}")
-        except cs.CaseError as err:
+        except CaseError as err:
             print(err, file=sys.stderr)
             bad += 1
     return 2 if bad else 0

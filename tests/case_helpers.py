@@ -4,7 +4,7 @@ import copy
 
 import pytest
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 
 #: A valid lumped case: 2 DOFs, one law-B contact (variable normal load), one FRF
 TWO_DOF = {
@@ -24,6 +24,6 @@ def case_faults(good: dict, mutate) -> list[str]:
     report some)."""
     data = copy.deepcopy(good)
     mutate(data)
-    with pytest.raises(cs.CaseError) as err:
-        cs.check(data)
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
     return err.value.faults

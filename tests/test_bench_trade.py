@@ -7,16 +7,16 @@ import json
 import numpy as np
 import pytest
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.bench import trade
 from microslip.pipeline.cli import main
 
 
 def test_every_setting_is_a_valid_case_with_its_knobs_set():
-    base = cs.load("cases/blisk_damper.toml").data
+    base = cases.load("cases/blisk_damper.toml").data
     for s in trade.SETTINGS:
         data = trade.case_data(base, s, 3120.0, 3180.0)
-        cs.check(data, "trade")  # raises on any fault
+        cases.check(data, "trade")  # raises on any fault
         p = data["geometry"]["parameters"]
         assert (p["contact_n_axial"], p["contact_n_flank"]) == s.grid
         assert data["harmonics"]["max"] == s.harmonics

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.friction.laws import SAMPLE_SLIP
 from microslip.pipeline.solve import dti
 from microslip.pipeline.solve.hbm import OperatingPoint
@@ -25,20 +25,20 @@ X2L = 2  # DOF index of the left airfoil tip x2_l
 SPP = 256  # DTI steps per period: peak within 0.2 % of the step-converged value (see below)
 
 
-def analysis(case: cs.Case, name: str) -> dict:
+def analysis(case: cases.Case, name: str) -> dict:
     return next(a for a in case.analyses if a["name"] == name)
 
 
-def family_case(case: cs.Case, name: str, label_start: str) -> cs.Case:
+def family_case(case: cases.Case, name: str, label_start: str) -> cases.Case:
     """The case of one curve of a family analysis, picked by its label."""
     fam = analysis(case, name)["family"]
     i = next(i for i, v in enumerate(fam["values"]) if v.startswith(label_start))
     return case.with_values(fam["sets"][i])
 
 
-def time_model(case: cs.Case, a: dict) -> tuple[dti.TimeModel, dti.LoadSteps]:
+def time_model(case: cases.Case, a: dict) -> tuple[dti.TimeModel, dti.LoadSteps]:
     """The DTI twin of a case with the load steps of analysis ``a``."""
-    hb = cs.model(case)
+    hb = cases.lumped_model(case)
     loads = dti.LoadSteps.from_excitation(
         hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
         settle_time=a.get("settle_time", 0.0), ramp_periods=a.get("ramp_periods", 0))
@@ -53,22 +53,22 @@ def parabola_peak(w: np.ndarray, a: np.ndarray) -> tuple[float, float]:
     return float(w[1] + s * h), float(a[1] - 0.25 * (a[0] - a[2]) * s)
 
 
-def sweep_analysis(case: cs.Case, a: dict):
-    hb = cs.model(case)
+def sweep_analysis(case: cases.Case, a: dict):
+    hb = cases.lumped_model(case)
     r = sweep(hb, "frequency", a["start"], a["stop"], OperatingPoint(a["start"]),
-              settings=cs.settings(case))
+              settings=cases.settings(case))
     assert r.branch.complete, r.branch.message
     return r
 
 
 @pytest.fixture(scope="module")
-def base() -> cs.Case:
-    return cs.load(CASES / "blade_damper.toml")
+def base() -> cases.Case:
+    return cases.load(CASES / "blade_damper.toml")
 
 
 @pytest.fixture(scope="module")
-def stiff() -> cs.Case:
-    return cs.load(CASES / "blade_damper_stiff.toml")
+def stiff() -> cases.Case:
+    return cases.load(CASES / "blade_damper_stiff.toml")
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +132,7 @@ def test_load_step_1_matches_hand_statics(base):
     assert T == pytest.approx(-mu * N, rel=1e-3)
     # why it slides: the stuck wedge (T = kt u, N = kn v, linear statics) would need
     # |T| = N (isotropic contact, the wedge moving straight up), beyond mu N
-    hb = cs.model(base)
+    hb = cases.lumped_model(base)
     K = np.array(base.data["model"]["stiffness"])
     B = [np.asarray(c.kinematics) for c in hb.contacts]
     kt = kn = 2.0e5
@@ -230,7 +230,7 @@ def stiff_dti(stiff):
 
 def stiff_peak(stiff, orders):
     c = family_case(stiff, "fig17", f"coupled HBM, H = {max(orders)}")
-    assert list(cs.model(c).harmonics.orders) == list(orders)
+    assert list(cases.lumped_model(c).harmonics.orders) == list(orders)
     r = sweep_analysis(c, analysis(stiff, "fig17"))
     return r, r.peak(X2L)
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from case_helpers import TWO_DOF, case_faults
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
 
 CASES = Path(__file__).parents[1] / "cases"
@@ -21,9 +21,9 @@ def faults(mutate) -> list[str]:
 
 
 def test_good_case_builds_the_model_it_says():
-    cs.check(GOOD)
-    c = cs.Case(GOOD, "t.toml")
-    hb = cs.model(c)
+    cases.check(GOOD)
+    c = cases.Case(GOOD, "t.toml")
+    hb = cases.lumped_model(c)
     assert hb.harmonics.orders == (0, 1, 2, 3) and hb.harmonics.n_samples == 64
     assert np.allclose(hb.linear.K[0].real, [[2, -1], [-1, 2]])
     assert np.allclose(hb.linear.M[1].real, np.diag([1.0, 2.0]))
@@ -71,7 +71,7 @@ def test_shipped_cases_are_valid():
     paths = sorted(CASES.glob("*.toml"))
     assert paths
     for path in paths:
-        cs.load(path)  # raises CaseError naming every fault
+        cases.load(path)  # raises CaseError naming every fault
 
 
 def test_run_writes_results_and_pictures(tmp_path):
@@ -79,7 +79,7 @@ def test_run_writes_results_and_pictures(tmp_path):
     data["analysis"].append({"name": "loops", "type": "loops", "contact": "c",
                              "u": [1.0, 0.0], "v": [0.2, 0.0], "amplitudes": [0.5, 2.0]})
     data["analysis"][0]["family"] = {"key": "contacts.c.n0", "values": [0.2, 0.5]}
-    path = run_case(cs.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
+    path = run_case(cases.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
     assert path == tmp_path / "results.h5" and not (tmp_path / "results.h5.tmp").exists()
     with h5py.File(path) as f:
         assert f.attrs["status"] == "complete"
@@ -106,7 +106,7 @@ def test_interrupted_run_leaves_a_valid_partial_file(tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        run_case(cs.Case(data, "t.toml"), tmp_path, progress=progress)
+        run_case(cases.Case(data, "t.toml"), tmp_path, progress=progress)
     assert not (tmp_path / "results.h5.tmp").exists()
     with h5py.File(tmp_path / "results.h5") as f:
         assert f.attrs["status"] == "partial"
@@ -120,8 +120,8 @@ def test_a_stopped_curve_makes_the_run_partial_and_exit_1(tmp_path, monkeypatch)
 
     data = copy.deepcopy(GOOD)
     data["solver"] = {"max_points": 3}
-    cs.check(data)
-    monkeypatch.setattr(cli, "_load_case", lambda cmd, path: cs.Case(data, "t.toml"))
+    cases.check(data)
+    monkeypatch.setattr(cli, "_load_case", lambda cmd, path: cases.Case(data, "t.toml"))
     assert cli.main(["run", "t.toml", "--out", str(tmp_path)]) == 1
     with h5py.File(tmp_path / "results.h5") as f:
         assert f.attrs["status"] == "partial"
@@ -150,7 +150,7 @@ def test_transient_and_dti_analyses(tmp_path):
              "settle_time": 20.0, "ramp_periods": 2, "steps_per_period": 64},
         ],
     }
-    run_case(cs.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
+    run_case(cases.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
     with h5py.File(tmp_path / "results.h5") as f:
         assert f.attrs["status"] == "complete"
         N = f["steps/step_1/contacts/wall/N"][()]
@@ -168,7 +168,7 @@ def test_linear_model_and_response_measures(tmp_path):
     data["contacts"][0]["enabled"] = False
     data["loads"].append({"dof": "x", "amplitude": 0.5, "harmonic": 0})
     data["analysis"][0]["measure"] = "vibration"
-    run_case(cs.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
+    run_case(cases.Case(data, "t.toml"), tmp_path, progress=lambda m: None)
     K, M = np.array([[2.0, -1.0], [-1.0, 2.0]]), np.diag([1.0, 2.0])
     w_modes = np.sqrt(np.linalg.eigvals(np.linalg.solve(M, K)).real)
     with h5py.File(tmp_path / "results.h5") as f:

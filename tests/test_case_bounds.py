@@ -8,9 +8,11 @@ from pathlib import Path
 import pytest
 from case_helpers import case_faults
 
-from microslip.pipeline.app import case as cs
-from microslip.pipeline.app.checks import least_samples
+from microslip.pipeline import case as cases
+from microslip.pipeline.case import estimate
 from microslip.pipeline.cli import main
+from microslip.pipeline.friction.harmonics import Harmonics, least_samples
+from microslip.pipeline.solve.hbm import HarmonicBalance
 
 CASES = Path(__file__).parents[1] / "cases"
 
@@ -36,7 +38,7 @@ def sdof(**harmonics) -> dict:
 def memory(monkeypatch):
     """The available memory the check compares with, fixed (bytes)."""
     def fix(nbytes):
-        monkeypatch.setattr(cs, "available_memory", lambda: nbytes)
+        monkeypatch.setattr(estimate, "available_memory", lambda: nbytes)
     fix(64e9)
     return fix
 
@@ -68,7 +70,7 @@ def test_samples_rule_follows_the_highest_order():
     {"max": 1, "samples": 32}, {"max": 1, "samples": 1024}, {"max": 3, "samples": 64},
     {"orders": [1, 3, 5], "samples": 128}, {"max": 10}])  # the default follows the rule
 def test_samples_on_the_rule_are_accepted(harmonics, memory):
-    cs.check(sdof(**harmonics))
+    cases.check(sdof(**harmonics))
 
 
 def test_loops_samples_follow_the_rule():
@@ -81,7 +83,7 @@ def test_loops_samples_follow_the_rule():
     assert any("analysis.loops.samples = 16: too few for order 1" in f for f in found)
     data = copy.deepcopy(SDOF)
     loops(64)(data)
-    cs.check(data)
+    cases.check(data)
 
 
 def test_set_and_family_harmonics_follow_the_rule():
@@ -115,10 +117,10 @@ def test_memory_refusal_before_anything_is_built(monkeypatch, memory):
     def built(*args, **kwargs):
         raise AssertionError("the check built a model")
 
-    monkeypatch.setattr(cs.HarmonicBalance, "__init__", built)
-    monkeypatch.setattr(cs.Harmonics, "synthesis", property(built))
-    with pytest.raises(cs.CaseError) as err:
-        cs.check(sdof(max=10000))
+    monkeypatch.setattr(HarmonicBalance, "__init__", built)
+    monkeypatch.setattr(Harmonics, "synthesis", property(built))
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(sdof(max=10000))
     (fault,) = err.value.faults
     assert fault.startswith("analysis.frf: needs ~")
     assert "(20,001 real unknowns: 1 contact DOF(s) x 20,001 coefficients, H = 10000, " \
@@ -142,28 +144,28 @@ def test_memory_refusal_stops_run_before_its_folder(tmp_path, capsys, memory):
 
 
 def test_the_estimate_counts_unknowns_and_grows_with_harmonics(memory):
-    small, big = (cs.sizes(sdof(max=h))[0] for h in (1, 300))
+    small, big = (cases.sizes(sdof(max=h))[0] for h in (1, 300))
     assert (small.unknowns, big.unknowns) == (3, 601)
     assert small.nbytes < 1e6 < 0.5e9 < big.nbytes < 1e9  # 601: ~0.7 GB measured (peak RSS)
     data = copy.deepcopy(SDOF)
     data["analysis"].append({**LOOPS})
-    assert cs.sizes(data)[1].unknowns == 0
+    assert cases.sizes(data)[1].unknowns == 0
 
 
 def test_family_variants_are_estimated():
     data = sdof(max=1)
     data["analysis"][0]["family"] = {"key": "harmonics.max", "values": [1, 5]}
-    assert cs.sizes(data)[0].unknowns == 11
+    assert cases.sizes(data)[0].unknowns == 11
 
 
 def test_rerun_checks_skip_the_memory_bound(memory):
     """A run's curves re-check their case (set, family): not against memory its own arrays
     already took; load bounded them all."""
-    c = cs.Case(copy.deepcopy(SDOF), "t.toml")
+    c = cases.Case(copy.deepcopy(SDOF), "t.toml")
     memory(1)
     assert c.with_values({"contacts.wall.n0": 0.1}).data["contacts"][0]["n0"] == 0.1
-    with pytest.raises(cs.CaseError, match="of memory is available"):
-        cs.check(c.data)
+    with pytest.raises(cases.CaseError, match="of memory is available"):
+        cases.check(c.data)
 
 
 def test_check_prints_the_estimate_of_shipped_cases(capsys, memory):
@@ -180,7 +182,7 @@ def test_check_prints_the_estimate_of_shipped_cases(capsys, memory):
 def test_stiff_contact_gets_a_note(capsys, tmp_path, kt):
     data = sdof(max=1, samples=128)
     data["contacts"][0]["kt"] = kt
-    (note,) = cs.notes(data)
+    (note,) = cases.notes(data)
     assert note.startswith(f"contacts.wall.kt = {kt:g} N/m is {kt:.3g} x the structure's "
                            "stiffness along u (1 N/m), above (samples / 2 pi)^2 = 415 for 128 "
                            "samples")
@@ -195,8 +197,8 @@ def test_stiff_contact_gets_a_note(capsys, tmp_path, kt):
 def test_no_note_below_the_sampling_limit():
     data = sdof(max=1, samples=128)
     data["contacts"][0]["kt"] = 400.0  # (128 / 2 pi)^2 = 415
-    assert cs.notes(data) == []
+    assert cases.notes(data) == []
     data["harmonics"]["samples"] = 64  # (64 / 2 pi)^2 = 104
-    assert len(cs.notes(data)) == 1
+    assert len(cases.notes(data)) == 1
     for name in ("blade_damper", "normal_load", "plane_circular", "sdof_wall"):
-        assert cs.notes(cs.load(CASES / f"{name}.toml").data) == [], name
+        assert cases.notes(cases.load(CASES / f"{name}.toml").data) == [], name

@@ -9,7 +9,7 @@ import pytest
 from case_helpers import case_faults
 
 from microslip import geometry
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
 from microslip.pipeline.cli import main
 
@@ -40,7 +40,7 @@ def faults(mutate) -> list[str]:
 
 
 def test_the_shipped_case_is_valid():
-    cs.check(copy.deepcopy(CASE))
+    cases.check(copy.deepcopy(CASE))
     assert main(["check", "cases/blisk_damper.toml"]) == 0
 
 
@@ -80,14 +80,14 @@ def test_faults_are_reported_before_any_meshing(monkeypatch, mutate, expected):
 def coarse_run(tmp_path_factory):
     """The coarse case run once (mesh, reduction, FRF with maps): its results folder."""
     out = tmp_path_factory.mktemp("coarse")
-    run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), out, progress=lambda s: None)
+    run_case(cases.Case(copy.deepcopy(CASE), "coarse.toml"), out, progress=lambda s: None)
     return out
 
 
 def test_the_multipliers_of_the_coupling_table_set_the_operating_point():
     data = copy.deepcopy(CASE)
     data["coupling"].update(excitation=3.0, mass_multiplier=5.0)
-    point = cs.operating_point({"start": 3100.0}, cs.Case(data, "c.toml"))
+    point = cases.operating_point({"start": 3100.0}, cases.Case(data, "c.toml"))
     assert (point.omega, point.excitation, point.mass_multiplier) == (3100.0, 3.0, 5.0)
 
 
@@ -298,7 +298,7 @@ def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coars
 
     shutil.copytree(coarse_run, tmp_path, dirs_exist_ok=True)
     lines: list[str] = []
-    run_case(cs.Case(copy.deepcopy(CASE), "coarse.toml"), tmp_path, progress=lines.append)
+    run_case(cases.Case(copy.deepcopy(CASE), "coarse.toml"), tmp_path, progress=lines.append)
     assert any("curve 1: 1" in x or "from the cache" in x for x in lines)
     assert not any(" point 1, value" in x for x in lines)  # no continuation ran
     assert "[frf] pictures unchanged (8 files)" in lines  # nor any drawing (2 shapes)
@@ -313,7 +313,7 @@ def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coars
     changed = copy.deepcopy(CASE)
     changed["coupling"]["mass_multiplier"] = 3.0
     lines.clear()
-    run_case(cs.Case(changed, "coarse.toml"), tmp_path, progress=lines.append)
+    run_case(cases.Case(changed, "coarse.toml"), tmp_path, progress=lines.append)
     assert any(" point 1, value" in x for x in lines)
     assert not any("from the cache" in x for x in lines if "curve 1" in x)
     assert not any("pictures unchanged" in x for x in lines)  # a new curve: drawn again
@@ -340,7 +340,7 @@ def test_a_dry_run_lists_what_comes_from_the_caches_and_what_runs(coarse_run, mo
     from microslip.pipeline.solve import response
 
     monkeypatch.setattr(response, "sweep", lambda *a, **k: pytest.fail("a dry run solved"))
-    stages = plan.plan(cs.Case(copy.deepcopy(CASE), "coarse.toml"), coarse_run)
+    stages = plan.plan(cases.Case(copy.deepcopy(CASE), "coarse.toml"), coarse_run)
     by_name = {s.name: s for s in stages}
     assert by_name["reduction: blisk ND 0"].cached and by_name["reduction: damper"].cached
     assert by_name["frf: curve 1"].cached
@@ -348,12 +348,12 @@ def test_a_dry_run_lists_what_comes_from_the_caches_and_what_runs(coarse_run, mo
     # another damper mass: the models are reused, the curve runs, with an estimate
     changed = copy.deepcopy(CASE)
     changed["coupling"]["mass_multiplier"] = 7.0
-    stages = {s.name: s for s in plan.plan(cs.Case(changed, "c.toml"), coarse_run)}
+    stages = {s.name: s for s in plan.plan(cases.Case(changed, "c.toml"), coarse_run)}
     assert stages["reduction: blisk ND 1"].cached
     assert not stages["frf: curve 1"].cached and stages["frf: curve 1"].seconds > 0
     assert stages["frf: curve 1"].nbytes > 0
     # no cache at all: every curve runs
-    fresh = {s.name: s for s in plan.plan(cs.Case(copy.deepcopy(CASE), "c.toml"),
+    fresh = {s.name: s for s in plan.plan(cases.Case(copy.deepcopy(CASE), "c.toml"),
                                           coarse_run, cache=False)}
     assert not fresh["frf: curve 1"].cached
     text = plan.text(list(fresh.values()))
@@ -369,9 +369,9 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     from microslip.pipeline.app.structure import reduce_structure
     from microslip.pipeline.solve.hbm import OperatingPoint
 
-    case = cs.Case(copy.deepcopy(CASE), "coarse.toml")
+    case = cases.Case(copy.deepcopy(CASE), "coarse.toml")
     mesh = mesh_geometry(CASE["geometry"], tmp_path, progress=lambda s: None, pictures=False)
-    result = reduce_structure(mesh, CASE["reduction"], None, cs.harmonics(case).orders,
+    result = reduce_structure(mesh, CASE["reduction"], None, cases.harmonics(case).orders,
                               progress=lambda s: None)
     cm = CoupledModels(mesh, result).coupled(case)
     rng = np.random.default_rng(3)

@@ -16,13 +16,15 @@ ROOT = Path(__file__).resolve().parents[1]
 TOPS = {"geometry": "microslip.geometry", "pipeline": "microslip.pipeline"}
 
 # Each stage and the stages below it that it may import (besides its own modules). Read top
-# down, this is the data flow: cli -> bench -> app -> coupling -> solve -> friction, fe ->
-# geometry; app writes results (results) and draws them (draw), and draw reads only results
-# and the numerical stages' constants (states, harmonics, frames), never app.
+# down, this is the data flow: cli -> bench -> app -> case -> coupling -> solve -> friction,
+# fe -> geometry; app reads cases (case), writes results (results) and draws them (draw);
+# draw reads only results, the analysis specs that name what they hold, and the numerical
+# stages' constants (states, harmonics, frames), never app.
 _GEO, _FE, _FRICTION = "microslip.geometry", "microslip.pipeline.fe", "microslip.pipeline.friction"
 _SOLVE, _COUPLING = "microslip.pipeline.solve", "microslip.pipeline.coupling"
 _RESULTS, _DRAW = "microslip.pipeline.results", "microslip.pipeline.draw"
-_APP, _BENCH = "microslip.pipeline.app", "microslip.pipeline.bench"
+_CASE, _APP = "microslip.pipeline.case", "microslip.pipeline.app"
+_BENCH = "microslip.pipeline.bench"
 _NUMERICS = {_COUPLING, _SOLVE, _FRICTION, _FE, _GEO}
 BELOW = {
     _GEO: set(),
@@ -30,11 +32,12 @@ BELOW = {
     _FRICTION: set(),
     _SOLVE: {_FRICTION, _FE, _GEO},
     _COUPLING: {_SOLVE, _FRICTION, _FE, _GEO},
+    _CASE: _NUMERICS,
     _RESULTS: set(),
-    _DRAW: {_RESULTS, _FRICTION, _FE, _GEO},
-    _APP: {_DRAW, _RESULTS} | _NUMERICS,
-    _BENCH: {_APP, _DRAW, _RESULTS} | _NUMERICS,
-    "microslip.pipeline.cli": {_BENCH, _APP, _DRAW, _RESULTS} | _NUMERICS,
+    _DRAW: {_RESULTS, _CASE, _FRICTION, _FE, _GEO},
+    _APP: {_CASE, _DRAW, _RESULTS} | _NUMERICS,
+    _BENCH: {_APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
+    "microslip.pipeline.cli": {_BENCH, _APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
     "microslip.pipeline": set(),  # the package's __init__: documentation only
 }
 

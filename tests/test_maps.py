@@ -178,14 +178,14 @@ def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
     # the three solutions match those solved from the fine branch's own short brackets
     import dataclasses
 
-    from microslip.pipeline.app import case as cs
+    from microslip.pipeline import case as cases
     from microslip.pipeline.app.solutions import map_solutions, response_at
     from microslip.pipeline.solve.continuation import Settings
     from microslip.pipeline.solve.response import solve_point, sweep
 
-    case = cs.load(Path(__file__).parents[1] / "cases" / "normal_load.toml")
-    hb = cs.model(case.with_value("contacts.wall.n0", -0.5))
-    base = cs.operating_point({"start": 0.9})
+    case = cases.load(Path(__file__).parents[1] / "cases" / "normal_load.toml")
+    hb = cases.lumped_model(case.with_value("contacts.wall.n0", -0.5))
+    base = cases.operating_point({"start": 0.9})
     fine = sweep(hb, "frequency", 0.9, 1.6, base, settings=Settings(max_step=0.005))
     lam, xs = fine.values, fine.branch.x
     turn = [i for i in range(1, len(lam) - 1) if (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) < 0]

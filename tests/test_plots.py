@@ -13,14 +13,14 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
 from microslip.pipeline.draw import plots
 
 CASES = Path(__file__).parents[1] / "cases"
 
 
-def run_drawn(case: cs.Case, out: Path, monkeypatch) -> dict:
+def run_drawn(case: cases.Case, out: Path, monkeypatch) -> dict:
     """Run a case and keep the figures it draws, by picture file name."""
     figures = {}
     for kind in ("curves", "loops"):
@@ -39,15 +39,15 @@ def run_drawn(case: cs.Case, out: Path, monkeypatch) -> dict:
 def sdof(tmp_path_factory):
     """Single DOF on a wall (cases/sdof_wall.toml), cut down: an FRF family of two preloads
     and a 9-point optimization curve (peak against the preload)."""
-    data = copy.deepcopy(cs.load(CASES / "sdof_wall.toml").data)
+    data = copy.deepcopy(cases.load(CASES / "sdof_wall.toml").data)
     frf, opt = data["analysis"][0], data["analysis"][2]
     frf["family"]["values"] = [0.0, 0.05]
     opt["points"] = 9
     data["analysis"] = [frf, opt]
-    cs.check(data)
+    cases.check(data)
     out = tmp_path_factory.mktemp("sdof")
     with pytest.MonkeyPatch.context() as mp:
-        figures = run_drawn(cs.Case(data, "sdof_small"), out, mp)
+        figures = run_drawn(cases.Case(data, "sdof_small"), out, mp)
     with h5py.File(out / "results.h5") as f:
         curve = {k: f["optimization/curve_000"][k][()] for k in ("parameter", "amplitude")}
     return figures, curve
@@ -128,7 +128,7 @@ def test_number_rounds_and_shows_roundoff_as_zero():
 
 
 def test_loop_legends_say_amplitude_and_energy(tmp_path, monkeypatch):
-    case = cs.load(CASES / "hysteresis_loops.toml")
+    case = cases.load(CASES / "hysteresis_loops.toml")
     figures = run_drawn(case, tmp_path, monkeypatch)
     labels = legend_texts(figures["fig3_law_A.png"].axes[0])
     assert labels[0] == "u amplitude 0.5 m: stick, W = 0 J"

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from microslip.pipeline.app import case, coupled, structure
+from microslip.pipeline.case import coupling, reduction, specs, validate
 
 README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
 
@@ -114,22 +114,22 @@ def _accepted() -> set[str]:
     def under(prefix, names):
         return {f"{prefix}.{k}" for k in names}
 
-    tables = {"model": case.MODEL_KEYS, "contacts": case.CONTACT_KEYS | {"coef", "lag"},
-              "loads": case.LOAD_KEYS, "harmonics": case.HARMONIC_KEYS,
-              "solver": case.SOLVER_KEYS, "geometry": {"model", "parameters"},
-              "analysis.family": case.FAMILY_KEYS,
-              "reduction": structure.KEYS - {"material", "damping", "bodies",
+    tables = {"model": validate.MODEL_KEYS, "contacts": validate.CONTACT_KEYS | {"coef", "lag"},
+              "loads": validate.LOAD_KEYS, "harmonics": validate.HARMONIC_KEYS,
+              "solver": validate.SOLVER_KEYS, "geometry": {"model", "parameters"},
+              "analysis.family": validate.FAMILY_KEYS,
+              "reduction": reduction.KEYS - {"material", "damping", "bodies",
                                              "contact_stiffness"},
-              "reduction.material": structure.MATERIAL_KEYS,
-              "reduction.damping": structure.DAMPING_KEYS,
-              "reduction.bodies.<body>": structure.BODY_KEYS,
-              "reduction.contact_stiffness.<patch>": structure.STIFFNESS_KEYS,
-              "coupling": coupled.KEYS - {"contacts", "loads", "outputs"},
-              "coupling.contacts": coupled.CONTACT_KEYS, "coupling.loads": coupled.LOAD_KEYS,
-              "coupling.outputs": coupled.OUTPUT_KEYS}
-    tables |= {f"analysis.{kind}": keys for kind, keys in case.ANALYSIS_KEYS.items()}
+              "reduction.material": reduction.MATERIAL_KEYS,
+              "reduction.damping": reduction.DAMPING_KEYS,
+              "reduction.bodies.<body>": reduction.BODY_KEYS,
+              "reduction.contact_stiffness.<patch>": reduction.STIFFNESS_KEYS,
+              "coupling": coupling.KEYS - {"contacts", "loads", "outputs"},
+              "coupling.contacts": coupling.CONTACT_KEYS, "coupling.loads": coupling.LOAD_KEYS,
+              "coupling.outputs": coupling.OUTPUT_KEYS}
+    tables |= {f"analysis.{kind}": specs.keys(kind) for kind in specs.ANALYSES}
     # every top-level key is a table above (or text): no table of the reader is left out
-    assert case.TOP_KEYS == {"title", "description"} | {p.split(".")[0] for p in tables}
+    assert validate.TOP_KEYS == {"title", "description"} | {p.split(".")[0] for p in tables}
     out = {"title", "description"}
     for prefix, names in tables.items():
         out |= under(prefix, names)

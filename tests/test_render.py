@@ -9,7 +9,7 @@ import matplotlib.image as mpimg
 import numpy as np
 from case_helpers import TWO_DOF
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
 from microslip.pipeline.cli import main
 from microslip.pipeline.draw.pictures import DRAWERS
@@ -34,7 +34,7 @@ EVERY_KIND["model"]["damping"] = [0.05, 0.05]
 def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):
     assert {a["type"] for a in EVERY_KIND["analysis"]} == set(DRAWERS)
     run = tmp_path / "run"
-    path = run_case(cs.Case(copy.deepcopy(EVERY_KIND), "every.toml"), run,
+    path = run_case(cases.Case(copy.deepcopy(EVERY_KIND), "every.toml"), run,
                     progress=lambda m: None)
     drawn = sorted(p.name for p in run.glob("*.png"))
     # one picture per analysis at least, the dti's per output and per contact

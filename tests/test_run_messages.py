@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from models import jenkins_oscillator, normal_oscillator
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.app import structure
 from microslip.pipeline.app.run import _ticker, run_case, time_left
 from microslip.pipeline.results.file import summary
@@ -35,7 +35,7 @@ SDOF = {
 
 def test_undersampled_curves_are_warned_once_on_the_terminal_and_in_show(tmp_path):
     lines: list[str] = []
-    path = run_case(cs.Case(SDOF, "stiff.toml"), tmp_path, progress=lines.append)
+    path = run_case(cases.Case(SDOF, "stiff.toml"), tmp_path, progress=lines.append)
     warnings = [line for line in lines if line.startswith("warning:")]
     assert len(warnings) == 1, lines  # the stiff curve only, once
     w = warnings[0]
@@ -73,7 +73,7 @@ GAP = {
 
 def test_a_curve_that_does_not_depend_on_its_sampling_is_not_warned(tmp_path):
     lines: list[str] = []
-    path = run_case(cs.Case(GAP, "gap.toml"), tmp_path, progress=lines.append)
+    path = run_case(cases.Case(GAP, "gap.toml"), tmp_path, progress=lines.append)
     assert not [line for line in lines if "warning" in line], lines
     assert "warning" not in summary(path)
     import h5py

@@ -12,9 +12,10 @@ import scipy.linalg as sla
 from case_helpers import case_faults
 
 from microslip import geometry
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.app import structure
 from microslip.pipeline.app.run import run_case
+from microslip.pipeline.case import reduction as reduction_table
 from microslip.pipeline.fe import cyclic, fem, linalg, reduction
 
 # The default blisk sector meshed twice as coarse: the stage end to end in a few seconds.
@@ -74,16 +75,16 @@ def test_backend_not_installed_is_named(monkeypatch):
 def test_nodal_diameters_of_an_engine_order():
     # Harmonic n on ND n EO mod Ns, folded onto 0..Ns/2 (by hand: EO 20, Ns 48: 0, 20,
     # 40 -> 8, 60 -> 12).
-    assert structure.needed_nodal_diameters({"engine_order": 20, "harmonics": 3}, 48) == (
+    assert reduction_table.needed_nodal_diameters({"engine_order": 20, "harmonics": 3}, 48) == (
         0, 8, 12, 20)
-    assert structure.needed_nodal_diameters({"engine_order": 3}, 48, range(4)) == (0, 3, 6, 9)
+    assert reduction_table.needed_nodal_diameters({"engine_order": 3}, 48, range(4)) == (0, 3, 6, 9)
     # The case's odd orders 1, 3, 5 under EO 3: 3, 9, 15, and 0 for the static part.
-    assert structure.needed_nodal_diameters({"engine_order": 3}, 48, [1, 3, 5]) == (
+    assert reduction_table.needed_nodal_diameters({"engine_order": 3}, 48, [1, 3, 5]) == (
         0, 3, 9, 15)
-    assert structure.needed_nodal_diameters({"engine_order": 3}, 48) == (0, 3)  # orders 0, 1
-    assert structure.needed_nodal_diameters({"nodal_diameters": [2, 0, 2]}, 48) == (0, 2)
+    assert reduction_table.needed_nodal_diameters({"engine_order": 3}, 48) == (0, 3)  # orders 0, 1
+    assert reduction_table.needed_nodal_diameters({"nodal_diameters": [2, 0, 2]}, 48) == (0, 2)
     with pytest.raises(ValueError, match="nodal_diameter"):
-        structure.needed_nodal_diameters({"nodal_diameters": [13]}, 24)
+        reduction_table.needed_nodal_diameters({"nodal_diameters": [13]}, 24)
 
 
 def test_unknown_sets_bodies_and_patches_fail_before_assembly(monkeypatch):
@@ -102,7 +103,7 @@ def test_unknown_sets_bodies_and_patches_fail_before_assembly(monkeypatch):
 @pytest.fixture(scope="module")
 def stage(tmp_path_factory):
     out = tmp_path_factory.mktemp("reduction")
-    case = cs.Case(copy.deepcopy(CASE), "coarse.toml")
+    case = cases.Case(copy.deepcopy(CASE), "coarse.toml")
     path = run_case(case, out, progress=lambda s: None)
     return case, out, path
 
@@ -126,7 +127,7 @@ def test_stage_reduces_every_body_at_every_nd(stage):
     # Against the unreduced sector (independent: direct eigen-solve of K_h, M_h); the CB
     # default keeps the first ten within 0.1 % (measured here ~1e-4).
     mesh = geometry.blisk_sector(**CASE["geometry"]["parameters"])
-    body = fem.assemble(mesh, "blisk", structure.STEEL)
+    body = fem.assemble(mesh, "blisk", reduction_table.STEEL)
     for h in (0, 5):
         sector = cyclic.sector_model(body, fem.node_set(mesh, "blisk/bore"),
                                      mesh.cyclic["blisk"], h)
@@ -158,7 +159,7 @@ def test_stage_reduces_every_body_at_every_nd(stage):
 def _fixed_interface_frequencies(mesh, body, masters, k):
     """The lowest k frequencies [Hz] of a non-cyclic body with its master vertices held (the
     P2 edge DOFs between them stay free, as in Craig-Bampton), by a direct eigen-solve."""
-    model = fem.assemble(mesh, body, structure.STEEL)
+    model = fem.assemble(mesh, body, reduction_table.STEEL)
     held = model.dofs_of_nodes(masters, "masters").ravel()
     free = np.setdiff1d(np.arange(model.stiffness.shape[0]), held)
     K, M = model.stiffness[free][:, free], model.mass[free][:, free]
@@ -173,7 +174,7 @@ def test_rerun_reuses_unchanged_models(stage, monkeypatch):
     monkeypatch.setattr(fem, "assemble", lambda *a, **k: pytest.fail("re-assembled"))
     data = copy.deepcopy(case.data)
     data["reduction"]["damping"] = {"modal_ratios": 0.002}
-    path = run_case(cs.Case(data, "coarse.toml"), out, progress=lambda s: None)
+    path = run_case(cases.Case(data, "coarse.toml"), out, progress=lambda s: None)
     with h5py.File(path, "r") as f:
         assert f.attrs["status"] == "complete"
         assert len(json.loads(f["reduction"].attrs["cached"])) == 3  # blisk ND 0, 5; damper

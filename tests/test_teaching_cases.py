@@ -7,7 +7,7 @@ import h5py
 import numpy as np
 import pytest
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
 
 CASES = Path(__file__).parents[1] / "cases"
@@ -15,7 +15,7 @@ CASES = Path(__file__).parents[1] / "cases"
 
 def run(name: str, tmp_path_factory, status: str = "complete") -> h5py.File:
     out = tmp_path_factory.mktemp(name)
-    path = run_case(cs.load(CASES / f"{name}.toml"), out, progress=lambda m: None)
+    path = run_case(cases.load(CASES / f"{name}.toml"), out, progress=lambda m: None)
     f = h5py.File(path)
     assert f.attrs["status"] == status, f.attrs["message"]
     return f

@@ -9,17 +9,17 @@ from collections.abc import Callable
 
 import numpy as np
 
+from microslip.pipeline.case import Case, curve_variants, operating_point
 from microslip.pipeline.results import schema
 from microslip.pipeline.solve.hbm import OperatingPoint
 
-from . import case as cs
 from .models import CoupledModels
 from .solutions import response_measure
 
 Progress = Callable[[str], None]
 
 
-def linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
+def linear_limits(models: CoupledModels, case: Case, a: dict, w, group,
                    store, progress: Progress, name: str) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
     directly (linear): written beside the curves (the pictures draw them with them). The
@@ -28,8 +28,8 @@ def linear_limits(models: CoupledModels, case: cs.Case, a: dict, w, group,
     measure = a.get("measure", "peak")
     ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
     variants = {}  # mass multiplier -> (case variant, coupled model, operating point)
-    for c, _, _ in cs.curve_variants(case, a):
-        point = cs.operating_point(a, c)
+    for c, _, _ in curve_variants(case, a):
+        point = operating_point(a, c)
         variants.setdefault(point.mass_multiplier, (c, point))
     masses = sorted(variants)
     # the free limit is the cyclic bodies alone: drawn only where every output is on them

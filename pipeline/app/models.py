@@ -9,10 +9,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from microslip.pipeline.case import Case, coupling, harmonics, lumped_model
 from microslip.pipeline.solve.hbm import HarmonicBalance
-
-from . import case as cs
-from . import coupled
 
 if TYPE_CHECKING:
     from microslip.pipeline.coupling.model import CoupledModel
@@ -21,13 +19,13 @@ if TYPE_CHECKING:
 class LumpedModels:
     """A [model] case: its DOFs are its outputs."""
 
-    def model(self, case: cs.Case) -> HarmonicBalance:
-        return cs.model(case)
+    def model(self, case: Case) -> HarmonicBalance:
+        return lumped_model(case)
 
-    def names(self, case: cs.Case) -> list[str]:
+    def names(self, case: Case) -> list[str]:
         return case.dofs
 
-    def selection(self, case: cs.Case, names: list[str]) -> list[int]:
+    def selection(self, case: Case, names: list[str]) -> list[int]:
         """DOF indices (what Response.coefficients and peak_curve take)."""
         return [case.dofs.index(n) for n in names]
 
@@ -43,7 +41,7 @@ class CoupledModels:
         self.structure = structure
         self._built: dict[str, CoupledModel] = {}
 
-    def coupled(self, case: cs.Case) -> CoupledModel:
+    def coupled(self, case: Case) -> CoupledModel:
         from microslip.pipeline.coupling.assemble import couple  # the FE stages, when needed
 
         # the mass and excitation multipliers enter per operating point (hb.linear's mass
@@ -57,17 +55,17 @@ class CoupledModels:
                 self._built.pop(next(iter(self._built)))
             self._built[key] = couple(
                 self.mesh, self.structure.models, self.structure.patch_stiffness,
-                coupled.spec(case.data, tuple(self.mesh.cyclic)), cs.harmonics(case),
+                coupling.spec(case.data, tuple(self.mesh.cyclic)), harmonics(case),
                 sub_sample=case.data.get("solver", {}).get("sub_sample", True))
         return self._built[key]
 
-    def model(self, case: cs.Case) -> HarmonicBalance:
+    def model(self, case: Case) -> HarmonicBalance:
         return self.coupled(case).hb
 
-    def names(self, case: cs.Case) -> list[str]:
-        return coupled.output_names(case.data)
+    def names(self, case: Case) -> list[str]:
+        return coupling.output_names(case.data)
 
-    def selection(self, case: cs.Case, names: list[str]) -> np.ndarray:
+    def selection(self, case: Case, names: list[str]) -> np.ndarray:
         """(n_outputs, n_dof) rows of the named outputs over the shared DOFs."""
         rows = self.coupled(case).outputs
         return np.array([rows[n] for n in names])

@@ -13,8 +13,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import case as cs
-from .checks import memory_text
+from microslip.pipeline.case import Case, curve_variants, harmonics, operating_point, sizes
+from microslip.pipeline.solve.memory import memory_text
+
 from .store import CurveStore
 
 #: Measured anchors of the estimates (two cores): a Craig-Bampton model per 1000 vertex nodes
@@ -42,7 +43,7 @@ class Stage:
     detail: str = ""
 
 
-def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
+def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
     """The stages of a run of ``case`` into ``out`` (see the module); ``cache`` False: the
     curves are computed afresh (``run --no-cache``)."""
     stages: list[Stage] = []
@@ -56,27 +57,27 @@ def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
                             f"{mesh.points.shape[0]} nodes, {mesh.tetrahedra.shape[0]} "
                             "tetrahedra; every run"))
         if "reduction" in data:
-            orders = cs.harmonics(case).orders if "harmonics" in data else None
+            orders = harmonics(case).orders if "harmonics" in data else None
             stages += _reduction(mesh, data["reduction"], out / "models", orders,
-                                 cs.wants_shapes(data))
+                                 case.draws_shapes)
     store = CurveStore(out / "cache" / "curves" if cache else None)
-    sizes = {s.analysis: s for s in cs.sizes(data)}
+    by_name = {s.analysis: s for s in sizes(data)}
     from .run import frf_key
 
     for i, a in enumerate(case.analyses):
         name = str(a.get("name", f"analysis{i}"))
-        size = sizes.get(name)
+        size = by_name.get(name)
         unknowns = size.unknowns if size else 0
         nbytes = size.nbytes if size else 0
         kind = a["type"]
         if kind not in ("frf", "peak"):
             stages.append(Stage(f"{name}: {kind}", False, 0.0, nbytes, "not cached (short)"))
             continue
-        samples = cs.harmonics(case).n_samples if "harmonics" in data else 64
+        samples = harmonics(case).n_samples if "harmonics" in data else 64
         t_point = _point_seconds(unknowns, samples)
         methods = a.get("method", "arclength") if kind == "frf" else "continuation"
         methods = methods if isinstance(methods, list) else [methods]
-        for j, (c, label, _) in enumerate(cs.curve_variants(case, a)):
+        for j, (c, label, _) in enumerate(curve_variants(case, a)):
             for method in methods:
                 if kind == "frf":
                     cached = store.has(frf_key(store, c, a, method))
@@ -90,8 +91,8 @@ def plan(case: cs.Case, out: Path, cache: bool = True) -> list[Stage]:
                                     f"{unknowns:,} unknowns"))
         if "coupling" in data and kind == "frf" and a.get("parameter", "frequency") == \
                 "frequency":
-            masses = {cs.operating_point(a, c).mass_multiplier
-                      for c, _, _ in cs.curve_variants(case, a)}
+            masses = {operating_point(a, c).mass_multiplier
+                      for c, _, _ in curve_variants(case, a)}
             seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** 2
             stages.append(Stage(f"{name}: linear limits (free, stuck x {len(masses)})", False,
                                 seconds * (1 + len(masses)), 0,
@@ -111,9 +112,8 @@ def _reduction(mesh, red: dict, cache: Path, orders, surfaces: bool = False) -> 
     """Per body and nodal diameter: the reduced model's cache file exists, or it runs."""
     import numpy as np
 
+    from microslip.pipeline.case.reduction import body_specs, needed_nodal_diameters
     from microslip.pipeline.fe import reduction
-
-    from .structure import body_specs, needed_nodal_diameters
 
     sectors = {b.sectors for b in mesh.cyclic.values()}
     nds = needed_nodal_diameters(red, max(sectors), orders) if sectors else (0,)
@@ -145,9 +145,8 @@ def _with_reference(spec, mesh, red: dict, nds, cache: Path, surfaces: bool = Fa
     (cached) models."""
     from dataclasses import replace
 
+    from microslip.pipeline.case.reduction import body_specs
     from microslip.pipeline.fe import reduction
-
-    from .structure import body_specs
 
     models = [reduction.ReducedModel.load(reduction.model_path(mesh, s, h, cache))
               for s in body_specs(mesh, red, surfaces) if s.body in mesh.cyclic for h in nds]

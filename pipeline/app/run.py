@@ -14,6 +14,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from microslip.pipeline.case import (
+    Case,
+    contact_elements,
+    curve_variants,
+    harmonics,
+    lumped_model,
+    operating_point,
+    settings,
+)
 from microslip.pipeline.draw import pictures
 from microslip.pipeline.draw.maps import EDGES
 from microslip.pipeline.friction import warm_up
@@ -26,7 +35,6 @@ from microslip.pipeline.solve.response import (
     sweep,
 )
 
-from . import case as cs
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
@@ -46,7 +54,7 @@ class StageFailed(RuntimeError):
     and what to change): the run ends ``failed``, exit 1."""
 
 
-def run_case(case: cs.Case, out_dir: str | Path, progress: Progress = print,
+def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
              cache: bool = True) -> Path:
     """Compute every analysis of ``case`` into ``out_dir``; returns results.h5.
 
@@ -149,7 +157,7 @@ def write_contact_grids(w: ResultsWriter, mesh) -> None:
                        "high_edge": grid.high_edge, "high_edge_name": EDGES[grid.high_edge]})
 
 
-def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
+def write_structure(w: ResultsWriter, mesh, case: Case, out: Path,
                     progress: Progress = print) -> StructureResult:
     """The [reduction] stage: reduced models in out/models (reused when unchanged) and their
     summary in results.h5 /reduction/<body>/nd<h> (frequencies of the reduced model with free
@@ -160,8 +168,8 @@ def write_structure(w: ResultsWriter, mesh, case: cs.Case, out: Path,
     from .structure import reduce_structure  # imports the FE stages only when needed
 
     t = time.perf_counter()
-    orders = cs.harmonics(case).orders if "harmonics" in case.data else None
-    shapes = cs.wants_shapes(case.data)
+    orders = harmonics(case).orders if "harmonics" in case.data else None
+    shapes = case.draws_shapes
     try:
         result = reduce_structure(mesh, case.data["reduction"], out / "models", orders,
                                   progress, surfaces=shapes)
@@ -207,7 +215,7 @@ def write_surfaces(w: ResultsWriter, mesh) -> None:
     w.write_group(w.file, schema.SURFACES, groups, {"sectors": sectors[0] if sectors else 0})
 
 
-def _outputs(case: cs.Case, a: dict, models=None) -> tuple[list[str], object]:
+def _outputs(case: Case, a: dict, models=None) -> tuple[list[str], object]:
     """(output names, their selection: DOF indices or rows of the shared DOFs)."""
     models = models or LumpedModels()
     names = a.get("outputs", models.names(case))
@@ -288,7 +296,7 @@ def _patch_data(states: list[dict[str, PatchState]]) -> dict:
             for p in states[0]}
 
 
-def frf_key(store: CurveStore, c: cs.Case, a: dict, method: str) -> str:
+def frf_key(store: CurveStore, c: Case, a: dict, method: str) -> str:
     """The store key of one FRF branch; deformed shapes at its map points are part of what
     it computes."""
     return store.key(c.data, a, method=method, curve="frf",
@@ -303,7 +311,7 @@ def run_frf(case, a, name, w, group, out, progress, models, store):
     keys: list[str] = []
     hits = store.hits
     j = 0
-    for c, label, value in cs.curve_variants(case, a):
+    for c, label, value in curve_variants(case, a):
         for method in methods:
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
@@ -366,7 +374,7 @@ def _stored_curve(store: CurveStore, key: str, group, cname: str, what: str,
     return status, message
 
 
-def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w, group,
+def _frf_curve(c: Case, a: dict, method: str, tag: str, value, which: str, w, group,
                cname: str, progress: Progress, models) -> tuple[str, str]:
     """Compute one FRF branch (and its map points) into ``group[cname]``; (status,
     message)."""
@@ -379,10 +387,10 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
         start, stop = stop, start
     hb = models.model(c)
     t = time.perf_counter()
-    base = cs.operating_point(a, c).set(par, start)
+    base = operating_point(a, c).set(par, start)
     r = sweep(hb, par, start, stop, base,
               method="natural" if method.startswith("natural") else method,
-              settings=cs.settings(c), progress=_ticker(progress, which, start, stop))
+              settings=settings(c), progress=_ticker(progress, which, start, stop))
     elapsed = time.perf_counter() - t
     b = r.branch
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
@@ -414,7 +422,7 @@ def _frf_curve(c: cs.Case, a: dict, method: str, tag: str, value, which: str, w,
         data[schema.PATCHES] = _patch_data([patch_states(names_c, cm.points, p)
                                        for p in per_point])
         if wanted and b.status != "interrupted":
-            sols = map_solutions(r, wanted, idx, measure, cs.settings(c))
+            sols = map_solutions(r, wanted, idx, measure, settings(c))
             shapes = "shape" in a.get("map_types", [])
             data[schema.MAPS] = map_groups(cm, r, sols, idx, measure,
                                        bool(a.get("normalise", False)),
@@ -459,7 +467,7 @@ def run_peak(case, a, name, w, group, out, progress, models, store):
     statuses = []
     keys: list[str] = []
     hits = store.hits
-    for j, (c, label, fvalue) in enumerate(cs.curve_variants(case, a)):
+    for j, (c, label, fvalue) in enumerate(curve_variants(case, a)):
         key = store.key(c.data, a, curve="peak")
         keys.append(key)
         cname = schema.curve(j)
@@ -480,7 +488,7 @@ def run_peak(case, a, name, w, group, out, progress, models, store):
             for k in (schema.LEVEL_FREE, schema.LEVEL_STUCK):
                 if k in group:
                     del group[k]
-            peak_levels(models.coupled(c), cs.operating_point({"start": a["window"][0]}, c),
+            peak_levels(models.coupled(c), operating_point({"start": a["window"][0]}, c),
                          par, _peak_values(a), a["output"], tuple(a["window"]),
                          a.get("measure", "peak") == "vibration", w, group, progress, name)
             store.save(key + "f", group[schema.LEVEL_FREE])
@@ -495,7 +503,7 @@ def _peak_values(a: dict) -> np.ndarray:
     return space(a["start"], a["stop"], a.get("points", 25))
 
 
-def _peak_curve(c: cs.Case, a: dict, label: str, fvalue, name: str, w, group, cname: str,
+def _peak_curve(c: Case, a: dict, label: str, fvalue, name: str, w, group, cname: str,
                 progress: Progress, models) -> tuple[str, str]:
     """One peak curve (a family value's) into ``group[cname]``; (status, message)."""
     par = a["parameter"]
@@ -504,13 +512,13 @@ def _peak_curve(c: cs.Case, a: dict, label: str, fvalue, name: str, w, group, cn
     lo, hi = a["window"]
     vibration = a.get("measure", "peak") == "vibration"
     hb = models.model(c)
-    base = cs.operating_point({"start": lo}, c)
+    base = operating_point({"start": lo}, c)
     t = time.perf_counter()
     tick = _peak_ticker(progress, name, label, par)
     statuses = []
     if a.get("tracking", "continuation") == "continuation":
         try:
-            pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=cs.settings(c),
+            pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=settings(c),
                             progress=tick, vibration=vibration)
         except KeyboardInterrupt:
             return "interrupted", "interrupted by the user"
@@ -521,7 +529,7 @@ def _peak_curve(c: cs.Case, a: dict, label: str, fvalue, name: str, w, group, cn
     else:
         omega, amp, done, how = [], [], [], []
         for i, v in enumerate(values):
-            r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=cs.settings(c))
+            r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=settings(c))
             if r.branch.status == "interrupted":
                 statuses.append(("interrupted", r.branch.message))
                 break
@@ -545,7 +553,7 @@ def _peak_curve(c: cs.Case, a: dict, label: str, fvalue, name: str, w, group, cn
 def run_loops(case, a, name, w, group, out, progress, models=None, store=None):
     table = next(c for c in case.data["contacts"] if c.get("name") == a["contact"])
     amps = np.asarray(a["amplitudes"], dtype=float)
-    base = cs.contact_elements(table)
+    base = contact_elements(table)
     el = type(base)(base.law, np.repeat(base.kt, amps.size, 0), np.repeat(base.kn, amps.size),
                     np.repeat(base.mu, amps.size), np.repeat(base.n0, amps.size), base.coupled)
     h = Harmonics([0, 1], a.get("samples", 512))
@@ -570,12 +578,12 @@ def run_loops(case, a, name, w, group, out, progress, models=None, store=None):
     return "complete", ""
 
 
-def _time_model(case: cs.Case, a: dict):
+def _time_model(case: Case, a: dict):
     """(case as set, HB model, output names, indices, time model, load steps)."""
     from microslip.pipeline.solve import dti
 
     c = case.with_values(a.get("set", {}))
-    hb = cs.model(c)
+    hb = lumped_model(c)
     names, idx = _outputs(c, a)
     tm = dti.TimeModel.from_harmonic_balance(hb)
     loads = dti.LoadSteps.from_excitation(

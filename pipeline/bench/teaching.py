@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microslip.pipeline.app import case as cs
+from microslip.pipeline.case import Case, load, lumped_model, settings
 from microslip.pipeline.solve import dti
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import sweep
@@ -51,14 +51,14 @@ SPP_TABLE = (32, 64, 128, 256, 512, 1024)
 LOOSE = 1e-3  # the looser accuracy of the second comparison (0.1 %)
 
 
-def _coupled(case: cs.Case) -> tuple[cs.Case, dict]:
+def _coupled(case: Case) -> tuple[Case, dict]:
     a = next(x for x in case.analyses if x["name"] == "fig16")
     fam = a["family"]
     i = next(i for i, v in enumerate(fam["values"]) if v.startswith("coupled"))
     return case.with_values(fam["sets"][i]), a
 
 
-def _loads(case: cs.Case, hb) -> dti.LoadSteps:
+def _loads(case: Case, hb) -> dti.LoadSteps:
     a = next(x for x in case.analyses if x["type"] == "dti")
     return dti.LoadSteps.from_excitation(
         hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
@@ -66,15 +66,15 @@ def _loads(case: cs.Case, hb) -> dti.LoadSteps:
 
 
 def frf_table(repeat: int, unit: float, dti_points: int) -> list[str]:
-    base = cs.load(CASE)
+    base = load(CASE)
     case, a = _coupled(base)
-    hb = cs.model(case)
+    hb = lumped_model(case)
     k = case.dofs.index(OUTPUT)
     keep = {}
 
     def hbm_frf():
         keep["r"] = sweep(hb, "frequency", a["start"], a["stop"], OperatingPoint(a["start"]),
-                          settings=cs.settings(case))
+                          settings=settings(case))
 
     t_hbm = median_time(hbm_frf, repeat)
     r = keep["r"]

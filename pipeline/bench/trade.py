@@ -107,12 +107,17 @@ def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
 
 def measure(data: dict, source: str) -> dict:
     """One setting, cold, in this process: times [s], peak, sizes and peak memory [MB]."""
-    from microslip.pipeline.app import case as cs
     from microslip.pipeline.app.limits import linear_peak
     from microslip.pipeline.app.models import CoupledModels
     from microslip.pipeline.app.run import mesh_geometry
     from microslip.pipeline.app.solutions import map_solutions, response_at, response_measure
     from microslip.pipeline.app.structure import reduce_structure
+    from microslip.pipeline.case import (
+        Case,
+        harmonics,
+        operating_point,
+        settings,
+    )
     from microslip.pipeline.friction import warm_up
     from microslip.pipeline.solve.response import sweep
 
@@ -120,22 +125,22 @@ def measure(data: dict, source: str) -> dict:
         pass
 
     warm_up(quiet)  # the contact kernels load from numba's cache: not the setting's cost
-    case = cs.Case(data, source)
+    case = Case(data, source)
     a = case.analyses[0]
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         mesh = mesh_geometry(data["geometry"], Path(tmp), quiet, pictures=False)
         t1 = time.perf_counter()
         structure = reduce_structure(mesh, data["reduction"], Path(tmp) / "models",
-                                     cs.harmonics(case).orders, quiet)
+                                     harmonics(case).orders, quiet)
         t2 = time.perf_counter()
         models = CoupledModels(mesh, structure)
         hb = models.model(case)
         rows = models.selection(case, a["outputs"])
         t3 = time.perf_counter()
-        base = cs.operating_point(a, case).set("frequency", a["start"])
-        r = sweep(hb, "frequency", a["start"], a["stop"], base, settings=cs.settings(case))
-        found = map_solutions(r, ["peak"], rows, "vibration", cs.settings(case))
+        base = operating_point(a, case).set("frequency", a["start"])
+        r = sweep(hb, "frequency", a["start"], a["stop"], base, settings=settings(case))
+        found = map_solutions(r, ["peak"], rows, "vibration", settings(case))
         t4 = time.perf_counter()
         # the fully stuck and free linear peaks of the same model (not timed): they split
         # a setting's change into the linear model's (mesh, modes) and the friction's
@@ -306,18 +311,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="folder for trade.json and trade.png")
     args = parser.parse_args(argv)
-    from microslip.pipeline.app import case as cs
+    from microslip.pipeline.case import (
+        CaseError,
+        check,
+        load,
+        settings,
+    )
 
     try:
         settings = _pick(args.only)
         if not 0 < args.start < args.stop:
             raise ValueError(f"--start {args.start:g}, --stop {args.stop:g}: expected "
                              "0 < start < stop")
-        base = cs.load(args.case).data
+        base = load(args.case).data
         datas = [case_data(base, s, args.start, args.stop) for s in settings]
         for d in datas:
-            cs.check(d, str(args.case))
-    except (ValueError, cs.CaseError) as err:
+            check(d, str(args.case))
+    except (ValueError, CaseError) as err:
         print(f"microslip bench trade: {err}", file=sys.stderr)
         return 2
     print(f"{len(settings)} settings of {args.case}, FRF {args.start:g}..{args.stop:g} rad/s, "

@@ -16,14 +16,24 @@ from functools import cached_property
 
 import numpy as np
 
+#: Time samples per period of the highest harmonic: 16 resolve the stick-slip transitions
+#: of the return map (the speed/accuracy table of ``microslip bench core``). Powers of two
+#: nest (every sample of N is one of 2 N), so results converge as samples double.
+SAMPLES_PER_ORDER = 16
+#: The default's floor: 64 samples per period below H = 3.
+LEAST_DEFAULT_SAMPLES = 64
+
+
+def least_samples(max_order: int) -> int:
+    """The fewest time samples per period allowed for harmonics up to ``max_order``: the
+    smallest power of two >= SAMPLES_PER_ORDER (max_order + 1)."""
+    return 1 << (SAMPLES_PER_ORDER * (max_order + 1) - 1).bit_length()
+
 
 def default_samples(max_order: int) -> int:
-    """Samples per period for harmonics up to ``max_order``: a power of two,
-    at least 16 per period of the highest harmonic and never below 64, so that
-    the stick-slip transitions of a return map are resolved (see the
-    speed/accuracy table of ``microslip bench core``)."""
-    need = max(64, 16 * (max_order + 1))
-    return int(2 ** int(np.ceil(np.log2(need))))
+    """Samples per period when a case gives none: :func:`least_samples`, never below
+    LEAST_DEFAULT_SAMPLES (both powers of two)."""
+    return max(LEAST_DEFAULT_SAMPLES, least_samples(max_order))
 
 
 class Harmonics:

@@ -1,0 +1,138 @@
+"""Models from a validated lumped case: the harmonics, the solver settings, each contact's
+elements and kinematic rows (the reference text's eqs. 21-23), the harmonic-balance model,
+the operating point and the case as each curve of an analysis sees it."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from microslip.pipeline.friction.harmonics import Harmonics, default_samples
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.solve.continuation import Settings
+from microslip.pipeline.solve.hbm import (
+    Contact,
+    Excitation,
+    HarmonicBalance,
+    LinearDynamics,
+    OperatingPoint,
+)
+
+from .validate import has_lag
+
+if TYPE_CHECKING:
+    from .validated import Case
+
+
+def harmonics(case: Case) -> Harmonics:
+    """The harmonics of a case: orders 0..max or the orders given, and its samples."""
+    return harmonics_of(case.data)
+
+
+def harmonics_of(data: Mapping[str, Any]) -> Harmonics:
+    """The harmonics of a case table (see :func:`harmonics`)."""
+    h = data.get("harmonics", {})
+    orders = h.get("orders", list(range(h.get("max", 1) + 1)))
+    return Harmonics(orders, h.get("samples", default_samples(max(orders))))
+
+
+def settings(case: Case) -> Settings:
+    s = {k: v for k, v in case.data.get("solver", {}).items() if k != "sub_sample"}
+    return Settings(**s)
+
+
+def as_matrix(value, n: int) -> np.ndarray:
+    arr = np.array(value, dtype=float)
+    return np.diag(arr) if arr.ndim == 1 else arr
+
+
+def kinematic_row(combo: dict, index: dict[str, int], n: int, order: int = 0) -> np.ndarray:
+    """Kinematic row at harmonic ``order``: a lag of a fraction of the period
+    multiplies harmonic n by exp(-2 pi i n lag)."""
+    r = np.zeros(n, dtype=complex)
+    for d, coef in combo.items():
+        if isinstance(coef, dict):
+            r[index[d]] += coef.get("coef", 1.0) * np.exp(-2j * np.pi * order
+                                                          * coef.get("lag", 0.0))
+        else:
+            r[index[d]] += coef
+    return r
+
+
+def contact_elements(c: dict) -> ContactElements:
+    """ContactElements of one [[contacts]] table (one point)."""
+    coupled = c.get("form", "uncoupled") == "coupled"
+    kw = dict(kt=np.atleast_1d(np.array(c["kt"], dtype=float))[None, :], mu=c["mu"],
+              coupled=coupled, kn=c.get("kn", 0.0), n_points=1)
+    if "interference" in c:
+        kw["interference"] = c["interference"]
+    else:
+        kw["n0"] = c["n0"]
+    return ContactElements.create(c["law"], **kw)
+
+
+def lumped_model(case: Case) -> HarmonicBalance:
+    """The harmonic-balance model of a lumped case."""
+    m = case.data["model"]
+    dofs = case.dofs
+    n = len(dofs)
+    index = {d: i for i, d in enumerate(dofs)}
+    h = harmonics(case)
+    lin = LinearDynamics.create(
+        as_matrix(m["stiffness"], n), as_matrix(m["mass"], n),
+        as_matrix(m.get("damping", np.zeros(n)), n), harmonics=h,
+        mass_part=as_matrix(m["mass_part"], n) if "mass_part" in m else None)
+    contacts = []
+    for i, c in enumerate(case.data.get("contacts", [])):
+        if not c.get("enabled", True):
+            continue
+        el = contact_elements(c)
+        keys = ["u"] if el.dim == 1 else ["u1", "u2"]
+        if el.variable_normal:
+            keys.append("v")
+        if has_lag({"contacts": [c]}):
+            B = {o: np.array([kinematic_row(c[k], index, n, o) for k in keys]) for o in h.orders}
+        else:
+            B = np.array([kinematic_row(c[k], index, n).real for k in keys])
+        contacts.append(Contact(c.get("name", f"contact{i}"), el, B))
+    forces: dict[int, np.ndarray] = {}
+    for load in case.data.get("loads", []):
+        o = load.get("harmonic", 1)
+        f = forces.setdefault(o, np.zeros(n, dtype=complex))
+        f[index[load["dof"]]] += load["amplitude"] * np.exp(1j * np.deg2rad(load.get("phase",
+                                                                                     0.0)))
+    sub = case.data.get("solver", {}).get("sub_sample", True)
+    return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=sub)
+
+
+def operating_point(analysis: dict, case: Case | None = None) -> OperatingPoint:
+    """The fixed values of the parameters an analysis does not sweep (a coupled case's
+    damper mass multiplier and excitation multiplier from [coupling] mass_multiplier and
+    excitation)."""
+    par = analysis.get("parameter", "frequency")
+    omega = analysis["start"] if par == "frequency" else analysis["frequency"]
+    table = {} if case is None else case.data.get("coupling", {})
+    return OperatingPoint(float(omega), excitation=float(table.get("excitation", 1.0)),
+                          mass_multiplier=float(table.get("mass_multiplier", 1.0)))
+
+
+def curve_variants(case: Case, a: dict) -> list[tuple[Case, str, object]]:
+    """(case variant, label, family value) per curve of an analysis: its ``set`` applied,
+    then each family value or table."""
+    case = case.with_values(a.get("set", {}))
+    fam = a.get("family")
+    if not fam:
+        return [(case, "", None)]
+    if "sets" in fam:
+        return [(case.with_values(s), str(v), v) for v, s in zip(fam["values"], fam["sets"])]
+    label = fam.get("label", fam["key"])
+    return [(case.with_value(fam["key"], v), _value_label(label, v), v) for v in fam["values"]]
+
+
+def _value_label(label: str, v: float) -> str:
+    """("N0 [N]", 0.02) -> "N0 = 0.02 N": a legend reads the value with its unit."""
+    name, _, unit = label.partition(" [")
+    unit = unit.removesuffix("]")
+    return f"{name} = {v:g}" + (f" {unit}" if unit not in ("", "-") else "")

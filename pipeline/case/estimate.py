@@ -1,0 +1,192 @@
+"""What a valid case will need before anything is built: the unknowns and peak memory of
+each analysis (:func:`sizes`, refused by check when above the memory available), and the
+notes on contacts stiffer than the time sampling resolves (:func:`notes`)."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from microslip.pipeline.friction.laws import LAWS
+from microslip.pipeline.solve.continuation import Settings
+from microslip.pipeline.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
+from microslip.pipeline.solve.memory import (
+    ContactShape,
+    available_memory,
+    balance_bytes,
+    memory_text,
+)
+
+from .build import as_matrix, harmonics_of, kinematic_row
+from .checks import is_int
+from .paths import set_path
+
+
+@dataclass(frozen=True)
+class Size:
+    """What one analysis will hold: the real unknowns of its harmonic balance (of a time
+    integration: the DOFs; loops prescribe the motion and have none) and its peak memory."""
+
+    analysis: str
+    unknowns: int
+    nbytes: int
+    detail: str = ""  # what sets the size (for a refusal)
+
+    def __str__(self) -> str:
+        what = f"{self.unknowns:,} unknowns" if self.unknowns else "no unknowns (prescribed motion)"
+        return f"{self.analysis}, {what}, {memory_text(self.nbytes)}"
+
+
+def sizes(data: dict) -> list[Size]:
+    """Per analysis of a valid case, the estimate for its largest curve (its ``set``, then
+    each ``family`` value or table applied), from the case's numbers alone: nothing is
+    built, so check and run refuse what will not fit before any work."""
+    out = []
+    for i, a in enumerate(data.get("analysis", [])):
+        name = str(a.get("name", i))
+        out.append(max((_size(name, v, a) for v in _variants(data, a)),
+                       key=lambda s: s.nbytes))
+    return out
+
+
+def memory_faults(data: dict, out: list[str]) -> None:
+    """A fault per analysis whose estimate exceeds the memory available now."""
+    limit = available_memory()
+    for s in sizes(data) if limit is not None else []:
+        if s.nbytes > limit:
+            out.append(f"analysis.{s.analysis}: needs {memory_text(s.nbytes)} "
+                       f"({s.unknowns:,} real unknowns: {s.detail}) but "
+                       f"{limit / 1e9:.1f} GB of memory is available; lower harmonics.max "
+                       "(or harmonics.orders), harmonics.samples or the contact DOFs")
+
+
+def _variants(data: dict, a: dict) -> list[dict]:
+    """The case as each curve of analysis ``a`` sees it."""
+    base = copy.deepcopy({k: v for k, v in data.items() if k != "analysis"})
+    for key, value in a.get("set", {}).items():
+        set_path(base, key, value, create=True)
+    fam = a.get("family") or {}
+    tables = fam.get("sets", [])
+    if "key" in fam:
+        tables = [{fam["key"]: v} for v in fam["values"]]
+    variants = []
+    for table in tables:
+        v = copy.deepcopy(base)
+        for key, value in table.items():
+            set_path(v, key, value, create=True)
+        variants.append(v)
+    return variants or [base]
+
+
+def _size(name: str, data: dict, a: dict) -> Size:
+    kind = a.get("type")
+    if kind in ("dti", "transient"):  # a handful of dense DOF x DOF matrices
+        n = len(data["model"]["dofs"])
+        return Size(name, n, 8 * 8 * n * n, f"{n} DOFs, time integration")
+    if kind == "loops":  # one law at orders 0, 1 under a prescribed motion, per amplitude
+        c = next(c for c in data["contacts"] if c.get("name") == a["contact"])
+        d, variable = LAWS[c["law"]]
+        shape = ContactShape(len(a["amplitudes"]), d + variable, d, 0)
+        nbytes = balance_bytes(0, 0, 2, 3, a.get("samples", 512), [shape], 1, CACHE_LIMIT)
+        return Size(name, 0, nbytes, "prescribed motion")
+    if "coupling" in data:
+        contact_dofs, shapes = _patch_contacts(data)
+        linear_dofs = contact_dofs  # a lower bound: the modes and other masters come later
+    else:
+        contact_dofs, shapes = _lumped_contacts(data)
+        linear_dofs = len(data["model"]["dofs"])
+    h = harmonics_of(data)
+    points = data.get("solver", {}).get("max_points", Settings().max_points)
+    nbytes = balance_bytes(contact_dofs, linear_dofs, len(h.orders), h.n_coeffs, h.n_samples,
+                           shapes, points, CACHE_LIMIT)
+    detail = (f"{contact_dofs:,} contact DOF(s) x {h.n_coeffs:,} coefficients, H = "
+              f"{max(h.orders)}, {h.n_samples:,} samples per period")
+    return Size(name, contact_dofs * h.n_coeffs, nbytes, detail)
+
+
+def _lumped_contacts(data: dict) -> tuple[int, list[ContactShape]]:
+    """(DOFs any enabled contact touches, one shape per contact) of a lumped case."""
+    touched: set[str] = set()
+    shapes = []
+    for c in data.get("contacts", []):
+        if not c.get("enabled", True):
+            continue
+        d, variable = LAWS[c["law"]]
+        keys = (["u"] if d == 1 else ["u1", "u2"]) + (["v"] if variable else [])
+        mine = {dof for k in keys for dof in c[k]}
+        shapes.append(ContactShape(1, len(keys), d, len(mine)))
+        touched |= mine
+    return len(touched), shapes
+
+
+def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
+    """(contact DOFs, shapes) of a coupled case from its contact grids, known before meshing:
+    a patch has n_axial x n_flank node pairs, each pair a node of each body (3 DOFs each)."""
+    from microslip import geometry
+
+    geo = data["geometry"]
+    given = geo.get("parameters", {})
+    fields = {f.name: f.default for f in dataclasses.fields(geometry.PARAMETERS[geo["model"]])}
+
+    def count(key: str) -> int:
+        v = given.get(key, fields[key])
+        return v if is_int(v) and v > 0 else fields[key]  # a bad value is refused at meshing
+
+    pairs = count("contact_n_axial") * count("contact_n_flank")
+    shapes = []
+    for c in data["coupling"]["contacts"]:
+        if c.get("elements", "2D") == "2D":
+            shapes.append(ContactShape(pairs, 3, 2, 6))
+        else:  # two law-B elements (t1 or t2, and n)
+            shapes += [ContactShape(pairs, 2, 1, 6)] * 2
+    return 6 * pairs * len(data["coupling"]["contacts"]), shapes
+
+
+def notes(data: dict) -> list[str]:
+    """Remarks on a valid lumped case that are not faults: a contact so much stiffer than
+    the structure it touches that the time sampling, not the contact, sets the accuracy.
+
+    After a reversal of u = U cos(theta) a Jenkins contact sticks until u has come back
+    2 u_s, u_s = mu N / kt: an arc theta_s ~ 2 sqrt(u_s / U). Where friction matters the
+    motion is of the order of the friction force's displacement on the structure,
+    U ~ mu N / k, so theta_s ~ 2 sqrt(k / kt). A transition placed one sample (2 pi / ns)
+    off moves u by U theta_s 2 pi / ns; against the stick range 2 u_s that is a relative
+    error of the hysteresis ~ (2 pi / ns) sqrt(kt / k). It reaches 1, the whole stick arc
+    inside two samples (what the laws count as ``undersampled``), at
+    kt / k = (ns / 2 pi)^2: above, the results go to the stuck-spring limit (still
+    converging) at an accuracy the samples set. k is the structure's stiffness along the
+    contact's motion, b K b^T (the other DOFs held: the larger, so no false note)."""
+    if "model" not in data or not any(a.get("type") in ("frf", "peak")
+                                      for a in data.get("analysis", [])):
+        return []
+    dofs = data["model"]["dofs"]
+    index = {d: i for i, d in enumerate(dofs)}
+    K = as_matrix(data["model"]["stiffness"], len(dofs))
+    ns = harmonics_of(data).n_samples
+    limit = (ns / (2 * np.pi)) ** 2
+    out = []
+    for i, c in enumerate(data.get("contacts", [])):
+        if not c.get("enabled", True):
+            continue
+        name = c.get("name", f"contact{i}")
+        d, variable = LAWS[c["law"]]
+        kt = np.broadcast_to(np.asarray(c["kt"], dtype=float), (d,))
+        springs = [(f"kt{'' if d == 1 else f'[{j}]'}", kt[j], k)
+                   for j, k in enumerate(["u"] if d == 1 else ["u1", "u2"])]
+        springs += [("kn", c["kn"], "v")] if variable else []
+        for key, stiff, motion in springs:
+            b = kinematic_row(c[motion], index, len(dofs)).real
+            k = float(b @ K @ b)
+            if k <= 0 or stiff / k <= limit:
+                continue
+            need = 1 << int(np.ceil(np.log2(2 * np.pi * np.sqrt(stiff / k))))
+            out.append(f"contacts.{name}.{key} = {stiff:g} N/m is {stiff / k:.3g} x the "
+                       f"structure's stiffness along {motion} ({k:g} N/m), above "
+                       f"(samples / 2 pi)^2 = {limit:.0f} for {ns} samples per period: the stick "
+                       "arc after a reversal falls inside two samples, so the results tend to "
+                       "the stuck-spring limit at an accuracy the sampling sets; "
+                       f"harmonics.samples = {need:,} would resolve it")
+    return out

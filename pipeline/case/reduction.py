@@ -1,0 +1,285 @@
+"""The [reduction] table of a case: validated before any meshing, and read into the body
+specs and patch stiffnesses the structural stage (app.structure) reduces.
+
+The table (all keys optional but one of ``nodal_diameters`` or
+``engine_order``):
+
+    nodal_diameters = [0, 1, 2, 3]   # explicit, or:
+    engine_order = 3                 # with harmonics = H: the NDs of harmonics 0..H
+    harmonics = 3                    # default: the case's [harmonics] max, else 1
+    order = 2                        # element order (1: linear tets, a trade, see the bench)
+    modes = "auto"                   # fixed-interface modes: "auto" (cut-off) or a count
+    cutoff = 4.0                     # "auto": modes below cutoff x f_max
+    f_max = 12000.0                  # [Hz] highest frequency of interest, for EVERY body
+    backend = "auto"                 # "pardiso", "superlu" or "auto" (by size)
+    [reduction.material]             # default for every body: steel
+    youngs_modulus = 2.0e11          # [Pa]
+    poisson_ratio = 0.3
+    density = 7850.0                 # [kg/m^3]
+    [reduction.damping]              # linear damping of every body, applied to the reduced
+    modal_ratios = 0.001             # models (no re-reduction): zeta (one, or per mode) and/or
+    rayleigh_alpha = 0.0             # C = alpha M + beta K  [1/s], [s]
+    [reduction.bodies.<body>]        # per body: material, damping, modes, clamped, masters,
+                                     # recovery
+    [reduction.contact_stiffness.<patch>]  # normal, tangential per unit area [N/m^3]
+
+Conventions from the geometry models' node-set names: a body is clamped on ``<body>/bore``
+or ``<body>/clamp``; its masters are every contact-patch node it owns plus ``<body>/excitation``
+and ``<body>/response``; the recovery matrix is kept on the masters plus ``<body>/response``,
+``<body>/tip`` and ``<body>/blade_tip`` (what outputs and pictures use).
+
+Without ``f_max``, the cyclic bodies choose their modes by their own 10th fixed-interface
+frequency and the other bodies (the free damper, whose fixed-interface modes are all far above
+the disk's) get as f_max the highest frequency the cyclic bodies resolve: the damper keeps a
+few modes instead of every mode below 4x its own 10th (249 for the default blisk's damper).
+
+Reduced models are cached in ``<out>/models/cb-<hash>.h5``: a re-run reuses every body and ND
+whose mesh, material, constraints, masters and mode selection have not changed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
+from microslip.pipeline.fe.fem import Damping, Material
+from microslip.pipeline.fe.reduction import BodySpec
+
+from .checks import is_int, is_number, unknown_keys
+
+STEEL = Material(2.0e11, 0.3, 7850.0)
+KEYS = {"nodal_diameters", "engine_order", "harmonics", "order", "modes", "cutoff", "f_max",
+        "backend", "material", "damping", "bodies", "contact_stiffness"}
+BODY_KEYS = {"material", "damping", "modes", "clamped", "masters", "recovery"}
+DAMPING_KEYS = {"rayleigh_alpha", "rayleigh_beta", "modal_ratios"}
+MATERIAL_KEYS = {"youngs_modulus", "poisson_ratio", "density"}
+STIFFNESS_KEYS = {"normal", "tangential"}
+BACKENDS = ("auto", *linalg.BACKENDS)
+_CLAMP_SETS = ("bore", "clamp")
+_MASTER_SETS = ("excitation", "response")
+_RECOVERY_SETS = ("response", "tip", "blade_tip")
+
+
+
+def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
+    """Append one line per fault of a case's [reduction] table to ``out``."""
+    if not isinstance(red, dict):
+        out.append(f"reduction: expected a table, got {red!r}")
+        return
+    unknown_keys("reduction.", red, KEYS, out)
+    if "geometry" not in data:
+        out.append("reduction: needs a [geometry] table (the mesh to reduce)")
+    sectors = _sectors(data.get("geometry"))
+    if sectors is None:
+        for k in ("nodal_diameters", "engine_order", "harmonics"):
+            if k in red:
+                out.append(f"reduction.{k}: the geometry model has no cyclic symmetry; remove "
+                           "it")
+    elif ("nodal_diameters" in red) == ("engine_order" in red):
+        out.append("reduction: give either nodal_diameters = [...] or engine_order (with "
+                   "harmonics), exactly one")
+    elif "harmonics" in red and "engine_order" not in red:
+        out.append("reduction.harmonics: only with engine_order (the NDs of harmonics 0..H)")
+    nds = red.get("nodal_diameters")
+    if nds is not None and not (isinstance(nds, list) and nds and all(
+            is_int(h) and h >= 0 for h in nds)):
+        out.append(f"reduction.nodal_diameters = {nds!r}: expected a non-empty list of "
+                   "integers >= 0 (each at most sectors / 2)")
+    elif nds is not None and sectors is not None and max(nds) > sectors // 2:
+        out.append(f"reduction.nodal_diameters = {nds!r}: at most sectors / 2 = "
+                   f"{sectors // 2} (the geometry has {sectors} sectors)")
+    if red.get("backend", "auto") in linalg.BACKENDS and red["backend"] not in \
+            linalg.available_backends():
+        out.append(f"reduction.backend = {red['backend']!r}: not installed here; available: "
+                   f"{list(linalg.available_backends())} or 'auto'")
+    for key, ok, allowed in (
+        ("engine_order", is_int, "an integer"),
+        ("harmonics", lambda v: is_int(v) and v >= 0, "an integer >= 0 (orders 0..H)"),
+        ("order", lambda v: v in (1, 2), "1 or 2"),
+        ("modes", _is_modes, "'auto' or an integer >= 0"),
+        ("cutoff", lambda v: is_number(v) and v >= 1.0, "a number >= 1"),
+        ("f_max", lambda v: is_number(v) and v > 0.0, "a frequency > 0 [Hz]"),
+        ("backend", lambda v: v in BACKENDS, f"one of {list(BACKENDS)}"),
+    ):
+        if key in red and not ok(red[key]):
+            out.append(f"reduction.{key} = {red[key]!r}: expected {allowed}")
+    _check_material("reduction.material", red.get("material"), out)
+    _check_damping("reduction.damping", red.get("damping"), out)
+    for name, b in _table_of(red, "bodies", out).items():
+        pre = f"reduction.bodies.{name}"
+        unknown_keys(f"{pre}.", b, BODY_KEYS, out)
+        if not isinstance(b, dict):
+            continue
+        _check_material(f"{pre}.material", b.get("material"), out)
+        _check_damping(f"{pre}.damping", b.get("damping"), out)
+        if "modes" in b and not _is_modes(b["modes"]):
+            out.append(f"{pre}.modes = {b['modes']!r}: expected 'auto' or an integer >= 0")
+        for k in ("clamped", "masters", "recovery"):
+            if k in b and not (isinstance(b[k], list) and all(isinstance(s, str)
+                                                              for s in b[k])):
+                out.append(f"{pre}.{k} = {b[k]!r}: expected a list of node-set names")
+    for name, s in _table_of(red, "contact_stiffness", out).items():
+        pre = f"reduction.contact_stiffness.{name}"
+        if not isinstance(s, dict) or set(s) != STIFFNESS_KEYS:
+            out.append(f"{pre}: expected a table with exactly {sorted(STIFFNESS_KEYS)} "
+                       "[N/m^3]")
+            continue
+        for k in sorted(STIFFNESS_KEYS):
+            if not (is_number(s[k]) and s[k] > 0.0):
+                out.append(f"{pre}.{k} = {s[k]!r}: expected a stiffness per area > 0 [N/m^3]")
+
+
+def _sectors(geo: Any) -> int | None:
+    """Sectors of a [geometry] table's model (given or the model's default); None for a model
+    without cyclic symmetry or an invalid table (reported elsewhere)."""
+    from microslip import geometry
+
+    if not isinstance(geo, dict) or geo.get("model") not in geometry.PARAMETERS:
+        return None
+    params = geo.get("parameters", {})
+    given = params.get("sectors") if isinstance(params, dict) else None
+    value = given if given is not None else getattr(geometry.PARAMETERS[geo["model"]](),
+                                                    "sectors", None)
+    return int(value) if is_int(value) and value >= 3 else None
+
+
+
+def _table_of(red: Mapping[str, Any], key: str, out: list[str]) -> dict:
+    """red[key] if it is a table (of bodies, of patches), else {} and a fault."""
+    value = red.get(key, {})
+    if isinstance(value, dict):
+        return value
+    out.append(f"reduction.{key} = {value!r}: expected a table of named tables")
+    return {}
+
+
+def _is_modes(v: Any) -> bool:
+    return v == "auto" or (is_int(v) and v >= 0)
+
+
+
+def _check_material(pre: str, m: Any, out: list[str]) -> None:
+    if m is None:
+        return
+    if not isinstance(m, dict) or set(m) != MATERIAL_KEYS:
+        out.append(f"{pre}: expected a table with exactly {sorted(MATERIAL_KEYS)}")
+        return
+    bad = [k for k in sorted(MATERIAL_KEYS) if not is_number(m[k])]
+    if bad:
+        out.append(f"{pre}: {', '.join(f'{k} = {m[k]!r}' for k in bad)}: expected numbers")
+        return
+    try:
+        material(m)
+    except ValueError as e:
+        out.append(f"{pre}: {e}")
+
+
+def _check_damping(pre: str, d: Any, out: list[str]) -> None:
+    if d is None:
+        return
+    if not isinstance(d, dict) or not d or set(d) - DAMPING_KEYS:
+        out.append(f"{pre}: expected a table with some of {sorted(DAMPING_KEYS)}")
+        return
+    ratios = d.get("modal_ratios", 0.0)
+    ratios = ratios if isinstance(ratios, list) else [ratios]
+    if not all(is_number(v) for v in [d.get("rayleigh_alpha", 0.0),
+                                       d.get("rayleigh_beta", 0.0), *ratios]):
+        out.append(f"{pre} = {d!r}: expected numbers (modal_ratios: a number or a list)")
+        return
+    try:
+        damping(d)
+    except (TypeError, ValueError) as e:
+        out.append(f"{pre}: {e}")
+
+
+def damping(table: Mapping[str, Any] | None) -> Damping | None:
+    """Damping from a case table (rayleigh_alpha [1/s], rayleigh_beta [s], modal_ratios: one
+    zeta or a list per mode)."""
+    if table is None:
+        return None
+    ratios = table.get("modal_ratios", ())
+    ratios = (ratios,) if isinstance(ratios, int | float) else tuple(ratios)
+    return Damping(float(table.get("rayleigh_alpha", 0.0)),
+                   float(table.get("rayleigh_beta", 0.0)), tuple(float(z) for z in ratios))
+
+
+def material(table: Mapping[str, Any] | None, default: Material = STEEL) -> Material:
+    """Material from a case table (keys youngs_modulus, poisson_ratio, density)."""
+    if table is None:
+        return default
+    return Material(float(table["youngs_modulus"]), float(table["poisson_ratio"]),
+                    float(table["density"]))
+
+
+def needed_nodal_diameters(red: Mapping[str, Any], sectors: int,
+                           case_orders: Iterable[int] | None = None) -> tuple[int, ...]:
+    """The NDs of a [reduction] table: explicit, or those of the harmonic orders under the
+    engine order (``cyclic.nodal_diameters``: backward waves fold onto 0..Ns/2). Orders:
+    0..``harmonics`` of the table, else the case's harmonic orders (``case_orders``), else
+    0..1; order 0 (the static part, ND 0) always."""
+    if "nodal_diameters" in red:
+        nds = tuple(sorted(set(int(h) for h in red["nodal_diameters"])))
+        for h in nds:
+            if not 0 <= h <= sectors // 2:
+                raise ValueError(f"reduction.nodal_diameters = {list(nds)}: ND {h} outside "
+                                 f"0..{sectors // 2} (sectors = {sectors})")
+        return nds
+    if "harmonics" in red:
+        orders = set(range(int(red["harmonics"]) + 1))
+    else:
+        orders = set(case_orders) if case_orders is not None else {0, 1}
+    return cyclic.nodal_diameters(sorted(orders | {0}), int(red["engine_order"]), sectors)
+
+
+def _existing(mesh: Any, body: str, suffixes: Sequence[str]) -> tuple[str, ...]:
+    return tuple(f"{body}/{s}" for s in suffixes if f"{body}/{s}" in mesh.node_sets)
+
+
+def body_specs(mesh: Any, red: Mapping[str, Any], surfaces: bool = False) -> list[BodySpec]:
+    """One BodySpec per body of the mesh, by the naming conventions and the case's overrides;
+    ``surfaces``: every body also recovered on its outer surface (deformed-shape pictures)."""
+    base = material(red.get("material"))
+    specs = []
+    for body in sorted(mesh.bodies):
+        b = red.get("bodies", {}).get(body, {})
+        patches = tuple(sorted(name for name, p in mesh.contacts.items()
+                               if body in (p.body_a, p.body_b)))
+        specs.append(BodySpec(
+            body=body,
+            material=material(b.get("material"), base),
+            damping=damping(b.get("damping", red.get("damping"))),
+            master_sets=tuple(b.get("masters", _existing(mesh, body, _MASTER_SETS))),
+            patches=patches,
+            recovery_sets=tuple(b.get("recovery", _existing(mesh, body, _RECOVERY_SETS))),
+            recovery_surface=surfaces,
+            clamped_sets=tuple(b.get("clamped", _existing(mesh, body, _CLAMP_SETS))),
+            n_modes=b.get("modes", red.get("modes", reduction.DEFAULT_MODES)),
+            cutoff=float(red.get("cutoff", reduction.CUTOFF)),
+            f_max=None if "f_max" not in red else float(red["f_max"]),
+            order=int(red.get("order", 2)),
+        ))
+    unknown = sorted(set(red.get("bodies", {})) - set(mesh.bodies))
+    if unknown:
+        raise ValueError(f"reduction.bodies: {unknown} are not bodies of this mesh; it has "
+                         f"{sorted(mesh.bodies)}")
+    return specs
+
+
+def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec], red: Mapping[str, Any]
+                      ) -> dict[str, contact_stiffness.PatchStiffness]:
+    """Flat-punch (or per-area, from the case) stiffness of every contact patch."""
+    materials = {s.body: s.material for s in specs}
+    given = red.get("contact_stiffness", {})
+    unknown = sorted(set(given) - set(mesh.contacts))
+    if unknown:
+        raise ValueError(f"reduction.contact_stiffness: {unknown} are not contact patches of "
+                         f"this mesh; it has {sorted(mesh.contacts)}")
+    out = {}
+    for name, patch in sorted(mesh.contacts.items()):
+        per_area = None
+        if name in given:
+            per_area = (float(given[name]["normal"]), float(given[name]["tangential"]))
+        out[name] = contact_stiffness.patch_stiffness(
+            patch, materials[patch.body_a], materials[patch.body_b], per_area)
+    return out

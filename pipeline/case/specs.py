@@ -1,0 +1,270 @@
+"""Typed, frozen specs of a case's analyses: each key's default in one place.
+
+A validated ``[[analysis]]`` table becomes one of :data:`ANALYSES` (:func:`analysis`);
+runners take these, never the table. A key the case leaves out has its default here and
+nowhere else: the validator reads it (:func:`defaults`), the runner uses it, results.h5
+records it beside the keys given (:meth:`Analysis.record`) and the drawers read the record
+back (:func:`from_record`, which also fills the defaults a file from an older version
+lacks). The README's Analyses table holds the same keys and defaults (a test).
+
+Units: frequencies rad/s, times s, motions m.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+#: the response measures of a curve: ``peak`` max_t |x(t)|, ``vibration`` max_t |x(t) - x0|
+#: (the static part removed), ``harmonic`` |X_1|
+MEASURES = ("peak", "vibration", "harmonic")
+#: continuation methods of an frf; ``natural-down`` sweeps from stop to start
+METHODS = ("arclength", "natural", "natural-down")
+#: the maps an frf of a coupled case can draw at its map points
+MAP_TYPES = ("status", "normal_load", "shape")
+#: what a peak curve sweeps
+PEAK_PARAMETERS = ("excitation", "preload", "mass")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Family:
+    """One curve per value of ``key`` (a dotted case key), or per table of ``sets``
+    (then ``values`` are the curves' labels); ``label`` names the values in legends
+    (default: the key)."""
+
+    values: tuple[Any, ...]
+    key: str = ""
+    label: str = ""
+    sets: tuple[Mapping[str, Any], ...] = ()
+
+    @property
+    def legend(self) -> str:
+        return self.label or self.key
+
+
+@dataclass(frozen=True, kw_only=True)
+class Analysis:
+    """What every analysis has: its ``name`` and the case keys it overrides (``set``,
+    dotted paths). ``given``: the table as the case wrote it (what results.h5 shows)."""
+
+    type: ClassVar[str]
+    name: str
+    set: Mapping[str, Any] = field(default_factory=dict)
+    given: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def table(self) -> dict[str, Any]:
+        """The resolved keys in TOML form (tuples as lists, a family as a table; keys
+        without a value, such as ``outputs`` meaning every output, left out)."""
+        out = {"type": self.type}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name != "given" and value is not None:
+                out[f.name] = _toml(value)
+        return out
+
+    def record(self) -> dict[str, Any]:
+        """The attributes of the analysis' group in results.h5: the keys as given, each
+        other key's default, and the family (an empty table when there is none)."""
+        return self.table() | dict(self.given) | {"family": self.given.get("family", {})}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Frf(Analysis):
+    """A response curve: ``parameter`` from ``start`` to ``stop`` by each of ``method``
+    (one curve each), at the fixed ``frequency`` (rad/s) when the parameter is not the
+    frequency; ``outputs``: DOF or output names (None: every output); ``maps``: where a
+    coupled case draws contact maps ("peak" or parameter values), ``map_types`` which."""
+
+    type: ClassVar[str] = "frf"
+    start: float
+    stop: float
+    parameter: str = "frequency"
+    frequency: float | None = None
+    method: tuple[str, ...] = ("arclength",)
+    outputs: tuple[str, ...] | None = None
+    measure: str = "peak"
+    normalise: bool = False
+    family: Family | None = None
+    maps: tuple[str | float, ...] = ()
+    map_types: tuple[str, ...] = ("status",)
+
+    @property
+    def shapes(self) -> bool:
+        """Whether deformed shapes are drawn (and so recovered) at the map points."""
+        return bool(self.maps) and "shape" in self.map_types
+
+
+@dataclass(frozen=True, kw_only=True)
+class Peak(Analysis):
+    """The largest ``measure`` of ``output`` over the frequency ``window`` (rad/s) at
+    ``points`` values of ``parameter`` from ``start`` to ``stop`` (``spacing`` linear or
+    log), each found by ``tracking`` (continuation from the last peak, or a sweep per
+    value); ``levels``: the free and fully stuck peaks too (a coupled case)."""
+
+    type: ClassVar[str] = "peak"
+    parameter: str
+    start: float
+    stop: float
+    window: tuple[float, float]
+    output: str
+    points: int = 25
+    spacing: str = "linear"
+    tracking: str = "continuation"
+    measure: str = "peak"
+    levels: bool = False
+    family: Family | None = None
+
+    def values(self) -> np.ndarray:
+        """(points,) the parameter values of each curve."""
+        space = np.geomspace if self.spacing == "log" else np.linspace
+        return space(self.start, self.stop, self.points)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Loops(Analysis):
+    """Hysteresis loops of ``contact`` under a prescribed motion [cos, sin] amplitudes
+    (m): ``u`` (``u2``: the second direction of a 2D law; ``v``: the normal motion of laws
+    B, D), one loop per multiplier in ``amplitudes``, which scale the whole motion
+    (``scale = "all"``) or only ``v``; ``samples`` per period."""
+
+    type: ClassVar[str] = "loops"
+    contact: str
+    u: tuple[float, float]
+    amplitudes: tuple[float, ...]
+    u2: tuple[float, float] | None = None
+    v: tuple[float, float] = (0.0, 0.0)
+    scale: str = "all"
+    samples: int = 512
+
+
+@dataclass(frozen=True, kw_only=True)
+class TimeIntegration(Analysis):
+    """The load steps of a time integration: the static loads ramped over ``ramp_time``
+    (s), held ``settle_time``; the harmonic loads ramped over ``ramp_periods`` periods;
+    ``steps_per_period`` time steps per excitation period."""
+
+    type: ClassVar[str] = ""
+    outputs: tuple[str, ...] | None = None
+    steps_per_period: int = 256
+    ramp_time: float = 0.0
+    settle_time: float = 0.0
+    ramp_periods: int = 0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Dti(TimeIntegration):
+    """Steady responses at ``frequencies`` (rad/s) by direct time integration, at most
+    ``max_periods`` periods each; ``restart``: each from fresh load steps (else from the
+    previous steady state); ``compare``: the frf analysis drawn with it."""
+
+    type: ClassVar[str] = "dti"
+    frequencies: tuple[float, ...]
+    max_periods: int = 3000
+    measure: str = "peak"
+    restart: bool = False
+    compare: str = ""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Transient(TimeIntegration):
+    """The load steps at ``frequency`` (rad/s) as time histories."""
+
+    type: ClassVar[str] = "transient"
+    frequency: float
+
+
+ANALYSES: dict[str, type[Analysis]] = {cls.type: cls for cls in (Frf, Peak, Loops, Dti,
+                                                                   Transient)}
+
+
+def keys(kind: str) -> set[str]:
+    """The keys an analysis of type ``kind`` accepts."""
+    return {"type"} | {f.name for f in dataclasses.fields(ANALYSES[kind])} - {"given"}
+
+
+def defaults(kind: str) -> dict[str, Any]:
+    """{key: default} of an analysis type in TOML form (keys without a default, or whose
+    default is "none", such as ``outputs``, left out)."""
+    out = {}
+    for f in dataclasses.fields(ANALYSES[kind]):
+        if f.name == "given":
+            continue
+        if f.default is not dataclasses.MISSING and f.default is not None:
+            out[f.name] = _toml(f.default)
+        elif f.default_factory is not dataclasses.MISSING:
+            out[f.name] = _toml(f.default_factory())
+    return out
+
+
+def analysis(table: Mapping[str, Any], index: int = 0) -> Analysis:
+    """The spec of a validated ``[[analysis]]`` table (``index``: its place, which names
+    an unnamed analysis)."""
+    cls = ANALYSES[table["type"]]
+    values: dict[str, Any] = {"name": str(table.get("name", f"analysis{index}")),
+                              "given": dict(table)}
+    for f in dataclasses.fields(cls):
+        if f.name in table and f.name not in ("name", "given"):
+            values[f.name] = _typed(f.name, table[f.name])
+    return cls(**values)
+
+
+def from_record(attrs: Mapping[str, Any]) -> Analysis:
+    """The spec of an analysis group's attributes in results.h5 (:meth:`Analysis.record`);
+    the keys a file from an older version lacks take their defaults."""
+    kind = _text(attrs["type"])
+    names = keys(kind) | {"name"}
+    table = {k: _decoded(attrs[k]) for k in attrs if k in names}
+    if not table.get("family"):
+        table.pop("family", None)
+    return analysis(table)
+
+
+# ------------------------------------------------------------------ conversion
+def _typed(key: str, value: Any) -> Any:
+    """A TOML value as the spec holds it: lists as tuples, a method as a tuple of
+    methods, a family as a Family."""
+    if key == "family":
+        return Family(values=tuple(value["values"]), key=value.get("key", ""),
+                      label=value.get("label", ""),
+                      sets=tuple(dict(s) for s in value.get("sets", ())))
+    if key == "method" and isinstance(value, str):
+        return (value,)
+    if key == "set":
+        return dict(value)
+    if isinstance(value, list):
+        return tuple(value)
+    return value
+
+
+def _toml(value: Any) -> Any:
+    if isinstance(value, Family):
+        return {k: _toml(v) for k, v in dataclasses.asdict(value).items()
+                if v not in ("", ())}
+    if isinstance(value, tuple):
+        return [_toml(v) for v in value]
+    if isinstance(value, Mapping):
+        return {k: _toml(v) for k, v in value.items()}
+    return value
+
+
+def _text(value: Any) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _decoded(value: Any) -> Any:
+    """An attribute as results.file wrote it (tables and lists as JSON text, numbers as
+    numpy scalars or arrays) back in TOML form."""
+    if isinstance(value, bytes):
+        value = value.decode()
+    if isinstance(value, str) and value.startswith(("[", "{")):
+        return json.loads(value)
+    if isinstance(value, np.ndarray):
+        return [_decoded(v) for v in value.tolist()]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

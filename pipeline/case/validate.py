@@ -1,0 +1,525 @@
+"""Validation of a case table: every fault found, one line each, naming the key, the value
+and what is allowed (:func:`faults`), before anything is built or computed."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+import numpy as np
+
+from microslip.pipeline.friction.laws import LAWS
+from microslip.pipeline.solve.hbm import PARAMETERS
+
+from . import coupling, specs
+from .checks import is_int, is_number, number, samples_rule, unknown_keys
+from .paths import get_path, set_path
+from .reduction import check as check_reduction
+
+TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
+            "analysis", "geometry", "reduction", "coupling"}
+MODEL_KEYS = {"dofs", "mass", "stiffness", "damping", "mass_part"}
+CONTACT_KEYS = {"name", "law", "form", "kt", "kn", "mu", "n0", "interference", "u", "u1", "u2",
+                "v", "enabled"}
+LOAD_KEYS = {"dof", "amplitude", "harmonic", "phase"}
+HARMONIC_KEYS = {"max", "orders", "samples"}
+SOLVER_KEYS = {"tol", "max_iter", "step", "min_step", "max_step", "max_turn", "target_iter",
+               "max_points", "sub_sample"}
+FAMILY_KEYS = {f.name for f in dataclasses.fields(specs.Family)}
+
+
+def faults(data: dict, out: list[str], analyses: bool = True) -> None:
+    """Append one line per fault of a case table to ``out`` (the analyses too with
+    ``analyses``)."""
+    unknown_keys("", data, TOP_KEYS, out)
+    if "geometry" in data:
+        _geometry(data["geometry"], out)
+    if "reduction" in data:
+        check_reduction(data["reduction"], data, out)
+    if "coupling" in data:
+        _check_coupled(data, out, analyses)
+        return
+    if "geometry" in data and "model" not in data and "analysis" not in data:
+        _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
+        return  # a mesh (and reduction) case
+    model = data.get("model")
+    if not isinstance(model, dict):
+        out.append("[model]: missing; give dofs, mass, stiffness (and damping)")
+        return
+    unknown_keys("model.", model, MODEL_KEYS, out)
+    dofs = model.get("dofs")
+    if not (isinstance(dofs, list) and dofs and all(isinstance(d, str) for d in dofs)):
+        out.append(f"model.dofs = {dofs!r}: expected a non-empty list of DOF names")
+        return
+    if len(set(dofs)) != len(dofs):
+        out.append(f"model.dofs = {dofs!r}: names must be unique")
+        return
+    n = len(dofs)
+    for key, required, positive in (("mass", True, True), ("stiffness", True, False),
+                                    ("damping", False, False), ("mass_part", False, False)):
+        if key not in model:
+            if required:
+                out.append(f"model.{key}: missing; give {n} diagonal values or a {n}x{n} matrix")
+            continue
+        _matrix(f"model.{key}", model[key], n, positive, out)
+    names = set(dofs)
+    contacts = data.get("contacts", [])
+    if not isinstance(contacts, list):
+        out.append("contacts: expected an array of tables [[contacts]]")
+        contacts = []
+    seen = set()
+    for i, c in enumerate(contacts):
+        _contact(i, c, names, seen, out)
+    for i, load in enumerate(data.get("loads", [])):
+        _load(i, load, names, out)
+    _harmonics(data.get("harmonics", {}), out)
+    _solver(data.get("solver", {}), out)
+    if analyses:
+        for i, a in _analysis_tables(data, tuple(specs.ANALYSES), out):
+            _analysis(i, a, data, seen, names, out)
+
+
+def _analysis_tables(data: dict, kinds: tuple[str, ...], out: list[str]) -> list:
+    """(index, table) of the case's [[analysis]], or a fault if there is none."""
+    items = data.get("analysis", [])
+    if not isinstance(items, list) or not items:
+        out.append(f"analysis: missing; add at least one [[analysis]] with type in "
+                   f"{list(kinds)}")
+        return []
+    return list(enumerate(items))
+
+
+def _check_coupled(data: dict, out: list[str], analyses: bool) -> None:
+    """A case of reduced FE bodies joined by friction patches ([coupling])."""
+    coupling.check(data["coupling"], data, out)
+    for key in ("contacts", "loads"):
+        if key in data:
+            out.append(f"{key}: a coupled case gives its contacts and loads in [coupling]")
+    _harmonics(data.get("harmonics", {}), out)
+    _solver(data.get("solver", {}), out)
+    if not analyses:
+        return
+    outputs = set(coupling.output_names(data))
+    for i, a in _analysis_tables(data, coupling.ANALYSES, out):
+        if isinstance(a, dict) and a.get("type") not in coupling.ANALYSES:
+            out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: a coupled case "
+                       f"runs {list(coupling.ANALYSES)}")
+            continue
+        par = a.get("parameter", specs.defaults(a["type"]).get("parameter")) \
+            if isinstance(a, dict) else None
+        if par is not None and par not in coupling.PARAMETERS:
+            out.append(f"analysis.{a.get('name', i)}.parameter = {a.get('parameter')!r}: a "
+                       f"coupled case sweeps {list(coupling.PARAMETERS)}")
+            continue
+        _analysis(i, a, data, set(), outputs, out)
+
+
+def _matrix(key: str, value, n: int, positive: bool, out: list[str]) -> None:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        out.append(f"{key} = {value!r}: expected {n} numbers or a {n}x{n} matrix")
+        return
+    if arr.shape == (n,):
+        if not np.all(np.isfinite(arr)):
+            out.append(f"{key}: values must be finite")
+        elif positive and np.any(arr <= 0):
+            out.append(f"{key} = {value!r}: diagonal values must be > 0")
+        elif not positive and key != "model.mass_part" and np.any(arr < 0):
+            out.append(f"{key} = {value!r}: diagonal values must be >= 0")
+        return
+    if arr.shape != (n, n):
+        out.append(f"{key}: shape {arr.shape}, expected ({n},) or ({n}, {n}) for {n} DOFs")
+        return
+    if not np.all(np.isfinite(arr)):
+        out.append(f"{key}: values must be finite")
+        return
+    if not np.allclose(arr, arr.T, rtol=1e-12, atol=1e-12 * np.abs(arr).max()):
+        out.append(f"{key}: the matrix is not symmetric (max |A - A^T| = "
+                   f"{np.abs(arr - arr.T).max():.3g})")
+        return
+    eig = np.linalg.eigvalsh(arr)
+    if positive and eig.min() <= 0:
+        out.append(f"{key}: the matrix must be positive definite (smallest eigenvalue "
+                   f"{eig.min():.3g})")
+    elif not positive and key in ("model.stiffness", "model.damping") and \
+            eig.min() < -1e-12 * max(abs(eig).max(), 1e-300):
+        out.append(f"{key}: the matrix must be positive semi-definite (smallest eigenvalue "
+                   f"{eig.min():.3g})")
+
+
+def _combination(key: str, value, dofs: set[str], out: list[str]) -> None:
+    if not isinstance(value, dict) or not value:
+        out.append(f"{key} = {value!r}: expected a table {{dof = coefficient, ...}}")
+        return
+    for d, coef in value.items():
+        if d not in dofs:
+            out.append(f"{key}.{d}: unknown DOF; known: {sorted(dofs)}")
+        elif isinstance(coef, dict):
+            # a delayed DOF: coef * x(t - lag T), a travelling motion (harmonic balance only)
+            unknown_keys(f"{key}.{d}.", coef, {"coef", "lag"}, out)
+            number(f"{key}.{d}.coef", coef.get("coef", 1.0), out)
+            number(f"{key}.{d}.lag", coef.get("lag", 0.0), out)
+        else:
+            number(f"{key}.{d}", coef, out)
+
+
+def has_lag(data: dict) -> bool:
+    return any(isinstance(coef, dict) for c in data.get("contacts", [])
+               for k in ("u", "u1", "u2", "v") if isinstance(c.get(k), dict)
+               for coef in c[k].values())
+
+
+def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
+    pre = f"contacts[{i}]"
+    if not isinstance(c, dict):
+        out.append(f"{pre}: expected a table")
+        return
+    name = c.get("name", f"contact{i}")
+    pre = f"contacts.{name}"
+    if name in seen:
+        out.append(f"{pre}: duplicate contact name")
+    seen.add(name)
+    unknown_keys(pre + ".", c, CONTACT_KEYS, out)
+    law = c.get("law")
+    if law not in LAWS:
+        out.append(f"{pre}.law = {law!r}: expected one of {sorted(LAWS)}")
+        return
+    d, variable = LAWS[law]
+    form = c.get("form", "uncoupled")
+    if form not in ("uncoupled", "coupled"):
+        out.append(f"{pre}.form = {form!r}: expected 'uncoupled' or 'coupled'")
+    kt = c.get("kt")
+    if isinstance(kt, list):
+        if len(kt) != d:
+            out.append(f"{pre}.kt = {kt!r}: expected one value or {d} (kt_x, kt_y)")
+        for j, k in enumerate(kt):
+            number(f"{pre}.kt[{j}]", k, out, positive=True)
+    elif kt is None:
+        out.append(f"{pre}.kt: missing (tangential contact stiffness, N/m)")
+    else:
+        number(f"{pre}.kt", kt, out, positive=True)
+    if "mu" not in c:
+        out.append(f"{pre}.mu: missing (friction coefficient)")
+    else:
+        number(f"{pre}.mu", c["mu"], out, nonneg=True)
+    if variable:
+        if "kn" not in c:
+            out.append(f"{pre}.kn: missing (normal contact stiffness, N/m) for law {law}")
+        else:
+            number(f"{pre}.kn", c["kn"], out, positive=True)
+    elif "kn" in c:
+        out.append(f"{pre}.kn: law {law} has a constant normal load; remove kn")
+    coupled_var = form == "coupled" and variable
+    if coupled_var:
+        if "n0" in c:
+            out.append(f"{pre}.n0: the coupled form of law {law} takes 'interference' (m), "
+                       "not n0")
+        if "interference" not in c:
+            out.append(f"{pre}.interference: missing (m, negative for a gap)")
+        else:
+            number(f"{pre}.interference", c["interference"], out)
+    else:
+        if "interference" in c:
+            out.append(f"{pre}.interference: only the coupled form of laws B and D takes it")
+        if "n0" not in c:
+            out.append(f"{pre}.n0: missing (normal preload, N)")
+        else:
+            number(f"{pre}.n0", c["n0"], out, nonneg=not variable)
+    if "enabled" in c and not isinstance(c["enabled"], bool):
+        out.append(f"{pre}.enabled = {c['enabled']!r}: expected true or false")
+    tangential = ["u"] if d == 1 else ["u1", "u2"]
+    wrong = ["u1", "u2"] if d == 1 else ["u"]
+    for k in tangential:
+        if k not in c:
+            out.append(f"{pre}.{k}: missing (tangential relative displacement as "
+                       "{dof = coefficient})")
+        else:
+            _combination(f"{pre}.{k}", c[k], dofs, out)
+    for k in wrong:
+        if k in c:
+            out.append(f"{pre}.{k}: law {law} is {d}D; use {tangential}")
+    if variable:
+        if "v" not in c:
+            out.append(f"{pre}.v: missing (normal relative displacement, positive on approach)")
+        else:
+            _combination(f"{pre}.v", c["v"], dofs, out)
+    elif "v" in c:
+        out.append(f"{pre}.v: law {law} has a constant normal load; remove v")
+
+
+def _load(i: int, load, dofs: set[str], out: list[str]) -> None:
+    pre = f"loads[{i}]"
+    if not isinstance(load, dict):
+        out.append(f"{pre}: expected a table")
+        return
+    unknown_keys(pre + ".", load, LOAD_KEYS, out)
+    if load.get("dof") not in dofs:
+        out.append(f"{pre}.dof = {load.get('dof')!r}: unknown DOF; known: {sorted(dofs)}")
+    if "amplitude" not in load:
+        out.append(f"{pre}.amplitude: missing (N)")
+    else:
+        number(f"{pre}.amplitude", load["amplitude"], out)
+    number(f"{pre}.harmonic", load.get("harmonic", 1), out, nonneg=True, integer=True)
+    number(f"{pre}.phase", load.get("phase", 0.0), out)
+
+
+def _harmonics(h, out: list[str]) -> None:
+    unknown_keys("harmonics.", h, HARMONIC_KEYS, out)
+    if not isinstance(h, dict):
+        return
+    if "max" in h and "orders" in h:
+        out.append("harmonics: give either 'max' (orders 0..max) or 'orders', not both")
+    if "max" in h:
+        number("harmonics.max", h["max"], out, nonneg=True, integer=True)
+    top = h.get("max", 1)
+    if "orders" in h:
+        o = h["orders"]
+        if not (isinstance(o, list) and o and all(isinstance(x, int) and x >= 0 for x in o)):
+            out.append(f"harmonics.orders = {o!r}: expected a list of integers >= 0")
+            return
+        top = max(o)
+    if "samples" in h and is_int(top) and top >= 0:
+        samples_rule("harmonics.samples", h["samples"], top, out)
+
+
+def _solver(s, out: list[str]) -> None:
+    unknown_keys("solver.", s, SOLVER_KEYS, out)
+    if not isinstance(s, dict):
+        return
+    for k in ("tol", "step", "min_step", "max_step", "max_turn"):
+        if k in s:
+            number(f"solver.{k}", s[k], out, positive=True)
+    for k in ("max_iter", "target_iter", "max_points"):
+        if k in s:
+            number(f"solver.{k}", s[k], out, positive=True, integer=True)
+    if "sub_sample" in s and not isinstance(s["sub_sample"], bool):
+        out.append(f"solver.sub_sample = {s['sub_sample']!r}: expected true or false")
+
+
+def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
+              out: list[str]) -> None:
+    pre = f"analysis[{i}]"
+    if not isinstance(a, dict):
+        out.append(f"{pre}: expected a table")
+        return
+    kind = a.get("type")
+    if kind not in specs.ANALYSES:
+        out.append(f"{pre}.type = {kind!r}: expected one of {list(specs.ANALYSES)}")
+        return
+    pre = f"analysis.{a.get('name', i)}"
+    unknown_keys(pre + ".", a, specs.keys(kind), out)
+    given, a = a, specs.defaults(kind) | a  # every default from the spec
+    overrides = a.get("set", {})
+    if not isinstance(overrides, dict):
+        out.append(f"{pre}.set: expected a table {{\"key.path\" = value}}")
+    else:
+        _overrides(f"{pre}.set", data, overrides, out)
+    if kind in ("frf", "peak"):
+        par = a.get("parameter")
+        allowed = PARAMETERS if kind == "frf" else specs.PEAK_PARAMETERS
+        if par not in allowed:
+            out.append(f"{pre}.parameter = {par!r}: expected one of {list(allowed)}")
+        ok = all(number(f"{pre}.{k}", a.get(k), out) for k in ("start", "stop"))
+        if ok and a["start"] == a["stop"]:
+            out.append(f"{pre}: start = stop = {a['start']}: the range has zero length")
+        if ok and (par == "frequency" or par == "mass") and min(a["start"], a["stop"]) <= 0:
+            out.append(f"{pre}: {par} range {a['start']}..{a['stop']} must be > 0")
+        if kind == "frf" and par != "frequency":
+            if not number(f"{pre}.frequency", a.get("frequency"), out, positive=True):
+                out.append(f"{pre}.frequency: the fixed frequency (rad/s) of a {par} sweep")
+        if kind == "frf":
+            methods = a["method"]
+            methods = methods if isinstance(methods, list) else [methods]
+            for m in methods:
+                if m not in specs.METHODS:
+                    out.append(f"{pre}.method = {m!r}: expected one of {list(specs.METHODS)} (or a "
+                               "list of them: one curve each)")
+        if kind == "peak":
+            w = a.get("window")
+            if not (isinstance(w, list) and len(w) == 2 and all(
+                    isinstance(x, (int, float)) and x > 0 for x in w) and w[0] < w[1]):
+                out.append(f"{pre}.window = {w!r}: expected [w_low, w_high] in rad/s, "
+                           "0 < w_low < w_high")
+            if a.get("output") not in dofs:
+                out.append(f"{pre}.output = {a.get('output')!r}: unknown DOF; known: "
+                           f"{sorted(dofs)}")
+            if "points" in a:
+                number(f"{pre}.points", a["points"], out, positive=True, integer=True)
+            if a["tracking"] not in ("continuation", "sweep"):
+                out.append(f"{pre}.tracking = {a.get('tracking')!r}: expected 'continuation' "
+                           "(the peak followed from value to value) or 'sweep' (a full FRF "
+                           "per value)")
+            sp = a["spacing"]
+            if sp not in ("linear", "log"):
+                out.append(f"{pre}.spacing = {sp!r}: expected 'linear' or 'log'")
+            elif sp == "log" and ok and min(a["start"], a["stop"]) <= 0:
+                out.append(f"{pre}.spacing = 'log' needs start and stop > 0")
+        fam = a.get("family")
+        if fam is not None:
+            _family(pre, fam, data, out)
+        if kind == "frf" and ("maps" in given or "map_types" in given):
+            _maps(pre, a, data, out)
+        if kind == "frf" and not isinstance(a["normalise"], bool):
+            out.append(f"{pre}.normalise = {a['normalise']!r}: expected true or false (the "
+                       "response per unit of the excitation multiplier)")
+    if kind == "peak" and a["measure"] not in ("peak", "vibration"):
+        out.append(f"{pre}.measure = {a.get('measure')!r}: expected 'peak' or 'vibration'")
+    if kind == "peak" and "levels" in a and not isinstance(a["levels"], bool):
+        out.append(f"{pre}.levels = {a['levels']!r}: expected true or false (the free and "
+                   "fully stuck peak levels, a coupled case)")
+    if kind in ("frf", "dti"):
+        if a["measure"] not in specs.MEASURES:
+            out.append(f"{pre}.measure = {a['measure']!r}: expected one of "
+                       f"{list(specs.MEASURES)}")
+        if "restart" in a and not isinstance(a["restart"], bool):
+            out.append(f"{pre}.restart = {a['restart']!r}: expected true or false")
+        for o in a.get("outputs", []):
+            if o not in dofs:
+                out.append(f"{pre}.outputs: {o!r} is not a DOF; known: {sorted(dofs)}")
+    if kind == "loops":
+        if a.get("contact") not in contacts:
+            out.append(f"{pre}.contact = {a.get('contact')!r}: unknown contact; known: "
+                       f"{sorted(contacts)}")
+        amps = a.get("amplitudes")
+        if not (isinstance(amps, list) and amps and all(
+                isinstance(x, (int, float)) for x in amps)):
+            out.append(f"{pre}.amplitudes: expected a non-empty list of multipliers of the "
+                       "prescribed motion")
+        for k in ("u", "u2", "v"):
+            m = a.get(k)
+            if m is None:
+                if k == "u":
+                    out.append(f"{pre}.u: missing; the prescribed tangential motion as "
+                               "[cos amplitude, sin amplitude] (m)")
+                continue
+            if not (isinstance(m, list) and len(m) == 2 and all(
+                    isinstance(x, (int, float)) for x in m)):
+                out.append(f"{pre}.{k} = {m!r}: expected [cos amplitude, sin amplitude] (m)")
+        if a["scale"] not in ("all", "v"):
+            out.append(f"{pre}.scale = {a.get('scale')!r}: expected 'all' (the amplitudes "
+                       "multiply the whole motion) or 'v' (only the normal motion)")
+        if "samples" in a:  # the loops keep orders 0 and 1 (run.run_loops)
+            samples_rule(f"{pre}.samples", a["samples"], 1, out)
+    if kind == "transient":
+        number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
+        for k in ("ramp_time", "settle_time"):
+            number(f"{pre}.{k}", a[k], out, nonneg=True)
+        number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True,
+                integer=True)
+        for o in a.get("outputs", []):
+            if o not in dofs:
+                out.append(f"{pre}.outputs: {o!r} is not a DOF; known: {sorted(dofs)}")
+        if has_lag(data):
+            out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
+                       "with 'lag'); use harmonic balance")
+    if kind == "dti":
+        f = a.get("frequencies")
+        if not (isinstance(f, list) and f and all(
+                isinstance(x, (int, float)) and x > 0 for x in f)):
+            out.append(f"{pre}.frequencies = {f!r}: expected a list of frequencies > 0 (rad/s)")
+        for k in ("steps_per_period", "max_periods"):
+            if k in a:
+                number(f"{pre}.{k}", a[k], out, positive=True, integer=True)
+        if "ramp_periods" in a:
+            number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True, integer=True)
+        for k in ("ramp_time", "settle_time"):
+            if k in a:
+                number(f"{pre}.{k}", a[k], out, nonneg=True)
+        if has_lag(data):
+            out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
+                       "with 'lag'); use harmonic balance")
+        orders = {ld.get("harmonic", 1) for ld in data.get("loads", [])}
+        if not orders <= {0, 1}:
+            out.append(f"{pre}: time integration takes loads of harmonic 0 and 1 only, the "
+                       f"case has {sorted(orders)}")
+        names = [x.get("name") for x in data.get("analysis", []) if isinstance(x, dict)]
+        if "compare" in a and a["compare"] not in names:
+            out.append(f"{pre}.compare = {a['compare']!r}: no analysis of that name; known: "
+                       f"{names}")
+
+
+def _maps(pre: str, a: dict, data: dict, out: list[str]) -> None:
+    """``maps``: where an frf draws its contact maps ("peak", or parameter values: every
+    solution there); ``map_types``: which maps."""
+    if "coupling" not in data:
+        out.append(f"{pre}.maps: contact maps need contact patches: a [coupling] case")
+        return
+    where = a["maps"]
+    lo, hi = sorted((a.get("start", 0.0), a.get("stop", 0.0)))
+    if not isinstance(where, list):
+        out.append(f"{pre}.maps = {where!r}: expected a list of 'peak' and parameter values")
+        where = []
+    for x in where:
+        if x != "peak" and not (is_number(x) and lo <= x <= hi):
+            out.append(f"{pre}.maps: {x!r} is neither 'peak' nor a parameter value in the "
+                       f"range {lo:g}..{hi:g}")
+    kinds = a["map_types"]
+    if not (isinstance(kinds, list) and all(k in specs.MAP_TYPES for k in kinds)):
+        out.append(f"{pre}.map_types = {kinds!r}: expected a list of {list(specs.MAP_TYPES)}")
+
+
+def _family(pre: str, fam, data: dict, out: list[str]) -> None:
+    if not isinstance(fam, dict):
+        out.append(f"{pre}.family: expected a table with key and values")
+        return
+    unknown_keys(pre + ".family.", fam, FAMILY_KEYS, out)
+    vals = fam.get("values")
+    if not (isinstance(vals, list) and vals):
+        out.append(f"{pre}.family.values: expected a non-empty list")
+        return
+    if "sets" in fam:
+        # one curve per table of overrides; values are the curves' labels
+        sets = fam["sets"]
+        if "key" in fam:
+            out.append(f"{pre}.family: give 'key' or 'sets', not both")
+        if not (isinstance(sets, list) and len(sets) == len(vals)
+                and all(isinstance(x, dict) for x in sets)):
+            out.append(f"{pre}.family.sets: expected {len(vals)} tables of overrides, one per "
+                       "value")
+            return
+        for j, table in enumerate(sets):
+            _overrides(f"{pre}.family.sets[{j}]", data, table, out)
+        return
+    key = fam.get("key")
+    try:
+        get_path(data, key)
+    except (KeyError, IndexError, TypeError, ValueError):
+        out.append(f"{pre}.family.key = {key!r}: no such key in the case (use e.g. "
+                   "'contacts.<name>.n0' or 'loads.0.amplitude')")
+        return
+    if key.startswith("harmonics."):  # each value moves H or the samples: the same rule
+        for j, v in enumerate(vals):
+            _overrides(f"{pre}.family.values[{j}]", data, {key: v}, out)
+
+
+def _overrides(pre: str, data: dict, table: dict, out: list[str]) -> None:
+    """Apply overrides to a copy and validate it: a key may be new (e.g.
+    ``contacts.x.enabled``) if its table exists; what it breaks is reported."""
+    if not table:
+        return
+    trial = copy.deepcopy({k: v for k, v in data.items() if k != "analysis"})
+    base: list[str] = []
+    faults(trial, base, analyses=False)
+    for key, value in table.items():
+        try:
+            set_path(trial, key, value, create=True)
+        except (KeyError, IndexError, TypeError, ValueError):
+            out.append(f"{pre}.{key}: no such table in the case")
+            return
+    found: list[str] = []
+    faults(trial, found, analyses=False)
+    out.extend(f"{pre}: {f}" for f in found if f not in base)  # only what the overrides break
+
+
+def _geometry(geo, out: list[str]) -> None:
+    from microslip import geometry
+
+    if not isinstance(geo, dict) or geo.get("model") not in geometry.MODELS:
+        out.append(f"geometry.model = {geo.get('model') if isinstance(geo, dict) else geo!r}: "
+                   f"expected one of {sorted(geometry.MODELS)}")
+        return
+    unknown_keys("geometry.", geo, {"model", "parameters"}, out)
+    params = geo.get("parameters", {})
+    if not isinstance(params, dict):
+        out.append("geometry.parameters: expected a table")

@@ -1,0 +1,86 @@
+"""A validated case: the case table as run, its analyses as typed specs, and copies with
+keys overridden (validated again). :class:`CaseError` lists every fault found."""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+from . import specs
+from .paths import set_path
+from .validate import faults
+
+
+class CaseError(ValueError):
+    """All faults found in a case file, one per line."""
+
+    def __init__(self, source: str, faults: list[str]):
+        self.faults = faults
+        super().__init__(f"{source}: {len(faults)} fault(s)\n" + "\n".join(
+            f"  - {f}" for f in faults))
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case: the raw table (as run) plus its content hash."""
+
+    data: dict
+    source: str
+
+    @property
+    def title(self) -> str:
+        return self.data.get("title", Path(self.source).stem)
+
+    @property
+    def analyses(self) -> list[dict]:
+        """The [[analysis]] tables as written."""
+        return self.data.get("analysis", [])
+
+    @cached_property
+    def analysis_specs(self) -> tuple[specs.Analysis, ...]:
+        """Each analysis as its typed spec, defaults resolved."""
+        return tuple(specs.analysis(a, i) for i, a in enumerate(self.analyses))
+
+    @property
+    def draws_shapes(self) -> bool:
+        """Whether an frf draws deformed shapes at its map points: then every body is
+        recovered on its outer surface too."""
+        return any(isinstance(a, specs.Frf) and a.shapes for a in self.analysis_specs)
+
+    @property
+    def dofs(self) -> list[str]:
+        return list(self.data["model"]["dofs"])
+
+    @property
+    def content_hash(self) -> str:
+        blob = json.dumps(self.data, sort_keys=True, default=str).encode()
+        return hashlib.sha256(blob).hexdigest()
+
+    def contacts_enabled(self) -> list[str]:
+        """Names of the contacts the model includes, in order."""
+        return [c.get("name", f"contact{i}") for i, c in enumerate(self.data.get("contacts", []))
+                if c.get("enabled", True)]
+
+    def with_value(self, key: str, value: Any) -> Case:
+        """A copy with one key set (dotted path; arrays of tables by name or index)."""
+        return self.with_values({key: value})
+
+    def with_values(self, values: dict[str, Any]) -> Case:
+        """A copy with keys set; validated again (a value may break a rule)."""
+        if not values:
+            return self
+        data = copy.deepcopy(self.data)
+        for key, value in values.items():
+            set_path(data, key, value, create=True)
+        # no memory check: load bounded every analysis with its set and family already,
+        # against the memory free then (a run's own arrays must not refuse its later curves)
+        found: list[str] = []
+        faults(data, found)
+        if found:
+            raise CaseError(self.source, found)
+        return Case(data, self.source)
