@@ -246,6 +246,7 @@ def _render_options(args) -> tuple[object, list[str]]:
     """The pictures.Options of `render`'s arguments, and one line per bad one."""
     from matplotlib.colors import is_color_like
 
+    from microslip.pipeline.case.specs import MAP_TYPES
     from microslip.pipeline.draw import maps, pictures
     from microslip.pipeline.friction.laws import STATE_NAMES
 
@@ -273,9 +274,9 @@ def _render_options(args) -> tuple[object, list[str]]:
     kinds = None
     if args.maps is not None:
         kinds = tuple(k for k in args.maps.split(",") if k)
-        bad = [k for k in kinds if k not in pictures.MAP_TYPES]
+        bad = [k for k in kinds if k not in MAP_TYPES]
         if bad:
-            faults.append(f"--maps {args.maps}: {bad} not among {list(pictures.MAP_TYPES)}")
+            faults.append(f"--maps {args.maps}: {bad} not among {list(MAP_TYPES)}")
     return pictures.Options(colours, panel, args.at, kinds), faults
 
 

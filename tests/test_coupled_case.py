@@ -87,7 +87,7 @@ def coarse_run(tmp_path_factory):
 def test_the_multipliers_of_the_coupling_table_set_the_operating_point():
     data = copy.deepcopy(CASE)
     data["coupling"].update(excitation=3.0, mass_multiplier=5.0)
-    point = cases.operating_point({"start": 3100.0}, cases.Case(data, "c.toml"))
+    point = cases.operating_point(cases.Case(data, "c.toml"), 3100.0)
     assert (point.omega, point.excitation, point.mass_multiplier) == (3100.0, 3.0, 5.0)
 
 

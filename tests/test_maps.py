@@ -114,7 +114,10 @@ def test_the_slip_at_each_peak_is_the_share_of_slipping_pairs_against_the_family
               3.0: ([STICK_SLIP] * 3 + [STICK] * 3, [GROSS_SLIP, PARTIAL_LIFTOFF] + [STICK] * 4)}
     with h5py.File(tmp_path / "r.h5", "w") as f:
         g = f.create_group("frf")
-        g.attrs["family"] = '{"key": "coupling.excitation", "label": "excitation [N]"}'
+        # the analysis' record (specs.Analysis.record): what the drawers read
+        g.attrs.update({"type": "frf", "name": "frf", "start": 1.0, "stop": 2.0})
+        g.attrs["family"] = ('{"key": "coupling.excitation", "label": "excitation [N]", '
+                             '"values": [1.0, 3.0]}')
         for j, (value, (left, right)) in enumerate(states.items()):
             c = g.create_group(f"curve_{j:03d}")
             c.attrs["family_value"] = value
@@ -185,7 +188,7 @@ def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
 
     case = cases.load(Path(__file__).parents[1] / "cases" / "normal_load.toml")
     hb = cases.lumped_model(case.with_value("contacts.wall.n0", -0.5))
-    base = cases.operating_point({"start": 0.9})
+    base = cases.operating_point(omega=0.9)
     fine = sweep(hb, "frequency", 0.9, 1.6, base, settings=Settings(max_step=0.005))
     lam, xs = fine.values, fine.branch.x
     turn = [i for i in range(1, len(lam) - 1) if (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) < 0]

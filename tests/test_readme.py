@@ -161,3 +161,18 @@ def test_the_results_layout_section_is_the_schema():
     block = re.search(r"^### Results \(`results.h5`\).*?^```\n(.*?)^```", README,
                       re.M | re.S).group(1)
     assert block == schema.layout_text()
+
+
+def test_the_analyses_table_gives_each_number_and_switch_default_of_the_specs():
+    """A key's default in the Analyses table ("`points` (25)") is the spec's, and every
+    analysis key whose default is a number or a switch says it there."""
+    rows = {row[0].strip("`"): row[1] for row in _tables(_section("Case files"), "type")[0]}
+    for kind in specs.ANALYSES:
+        said = {k: v for k, v in re.findall(r"`(\w+)` \((-?[\d.]+|true|false)[;:)]",
+                                            rows[kind])}
+        scalar = {k: v for k, v in specs.defaults(kind).items()
+                  if isinstance(v, (bool, int, float))}
+        assert said.keys() == scalar.keys(), kind
+        for key, text in said.items():
+            value = {"true": True, "false": False}.get(text)
+            assert scalar[key] == (value if value is not None else float(text)), (kind, key)

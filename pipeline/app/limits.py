@@ -10,6 +10,7 @@ from collections.abc import Callable
 import numpy as np
 
 from microslip.pipeline.case import Case, curve_variants, operating_point
+from microslip.pipeline.case.specs import Frf
 from microslip.pipeline.results import schema
 from microslip.pipeline.solve.hbm import OperatingPoint
 
@@ -19,17 +20,17 @@ from .solutions import response_measure
 Progress = Callable[[str], None]
 
 
-def linear_limits(models: CoupledModels, case: Case, a: dict, w, group,
-                   store, progress: Progress, name: str) -> None:
+def linear_limits(models: CoupledModels, case: Case, spec: Frf, w, group,
+                  store, progress: Progress) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
     directly (linear): written beside the curves (the pictures draw them with them). The
     stuck system once per damper mass the curves have (a mass family: one each)."""
-    names = a.get("outputs", models.names(case))
-    measure = a.get("measure", "peak")
-    ws = np.linspace(a["start"], a["stop"], LINEAR_POINTS)
+    names = list(spec.outputs) if spec.outputs is not None else models.names(case)
+    measure = spec.measure
+    ws = np.linspace(spec.start, spec.stop, LINEAR_POINTS)
     variants = {}  # mass multiplier -> (case variant, coupled model, operating point)
-    for c, _, _ in curve_variants(case, a):
-        point = operating_point(a, c)
+    for c, _, _ in curve_variants(case, spec):
+        point = operating_point(c, spec.omega)
         variants.setdefault(point.mass_multiplier, (c, point))
     masses = sorted(variants)
     # the free limit is the cyclic bodies alone: drawn only where every output is on them
@@ -46,20 +47,20 @@ def linear_limits(models: CoupledModels, case: Case, a: dict, w, group,
     t = time.perf_counter()
     for springs, label, m, key in runs:
         c, base = variants[m]
-        stored = store.key(c.data, a, curve="linear", springs=springs, points=LINEAR_POINTS,
-                           peak_points=PEAK_POINTS, outputs=names)
+        stored = store.key(c.data, spec.table(), curve="linear", springs=springs,
+                           points=LINEAR_POINTS, peak_points=PEAK_POINTS, outputs=names)
         if store.load(stored, group, key):
             group[key].attrs["label"] = label
             continue
         ws_all, coef, shown = linear_curve(models.coupled(c), base, springs, names, measure,
                                             ws)
-        if a.get("normalise", False):  # linear: the same for every excitation level
+        if spec.normalise:  # linear: the same for every excitation level
             shown = shown / base.excitation
         w.write_group(group, key, {"omega": ws_all, "coefficients": coef, "response": shown},
                       {"label": label, "status": "complete", "message": "linear, solved "
                        "directly", "mass_multiplier": m})
         store.save(stored, group[key])
-    progress(f"[{name}] linear limits ({len(runs)} curves) in {time.perf_counter() - t:.1f} s")
+    progress(f"[{spec.name}] linear limits ({len(runs)} curves) in {time.perf_counter() - t:.1f} s")
 
 
 def linear_curve(cm, base: OperatingPoint, springs: str, names: list[str], measure: str,
@@ -109,7 +110,8 @@ def peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_n
                  for v in (pars[:1] if springs == "free" else pars)]
         if springs == "free":
             peaks = peaks * 2
-        w.write_group(group, {"free": schema.LEVEL_FREE, "stuck": schema.LEVEL_STUCK}[springs], {
+        level = schema.LEVEL_FREE if springs == "free" else schema.LEVEL_STUCK
+        w.write_group(group, level, {
             "parameter": pars, "omega": np.array([p[0] for p in peaks]),
             "amplitude": np.array([p[1] for p in peaks])},
             {"label": springs, "status": "complete", "message": "linear, solved directly"})

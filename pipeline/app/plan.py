@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from microslip.pipeline.case import Case, curve_variants, harmonics, operating_point, sizes
+from microslip.pipeline.case.specs import Frf, Peak
 from microslip.pipeline.solve.memory import memory_text
 
 from .store import CurveStore
@@ -64,35 +65,33 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
     by_name = {s.analysis: s for s in sizes(data)}
     from .run import frf_key
 
-    for i, a in enumerate(case.analyses):
-        name = str(a.get("name", f"analysis{i}"))
+    for spec in case.analysis_specs:
+        name = spec.name
         size = by_name.get(name)
         unknowns = size.unknowns if size else 0
         nbytes = size.nbytes if size else 0
-        kind = a["type"]
-        if kind not in ("frf", "peak"):
-            stages.append(Stage(f"{name}: {kind}", False, 0.0, nbytes, "not cached (short)"))
+        if not isinstance(spec, (Frf, Peak)):
+            stages.append(Stage(f"{name}: {spec.type}", False, 0.0, nbytes,
+                                "not cached (short)"))
             continue
         samples = harmonics(case).n_samples if "harmonics" in data else 64
         t_point = _point_seconds(unknowns, samples)
-        methods = a.get("method", "arclength") if kind == "frf" else "continuation"
-        methods = methods if isinstance(methods, list) else [methods]
-        for j, (c, label, _) in enumerate(curve_variants(case, a)):
+        methods = spec.method if isinstance(spec, Frf) else ("continuation",)
+        for j, (c, label, _) in enumerate(curve_variants(case, spec)):
             for method in methods:
-                if kind == "frf":
-                    cached = store.has(frf_key(store, c, a, method))
-                    seconds = CURVE_POINTS * t_point + (20 * t_point if a.get("maps") else 0)
+                if isinstance(spec, Frf):
+                    cached = store.has(frf_key(store, c, spec, method))
+                    seconds = CURVE_POINTS * t_point + (20 * t_point if spec.maps else 0)
                 else:
-                    cached = store.has(store.key(c.data, a, curve="peak"))
-                    seconds = (CURVE_POINTS + a.get("points", 25) * PEAK_SOLVES) * t_point
+                    cached = store.has(store.key(c.data, spec.table(), curve="peak"))
+                    seconds = (CURVE_POINTS + spec.points * PEAK_SOLVES) * t_point
                 what = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
                 stages.append(Stage(f"{name}: curve {j + 1}" + (f" ({what})" if what else ""),
                                     cached, 0.0 if cached else seconds, nbytes,
                                     f"{unknowns:,} unknowns"))
-        if "coupling" in data and kind == "frf" and a.get("parameter", "frequency") == \
-                "frequency":
-            masses = {operating_point(a, c).mass_multiplier
-                      for c, _, _ in curve_variants(case, a)}
+        if "coupling" in data and isinstance(spec, Frf) and spec.parameter == "frequency":
+            masses = {operating_point(c, spec.omega).mass_multiplier
+                      for c, _, _ in curve_variants(case, spec)}
             seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** 2
             stages.append(Stage(f"{name}: linear limits (free, stuck x {len(masses)})", False,
                                 seconds * (1 + len(masses)), 0,

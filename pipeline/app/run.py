@@ -9,9 +9,11 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import h5py
 import numpy as np
 
 from microslip.pipeline.case import (
@@ -22,6 +24,15 @@ from microslip.pipeline.case import (
     lumped_model,
     operating_point,
     settings,
+)
+from microslip.pipeline.case.specs import (
+    Analysis,
+    Dti,
+    Frf,
+    Loops,
+    Peak,
+    TimeIntegration,
+    Transient,
 )
 from microslip.pipeline.draw import pictures
 from microslip.pipeline.draw.maps import EDGES
@@ -47,6 +58,18 @@ if TYPE_CHECKING:
     from .structure import StructureResult
 
 Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Run:
+    """What every analysis of a run shares: the results writer, the output folder, where
+    progress goes, the models of the case (built once) and the curves kept between runs."""
+
+    writer: ResultsWriter
+    out: Path
+    progress: Progress
+    models: LumpedModels | CoupledModels
+    store: CurveStore
 
 
 class StageFailed(RuntimeError):
@@ -85,18 +108,16 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
                 if "coupling" in case.data:
                     models = CoupledModels(m, result)
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
-        for i, a in enumerate(case.analyses):
-            name = str(a.get("name", f"analysis{i}"))
-            kind = a["type"]
+        run = Run(w, out, progress, models, store)
+        for spec in case.analysis_specs:
+            name = spec.name
             t = time.perf_counter()
-            group = w.analysis(name, {k: v for k, v in a.items() if k != "family"}
-                               | {"family": a.get("family", {})})
-            progress(f"[{name}] {kind} ...")
-            if kind in ("frf", "peak", "loops") and (case.contacts_enabled()
-                                                     or "coupling" in case.data):
+            group = w.analysis(name, spec.record())
+            progress(f"[{name}] {spec.type} ...")
+            if spec.type in ("frf", "peak", "loops") and (case.contacts_enabled()
+                                                          or "coupling" in case.data):
                 warm_up(progress)  # says so when a first run compiles the contact kernels
-            status, message = RUNNERS[kind](case, a, name, w, group, out, progress, models,
-                                            store)
+            status, message = RUNNERS[spec.type](case, spec, group, run)
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t
@@ -215,10 +236,12 @@ def write_surfaces(w: ResultsWriter, mesh) -> None:
     w.write_group(w.file, schema.SURFACES, groups, {"sectors": sectors[0] if sectors else 0})
 
 
-def _outputs(case: Case, a: dict, models=None) -> tuple[list[str], object]:
-    """(output names, their selection: DOF indices or rows of the shared DOFs)."""
+def _outputs(case: Case, names: tuple[str, ...] | None, models=None
+             ) -> tuple[list[str], object]:
+    """(output names, their selection: DOF indices or rows of the shared DOFs); ``names``
+    None: every output of the case."""
     models = models or LumpedModels()
-    names = a.get("outputs", models.names(case))
+    names = list(names) if names is not None else models.names(case)
     return names, models.selection(case, names)
 
 
@@ -296,98 +319,95 @@ def _patch_data(states: list[dict[str, PatchState]]) -> dict:
             for p in states[0]}
 
 
-def frf_key(store: CurveStore, c: Case, a: dict, method: str) -> str:
+def frf_key(store: CurveStore, case: Case, spec: Frf, method: str) -> str:
     """The store key of one FRF branch; deformed shapes at its map points are part of what
     it computes."""
-    return store.key(c.data, a, method=method, curve="frf",
-                     shapes="shape" in a.get("map_types", []))
+    return store.key(case.data, spec.table(), method=method, curve="frf", shapes=spec.shapes)
 
 
-def run_frf(case, a, name, w, group, out, progress, models, store):
-    par = a.get("parameter", "frequency")
-    methods = a.get("method", "arclength")
-    methods = methods if isinstance(methods, list) else [methods]
+def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, str]:
+    """Every curve of an frf (a family value and a method each), the linear limits of a
+    coupled case's frequency sweep, the pictures; (status, message) of the worst curve."""
+    name, store, progress = spec.name, run.store, run.progress
+    methods = spec.method
     statuses = []
     keys: list[str] = []
     hits = store.hits
     j = 0
-    for c, label, value in curve_variants(case, a):
+    for variant, label, value in curve_variants(case, spec):
         for method in methods:
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
-            key = frf_key(store, c, a, method)
+            key = frf_key(store, variant, spec, method)
             keys.append(key)
-            cname = schema.curve(j)
+            curve = schema.curve(j)
             status, message = _stored_curve(
-                store, key, group, cname, f"{which}: {{}} points", progress,
-                lambda c=c, method=method, tag=tag, value=value, which=which, cname=cname:
-                _frf_curve(c, a, method, tag, value, which, w, group, cname, progress,
-                           models))
-            w.flush()
+                store, key, group, curve, f"{which}: {{}} points", progress,
+                lambda variant=variant, method=method, tag=tag, value=value, which=which,
+                curve=curve: _frf_curve(variant, spec, method, tag, value, which, group,
+                                        curve, run))
+            run.writer.flush()
             j += 1
             statuses.append((status, message))
-            g = group[cname]
-            coarse = sampling_warning(g)
+            coarse = sampling_warning(group[curve])
             if coarse:
                 progress(f"warning: {which}: {coarse}")
             if status == "interrupted":
                 break
         if statuses and statuses[-1][0] == "interrupted":
             break
-    if isinstance(models, CoupledModels) and par == "frequency" and statuses and \
-            statuses[-1][0] != "interrupted":
-        linear_limits(models, case, a, w, group, store, progress, name)
-    group.attrs["map_types"] = _attr_list(a.get("map_types", ["status"]))
+    if isinstance(run.models, CoupledModels) and spec.parameter == "frequency" and statuses \
+            and statuses[-1][0] != "interrupted":
+        linear_limits(run.models, case, spec, run.writer, group, store, progress)
     every = len(keys) + sum(schema.is_linear(k) for k in group)
-    _draw(pictures.frf, group, name, out, a, keys, store.hits - hits == every, progress)
+    _draw(pictures.frf, group, spec, run, keys, store.hits - hits == every)
     return _worst(statuses)
 
 
-def _draw(draw, group, name: str, out: Path, a: dict, keys: list[str], cached: bool,
-          progress: Progress) -> None:
+def _draw(draw, group: h5py.Group, spec: Analysis, run: Run, keys: list[str] = (),
+          cached: bool = False) -> None:
     """Draw an analysis' pictures, unless every curve came from the store and the pictures
     drawn from the same keys are all there (PictureStamps)."""
-    stamps = PictureStamps(out / "cache" / "pictures")
-    key = stamps.key(keys, a)
-    kept = stamps.current(name, key) if cached else None
+    stamps = PictureStamps(run.out / "cache" / "pictures")
+    key = stamps.key(list(keys), spec.table())
+    kept = stamps.current(spec.name, key) if cached else None
     if kept is not None:
-        progress(f"[{name}] pictures unchanged ({len(kept)} files)")
+        run.progress(f"[{spec.name}] pictures unchanged ({len(kept)} files)")
         return
-    stamps.remember(name, key, draw(group, name, out))
+    stamps.remember(spec.name, key, draw(group, spec.name, run.out))
 
 
-def _stored_curve(store: CurveStore, key: str, group, cname: str, what: str,
+def _stored_curve(store: CurveStore, key: str, group, curve: str, what: str,
                   progress: Progress, compute: Callable[[], tuple[str, str]]
                   ) -> tuple[str, str]:
-    """(status, message) of the curve ``group[cname]``: copied from the store, saying so
+    """(status, message) of the curve ``group[curve]``: copied from the store, saying so
     (``what`` formats its number of points), or computed by ``compute`` and kept there when
     finished (complete, or stopped for a reason a re-run would meet again)."""
-    if store.load(key, group, cname):
-        g = group[cname]
+    if store.load(key, group, curve):
+        g = group[curve]
         status, message = str(g.attrs["status"]), str(g.attrs["message"])
         progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
                  f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
         return status, message
     status, message = compute()
     if status in ("complete", "stopped"):
-        store.save(key, group[cname])
+        store.save(key, group[curve])
     return status, message
 
 
-def _frf_curve(c: Case, a: dict, method: str, tag: str, value, which: str, w, group,
-               cname: str, progress: Progress, models) -> tuple[str, str]:
-    """Compute one FRF branch (and its map points) into ``group[cname]``; (status,
-    message)."""
-    par = a.get("parameter", "frequency")
-    names, idx = _outputs(c, a, models)
-    measure = a.get("measure", "peak")
-    wanted = a.get("maps", [])
-    start, stop = a["start"], a["stop"]
+def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
+               group: h5py.Group, curve: str, run: Run) -> tuple[str, str]:
+    """Compute one FRF branch (and its map points) of the case variant ``c`` into
+    ``group[curve]``; (status, message)."""
+    models, progress = run.models, run.progress
+    par, measure, wanted = spec.parameter, spec.measure, list(spec.maps)
+    names, idx = _outputs(c, spec.outputs, models)
+    start, stop = spec.start, spec.stop
     if method == "natural-down":
         start, stop = stop, start
     hb = models.model(c)
     t = time.perf_counter()
-    base = operating_point(a, c).set(par, start)
+    base = operating_point(c, spec.omega).set(par, start)
     r = sweep(hb, par, start, stop, base,
               method="natural" if method.startswith("natural") else method,
               settings=settings(c), progress=_ticker(progress, which, start, stop))
@@ -396,7 +416,7 @@ def _frf_curve(c: Case, a: dict, method: str, tag: str, value, which: str, w, gr
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
     amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
     shown = response_measure(coef, hb.harmonics, measure) if len(r) else amp
-    if a.get("normalise", False) and len(r):  # per unit of the excitation multiplier
+    if spec.normalise and len(r):  # per unit of the excitation multiplier
         shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
     contacts = _contact_data(r, per_point)
@@ -423,10 +443,8 @@ def _frf_curve(c: Case, a: dict, method: str, tag: str, value, which: str, w, gr
                                        for p in per_point])
         if wanted and b.status != "interrupted":
             sols = map_solutions(r, wanted, idx, measure, settings(c))
-            shapes = "shape" in a.get("map_types", [])
-            data[schema.MAPS] = map_groups(cm, r, sols, idx, measure,
-                                       bool(a.get("normalise", False)),
-                                       surfaces(models.mesh) if shapes else None)
+            data[schema.MAPS] = map_groups(cm, r, sols, idx, measure, spec.normalise,
+                                           surfaces(models.mesh) if spec.shapes else None)
             for m in data[schema.MAPS].values():
                 progress(f"{which}: map point, {m[ATTRS]['what']} at {par} "
                          f"{m[ATTRS]['parameter']:.6g}: response {m['response'][0]:.4g} m")
@@ -435,14 +453,14 @@ def _frf_curve(c: Case, a: dict, method: str, tag: str, value, which: str, w, gr
                 progress(f"warning: {which}: no solution found at {par} = "
                          f"{', '.join(f'{x:g}' for x in missing)} for its maps")
     attrs = {"label": tag, "method": method, "measure": measure,
-             "family_key": (a.get("family") or {}).get("key", ""),
+             "family_key": spec.family.key if spec.family else "",
              "family_value": value if value is not None else "", "status": b.status,
              "message": b.message, "turning_points": b.turning_points,
              "elapsed_s": elapsed, "outputs": names,
              "harmonic_orders": list(hb.harmonics.orders),
              "samples": hb.harmonics.n_samples, "mass_multiplier": base.mass_multiplier,
-             "excitation": base.excitation, "normalised": bool(a.get("normalise", False))}
-    w.write_group(group, cname, data, attrs)
+             "excitation": base.excitation, "normalised": spec.normalise}
+    run.writer.write_group(group, curve, data, attrs)
     progress(f"{which}: {len(r)} points, {b.status} ({elapsed:.2f} s) {b.message}".rstrip())
     return b.status, b.message
 
@@ -462,61 +480,59 @@ def _peak_ticker(progress: Progress, name: str, label: str, par: str):
     return tick
 
 
-def run_peak(case, a, name, w, group, out, progress, models, store):
-    par = a["parameter"]
+def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, str]:
+    """Every peak curve (one per family value) and, with ``levels`` on a coupled case, the
+    free and fully stuck peak levels; the picture; (status, message) of the worst curve."""
+    name, store, models = spec.name, run.store, run.models
     statuses = []
     keys: list[str] = []
     hits = store.hits
-    for j, (c, label, fvalue) in enumerate(curve_variants(case, a)):
-        key = store.key(c.data, a, curve="peak")
+    for j, (variant, label, value) in enumerate(curve_variants(case, spec)):
+        key = store.key(variant.data, spec.table(), curve="peak")
         keys.append(key)
-        cname = schema.curve(j)
+        curve = schema.curve(j)
         status, message = _stored_curve(
-            store, key, group, cname, f"[{name}] {label or 'curve'}: {{}} values", progress,
-            lambda c=c, label=label, fvalue=fvalue, cname=cname:
-            _peak_curve(c, a, label, fvalue, name, w, group, cname, progress, models))
+            store, key, group, curve, f"[{name}] {label or 'curve'}: {{}} values",
+            run.progress, lambda variant=variant, label=label, value=value, curve=curve:
+            _peak_curve(variant, spec, label, value, group, curve, run))
         statuses.append((status, message))
-        w.flush()
+        run.writer.flush()
         if status == "interrupted":
             break
-    if a.get("levels", False) and isinstance(models, CoupledModels) and not (
+    if spec.levels and isinstance(models, CoupledModels) and not (
             statuses and statuses[-1][0] == "interrupted"):
-        c = case.with_values(a.get("set", {}))
-        key = store.key(c.data, a, curve="levels", points=LEVEL_POINTS)
+        variant = case.with_values(spec.set)
+        key = store.key(variant.data, spec.table(), curve="levels", points=LEVEL_POINTS)
         if not (store.load(key + "f", group, schema.LEVEL_FREE)
                 and store.load(key + "s", group, schema.LEVEL_STUCK)):
             for k in (schema.LEVEL_FREE, schema.LEVEL_STUCK):
                 if k in group:
                     del group[k]
-            peak_levels(models.coupled(c), operating_point({"start": a["window"][0]}, c),
-                         par, _peak_values(a), a["output"], tuple(a["window"]),
-                         a.get("measure", "peak") == "vibration", w, group, progress, name)
+            peak_levels(models.coupled(variant), operating_point(variant, spec.window[0]),
+                        spec.parameter, spec.values(), spec.output, spec.window,
+                        spec.measure == "vibration", run.writer, group, run.progress, name)
             store.save(key + "f", group[schema.LEVEL_FREE])
             store.save(key + "s", group[schema.LEVEL_STUCK])
     every = len(keys) + sum(schema.is_level(k) for k in group)
-    _draw(pictures.peak, group, name, out, a, keys, store.hits - hits == every, progress)
+    _draw(pictures.peak, group, spec, run, keys, store.hits - hits == every)
     return _worst(statuses)
 
 
-def _peak_values(a: dict) -> np.ndarray:
-    space = np.geomspace if a.get("spacing", "linear") == "log" else np.linspace
-    return space(a["start"], a["stop"], a.get("points", 25))
-
-
-def _peak_curve(c: Case, a: dict, label: str, fvalue, name: str, w, group, cname: str,
-                progress: Progress, models) -> tuple[str, str]:
-    """One peak curve (a family value's) into ``group[cname]``; (status, message)."""
-    par = a["parameter"]
-    values = _peak_values(a)
-    k = _outputs(c, {"outputs": [a["output"]]}, models)[1][0]
-    lo, hi = a["window"]
-    vibration = a.get("measure", "peak") == "vibration"
-    hb = models.model(c)
-    base = operating_point({"start": lo}, c)
+def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve: str,
+                run: Run) -> tuple[str, str]:
+    """One peak curve of the case variant ``c`` (a family value's) into ``group[curve]``;
+    (status, message)."""
+    par = spec.parameter
+    values = spec.values()
+    k = _outputs(c, (spec.output,), run.models)[1][0]
+    lo, hi = spec.window
+    vibration = spec.measure == "vibration"
+    hb = run.models.model(c)
+    base = operating_point(c, lo)
     t = time.perf_counter()
-    tick = _peak_ticker(progress, name, label, par)
+    tick = _peak_ticker(run.progress, spec.name, label, par)
     statuses = []
-    if a.get("tracking", "continuation") == "continuation":
+    if spec.tracking == "continuation":
         try:
             pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=settings(c),
                             progress=tick, vibration=vibration)
@@ -544,23 +560,26 @@ def _peak_curve(c: Case, a: dict, label: str, fvalue, name: str, w, group, cname
     data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
             "complete": np.array(done), "how": np.array(how)}
     status, message = _worst(statuses)
-    w.write_group(group, cname, data, {
-        "label": label or f"peak of {a['output']}", "family_value": fvalue or "",
+    run.writer.write_group(group, curve, data, {
+        "label": label or f"peak of {spec.output}", "family_value": value or "",
         "status": status, "message": message, "elapsed_s": time.perf_counter() - t})
     return status, message
 
 
-def run_loops(case, a, name, w, group, out, progress, models=None, store=None):
-    table = next(c for c in case.data["contacts"] if c.get("name") == a["contact"])
-    amps = np.asarray(a["amplitudes"], dtype=float)
+def run_loops(case: Case, spec: Loops, group: h5py.Group, run: Run) -> tuple[str, str]:
+    """The loops of one contact law under the prescribed motion, one per amplitude (the
+    contact as the case, its ``set`` applied, gives it); the picture."""
+    variant = case.with_values(spec.set)
+    table = next(c for c in variant.data["contacts"] if c.get("name") == spec.contact)
+    amps = np.asarray(spec.amplitudes, dtype=float)
     base = contact_elements(table)
     el = type(base)(base.law, np.repeat(base.kt, amps.size, 0), np.repeat(base.kn, amps.size),
                     np.repeat(base.mu, amps.size), np.repeat(base.n0, amps.size), base.coupled)
-    h = Harmonics([0, 1], a.get("samples", 512))
-    motion = [a["u"]] + ([a["u2"]] if el.dim == 2 else []) + (
-        [a.get("v", [0.0, 0.0])] if el.variable_normal else [])
+    h = Harmonics([0, 1], spec.samples)
+    motion = [spec.u] + ([spec.u2] if el.dim == 2 else []) + (
+        [spec.v] if el.variable_normal else [])
     g = np.zeros((amps.size, el.n_components, 3))
-    scale_v_only = el.variable_normal and a.get("scale", "all") == "v"
+    scale_v_only = el.variable_normal and spec.scale == "v"
     for j, (ca, sa) in enumerate(motion):
         is_v = el.variable_normal and j == el.n_components - 1
         factor = amps if (is_v or not scale_v_only) else np.ones_like(amps)
@@ -570,76 +589,78 @@ def run_loops(case, a, name, w, group, out, progress, models=None, store=None):
     data = {"amplitude": amps, "u": r.u, "v": r.v, "T": r.T, "N": r.N,
             "dissipation": r.dissipation, "state": r.state.astype(np.int8),
             "motion_amplitude": amps * np.hypot(*motion[scaled])}
-    w.write_group(group, schema.curve(0), data, {
-        "label": f"loops of {a['contact']}", "status": "complete", "message": "",
-        "law": el.law, "contact": a["contact"], "dim": el.dim, "mu": float(base.mu[0]),
+    run.writer.write_group(group, schema.curve(0), data, {
+        "label": f"loops of {spec.contact}", "status": "complete", "message": "",
+        "law": el.law, "contact": spec.contact, "dim": el.dim, "mu": float(base.mu[0]),
         "motion": "v" if scale_v_only else ("u_x" if el.dim == 2 else "u")})
-    _draw(pictures.loops, group, name, out, a, [], False, progress)
+    _draw(pictures.loops, group, spec, run)
     return "complete", ""
 
 
-def _time_model(case: Case, a: dict):
+def _time_model(case: Case, spec: TimeIntegration):
     """(case as set, HB model, output names, indices, time model, load steps)."""
     from microslip.pipeline.solve import dti
 
-    c = case.with_values(a.get("set", {}))
+    c = case.with_values(spec.set)
     hb = lumped_model(c)
-    names, idx = _outputs(c, a)
+    names, idx = _outputs(c, spec.outputs)
     tm = dti.TimeModel.from_harmonic_balance(hb)
     loads = dti.LoadSteps.from_excitation(
-        hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
-        settle_time=a.get("settle_time", 0.0), ramp_periods=a.get("ramp_periods", 0))
+        hb.excitation, hb.linear.n_dof, ramp_time=spec.ramp_time,
+        settle_time=spec.settle_time, ramp_periods=spec.ramp_periods)
     return c, hb, names, idx, tm, loads
 
 
-def run_dti(case, a, name, w, group, out, progress, models=None, store=None):
+def run_dti(case: Case, spec: Dti, group: h5py.Group, run: Run) -> tuple[str, str]:
+    """Steady responses by time integration at each frequency; the pictures."""
     from microslip.pipeline.solve import dti
 
-    c, hb, names, idx, tm, loads = _time_model(case, a)
+    name, progress = spec.name, run.progress
+    c, hb, names, idx, tm, loads = _time_model(case, spec)
     H = max(hb.harmonics.orders)
-    spp = a.get("steps_per_period", 256)
+    spp = spec.steps_per_period
 
     def tick(i, n, omega, steady):
         progress(f"[{name}] {i + 1}/{n} w = {omega:.6g} rad/s: {steady.periods} periods, "
                  f"max|{names[0]}| = {steady.amplitude[idx[0]]:.6g}"
                  + ("" if steady.converged else " (not periodic yet)"))
 
-    kw = dict(steps_per_period=spp, max_periods=a.get("max_periods", 3000),
+    kw = dict(steps_per_period=spp, max_periods=spec.max_periods,
               harmonics=min(H, (spp - 1) // 2))
     try:
-        if a.get("restart", False):
+        if spec.restart:
             # every frequency from fresh load steps: a stuck contact keeps the static
             # state of its history, so a sweep would carry it from one point to the next
             parts = []
-            for i, wk in enumerate(a["frequencies"]):
+            for i, wk in enumerate(spec.frequencies):
                 part = dti.frequency_response(tm, loads, [wk], **kw)
                 parts.append(part)
-                progress(f"[{name}] {i + 1}/{len(a['frequencies'])} w = {wk:.6g} rad/s: "
+                progress(f"[{name}] {i + 1}/{len(spec.frequencies)} w = {wk:.6g} rad/s: "
                          f"{part.periods[0]} periods")
             fr = _join_responses(parts)
         else:
-            fr = dti.frequency_response(tm, loads, a["frequencies"], progress=tick, **kw)
+            fr = dti.frequency_response(tm, loads, list(spec.frequencies), progress=tick,
+                                        **kw)
     except KeyboardInterrupt:
         return "interrupted", "time integration interrupted by the user"
     contacts = {}
     for ci, ct in enumerate(c.contacts_enabled()):
         contacts[ct] = {"N0": fr.N0[ci], "T0": fr.T0[ci],
                         ATTRS: {"variable_normal": _normal(hb, ct)}}
-    measure = a.get("measure", "peak")
     shown = fr.amplitude[:, idx]
-    if measure != "peak":
+    if spec.measure != "peak":
         hh = Harmonics(range(fr.coefficients.shape[2] // 2 + 1), spp)
-        shown = response_measure(fr.coefficients[:, idx], hh, measure)
+        shown = response_measure(fr.coefficients[:, idx], hh, spec.measure)
     data = {"omega": fr.omega, "amplitude": fr.amplitude[:, idx], "response": shown,
             "coefficients": fr.coefficients[:, idx], "periods": fr.periods,
             "converged": fr.converged, "seconds": fr.seconds, schema.CONTACTS: contacts}
     ok = bool(np.all(fr.converged))
     message = "" if ok else f"{int(np.sum(~fr.converged))} frequencies not periodic yet"
-    w.write_group(group, schema.curve(0), data, {"label": "time integration",
-                                             "status": "complete" if ok else "stopped",
-                                             "message": message, "outputs": names,
-                                             "steps_per_period": spp, "measure": measure})
-    _draw(pictures.dti, group, name, out, a, [], False, progress)
+    run.writer.write_group(group, schema.curve(0), data, {
+        "label": "time integration", "status": "complete" if ok else "stopped",
+        "message": message, "outputs": names, "steps_per_period": spp,
+        "measure": spec.measure})
+    _draw(pictures.dti, group, spec, run)
     return ("complete" if ok else "stopped"), message
 
 
@@ -656,25 +677,26 @@ def _join_responses(parts):
                        parts[-1].end)
 
 
-def run_transient(case, a, name, w, group, out, progress, models=None, store=None):
+def run_transient(case: Case, spec: Transient, group: h5py.Group, run: Run
+                  ) -> tuple[str, str]:
+    """The two load steps as time histories; the picture."""
     from microslip.pipeline.solve import dti
 
-    c, hb, names, idx, tm, loads = _time_model(case, a)
+    c, hb, names, idx, tm, loads = _time_model(case, spec)
     t0 = time.perf_counter()
-    steps = dti.load_steps(tm, loads, a["frequency"],
-                           steps_per_period=a.get("steps_per_period", 256))
-    progress(f"[{name}] load steps integrated in {time.perf_counter() - t0:.2f} s")
+    steps = dti.load_steps(tm, loads, spec.frequency, steps_per_period=spec.steps_per_period)
+    run.progress(f"[{spec.name}] load steps integrated in {time.perf_counter() - t0:.2f} s")
     for k, (label, tr) in enumerate(zip(("load step 1", "load step 2"), steps)):
         if tr is None:
             continue
         data = {"t": tr.t, "q": tr.q[:, idx], "F": tr.F[:, idx],
                 schema.CONTACTS: {ct.name: {"T": h.T, "N": h.N, "state": h.state,
-                                       ATTRS: {"mu": float(ct.elements.mu[0])}}
-                             for ct, h in zip(hb.contacts, tr.contacts)}}
-        w.write_group(group, schema.step(k + 1), data, {
+                                            ATTRS: {"mu": float(ct.elements.mu[0])}}
+                                  for ct, h in zip(hb.contacts, tr.contacts)}}
+        run.writer.write_group(group, schema.step(k + 1), data, {
             "label": label, "status": "complete", "message": "", "outputs": names,
             "contacts": _attr_list([ct.name for ct in hb.contacts])})
-    _draw(pictures.transient, group, name, out, a, [], False, progress)
+    _draw(pictures.transient, group, spec, run)
     return "complete", ""
 
 
@@ -686,5 +708,7 @@ def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
     return "complete", ""
 
 
+#: One runner per analysis type: (case, its spec, its results group, the run's shared
+#: parts) -> (status, message).
 RUNNERS = {"frf": run_frf, "peak": run_peak, "loops": run_loops, "dti": run_dti,
            "transient": run_transient}

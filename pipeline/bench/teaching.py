@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from microslip.pipeline.case import Case, load, lumped_model, settings
+from microslip.pipeline.case.specs import Dti, Frf
 from microslip.pipeline.solve import dti
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import sweep
@@ -51,29 +52,30 @@ SPP_TABLE = (32, 64, 128, 256, 512, 1024)
 LOOSE = 1e-3  # the looser accuracy of the second comparison (0.1 %)
 
 
-def _coupled(case: Case) -> tuple[Case, dict]:
-    a = next(x for x in case.analyses if x["name"] == "fig16")
-    fam = a["family"]
-    i = next(i for i, v in enumerate(fam["values"]) if v.startswith("coupled"))
-    return case.with_values(fam["sets"][i]), a
+def _coupled(case: Case) -> tuple[Case, Frf]:
+    """The case as the coupled-form curve of Fig. 16 sees it, and that frf."""
+    spec = next(x for x in case.analysis_specs if x.name == "fig16")
+    family = spec.family
+    i = next(i for i, v in enumerate(family.values) if v.startswith("coupled"))
+    return case.with_values(family.sets[i]), spec
 
 
 def _loads(case: Case, hb) -> dti.LoadSteps:
-    a = next(x for x in case.analyses if x["type"] == "dti")
+    spec = next(x for x in case.analysis_specs if isinstance(x, Dti))
     return dti.LoadSteps.from_excitation(
-        hb.excitation, hb.linear.n_dof, ramp_time=a.get("ramp_time", 0.0),
-        settle_time=a.get("settle_time", 0.0), ramp_periods=a.get("ramp_periods", 0))
+        hb.excitation, hb.linear.n_dof, ramp_time=spec.ramp_time,
+        settle_time=spec.settle_time, ramp_periods=spec.ramp_periods)
 
 
 def frf_table(repeat: int, unit: float, dti_points: int) -> list[str]:
     base = load(CASE)
-    case, a = _coupled(base)
+    case, spec = _coupled(base)
     hb = lumped_model(case)
     k = case.dofs.index(OUTPUT)
     keep = {}
 
     def hbm_frf():
-        keep["r"] = sweep(hb, "frequency", a["start"], a["stop"], OperatingPoint(a["start"]),
+        keep["r"] = sweep(hb, "frequency", spec.start, spec.stop, OperatingPoint(spec.start),
                           settings=settings(case))
 
     t_hbm = median_time(hbm_frf, repeat)
@@ -93,7 +95,7 @@ def frf_table(repeat: int, unit: float, dti_points: int) -> list[str]:
     lines = [
         f"9-DOF blade-damper-blade FRF ({CASE.name}, coupled HBM, orders "
         f"{list(hb.harmonics.orders)}, {hb.harmonics.n_samples} samples), w = "
-        f"{a['start']:g}..{a['stop']:g} rad/s",
+        f"{spec.start:g}..{spec.stop:g} rad/s",
         f"  HBM: {n_pts} points (arclength), {t_hbm:.3f} s ({t_hbm / unit:.0f} ref units), "
         f"{t_hbm / n_pts * 1e3:.2f} ms/point; peak refinement {t_refine:.3f} s",
         f"  reference: DTI at {', '.join(map(str, SPP_REF))} steps/period, Richardson (order "

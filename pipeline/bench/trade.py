@@ -126,7 +126,7 @@ def measure(data: dict, source: str) -> dict:
 
     warm_up(quiet)  # the contact kernels load from numba's cache: not the setting's cost
     case = Case(data, source)
-    a = case.analyses[0]
+    spec = case.analysis_specs[0]
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         mesh = mesh_geometry(data["geometry"], Path(tmp), quiet, pictures=False)
@@ -136,18 +136,18 @@ def measure(data: dict, source: str) -> dict:
         t2 = time.perf_counter()
         models = CoupledModels(mesh, structure)
         hb = models.model(case)
-        rows = models.selection(case, a["outputs"])
+        rows = models.selection(case, list(spec.outputs))
         t3 = time.perf_counter()
-        base = operating_point(a, case).set("frequency", a["start"])
-        r = sweep(hb, "frequency", a["start"], a["stop"], base, settings=settings(case))
+        base = operating_point(case, spec.start)
+        r = sweep(hb, "frequency", spec.start, spec.stop, base, settings=settings(case))
         found = map_solutions(r, ["peak"], rows, "vibration", settings(case))
         t4 = time.perf_counter()
         # the fully stuck and free linear peaks of the same model (not timed): they split
         # a setting's change into the linear model's (mesh, modes) and the friction's
         cm = models.coupled(case)
-        window = (a["start"], a["stop"])
-        stuck = linear_peak(cm, base, "stuck", a["outputs"][0], window, True)
-        free = linear_peak(cm, base, "free", a["outputs"][0], window, True)
+        window = (spec.start, spec.stop)
+        stuck = linear_peak(cm, base, "stuck", spec.outputs[0], window, True)
+        free = linear_peak(cm, base, "free", spec.outputs[0], window, True)
     omega, amplitude = float("nan"), float("nan")
     if found:
         _, omega, x = found[0]

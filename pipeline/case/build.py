@@ -20,6 +20,7 @@ from microslip.pipeline.solve.hbm import (
     OperatingPoint,
 )
 
+from . import specs
 from .validate import has_lag
 
 if TYPE_CHECKING:
@@ -107,28 +108,26 @@ def lumped_model(case: Case) -> HarmonicBalance:
     return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=sub)
 
 
-def operating_point(analysis: dict, case: Case | None = None) -> OperatingPoint:
-    """The fixed values of the parameters an analysis does not sweep (a coupled case's
-    damper mass multiplier and excitation multiplier from [coupling] mass_multiplier and
-    excitation)."""
-    par = analysis.get("parameter", "frequency")
-    omega = analysis["start"] if par == "frequency" else analysis["frequency"]
+def operating_point(case: Case | None = None, omega: float = 1.0) -> OperatingPoint:
+    """The operating point at frequency ``omega`` (rad/s) with the fixed values of the other
+    parameters: a coupled case's damper mass multiplier and excitation multiplier from
+    [coupling] mass_multiplier and excitation (1 elsewhere)."""
     table = {} if case is None else case.data.get("coupling", {})
     return OperatingPoint(float(omega), excitation=float(table.get("excitation", 1.0)),
                           mass_multiplier=float(table.get("mass_multiplier", 1.0)))
 
 
-def curve_variants(case: Case, a: dict) -> list[tuple[Case, str, object]]:
+def curve_variants(case: Case, spec: specs.Analysis) -> list[tuple[Case, str, Any]]:
     """(case variant, label, family value) per curve of an analysis: its ``set`` applied,
     then each family value or table."""
-    case = case.with_values(a.get("set", {}))
-    fam = a.get("family")
-    if not fam:
+    case = case.with_values(spec.set)
+    family = getattr(spec, "family", None)
+    if family is None:
         return [(case, "", None)]
-    if "sets" in fam:
-        return [(case.with_values(s), str(v), v) for v, s in zip(fam["values"], fam["sets"])]
-    label = fam.get("label", fam["key"])
-    return [(case.with_value(fam["key"], v), _value_label(label, v), v) for v in fam["values"]]
+    if family.sets:
+        return [(case.with_values(s), str(v), v) for v, s in zip(family.values, family.sets)]
+    return [(case.with_value(family.key, v), _value_label(family.legend, v), v)
+            for v in family.values]
 
 
 def _value_label(label: str, v: float) -> str:

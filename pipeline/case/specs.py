@@ -94,6 +94,11 @@ class Frf(Analysis):
     map_types: tuple[str, ...] = ("status",)
 
     @property
+    def omega(self) -> float:
+        """The frequency (rad/s) the curve starts at (a frequency sweep) or holds."""
+        return self.start if self.parameter == "frequency" else self.frequency
+
+    @property
     def shapes(self) -> bool:
         """Whether deformed shapes are drawn (and so recovered) at the map points."""
         return bool(self.maps) and "shape" in self.map_types

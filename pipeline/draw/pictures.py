@@ -15,6 +15,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from microslip.pipeline.case import specs
 from microslip.pipeline.friction.laws import STATE_NAMES, STICK, slip_share
 from microslip.pipeline.results import schema
 
@@ -23,7 +24,6 @@ from . import maps, plots, shapes
 MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [m]",
                  "harmonic": "first-harmonic amplitude of {} [m]"}
 STYLE = {"natural": "--", "natural-down": ":"}  # line style per continuation method
-MAP_TYPES = ("status", "normal_load", "shape")
 
 
 @dataclass(frozen=True)
@@ -61,7 +61,7 @@ def curves(g: h5py.Group) -> list[tuple[str, h5py.Group]]:
 def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, list[dict]]]:
     """(parameter, output -> line series, contact -> static-force line series) of an frf
     analysis group, with the linear limits where written."""
-    par = _text(g.attrs.get("parameter", "frequency"))
+    par = specs.from_record(g.attrs).parameter
     series: dict[str, list[dict]] = {}
     static: dict[str, list[dict]] = {}
     for _, c in curves(g):
@@ -174,7 +174,7 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Every picture of an frf analysis: the response of each output (with the linear
     limits and the map points marked), the static forces of each contact, and the maps."""
     par, series, static = frf_series(g)
-    measure = _text(g.attrs.get("measure", "peak"))
+    measure = specs.from_record(g.attrs).measure
     marks = map_marks(g)
     normalised = any(bool(c.attrs.get("normalised", False)) for _, c in curves(g))
     paths = []
@@ -225,12 +225,11 @@ def slip_growth(g: h5py.Group, name: str, out: Path) -> list[Path]:
     x, shares = slip_at_peaks(g)
     if len(x) < 2:
         return []
-    fam = g.attrs.get("family", "")
-    family = json.loads(_text(fam)) if isinstance(fam, (str, bytes)) and _text(fam) else {}
+    family = specs.from_record(g.attrs).family
     series = [{"x": x, "y": v, "label": k, "lw": 2.2 if k.startswith("all") else 1.2,
                "ls": ":" if "not stuck" in k else "-"} for k, v in shares.items()]
     path = out / f"{name}_slip.png"
-    what = _text(family.get("label", family.get("key", "family value")))
+    what = family.legend if family is not None else "family value"
     plots.curves(path, f"{name}: slipping area at the resonance peak", what, series,
                  "node pairs in stick-slip or gross slip [%]", logy=False)
     return [path]
@@ -259,7 +258,7 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     """The points of an frf analysis that get maps: the case's (each curve's maps/ group),
     or, with ``at``, the computed point of each curve nearest that parameter value."""
     out = []
-    par = _text(g.attrs.get("parameter", "frequency"))
+    par = specs.from_record(g.attrs).parameter
     if at is not None:
         for _, c in curves(g):
             label = _text(c.attrs.get("label", ""))
@@ -295,8 +294,8 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
     """Status maps (and static normal-load maps) of every map point: one row per point, one
     column per patch. Nothing when the analysis has no map points."""
     points = map_points(g, options.at)
-    kinds = options.map_types if options.map_types is not None else tuple(
-        _text(x) for x in _list(g.attrs.get("map_types", '["status"]')))
+    kinds = options.map_types if options.map_types is not None else \
+        specs.from_record(g.attrs).map_types
     if not points or not kinds:
         return []
     grids = contact_grids(g.file)
@@ -327,7 +326,7 @@ def frf_shapes(g: h5py.Group, name: str, out: Path, options: Options = Options()
                ) -> list[Path]:
     """The deformed sector and full disk at every map point that stored its shape,
     ``<name>_shape_<letter>.png``."""
-    par = _text(g.attrs.get("parameter", "frequency"))
+    par = specs.from_record(g.attrs).parameter
     panel = shapes.PANEL if options.panel == maps.PANEL else options.panel
     paths = []
     for letter, c, p in _map_groups(g):
@@ -360,9 +359,8 @@ def _seen(grids: Mapping[str, maps.PatchGrid], patches: list[str]) -> str:
 def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """The peak response against the parameter (optimization or performance curve), its
     minimum marked where the parameter is a preload or a mass, with the linear levels."""
-    par = _text(g.attrs["parameter"])
-    output = _text(g.attrs["output"])
-    lo, hi = _list(g.attrs["window"])
+    spec = specs.from_record(g.attrs)
+    par, output, (lo, hi) = spec.parameter, spec.output, spec.window
     series = [{"x": c["parameter"][()], "y": c["amplitude"][()],
                "label": _text(c.attrs.get("label", "")) or None} for _, c in curves(g)]
     for key, label, style in ((schema.LEVEL_FREE, "free (no damper)", ":"),
@@ -372,7 +370,7 @@ def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> l
                            "label": label, "ls": style, "color": "0.45", "lw": 1.0,
                            "optimum": False})
     path = out / f"{name}.png"
-    what = MEASURE_LABEL[_text(g.attrs.get("measure", "peak"))].format(output)
+    what = MEASURE_LABEL[spec.measure].format(output)
     plots.curves(path, f"{name}: peak response of {output}", plots.LABELS[par], series,
                  f"resonance peak of {what}\n(w in {lo:g} to {hi:g} rad/s)",
                  optimum=(par, "m") if par in ("preload", "mass") else None)
@@ -408,7 +406,8 @@ def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Steady responses by time integration as markers over the FRF they are compared with
     (the analysis ``compare`` names), per output; the static contact forces likewise."""
     c = g[schema.curve(0)]
-    compare = _text(g.attrs.get("compare", ""))
+    spec = specs.from_record(g.attrs)
+    compare = spec.compare
     ref = g.file.get(compare) if compare else None
     _, series, static = frf_series(ref) if ref is not None else ("", {}, {})
     omega, spp = c["omega"][()], int(c.attrs["steps_per_period"])
@@ -426,7 +425,7 @@ def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
                      plots.LABELS["frequency"], lines, "static contact force [N]",
                      markers=marks)
         paths.append(path)
-    measure = _text(c.attrs.get("measure", "peak"))
+    measure = spec.measure
     shown = c["response"][()]
     for k, output in enumerate(_text(x) for x in _list(c.attrs["outputs"])):
         path = out / f"{name}_{output}.png"
