@@ -248,7 +248,7 @@ def _render_options(args) -> tuple[object, list[str]]:
 
     from microslip.pipeline.case.specs import MAP_TYPES
     from microslip.pipeline.draw import maps, pictures
-    from microslip.pipeline.friction.laws import STATE_NAMES
+    from microslip.pipeline.friction.states import STATE_NAMES
 
     faults: list[str] = []
     colours = dict(maps.STATE_COLOURS)

@@ -15,7 +15,7 @@ import pytest
 import scipy.linalg as sla
 
 from microslip.pipeline import case as cases
-from microslip.pipeline.friction.laws import SAMPLE_SLIP
+from microslip.pipeline.friction.states import SAMPLE_SLIP
 from microslip.pipeline.solve import dti
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import solve_point, sweep

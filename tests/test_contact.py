@@ -5,7 +5,8 @@ import pytest
 from derivatives import fd_contact_jacobian
 
 from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import (
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.friction.states import (
     GROSS_SLIP,
     OPEN,
     PARTIAL_LIFTOFF,
@@ -13,7 +14,6 @@ from microslip.pipeline.friction.laws import (
     SAMPLE_SLIP,
     SAMPLE_STICK,
     STICK,
-    ContactElements,
 )
 
 

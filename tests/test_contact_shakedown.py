@@ -24,7 +24,8 @@ import pytest
 from derivatives import fd_contact_jacobian
 
 from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import (
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.friction.states import (
     GROSS_SLIP,
     PARTIAL_LIFTOFF,
     SAMPLE_OPEN,
@@ -32,7 +33,6 @@ from microslip.pipeline.friction.laws import (
     SAMPLE_STICK,
     STICK,
     STICK_SLIP,
-    ContactElements,
 )
 
 H = Harmonics.up_to(2, 64)  # coefficients [a0, a1, b1, a2, b2] per component

@@ -139,7 +139,7 @@ def test_the_results_file_follows_the_layout(coarse_run):
 
 
 def test_the_patches_hold_each_pairs_state_and_the_share_of_slipping_pairs(coarse_run):
-    from microslip.pipeline.friction.laws import GROSS_SLIP, STICK_SLIP
+    from microslip.pipeline.friction.states import GROSS_SLIP, STICK_SLIP
 
     with h5py.File(coarse_run / "results.h5") as f:
         curve = f["frf/curve_000"]

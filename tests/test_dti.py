@@ -10,7 +10,8 @@ from jenkins_dti import steady_peak
 
 from microslip.pipeline.bench.demos import jenkins_oscillator
 from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK, ContactElements
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.friction.states import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK
 from microslip.pipeline.solve import dti
 from microslip.pipeline.solve.hbm import (
     Contact,

@@ -8,14 +8,8 @@ import pytest
 from matplotlib.colors import to_rgb
 
 from microslip.pipeline.draw import maps
-from microslip.pipeline.friction.laws import (
-    GROSS_SLIP,
-    OPEN,
-    PARTIAL_LIFTOFF,
-    STICK,
-    STICK_SLIP,
-    slip_share,
-)
+from microslip.pipeline.friction.laws import slip_share
+from microslip.pipeline.friction.states import GROSS_SLIP, OPEN, PARTIAL_LIFTOFF, STICK, STICK_SLIP
 
 
 def flank(n1: int = 5, n2: int = 3) -> maps.PatchGrid:
@@ -136,27 +130,40 @@ def test_the_slip_at_each_peak_is_the_share_of_slipping_pairs_against_the_family
     assert (tmp_path / "frf_slip.png").stat().st_size > 10_000
 
 
-def test_the_refined_peak_of_a_map_is_the_golden_section_peak():
-    # the Jenkins oscillator's FRF: the maps' peak (successive parabolas, <= 8 solves) against
-    # Response.peak (golden section to 1e-9 of the bracket, ~45 solves): the same maximum
+def test_the_refined_peaks_are_the_maximum_of_a_fine_grid_of_direct_solves():
+    # the Jenkins oscillator's FRF: the maps' peak (to 1e-4 of the bracket) and Response.peak
+    # (to 1e-9), both by refine_peak, against an independent reference: the largest of
+    # 801 direct Newton solves spread over the bracket of the computed maximum
     from microslip.pipeline.app.solutions import map_solutions
     from microslip.pipeline.bench.demos import jenkins_oscillator
     from microslip.pipeline.solve.continuation import Settings
     from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import sweep
+    from microslip.pipeline.solve.response import solve_point, sweep
 
     hb = jenkins_oscillator(3, 128)
     r = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5), settings=Settings(max_step=0.2))
     (what, w, x), = map_solutions(r, ["peak"], [0], "peak", Settings(tol=1e-11))
-    w_ref, a_ref = r.peak(0)
+    w_fine, a_fine = r.peak(0)
     a = hb.harmonics.peak(hb.recover(x, OperatingPoint(w))[0])
+    amp = r.amplitude([0])[:, 0]
+    i = int(np.argmax(amp))
+    grid = np.linspace(r.values[i - 1], r.values[i + 1], 801)
+    x0, tops = r.branch.x[i], []
+    for g in grid:
+        sol = solve_point(hb, OperatingPoint(g), settings=Settings(tol=1e-11), x0=x0)
+        x0 = sol.x
+        tops.append(hb.harmonics.peak(hb.recover(sol.x, OperatingPoint(g))[0]))
+    k = int(np.argmax(tops))
     assert what == "peak"
     # the top is a kink (a stick-slip transition of the sampled period): there the amplitude
-    # changes linearly, ~1.4 per rad/s, and the maps stop at 1e-4 of the 2.6e-3 rad/s
-    # bracket: ~4e-7 of the amplitude at most; 1e-6 (golden section: to 1e-9)
-    assert a == pytest.approx(a_ref, rel=1e-6)
-    assert w == pytest.approx(w_ref, rel=1e-4)
-    assert a >= np.max(r.amplitude([0])) - 1e-15  # never below the computed points
+    # changes linearly, ~1.4 per rad/s. Grid spacing 3.3e-6 rad/s: the grid's top is within
+    # ~5e-6 of the amplitude (relative), so 1e-5; the maps stop at 1e-4 of the bracket:
+    # ~4e-7 more; the finer search never below the grid (it is a maximum search)
+    assert a_fine == pytest.approx(tops[k], rel=1e-5) and a_fine >= tops[k] - 1e-12
+    assert a == pytest.approx(tops[k], rel=1e-5)
+    assert w_fine == pytest.approx(grid[k], abs=2 * (grid[1] - grid[0]))
+    assert w == pytest.approx(grid[k], rel=1e-4)
+    assert a >= np.max(amp) - 1e-15  # never below the computed points
 
 
 def test_only_turning_points_where_the_parameter_turns_back_are_drawn_as_folds():

@@ -13,9 +13,9 @@ from microslip.pipeline.case import Case, curve_variants, operating_point
 from microslip.pipeline.case.specs import Frf
 from microslip.pipeline.results import schema
 from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import refine_peak, response_measure
 
 from .models import CoupledModels
-from .solutions import response_measure
 
 Progress = Callable[[str], None]
 
@@ -73,7 +73,7 @@ def linear_curve(cm, base: OperatingPoint, springs: str, names: list[str], measu
     def response(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         coef = np.array([cm.linear_outputs(base.set("frequency", f), springs, names, static)
                          for f in x])
-        return coef, response_measure(coef, cm.hb.harmonics, measure)
+        return coef, response_measure(cm.hb.harmonics, coef, measure)
 
     coef, shown = response(ws)
     peaks = [i for i in range(1, ws.size - 1)
@@ -122,23 +122,18 @@ def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
                 window: tuple[float, float], vibration: bool,
                 grid: int = 101) -> tuple[float, float]:
     """(w, amplitude) of the largest response of a linear limit of a coupled model in a
-    frequency window: a grid, then Brent's bounded search between the grid neighbours of
-    its maximum (to 1e-6 of the window)."""
-    from scipy.optimize import minimize_scalar
-
-    from microslip.pipeline.solve.response import amplitude
-
+    frequency window: a grid, then :func:`refine_peak` between the grid neighbours of its
+    maximum (to 1e-6 of the window)."""
     h = cm.hb.harmonics
 
     def amp(x: float) -> float:
         coef = cm.linear_outputs(point.set("frequency", x), springs, [output_name],
                                  static=not vibration)[0]
-        return float(amplitude(h, coef, vibration))
+        return float(response_measure(h, coef, "vibration" if vibration else "peak"))
 
     ws = np.linspace(*window, grid)
     a = np.array([amp(x) for x in ws])
     i = int(np.argmax(a))
     lo, hi = ws[max(i - 1, 0)], ws[min(i + 1, grid - 1)]
-    res = minimize_scalar(lambda x: -amp(x), bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-6 * (window[1] - window[0])})
-    return (float(res.x), float(-res.fun)) if -res.fun >= a[i] else (float(ws[i]), float(a[i]))
+    w, top = refine_peak(amp, lo, hi, 1e-6 * (window[1] - window[0]))
+    return (w, top) if top >= a[i] else (float(ws[i]), float(a[i]))

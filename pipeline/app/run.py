@@ -43,13 +43,14 @@ from microslip.pipeline.results.file import ATTRS, ResultsWriter, sampling_warni
 from microslip.pipeline.solve.response import (
     Response,
     peak_curve,
+    response_measure,
     sweep,
 )
 
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import CoupledModels, LumpedModels
 from .progress import time_left
-from .solutions import map_groups, map_solutions, response_measure, sampling_change, surfaces
+from .solutions import map_groups, map_solutions, sampling_change, surfaces
 from .store import CurveStore, PictureStamps
 
 if TYPE_CHECKING:
@@ -415,7 +416,7 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
     b = r.branch
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
     amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
-    shown = response_measure(coef, hb.harmonics, measure) if len(r) else amp
+    shown = response_measure(hb.harmonics, coef, measure) if len(r) else amp
     if spec.normalise and len(r):  # per unit of the excitation multiplier
         shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
@@ -650,7 +651,7 @@ def run_dti(case: Case, spec: Dti, group: h5py.Group, run: Run) -> tuple[str, st
     shown = fr.amplitude[:, idx]
     if spec.measure != "peak":
         hh = Harmonics(range(fr.coefficients.shape[2] // 2 + 1), spp)
-        shown = response_measure(fr.coefficients[:, idx], hh, spec.measure)
+        shown = response_measure(hh, fr.coefficients[:, idx], spec.measure)
     data = {"omega": fr.omega, "amplitude": fr.amplitude[:, idx], "response": shown,
             "coefficients": fr.coefficients[:, idx], "periods": fr.periods,
             "converged": fr.converged, "seconds": fr.seconds, schema.CONTACTS: contacts}

@@ -6,28 +6,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.results import schema
 from microslip.pipeline.results.file import ATTRS
 from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import Response, output, solve_point
-
-
-def response_measure(coefficients: np.ndarray, h: Harmonics, how: str) -> np.ndarray:
-    """(n, outputs) response measure of coefficient rows (n, outputs, nc)."""
-    c = np.array(coefficients, dtype=float)
-    if how == "harmonic":
-        k = h.dynamic_orders.index(min(h.dynamic_orders))
-        return np.hypot(c[..., h.cos_index[k]], c[..., h.sin_index[k]])
-    if how == "vibration" and h.has_static:
-        c[..., 0] = 0.0
-    return h.peak(c)
+from microslip.pipeline.solve.response import (
+    Response,
+    output,
+    refine_peak,
+    response_measure,
+    solve_point,
+)
 
 
 def response_at(hb, x: np.ndarray, point: OperatingPoint, rows, measure: str) -> np.ndarray:
     """(n_outputs,) response measure of one solution."""
     coef = output(hb.recover(x, point), rows)
-    return response_measure(coef[None], hb.harmonics, measure)[0]
+    return response_measure(hb.harmonics, coef[None], measure)[0]
 
 
 def sampling_change(r: Response, i: int, rows, measure: str) -> tuple[float, float]:
@@ -77,34 +71,27 @@ PEAK_XTOL = 1e-4  # the refined peak's parameter to this share of its bracket
 def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
                   ) -> tuple[float, np.ndarray]:
     """(parameter value, x) at the largest response of the first output (map_solutions):
-    Brent's bounded method between the computed neighbours of the largest computed point
-    (parabolic steps where the response is smooth, golden ones where a stick/slip kink
-    sits at the top), each trial a Newton solve from the nearest solution so far."""
-    from scipy.optimize import minimize_scalar
-
+    :func:`refine_peak` between the computed neighbours of the largest computed point,
+    each trial a Newton solve from the nearest solution so far; the computed point if no
+    trial does better."""
     lam = r.values
     i = int(np.argmax(shown))
-    best = [float(shown[i]), float(lam[i]), r.branch.x[i]]
     if not (0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0):
-        return best[1], best[2]  # at an end of the branch, or on a fold: as computed
-    tried = [(float(lam[j]), r.branch.x[j]) for j in (i - 1, i, i + 1)]
+        return float(lam[i]), r.branch.x[i]  # at an end of the branch, or on a fold
+    tried = {float(lam[j]): r.branch.x[j] for j in (i - 1, i, i + 1)}
 
-    def minus_response(v: float) -> float:
-        near = min(tried, key=lambda t: abs(t[0] - v))[1]
+    def response(v: float) -> float:
+        near = tried[min(tried, key=lambda t: abs(t - v))]
         point = r.base.set(r.parameter, v)
         sol = solve_point(r.model, point, settings=settings, x0=near, retry=False)
         if not sol.converged:
-            return 0.0  # worse than any response (> 0): finite, as Brent's parabolas need
-        tried.append((v, sol.x))
-        a = float(response_at(r.model, sol.x, point, rows, measure)[0])
-        if a > best[0]:
-            best[:] = [a, v, sol.x]
-        return -a
+            return 0.0
+        tried[v] = sol.x
+        return float(response_at(r.model, sol.x, point, rows, measure)[0])
 
     lo, hi = sorted((float(lam[i - 1]), float(lam[i + 1])))
-    minimize_scalar(minus_response, bounds=(lo, hi), method="bounded",
-                    options={"xatol": PEAK_XTOL * (hi - lo)})
-    return best[1], best[2]
+    v, top = refine_peak(response, lo, hi, PEAK_XTOL * (hi - lo))
+    return (v, tried[v]) if top > shown[i] else (float(lam[i]), r.branch.x[i])
 
 
 def map_groups(cm, r: Response, solutions, rows, measure: str,

@@ -110,7 +110,7 @@ def measure(data: dict, source: str) -> dict:
     from microslip.pipeline.app.limits import linear_peak
     from microslip.pipeline.app.models import CoupledModels
     from microslip.pipeline.app.run import mesh_geometry
-    from microslip.pipeline.app.solutions import map_solutions, response_at, response_measure
+    from microslip.pipeline.app.solutions import map_solutions, response_at
     from microslip.pipeline.app.structure import reduce_structure
     from microslip.pipeline.case import (
         Case,
@@ -119,7 +119,7 @@ def measure(data: dict, source: str) -> dict:
         settings,
     )
     from microslip.pipeline.friction import warm_up
-    from microslip.pipeline.solve.response import sweep
+    from microslip.pipeline.solve.response import response_measure, sweep
 
     def quiet(_: str) -> None:
         pass
@@ -154,7 +154,7 @@ def measure(data: dict, source: str) -> dict:
         amplitude = float(response_at(hb, x, base.set("frequency", omega), rows,
                                        "vibration")[0])
     lam = np.append(r.values, omega) if found else r.values
-    shown = response_measure(r.coefficients(rows), hb.harmonics, "vibration")[:, 0].tolist() \
+    shown = response_measure(hb.harmonics, r.coefficients(rows), "vibration")[:, 0].tolist() \
         + ([amplitude] if found else [])
     modes = {body: max(m.n_modes for m in per_nd.values())
              for body, per_nd in structure.models.items()}

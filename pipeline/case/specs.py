@@ -20,9 +20,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-#: the response measures of a curve: ``peak`` max_t |x(t)|, ``vibration`` max_t |x(t) - x0|
-#: (the static part removed), ``harmonic`` |X_1|
-MEASURES = ("peak", "vibration", "harmonic")
+from microslip.pipeline.solve.response import MEASURES  # noqa: F401 (the measures)
+
 #: continuation methods of an frf; ``natural-down`` sweeps from stop to start
 METHODS = ("arclength", "natural", "natural-down")
 #: the maps an frf of a coupled case can draw at its map points

@@ -72,7 +72,7 @@ class ContactPoints:
 class PatchState:
     """One patch at one solution, per node pair in grid order (row-major (n1, n2)).
 
-    state: (P,) int8 state over the period (laws.STICK .. OPEN; with two 1D elements per
+    state: (P,) int8 state over the period (states.STICK .. OPEN; with two 1D elements per
     pair, the worse of the two: their normal is shared, so they lift off together);
     static: (P, 3) static contact forces [T0_1, T0_2, N0] in the pair's frame [N];
     slip_share: the share of the patch's node pairs that slip (stick-slip or gross slip)."""

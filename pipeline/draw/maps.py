@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microslip.pipeline.friction.laws import (
+from microslip.pipeline.friction.states import (
     GROSS_SLIP,
     OPEN,
     PARTIAL_LIFTOFF,

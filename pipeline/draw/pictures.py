@@ -16,7 +16,8 @@ import h5py
 import numpy as np
 
 from microslip.pipeline.case import specs
-from microslip.pipeline.friction.laws import STATE_NAMES, STICK, slip_share
+from microslip.pipeline.friction.laws import slip_share
+from microslip.pipeline.friction.states import STATE_NAMES, STICK
 from microslip.pipeline.results import schema
 
 from . import maps, plots, shapes

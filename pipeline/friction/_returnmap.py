@@ -57,7 +57,8 @@ import numba
 import numpy as np
 from numba import njit, prange, types
 
-STICK, SLIP, OPEN = 0, 1, 2
+from .states import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK
+
 # A predictor this close to the limit, relative to the magnitudes it is computed from
 # (mu N and kt |u|), sticks. A cycle stuck after slipping ("shakedown") touches the limit
 # where it last slipped and comes back there each period with the rounding of a period's
@@ -229,7 +230,7 @@ def _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac
     if want_jac:
         e = -1
         for k in range(ns):
-            if state_out[p, k] == OPEN or (d == 1 and state_out[p, k] == SLIP):
+            if state_out[p, k] == SAMPLE_OPEN or (d == 1 and state_out[p, k] == SAMPLE_SLIP):
                 e = k
                 break
         if e >= 0:
@@ -237,9 +238,9 @@ def _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac
             for j in range(d):
                 for col in range(m):
                     G[e, j * m + col] = dT[j, col]
-            _steps(p, e + 1, ns - 1, state_out[p, e] == OPEN, u, v, kt, kn, mu, n0, E,
+            _steps(p, e + 1, ns - 1, state_out[p, e] == SAMPLE_OPEN, u, v, kt, kn, mu, n0, E,
                    has_normal, yes, yes, T, Tp, dT, G, T_out, N_out, state_out, np.int64(-1),
-                   state_out[p, e] == SLIP)
+                   state_out[p, e] == SAMPLE_SLIP)
         elif how == CORNER:
             _corner_derivative(p, ca, cb, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT,
                                G, T_out, N_out, state_out)
@@ -286,19 +287,20 @@ def _count(p, state_out, T_out, counts_out):  # pragma: no cover
     for k in range(ns):
         s = state_out[p, k]
         prev = state_out[p, (k - 1) % ns]
-        if s == OPEN:
+        if s == SAMPLE_OPEN:
             n_open += 1
-        elif s == SLIP:
+        elif s == SAMPLE_SLIP:
             n_slip += 1
-            if prev == SLIP:
+            if prev == SAMPLE_SLIP:
                 dot = 0.0
                 for j in range(d):
                     dot += T_out[p, j, k] * T_out[p, j, (k - 1) % ns]
                 if dot < 0.0:
                     short += 1
-        elif prev == SLIP:  # a stick arc starts: 1 or 2 samples long?
+        elif prev == SAMPLE_SLIP:  # a stick arc starts: 1 or 2 samples long?
             nxt = state_out[p, (k + 1) % ns]
-            if nxt == SLIP or (nxt == STICK and state_out[p, (k + 2) % ns] == SLIP):
+            after = state_out[p, (k + 2) % ns]
+            if nxt == SAMPLE_SLIP or (nxt == SAMPLE_STICK and after == SAMPLE_SLIP):
                 short += 1
     counts_out[p, 0] = n_open
     counts_out[p, 1] = n_slip
@@ -367,7 +369,7 @@ def _cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
                G, T_out, N_out, state_out, np.int64(-1), no)
         stuck = True
         for k in range(ns):
-            if state_out[p, k] != STICK:
+            if state_out[p, k] != SAMPLE_STICK:
                 stuck = False
         if stuck:
             return periods + 1, CORNER, a, b
@@ -404,8 +406,8 @@ def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_
     last = np.full(CORNER_SAMPLES, -1)
     slips = np.full(CORNER_SAMPLES, -1)
     for period in range(CORNER_PERIODS):
-        was_open = not closed if period == 0 else state_out[p, ns - 1] == OPEN
-        slipped = period > 0 and state_out[p, ns - 1] == SLIP
+        was_open = not closed if period == 0 else state_out[p, ns - 1] == SAMPLE_OPEN
+        slipped = period > 0 and state_out[p, ns - 1] == SAMPLE_SLIP
         scale = _steps(p, np.int64(0), ns, was_open, u, v, kt, kn, mu, n0, E, has_normal, no,
                        no, T, Tp, dT, G, T_out, N_out, state_out, np.int64(-1), slipped)
         diff = 0.0
@@ -419,9 +421,9 @@ def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_
         opened = False
         slips[:] = -1
         for k in range(ns):
-            if state_out[p, k] == OPEN:
+            if state_out[p, k] == SAMPLE_OPEN:
                 opened = True
-            elif state_out[p, k] == SLIP:
+            elif state_out[p, k] == SAMPLE_SLIP:
                 if count < CORNER_SAMPLES:
                     slips[count] = k
                 count += 1
@@ -451,7 +453,7 @@ def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_
         _steps(p, np.int64(0), ns, no, u, v, kt, kn, mu, n0, E, has_normal, no, no, T, Tp, dT,
                G, T_out, N_out, state_out, np.int64(-1), no)
         for k in range(ns):
-            if state_out[p, k] != STICK:
+            if state_out[p, k] != SAMPLE_STICK:
                 return period + 2, -1, -1
         return period + 2, ba, bb
     return CORNER_PERIODS, -1, -1
@@ -503,9 +505,9 @@ def _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol
     for period in range(max_periods):
         periods = period + 1
         from_jump = jumped
-        was_open = not closed if period == 0 else state_out[p, ns - 1] == OPEN
+        was_open = not closed if period == 0 else state_out[p, ns - 1] == SAMPLE_OPEN
         newton = shooting and period >= SHOOT_AFTER
-        slipped = period > 0 and state_out[p, ns - 1] == SLIP
+        slipped = period > 0 and state_out[p, ns - 1] == SAMPLE_SLIP
         if newton:
             shoot[:, :] = 0.0
             for j in range(d):
@@ -521,7 +523,7 @@ def _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol
             # the slip samples, when two (a corner of the stuck set being closed in on)
             count, i0, i1 = 0, -1, -1
             for k in range(ns):
-                if state_out[p, k] == SLIP:
+                if state_out[p, k] == SAMPLE_SLIP:
                     count += 1
                     if count == 1:
                         i0 = k
@@ -583,14 +585,14 @@ def _isolated(p, ext, m, u, kt, mu, T_out, N_out, state_out):  # pragma: no cove
     scale = 0.0
     jump = 0.0
     for k in range(ns):
-        if state_out[p, k] == OPEN:
+        if state_out[p, k] == SAMPLE_OPEN:
             return True
         kprev = k - 1 if k > 0 else ns - 1
         scale = max(scale, mu[p] * N_out[p, k])
         corr = 0.0
         for j in range(d):
             scale = max(scale, abs(T_out[p, j, k]))
-            if state_out[p, k] == SLIP:
+            if state_out[p, k] == SAMPLE_SLIP:
                 tp = T_out[p, j, kprev] + kt[p, j] * (u[p, j, k] - u[p, j, kprev])
                 corr += (tp - T_out[p, j, k]) ** 2
         jump = max(jump, np.sqrt(corr))
@@ -712,7 +714,7 @@ def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, 
     if replayable:
         slips = False
         for k in range(ns):
-            if state_out[p, k] == SLIP:
+            if state_out[p, k] == SAMPLE_SLIP:
                 slips = True
                 break
         if not slips:
@@ -723,7 +725,7 @@ def _periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, 
         T0[j] = T_out[p, j, ns - 1]
         T[j] = T0[j]
         ext[j, m + j] = 1.0
-    last_slip = state_out[p, ns - 1] == SLIP
+    last_slip = state_out[p, ns - 1] == SAMPLE_SLIP
     k0, yes, no = np.int64(0), np.bool_(True), np.bool_(False)
     _steps(p, k0, ns, no, u, v, kt, kn, mu, n0, E, has_normal, yes, no, T, Tp, ext,
            G, T_out, N_out, state_out, m - 1, last_slip)
@@ -758,7 +760,7 @@ def _erased(p, e, kn, mu, E, has_normal, T_out, N_out, state_out, T, dT):  # pra
     dT[:, :] = 0.0
     for j in range(d):
         T[j] = T_out[p, j, e]
-    if state_out[p, e] == OPEN:
+    if state_out[p, e] == SAMPLE_OPEN:
         return
     sgn = 1.0 if T[0] > 0.0 else -1.0
     if has_normal:
@@ -805,7 +807,7 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                 T[j] = 0.0
             if want_jac:
                 dT[:, :] = 0.0
-            state_out[p, k] = OPEN
+            state_out[p, k] = SAMPLE_OPEN
         else:
             norm = 0.0
             for j in range(d):
@@ -823,11 +825,11 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
             if stick:
                 for j in range(d):
                     T[j] = Tp[j]
-                state_out[p, k] = STICK
+                state_out[p, k] = SAMPLE_STICK
             elif d == 2 and not reclosed and _slip_flow(
                     p, k, kprev, kt, kn, mu, E, has_normal, want_jac, lim, T, Tp, dT, cn0,
                     -1.0 if prev_slip else mu[p] * N_prev):
-                state_out[p, k] = SLIP
+                state_out[p, k] = SAMPLE_SLIP
             else:
                 ratio = lim / norm
                 for j in range(d):
@@ -850,9 +852,9 @@ def _steps(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac
                             for c in range(nc):
                                 dT[j, vcol + c] += mun * kn[p] * E[k, c]
                         dT[j, cn0] += mun
-                state_out[p, k] = SLIP
+                state_out[p, k] = SAMPLE_SLIP
         was_open = N == 0.0
-        prev_slip = state_out[p, k] == SLIP
+        prev_slip = state_out[p, k] == SAMPLE_SLIP
         N_prev = N
         N_out[p, k] = N
         for j in range(d):
@@ -1124,11 +1126,11 @@ def _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
         kprev = k - 1 if k > 0 else ns - 1
         s0, s1 = state_out[p, kprev], state_out[p, k]
         kind = 0
-        if s0 == STICK and s1 == SLIP:
+        if s0 == SAMPLE_STICK and s1 == SAMPLE_SLIP:
             kind = 1
-        elif has_normal and s0 != OPEN and s1 == OPEN:
+        elif has_normal and s0 != SAMPLE_OPEN and s1 == SAMPLE_OPEN:
             kind = 2
-        elif has_normal and s0 == OPEN and s1 != OPEN:
+        elif has_normal and s0 == SAMPLE_OPEN and s1 != SAMPLE_OPEN:
             kind = 3
         if kind == 0:
             continue
@@ -1208,7 +1210,7 @@ def _kinks(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
             tn = np.sqrt(tn)
             for j in range(d):
                 nvec[j] = T_out[p, j, ref] / tn if tn > 0.0 else 0.0
-            stick_after = kind == 3 and state_out[p, k] == STICK
+            stick_after = kind == 3 and state_out[p, k] == SAMPLE_STICK
             for j in range(d):
                 # T slides on mu N into an opening; sticks (kt u') or slides out of a closing
                 jump[j] = kt[p, j] * up[j] if stick_after else sgn * mu[p] * kn[p] * vp * nvec[j]

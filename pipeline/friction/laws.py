@@ -37,6 +37,7 @@ import numpy as np
 
 from . import _returnmap
 from .harmonics import Harmonics
+from .states import GROSS_SLIP, OPEN, PARTIAL_LIFTOFF, STATE_NAMES, STICK, STICK_SLIP
 
 LAWS: dict[str, tuple[int, bool]] = {  # law -> (tangential dimension, variable normal)
     "A": (1, False),
@@ -45,9 +46,6 @@ LAWS: dict[str, tuple[int, bool]] = {  # law -> (tangential dimension, variable 
     "D": (2, True),
 }
 
-# Per-point contact state over one period.
-STICK, STICK_SLIP, GROSS_SLIP, PARTIAL_LIFTOFF, OPEN = range(5)
-STATE_NAMES = ("stick", "stick-slip", "gross slip", "partial lift-off", "open")
 
 
 def slip_share(state: np.ndarray) -> float:
@@ -56,8 +54,6 @@ def slip_share(state: np.ndarray) -> float:
     return float(np.isin(state, (STICK_SLIP, GROSS_SLIP)).mean()) if np.size(state) else 0.0
 
 
-# Per-sample state in the time histories.
-SAMPLE_STICK, SAMPLE_SLIP, SAMPLE_OPEN = _returnmap.STICK, _returnmap.SLIP, _returnmap.OPEN
 
 
 def _per_point(name: str, value, shape: tuple[int, ...], *, positive=False, nonneg=False):

@@ -71,7 +71,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from microslip.pipeline.friction.laws import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK, ContactElements
+from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.friction.states import SAMPLE_OPEN, SAMPLE_STICK
 
 __all__ = [
     "ContactHistory",
@@ -94,7 +95,6 @@ __all__ = [
     "step_convergence",
 ]
 
-_STICK, _SLIP, _OPEN = int(SAMPLE_STICK), int(SAMPLE_SLIP), int(SAMPLE_OPEN)
 
 
 # =============================================================== validation
@@ -355,7 +355,7 @@ def initial_state(model: TimeModel, q0=None, v0=None, *, t0: float = 0.0) -> Sta
     g = _relative(pk, q)
     raw = pk.n0 + pk.kn * g[:, 2] * pk.normal
     N = np.maximum(raw, 0.0)
-    flag = np.where(N > 0, _STICK, _OPEN).astype(np.int8)
+    flag = np.where(N > 0, SAMPLE_STICK, SAMPLE_OPEN).astype(np.int8)
     return State(float(t0), q, v, np.zeros((pk.n0.size, 2)), N, raw, g, flag)
 
 
@@ -814,7 +814,7 @@ class ContactHistory:
     T: (n + 1, P, d) tangential forces, N; N: (n + 1, P) normal forces, N;
     u: (n + 1, P, d), v: (n + 1, P) relative displacements, m (v = 0 for the
     constant-load laws); state: (n + 1, P) int8 STICK/SLIP/OPEN codes
-    (:data:`microslip.pipeline.friction.laws.SAMPLE_STICK` ...)."""
+    (:data:`microslip.pipeline.friction.states.SAMPLE_STICK` ...)."""
 
     T: np.ndarray
     N: np.ndarray

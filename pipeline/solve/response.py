@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import ContactResponse
 
 from . import continuation as cont
@@ -71,19 +72,19 @@ class Response:
                   oversample: int = 4, vibration: bool = False) -> np.ndarray:
         """(n_points, n_outputs) max_t |x(t)| of DOFs or output rows, m (``vibration``:
         max_t |x(t) - x0|, the static part left out)."""
-        return amplitude(self.model.harmonics, self.coefficients(dofs), vibration, oversample)
+        return response_measure(self.model.harmonics, self.coefficients(dofs),
+                                _measure(vibration), oversample)
 
     def peak(self, dof: int | np.ndarray, *, xtol: float = 1e-9,
              vibration: bool = False) -> tuple[float, float]:
         """(parameter value, max|x(t)|) at the largest response of one DOF (``vibration``:
         of max|x(t) - x0|).
 
-        The sampled maximum is refined by a golden-section search on the
-        parameter, solving the balance afresh at each trial value (warm start
-        from the nearest point). Where the maximum sits on a fold (the branch
-        turns back around it) or next to a jump of a natural sweep the sampled maximum is
-        returned unrefined.
-        ``xtol`` is relative to the bracket."""
+        The sampled maximum is refined between its neighbours (:func:`refine_peak`),
+        solving the balance afresh at each trial value (warm start from the nearest
+        point); ``xtol`` is relative to that bracket. Where the maximum sits on a fold
+        (the branch turns back around it) or next to a jump of a natural sweep the sampled
+        maximum is returned unrefined."""
         amp = self.amplitude(_one(dof), vibration=vibration)[:, 0]
         i = int(np.argmax(amp))
         lam = self.values
@@ -99,26 +100,13 @@ class Response:
             r = solve_point(self.model, self.base.set(self.parameter, value),
                             settings=settings, x0=self.branch.x[j])
             if not r.converged:
-                return -np.inf
+                return 0.0
             Q = self.model.recover(r.x, self.base.set(self.parameter, value))
-            return float(amplitude(h, output(Q, _one(dof))[0], vibration))
+            return float(response_measure(h, output(Q, _one(dof))[0], _measure(vibration)))
 
         a, b = sorted((lam[i - 1], lam[i + 1]))
-        g = (np.sqrt(5.0) - 1.0) / 2.0
-        c, d = b - g * (b - a), a + g * (b - a)
-        fc, fd = amplitude_at(c), amplitude_at(d)
-        span = b - a
-        while b - a > xtol * span:
-            if fc > fd:
-                b, d, fd = d, c, fc
-                c = b - g * (b - a)
-                fc = amplitude_at(c)
-            else:
-                a, c, fc = c, d, fd
-                d = a + g * (b - a)
-                fd = amplitude_at(d)
-        best = max((fc, c), (fd, d), (float(amp[i]), float(lam[i])))
-        return float(best[1]), float(best[0])
+        value, top = refine_peak(amplitude_at, a, b, xtol * (b - a))
+        return (float(value), top) if top > amp[i] else (float(lam[i]), float(amp[i]))
 
     def solutions_at(self, value: float, settings: cont.Settings = cont.DEFAULT
                      ) -> list[np.ndarray]:
@@ -159,15 +147,48 @@ class Response:
         return self.model.energy_balance(self.branch.x[i], self.point(i))
 
 
-def amplitude(h, coefficients: np.ndarray, vibration: bool = False,
-              oversample: int = 4) -> np.ndarray:
-    """max_t |x(t)| of coefficient rows (..., n_coeffs) (``vibration``: of x(t) - x0, the
-    static part, order 0, left out)."""
-    c = np.asarray(coefficients, dtype=float)
-    if vibration and h.has_static:
-        c = c.copy()
+#: The response measures of an output: ``peak`` max_t |x(t)|, ``vibration``
+#: max_t |x(t) - x0| (the static part, order 0, left out) and ``harmonic`` |X_n| of the
+#: lowest dynamic order n.
+MEASURES = ("peak", "vibration", "harmonic")
+
+
+def response_measure(h: Harmonics, coefficients: np.ndarray, measure: str = "peak",
+                     oversample: int = 4) -> np.ndarray:
+    """(...) one of :data:`MEASURES` of coefficient rows (..., n_coeffs), m; the maxima
+    over time from ``oversample`` x the period's samples, refined (``Harmonics.peak``)."""
+    c = np.array(coefficients, dtype=float)
+    if measure == "harmonic":
+        k = h.dynamic_orders.index(min(h.dynamic_orders))
+        return np.hypot(c[..., h.cos_index[k]], c[..., h.sin_index[k]])
+    if measure == "vibration" and h.has_static:
         c[..., 0] = 0.0
     return h.peak(c, oversample)
+
+
+def _measure(vibration: bool) -> str:
+    return "vibration" if vibration else "peak"
+
+
+def refine_peak(response: Callable[[float], float], low: float, high: float, xatol: float
+                ) -> tuple[float, float]:
+    """(x, response(x)) at the largest response between ``low`` and ``high``: Brent's
+    bounded method (parabolic steps where the response is smooth, golden-section ones
+    where a stick/slip kink sits at the top) to ``xatol`` (absolute). ``response`` returns
+    0 where a trial fails (no response is smaller, so the search moves away; finite, as
+    the parabolas need). Every peak refinement of the project is this one."""
+    from scipy.optimize import minimize_scalar
+
+    best = [-np.inf, low]
+
+    def minus(x: float) -> float:
+        value = response(x)
+        if value > best[0]:
+            best[:] = [value, x]
+        return -value
+
+    minimize_scalar(minus, bounds=(low, high), method="bounded", options={"xatol": xatol})
+    return float(best[1]), float(best[0])
 
 
 def output(Q: np.ndarray, dofs: Sequence[int] | np.ndarray | None) -> np.ndarray:
@@ -550,15 +571,13 @@ def peak_curve(
 
     The first value gets a full arclength FRF over ``window`` (the global peak
     there). Each next one predicts the peak frequency from the last two and finds
-    the maximum of max|x(t)| by Brent's bounded method in a bracket around the
+    the maximum of max|x(t)| by :func:`refine_peak` in a bracket around the
     prediction, each trial a Newton solve warm-started from the nearest solution;
     a maximum on the bracket's edge widens it (twice), and failing that the value
     falls back to a full FRF. Far fewer solves than one FRF per value. It follows
     one peak: where the FRF has several maxima of similar height (e.g. a stuck
     and a slipping resonance) it may stay on a lower one; use full sweeps there.
     ``vibration``: the peak of max|x(t) - x0| (the static part left out)."""
-    from scipy.optimize import minimize_scalar
-
     lo, hi = window
     if not (0 < lo < hi):
         raise ValueError(f"peak_curve: 'window' = {window} must satisfy 0 < low < high (rad/s)")
@@ -588,7 +607,8 @@ def peak_curve(
             return 0.0  # no amplitude is smaller: Brent's method moves away
         memo.append((w, r.x))
         Q = model.recover(r.x, point.set("frequency", w))
-        return float(amplitude(model.harmonics, output(Q, _one(dof))[0], vibration))
+        return float(response_measure(model.harmonics, output(Q, _one(dof))[0],
+                                      _measure(vibration)))
 
     for i, v in enumerate(vals):
         point = base.set(parameter, v)
@@ -599,13 +619,12 @@ def peak_curve(
             delta = max(2 * abs(omega[-1] - omega[-2]) if i >= 2 else 0.0, 0.01 * (hi - lo))
             for _ in range(3):
                 a_, b_ = max(lo, w_pred - delta), min(hi, w_pred + delta)
-                res = minimize_scalar(lambda w, point=point: -amplitude_at(point, w),
-                                      bounds=(a_, b_), method="bounded",
-                                      options={"xatol": 1e-7 * (hi - lo)})
-                edge = min(res.x - a_, b_ - res.x) < 1e-4 * (b_ - a_)
-                at_window = (res.x - lo < 1e-4 * (hi - lo)) or (hi - res.x < 1e-4 * (hi - lo))
-                if res.success and -res.fun > 0 and (not edge or at_window):
-                    found = (float(res.x), float(-res.fun))
+                w, top = refine_peak(lambda w, point=point: amplitude_at(point, w), a_, b_,
+                                     1e-7 * (hi - lo))
+                edge = min(w - a_, b_ - w) < 1e-4 * (b_ - a_)
+                at_window = (w - lo < 1e-4 * (hi - lo)) or (hi - w < 1e-4 * (hi - lo))
+                if top > 0 and (not edge or at_window):
+                    found = (w, top)
                     break
                 delta *= 3
         if found is None:
