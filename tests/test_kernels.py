@@ -9,10 +9,10 @@ import numba
 import numpy as np
 import pytest
 
-from microslip.pipeline.friction import _returnmap as rm
-from microslip.pipeline.friction import kernels_cached, warm_up
+from microslip.pipeline.friction import kernels_cached, returnmap, warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.friction.returnmap import cycle, kinks, point, steps
 
 
 def contact_state(law: str, P: int, seed: int = 0):
@@ -34,7 +34,7 @@ def contact_state(law: str, P: int, seed: int = 0):
 
 
 def evaluate_with(monkeypatch, parallel: bool, el, g, h):
-    monkeypatch.setattr(rm, "parallel_pays", lambda *work: parallel)
+    monkeypatch.setattr(returnmap, "parallel_pays", lambda *work: parallel)
     return el.evaluate(g, h, histories=True)
 
 
@@ -50,16 +50,17 @@ def test_serial_and_threaded_marches_agree(monkeypatch, law):
 
 
 def test_dispatch_runs_small_work_serially(monkeypatch):
-    assert not rm.parallel_pays(1, 4096, rm.PARALLEL_MIN_WORK)  # one point: never threads
-    assert not rm.parallel_pays(2, 64, rm.PARALLEL_MIN_WORK // 128 - 1)
-    assert rm.parallel_pays(2, 64, rm.PARALLEL_MIN_WORK // 128) == (numba.get_num_threads() > 1)
+    least = returnmap.PARALLEL_MIN_WORK
+    assert not returnmap.parallel_pays(1, 4096, least)  # one point: never threads
+    assert not returnmap.parallel_pays(2, 64, least // 128 - 1)
+    assert returnmap.parallel_pays(2, 64, least // 128) == (numba.get_num_threads() > 1)
     called = []
-    for name in ("_march_serial", "_march_parallel"):
-        kernel = getattr(rm, name)
-        monkeypatch.setattr(rm, name, lambda *a, k=kernel, n=name: (called.append(n), k(*a)))
+    for name in ("march_serial", "march_parallel"):
+        kernel = getattr(returnmap, name)
+        monkeypatch.setattr(returnmap, name, lambda *a, k=kernel, n=name: (called.append(n), k(*a)))
     el, g, h = contact_state("A", 4)  # 4 x 64 samples: below the threshold
     el.evaluate(g, h)
-    assert called == ["_march_serial"]
+    assert called == ["march_serial"]
 
 
 def test_one_compiled_type_per_argument():
@@ -72,11 +73,12 @@ def test_one_compiled_type_per_argument():
     args[0] = np.asfortranarray(args[0])
     args[3] = np.broadcast_to(args[3][:1], args[3].shape)  # read-only, zero strides
     args[10] = args[10].astype(np.int64)
-    assert tuple(numba.typeof(a) for a in rm._cast(tuple(args))) == rm.SIGNATURE
-    for name in dir(rm):
-        dispatcher = getattr(rm, name)
-        if isinstance(dispatcher, numba.core.registry.CPUDispatcher):
-            assert len(dispatcher.signatures) <= 1, (name, dispatcher.signatures)
+    assert tuple(numba.typeof(a) for a in returnmap._cast(tuple(args))) == returnmap.SIGNATURE
+    for module in (returnmap, point, cycle, steps, kinks):  # every kernel of the package
+        for name in dir(module):
+            dispatcher = getattr(module, name)
+            if isinstance(dispatcher, numba.core.registry.CPUDispatcher):
+                assert len(dispatcher.signatures) <= 1, (name, dispatcher.signatures)
 
 
 def _march_args(el, g, h):
@@ -94,7 +96,7 @@ def test_outputs_are_never_copied():
     args = list(_march_args(el, g, h))
     args[16] = np.empty((2, 1, h.n_samples), order="F")[:, :, ::2]  # strided T_out
     with pytest.raises(ValueError, match="output 16"):
-        rm._cast(tuple(args))
+        returnmap._cast(tuple(args))
 
 
 def test_empty_cache_is_not_cached(tmp_path):
@@ -113,7 +115,7 @@ def test_compile_message_only_when_compiling(monkeypatch):
     told: list[str] = []
     warm_up(told.append)
     assert told == []
-    monkeypatch.setattr(rm, "kernels_cached", lambda: False)  # as on a first run
+    monkeypatch.setattr(returnmap, "kernels_cached", lambda: False)  # as on a first run
     warm_up(told.append)
     assert told[0].startswith("compiling the contact kernels (first run only, ~")
     assert told[1].startswith("compiled the contact kernels in")

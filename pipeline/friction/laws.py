@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _returnmap
+from . import returnmap
 from .harmonics import Harmonics
 from .states import GROSS_SLIP, OPEN, PARTIAL_LIFTOFF, STATE_NAMES, STICK, STICK_SLIP
 
@@ -263,7 +263,7 @@ class ContactElements:
         dn0 = np.empty((P, c, nc) if jacobian else (1, 1, 1))
         periods = np.empty(P, dtype=np.int64)
         counts = np.empty((P, 3), dtype=np.int64)
-        _returnmap.march(
+        returnmap.march(
             np.ascontiguousarray(g), u, v, self.kt, self.kn, self.mu, self.n0, E, A,
             harmonics.coeff_order.astype(float), harmonics.coeff_kind, self.variable_normal,
             jacobian, int(max_periods), float(rtol), bool(corrections), T, N, st, F,
