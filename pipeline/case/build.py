@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from microslip.pipeline.friction.harmonics import Harmonics, default_samples
-from microslip.pipeline.friction.laws import ContactElements
+from microslip.pipeline.friction.law import ContactSet
+from microslip.pipeline.friction.laws import LAWS
 from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.hbm import (
     Contact,
@@ -62,16 +63,9 @@ def kinematic_row(combo: dict, index: dict[str, int], n: int, order: int = 0) ->
     return r
 
 
-def contact_elements(c: dict) -> ContactElements:
-    """ContactElements of one [[contacts]] table (one point)."""
-    coupled = c.get("form", "uncoupled") == "coupled"
-    kw = dict(kt=np.atleast_1d(np.array(c["kt"], dtype=float))[None, :], mu=c["mu"],
-              coupled=coupled, kn=c.get("kn", 0.0), n_points=1)
-    if "interference" in c:
-        kw["interference"] = c["interference"]
-    else:
-        kw["n0"] = c["n0"]
-    return ContactElements.create(c["law"], **kw)
+def contact_elements(table: Mapping[str, Any]) -> ContactSet:
+    """The contact set of one [[contacts]] table (one point), built by its law."""
+    return LAWS[table["law"]].elements(table)
 
 
 def lumped_model(case: Case) -> HarmonicBalance:
@@ -90,9 +84,7 @@ def lumped_model(case: Case) -> HarmonicBalance:
         if not c.get("enabled", True):
             continue
         el = contact_elements(c)
-        keys = ["u"] if el.dim == 1 else ["u1", "u2"]
-        if el.variable_normal:
-            keys.append("v")
+        keys = LAWS[c["law"]].motions
         if has_lag({"contacts": [c]}):
             B = {o: np.array([kinematic_row(c[k], index, n, o) for k in keys]) for o in h.orders}
         else:

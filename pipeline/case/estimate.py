@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microslip.pipeline.friction.laws import LAWS
+from microslip.pipeline.friction.laws import LAWS, FrictionLaw
 from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
 from microslip.pipeline.solve.memory import (
@@ -88,8 +88,8 @@ def _size(name: str, data: dict, a: dict) -> Size:
         return Size(name, n, 8 * 8 * n * n, f"{n} DOFs, time integration")
     if kind == "loops":  # one law at orders 0, 1 under a prescribed motion, per amplitude
         c = next(c for c in data["contacts"] if c.get("name") == a["contact"])
-        d, variable = LAWS[c["law"]]
-        shape = ContactShape(len(a["amplitudes"]), d + variable, d, 0)
+        law = LAWS[c["law"]]
+        shape = ContactShape(len(a["amplitudes"]), len(law.motions), law.dim, 0)
         nbytes = balance_bytes(0, 0, 2, 3, a.get("samples", 512), [shape], 1, CACHE_LIMIT)
         return Size(name, 0, nbytes, "prescribed motion")
     if "coupling" in data:
@@ -114,10 +114,11 @@ def _lumped_contacts(data: dict) -> tuple[int, list[ContactShape]]:
     for c in data.get("contacts", []):
         if not c.get("enabled", True):
             continue
-        d, variable = LAWS[c["law"]]
-        keys = (["u"] if d == 1 else ["u1", "u2"]) + (["v"] if variable else [])
+        keys = LAWS[c["law"]].motions
         mine = {dof for k in keys for dof in c[k]}
-        shapes.append(ContactShape(1, len(keys), d, len(mine)))
+        # the time histories the kernel keeps per thread: one per motion at most
+        dim = getattr(LAWS[c["law"]], "dim", len(keys))
+        shapes.append(ContactShape(1, len(keys), dim, len(mine)))
         touched |= mine
     return len(touched), shapes
 
@@ -172,7 +173,10 @@ def notes(data: dict) -> list[str]:
         if not c.get("enabled", True):
             continue
         name = c.get("name", f"contact{i}")
-        d, variable = LAWS[c["law"]]
+        law = LAWS[c["law"]]
+        if not isinstance(law, FrictionLaw):  # the note is about stick arcs
+            continue
+        d, variable = law.dim, law.variable_normal
         kt = np.broadcast_to(np.asarray(c["kt"], dtype=float), (d,))
         springs = [(f"kt{'' if d == 1 else f'[{j}]'}", kt[j], k)
                    for j, k in enumerate(["u"] if d == 1 else ["u1", "u2"])]

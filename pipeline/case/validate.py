@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 
-from microslip.pipeline.friction.laws import LAWS
+from microslip.pipeline.friction.laws import LAWS, FrictionLaw
 from microslip.pipeline.solve.hbm import PARAMETERS
 
 from . import coupling, specs
@@ -180,12 +180,36 @@ def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
     if name in seen:
         out.append(f"{pre}: duplicate contact name")
     seen.add(name)
-    unknown_keys(pre + ".", c, CONTACT_KEYS, out)
-    law = c.get("law")
-    if law not in LAWS:
-        out.append(f"{pre}.law = {law!r}: expected one of {sorted(LAWS)}")
+    law = LAWS.get(c.get("law")) if isinstance(c.get("law"), str) else None
+    if not isinstance(law, FrictionLaw) and law is not None:  # a law of the registry
+        unknown_keys(pre + ".", c, {"name", "law", "enabled", *law.motions, *law.parameters},
+                     out)
+        for key in law.parameters:
+            number(f"{pre}.{key}", c.get(key), out)
+        for key in law.motions:
+            if key not in c:
+                out.append(f"{pre}.{key}: missing (relative displacement as "
+                           "{dof = coefficient})")
+            else:
+                _combination(f"{pre}.{key}", c[key], dofs, out)
+        _enabled(pre, c, out)
         return
-    d, variable = LAWS[law]
+    unknown_keys(pre + ".", c, CONTACT_KEYS, out)
+    if law is None:
+        out.append(f"{pre}.law = {c.get('law')!r}: expected one of {sorted(LAWS)}")
+        return
+    _friction_contact(pre, c, law, dofs, out)
+
+
+def _enabled(pre: str, c: dict, out: list[str]) -> None:
+    if "enabled" in c and not isinstance(c["enabled"], bool):
+        out.append(f"{pre}.enabled = {c['enabled']!r}: expected true or false")
+
+
+def _friction_contact(pre: str, c: dict, friction: FrictionLaw, dofs: set[str],
+                      out: list[str]) -> None:
+    """The keys of a friction law's contact (laws A-D)."""
+    law, d, variable = friction.name, friction.dim, friction.variable_normal
     form = c.get("form", "uncoupled")
     if form not in ("uncoupled", "coupled"):
         out.append(f"{pre}.form = {form!r}: expected 'uncoupled' or 'coupled'")
@@ -226,8 +250,7 @@ def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
             out.append(f"{pre}.n0: missing (normal preload, N)")
         else:
             number(f"{pre}.n0", c["n0"], out, nonneg=not variable)
-    if "enabled" in c and not isinstance(c["enabled"], bool):
-        out.append(f"{pre}.enabled = {c['enabled']!r}: expected true or false")
+    _enabled(pre, c, out)
     tangential = ["u"] if d == 1 else ["u1", "u2"]
     wrong = ["u1", "u2"] if d == 1 else ["u"]
     for k in tangential:

@@ -1,11 +1,15 @@
 """Friction contact laws in the frequency domain.
 
 harmonics    the real coefficient layout, time samples and DFT of the harmonic balance
+law          the contact-law interface (a law builds contact sets the harmonic balance
+             evaluates: forces, exact Jacobian, stuck stiffness, preload response)
 laws         contact laws A-D (1D/2D, constant/variable normal load, coupled or not):
-             forces, exact Jacobians, states and dissipation per point
+             forces, exact Jacobians, states and dissipation per point; LAWS, the
+             registry of every law
+states       the contact states, per sample and per point over a period
 returnmap    the compiled (numba) return map over the sampled period (point, cycle, steps,
-             kinks); kernels_cached and
-             warm_up tell whether a first run compiles it (cached on disk after)
+             kinks); kernels_cached and warm_up tell whether a first run compiles it
+             (cached on disk after)
 """
 
 from .returnmap import kernels_cached, warm_up

@@ -31,7 +31,9 @@ coupled (seed eqs. 24-28): ``N = max(kn (interference + v), 0)`` with ``v``
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -39,12 +41,51 @@ from . import returnmap
 from .harmonics import Harmonics
 from .states import GROSS_SLIP, OPEN, PARTIAL_LIFTOFF, STATE_NAMES, STICK, STICK_SLIP
 
-LAWS: dict[str, tuple[int, bool]] = {  # law -> (tangential dimension, variable normal)
-    "A": (1, False),
-    "B": (1, True),
-    "C": (2, False),
-    "D": (2, True),
-}
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """A friction law of the reference text (a :class:`.law.ContactLaw`): ``dim``
+    tangential directions, a constant or variable normal load. Its case table gives
+    ``kt``, ``mu``, ``form`` and ``n0`` (or, coupled with a variable load,
+    ``interference``), and ``kn`` for a variable load."""
+
+    name: str
+    dim: int
+    variable_normal: bool
+    reference: str
+
+    @property
+    def motions(self) -> tuple[str, ...]:
+        tangential = ("u",) if self.dim == 1 else ("u1", "u2")
+        return tangential + (("v",) if self.variable_normal else ())
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        """The parameter keys its table may give (which are required depends on the form
+        and the normal load: the case reader's friction rules)."""
+        return ("form", "kt", "mu", "n0") + (("kn", "interference") if self.variable_normal
+                                              else ())
+
+    def elements(self, table: Mapping[str, Any], n_points: int = 1) -> ContactElements:
+        values: dict[str, Any] = dict(kt=np.atleast_1d(np.array(table["kt"], dtype=float))[None, :],
+                                      mu=table["mu"],
+                                      coupled=table.get("form", "uncoupled") == "coupled",
+                                      kn=table.get("kn", 0.0), n_points=n_points)
+        if "interference" in table:
+            values["interference"] = table["interference"]
+        else:
+            values["n0"] = table["n0"]
+        return ContactElements.create(self.name, **values)
+
+
+#: Every contact law, by the name a case gives (``law = "A"``): the one registry the case
+#: reader and the harmonic balance find laws in (:mod:`.law`).
+LAWS: dict[str, FrictionLaw] = {law.name: law for law in (
+    FrictionLaw("A", 1, False, "Griffin 1980"),
+    FrictionLaw("B", 1, True, "Yang et al. 1998; Petrov & Ewins 2003"),
+    FrictionLaw("C", 2, False, "Sanliturk & Ewins 1996; Menq & Yang 1998"),
+    FrictionLaw("D", 2, True, "Yang & Menq 1998"),
+)}
 
 
 
@@ -157,7 +198,7 @@ class ContactElements:
         coupled form of the constant-load laws A and C."""
         if law not in LAWS:
             raise ValueError(f"contact: 'law' = {law!r} is not one of {sorted(LAWS)}")
-        d, variable = LAWS[law]
+        d, variable = LAWS[law].dim, LAWS[law].variable_normal
         if n_points is None:
             sizes = [np.size(x) for x in (mu, n0, kn, interference) if x is not None]
             sizes.append(np.size(kt) // d if np.ndim(kt) == 2 else np.size(kt))
@@ -199,11 +240,11 @@ class ContactElements:
     @property
     def dim(self) -> int:
         """Tangential dimension d."""
-        return LAWS[self.law][0]
+        return LAWS[self.law].dim
 
     @property
     def variable_normal(self) -> bool:
-        return LAWS[self.law][1]
+        return LAWS[self.law].variable_normal
 
     @property
     def n_components(self) -> int:
@@ -219,6 +260,27 @@ class ContactElements:
         return ContactElements(
             self.law, self.kt, self.kn, self.mu, _per_point("n0", n0, (self.size,)), self.coupled
         )
+
+    # ----------------------------------------------------- the law interface
+    def stuck_stiffness(self) -> np.ndarray:
+        """(P, n_components) N/m: kt per tangential direction, kn normal."""
+        k = np.zeros((self.size, self.n_components))
+        k[:, : self.dim] = self.kt
+        if self.variable_normal:
+            k[:, -1] = self.kn
+        return k
+
+    def with_preload(self, multiplier: float) -> ContactElements:
+        """The preload parameter scales n0 (N0, or kn x interference)."""
+        return self if multiplier == 1 else self.with_n0(self.n0 * multiplier)
+
+    def preload_derivative(self, response: ContactResponse) -> np.ndarray:
+        """d forces / d preload multiplier = d forces / d n0 x n0 (these points' n0)."""
+        return response.d_n0 * self.n0[:, None, None]
+
+    def force_scale(self) -> float:
+        """The largest friction limit mu N0 (N0 where mu < 1)."""
+        return float(np.max(np.abs(self.n0) * np.maximum(self.mu, 1.0)))
 
     # ------------------------------------------------------------- evaluation
     def evaluate(

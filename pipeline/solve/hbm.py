@@ -34,7 +34,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements, ContactResponse
+from microslip.pipeline.friction.law import ContactSet
+from microslip.pipeline.friction.laws import ContactResponse
 
 PARAMETERS = ("frequency", "excitation", "mass", "preload")
 _DENSE_LIMIT = 400_000  # entries of the real kinematic map kept dense
@@ -193,16 +194,17 @@ class LinearDynamics:
 
 @dataclass(frozen=True, eq=False)
 class Contact:
-    """A named set of contact points and their kinematics.
+    """A named set of contact points of any law (:class:`friction.law.ContactSet`) and
+    their kinematics.
 
-    kinematics: (P * c, n_dof) real matrix, rows ordered (point, component
-    ``[u_1, ..., u_d, (v)]``), giving the relative displacements from the DOFs
+    kinematics: (P * c, n_dof) real matrix, rows ordered (point, component: the law's
+    motions, ``[u_1, ..., u_d, (v)]`` for friction), giving the relative displacements from the DOFs
     for every harmonic; or ``{order: complex matrix}`` when it differs per
     order (a contact with the neighbouring sector: phase ``exp(i n EO phi)``).
     """
 
     name: str
-    elements: ContactElements
+    elements: ContactSet
     kinematics: np.ndarray | Mapping[int, np.ndarray]
 
 
@@ -495,9 +497,7 @@ class HarmonicBalance:
         if parameter is not None:
             dR = h.real_apply(lin.dS, x) - h.real_vector(lin.dF).ravel()
         for c, Br, blocks in zip(self.contacts, self._Breal, self._blocks):
-            el = c.elements.with_n0(c.elements.n0 * point.preload) if point.preload != 1 else (
-                c.elements
-            )
+            el = c.elements.with_preload(point.preload)
             g = (Br @ x).reshape(el.size, el.n_components, -1)
             r = el.evaluate(g, self.harmonics, jacobian=jacobian or parameter == "preload",
                             corrections=self.sub_sample)
@@ -505,7 +505,7 @@ class HarmonicBalance:
             if jacobian:
                 blocks.add_sandwich(J, r.jacobian)
             if parameter == "preload":
-                dR += Br.T @ (r.d_n0 * c.elements.n0[:, None, None]).ravel()
+                dR += Br.T @ c.elements.preload_derivative(r).ravel()
         return R, J, dR
 
     # ------------------------------------------------------- post-processing
@@ -522,7 +522,7 @@ class HarmonicBalance:
         """Per contact: forces, states, dissipation (and time histories)."""
         out = []
         for c, g in zip(self.contacts, self.relative_displacements(x)):
-            el = c.elements.with_n0(c.elements.n0 * point.preload)
+            el = c.elements.with_preload(point.preload)
             out.append(el.evaluate(g, self.harmonics, jacobian=False, histories=histories,
                                    corrections=self.sub_sample))
         return out
@@ -610,11 +610,7 @@ class HarmonicBalance:
         cols = np.arange(self.linear.n_dof) if dofs is None else dofs
         out = np.zeros((cols.size, cols.size), dtype=complex)
         for c, B in zip(self.contacts, self._B):
-            el = c.elements
-            k = np.zeros((el.size, el.n_components))
-            k[:, : el.dim] = el.kt
-            if el.variable_normal:
-                k[:, -1] = el.kn
+            k = c.elements.stuck_stiffness()
             Bc = B[order][:, cols]
             out += Bc.conj().T @ (k.reshape(-1, 1) * Bc)
         return out

@@ -226,8 +226,7 @@ def scales(model: HarmonicBalance, point: OperatingPoint) -> tuple[float, float]
     f = float(np.max(np.abs(lin.F))) if lin.F.size else 0.0
     if f == 0.0:
         f = max(
-            (float(np.max(np.abs(c.elements.n0) * np.maximum(c.elements.mu, 1.0)))
-             for c in model.contacts),
+            (c.elements.force_scale() for c in model.contacts),
             default=0.0,
         )
     f = f if f > 0 else 1.0
