@@ -40,10 +40,12 @@ from microslip import geometry
 from microslip.pipeline.coupling.spec import (
     DIRECTIONS,
     ELEMENTS,
+    STATIC_ANCHOR_RULE,
     CouplingSpec,
     NodalLoad,
     Output,
     PatchContact,
+    static_anchor_allowed,
 )
 
 from .checks import is_int, is_number, number, unknown_keys
@@ -104,10 +106,9 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
     for key in ("mass_multiplier", "excitation"):
         if key in table:
             number(f"coupling.{key}", table[key], out, positive=True)
-    anchor = table.get("static_anchor", 1e-3)
-    if not (is_number(anchor) and 0 <= anchor < 1):
-        out.append(f"coupling.static_anchor = {anchor!r}: expected a ratio 0 <= r < 1 of the "
-                   "tangential contact stiffness (0: no anchor)")
+    anchor = table.get("static_anchor", CouplingSpec.static_anchor)
+    if not static_anchor_allowed(anchor):
+        out.append(f"coupling.static_anchor = {anchor!r}: expected {STATIC_ANCHOR_RULE}")
     if table.get("centrifugal") and "speed" not in table:
         out.append("coupling.speed: missing; the centrifugal load needs a speed [rad/s] or "
                    "'frequency'")
@@ -129,7 +130,7 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
             number(f"{pre}.mu", c["mu"], out, nonneg=True)
         if "interference" in c:
             number(f"{pre}.interference", c["interference"], out)
-        if c.get("elements", "2D") not in ELEMENTS:
+        if c.get("elements", PatchContact.elements) not in ELEMENTS:
             out.append(f"{pre}.elements = {c.get('elements')!r}: expected one of "
                        f"{list(ELEMENTS)}")
     for i, ld in enumerate(_tables(table, "loads", out)):
@@ -193,8 +194,9 @@ def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> Coupli
     bodies = geometry.NAMES[data["geometry"]["model"]]["bodies"]
     return CouplingSpec(
         contacts=tuple(PatchContact(c["patch"], float(c["mu"]),
-                                    float(c.get("interference", 0.0)),
-                                    c.get("elements", "2D")) for c in table["contacts"]),
+                                    float(c.get("interference", PatchContact.interference)),
+                                    c.get("elements", PatchContact.elements))
+                       for c in table["contacts"]),
         engine_order=eo,
         loads=tuple(NodalLoad(ld["node_set"], _dir(ld["direction"]), float(ld["amplitude"]),
                               int(ld.get("harmonic", 1)), math.radians(ld.get("phase", 0.0)))
@@ -205,7 +207,7 @@ def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> Coupli
         centrifugal=tuple(table.get("centrifugal", ())),
         mass_bodies=tuple(table.get("mass_bodies",
                                     [b for b in bodies if b not in cyclic_bodies])),
-        static_anchor=float(table.get("static_anchor", 1e-3)),
+        static_anchor=float(table.get("static_anchor", CouplingSpec.static_anchor)),
     )
 
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from microslip.pipeline.coupling.spec import PatchContact
 from microslip.pipeline.friction.laws import LAWS, FrictionLaw
 from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
@@ -139,7 +140,7 @@ def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
     pairs = count("contact_n_axial") * count("contact_n_flank")
     shapes = []
     for c in data["coupling"]["contacts"]:
-        if c.get("elements", "2D") == "2D":
+        if c.get("elements", PatchContact.elements) == "2D":
             shapes.append(ContactShape(pairs, 3, 2, 6))
         else:  # two law-B elements (t1 or t2, and n)
             shapes += [ContactShape(pairs, 2, 1, 6)] * 2

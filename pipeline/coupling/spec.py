@@ -18,6 +18,14 @@ ELEMENTS = ("2D", "1D+1D")
 #: Named directions of loads and outputs at a node of the fundamental sector (x, y, z global;
 #: radial, tangential, axial in the cylindrical frame of the node about the disk axis +z).
 DIRECTIONS = ("x", "y", "z", "radial", "tangential", "axial")
+#: What the static anchor may be: a ratio of each pair's tangential stiffness (0: none).
+STATIC_ANCHOR_RULE = "a ratio 0 <= r < 1 of the tangential contact stiffness (0: no anchor)"
+
+
+def static_anchor_allowed(ratio: object) -> bool:
+    """Whether ``ratio`` may anchor the pairs' mean tangential slip (STATIC_ANCHOR_RULE)."""
+    return isinstance(ratio, (int, float)) and not isinstance(ratio, bool) \
+        and math.isfinite(ratio) and 0 <= ratio < 1
 
 
 def _finite(name: str, value: float, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -126,8 +134,9 @@ class CouplingSpec:
             raise ValueError(f"engine_order = {self.engine_order!r}: expected an integer >= 1")
         if self.speed is not None:
             _finite("speed", self.speed, nonneg=True)
-        if not 0 <= _finite("static_anchor", self.static_anchor, nonneg=True) < 1:
-            raise ValueError(f"static_anchor = {self.static_anchor!r}: expected 0 <= ratio < 1")
+        if not static_anchor_allowed(self.static_anchor):
+            raise ValueError(f"static_anchor = {self.static_anchor!r}: expected "
+                             f"{STATIC_ANCHOR_RULE}")
         names = [c.patch for c in self.contacts]
         if len(set(names)) != len(names):
             raise ValueError(f"contacts: a patch is named twice in {names}")
