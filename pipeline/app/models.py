@@ -56,7 +56,7 @@ class CoupledModels:
             self._built[key] = couple(
                 self.mesh, self.structure.models, self.structure.patch_stiffness,
                 coupling.spec(case.data, tuple(self.mesh.cyclic)), harmonics(case),
-                sub_sample=case.data.get("solver", {}).get("sub_sample", True))
+                sub_sample=case.solver_table.sub_sample)
         return self._built[key]
 
     def model(self, case: Case) -> HarmonicBalance:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from microslip.pipeline.friction.harmonics import Harmonics, default_samples
+from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.law import ContactSet
 from microslip.pipeline.friction.laws import LAWS
 from microslip.pipeline.solve.continuation import Settings
@@ -35,14 +35,12 @@ def harmonics(case: Case) -> Harmonics:
 
 def harmonics_of(data: Mapping[str, Any]) -> Harmonics:
     """The harmonics of a case table (see :func:`harmonics`)."""
-    h = data.get("harmonics", {})
-    orders = h.get("orders", list(range(h.get("max", 1) + 1)))
-    return Harmonics(orders, h.get("samples", default_samples(max(orders))))
+    return specs.HarmonicsTable.of(data.get("harmonics", {})).harmonics()
 
 
 def settings(case: Case) -> Settings:
-    s = {k: v for k, v in case.data.get("solver", {}).items() if k != "sub_sample"}
-    return Settings(**s)
+    """The continuation settings of a case ([solver])."""
+    return case.solver_table.settings
 
 
 def as_matrix(value, n: int) -> np.ndarray:
@@ -96,7 +94,7 @@ def lumped_model(case: Case) -> HarmonicBalance:
         f = forces.setdefault(o, np.zeros(n, dtype=complex))
         f[index[load["dof"]]] += load["amplitude"] * np.exp(1j * np.deg2rad(load.get("phase",
                                                                                      0.0)))
-    sub = case.data.get("solver", {}).get("sub_sample", True)
+    sub = case.solver_table.sub_sample
     return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=sub)
 
 

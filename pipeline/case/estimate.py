@@ -12,7 +12,6 @@ import numpy as np
 
 from microslip.pipeline.coupling.spec import PatchContact
 from microslip.pipeline.friction.laws import LAWS, FrictionLaw
-from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
 from microslip.pipeline.solve.memory import (
     ContactShape,
@@ -21,6 +20,7 @@ from microslip.pipeline.solve.memory import (
     memory_text,
 )
 
+from . import specs
 from .build import as_matrix, harmonics_of, kinematic_row
 from .checks import is_int
 from .paths import set_path
@@ -91,7 +91,8 @@ def _size(name: str, data: dict, a: dict) -> Size:
         c = next(c for c in data["contacts"] if c.get("name") == a["contact"])
         law = LAWS[c["law"]]
         shape = ContactShape(len(a["amplitudes"]), len(law.motions), law.dim, 0)
-        nbytes = balance_bytes(0, 0, 2, 3, a.get("samples", 512), [shape], 1, CACHE_LIMIT)
+        samples = specs.analysis(a).samples
+        nbytes = balance_bytes(0, 0, 2, 3, samples, [shape], 1, CACHE_LIMIT)
         return Size(name, 0, nbytes, "prescribed motion")
     if "coupling" in data:
         contact_dofs, shapes = _patch_contacts(data)
@@ -100,7 +101,7 @@ def _size(name: str, data: dict, a: dict) -> Size:
         contact_dofs, shapes = _lumped_contacts(data)
         linear_dofs = len(data["model"]["dofs"])
     h = harmonics_of(data)
-    points = data.get("solver", {}).get("max_points", Settings().max_points)
+    points = specs.SolverTable.of(data.get("solver", {})).settings.max_points
     nbytes = balance_bytes(contact_dofs, linear_dofs, len(h.orders), h.n_coeffs, h.n_samples,
                            shapes, points, CACHE_LIMIT)
     detail = (f"{contact_dofs:,} contact DOF(s) x {h.n_coeffs:,} coefficients, H = "

@@ -1,4 +1,5 @@
-"""Typed, frozen specs of a case's analyses: each key's default in one place.
+"""Typed, frozen specs of a case's analyses, harmonics and solver: each key's default in one
+place.
 
 A validated ``[[analysis]]`` table becomes one of :data:`ANALYSES` (:func:`analysis`);
 runners take these, never the table. A key the case leaves out has its default here and
@@ -20,6 +21,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from microslip.pipeline.friction.harmonics import Harmonics, default_samples
+from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.response import MEASURES  # noqa: F401 (the measures)
 
 #: continuation methods of an frf; ``natural-down`` sweeps from stop to start
@@ -180,6 +183,46 @@ class Transient(TimeIntegration):
 
     type: ClassVar[str] = "transient"
     frequency: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class HarmonicsTable:
+    """[harmonics]: orders 0..``max`` or the ``orders`` given; ``samples`` per period
+    (None: the default of the highest order, ``friction.harmonics.default_samples``)."""
+
+    max: int = 1
+    orders: tuple[int, ...] | None = None
+    samples: int | None = None
+
+    @classmethod
+    def of(cls, table: Mapping[str, Any]) -> HarmonicsTable:
+        """The spec of a validated [harmonics] table."""
+        return cls(**{k: _typed(k, v) for k, v in table.items()})
+
+    @property
+    def all_orders(self) -> tuple[int, ...]:
+        return self.orders if self.orders is not None else tuple(range(self.max + 1))
+
+    def harmonics(self) -> Harmonics:
+        orders = self.all_orders
+        return Harmonics(list(orders), self.samples if self.samples is not None
+                         else default_samples(max(orders)))
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolverTable:
+    """[solver]: the continuation settings (their defaults: ``continuation.Settings``) and
+    ``sub_sample``, the sub-sample corrections of the contact forces."""
+
+    settings: Settings = field(default_factory=Settings)
+    sub_sample: bool = True
+
+    @classmethod
+    def of(cls, table: Mapping[str, Any]) -> SolverTable:
+        """The spec of a validated [solver] table."""
+        given = {k: v for k, v in table.items() if k != "sub_sample"}
+        return cls(settings=Settings(**given),
+                   sub_sample=table.get("sub_sample", cls.sub_sample))
 
 
 ANALYSES: dict[str, type[Analysis]] = {cls.type: cls for cls in (Frf, Peak, Loops, Dti,

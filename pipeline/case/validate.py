@@ -295,7 +295,7 @@ def _harmonics(h, out: list[str]) -> None:
         out.append("harmonics: give either 'max' (orders 0..max) or 'orders', not both")
     if "max" in h:
         number("harmonics.max", h["max"], out, nonneg=True, integer=True)
-    top = h.get("max", 1)
+    top = h.get("max", specs.HarmonicsTable.max)
     if "orders" in h:
         o = h["orders"]
         if not (isinstance(o, list) and o and all(isinstance(x, int) and x >= 0 for x in o)):

@@ -46,6 +46,16 @@ class Case:
         """Each analysis as its typed spec, defaults resolved."""
         return tuple(specs.analysis(a, i) for i, a in enumerate(self.analyses))
 
+    @cached_property
+    def harmonics_table(self) -> specs.HarmonicsTable:
+        """[harmonics] as its spec, defaults resolved."""
+        return specs.HarmonicsTable.of(self.data.get("harmonics", {}))
+
+    @cached_property
+    def solver_table(self) -> specs.SolverTable:
+        """[solver] as its spec, defaults resolved."""
+        return specs.SolverTable.of(self.data.get("solver", {}))
+
     @property
     def draws_shapes(self) -> bool:
         """Whether an frf draws deformed shapes at its map points: then every body is
