@@ -1,4 +1,4 @@
-"""Blisk sector with platforms and an underplatform wedge damper (seed 5.3.2, Fig. 21).
+"""Blisk sector with platforms and an underplatform wedge damper (Firrone & Zucca 5.3.2, Fig. 21).
 
 Geometry (fundamental sector, theta in [-phi/2, phi/2], blade along +x)
 -----------------------------------------------------------------------
@@ -13,7 +13,7 @@ Geometry (fundamental sector, theta in [-phi/2, phi/2], blade along +x)
 * Blade: straight prism (chord x thickness, staggered by ``blade_stagger`` about the
   x axis) from inside the platform to r_platform + blade_height; fused with the disk.
 * Damper: a trapezoidal prism (axial length ``damper_length``) whose two flanks lie on
-  the pocket flanks (zero interference, seed: Delta = 0) with its top face
+  the pocket flanks (zero interference, Firrone & Zucca: Delta = 0) with its top face
   ``damper_top_width`` wide; it sits in the pocket at theta = +phi/2, i.e. between the
   sector's blade (right platform) and the next blade (left platform).
 

@@ -1,5 +1,5 @@
-"""Disk sector with an axial dovetail slot and a blade with its dovetail root (seed 5.3.1,
-Fig. 19): two bodies touching on the two root flanks.
+"""Disk sector with an axial dovetail slot and a blade with its dovetail root (Firrone &
+Zucca 5.3.1, Fig. 19): two bodies touching on the two root flanks.
 
 Geometry (fundamental sector, theta in [-phi/2, phi/2], blade along +x)
 -----------------------------------------------------------------------
@@ -10,7 +10,7 @@ Geometry (fundamental sector, theta in [-phi/2, phi/2], blade along +x)
   (widening inwards) over the radial height ``flank_height``, then a flat bottom.
 * Blade: the dovetail root is the slot section shrunk by ``clearance`` everywhere except
   on the flanks: its flanks lie on the slot flanks between rho = r_neck - clearance and
-  r_flank_bottom + clearance (zero interference, seed: Delta = 0); neck/shank up to
+  r_flank_bottom + clearance (zero interference, Firrone & Zucca: Delta = 0); neck/shank up to
   r_rim + shank_height, a flat platform (``platform_thickness``, tangential width = pitch
   at r_rim minus ``platform_gap``), then a straight staggered airfoil prism.
 

@@ -32,7 +32,7 @@ def blade_damper_blade(
     settle_time: float = 0.1,
     ramp_periods: int = 10,
 ) -> tuple[TimeModel, LoadSteps]:
-    """The 9-DOF blade-damper-blade model of the seed's Fig. 12 (eqs. 20-23).
+    """The 9-DOF blade-damper-blade model of Firrone & Zucca's Fig. 12 (eqs. 20-23).
 
     DOFs [x1_l, y_l, x2_l, x1_r, y_r, x2_r, x_d, y_d, theta_d] (m, rad): each
     blade a platform m1 (x1, y) and an airfoil m2 (x2) joined by kx2, chosen so

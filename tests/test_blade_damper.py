@@ -1,9 +1,9 @@
-"""The 9-DOF blade-damper-blade teaching case (seed section 4, Fig. 12-17; issue 3).
+"""The 9-DOF blade-damper-blade teaching case (Firrone & Zucca section 4, Fig. 12-17; issue 3).
 
 Checks the physics of ``cases/blade_damper.toml`` and ``cases/blade_damper_stiff.toml``
 against independent references: hand statics of the wedge, the blade's
 eigenvalue problem, and direct time integration (DTI) of the same equations
-(seed eq. 20) with the two load steps of Fig. 13.
+(Firrone & Zucca eq. 20) with the two load steps of Fig. 13.
 """
 
 from __future__ import annotations

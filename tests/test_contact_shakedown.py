@@ -3,7 +3,7 @@
 A cycle that sticks all period is periodic from any start state near it: the period map
 has Phi = I and the periodicity (I - Phi) dT = b leaves its derivative free (that solve
 used to return NaN). Its tangential state is the history's choice, the predictor/corrector
-of seed eqs. 26-28: the march from T = kt u(t0), static part included, slipping where it
+of Firrone & Zucca eqs. 26-28: the march from T = kt u(t0), static part included, slipping where it
 must. The Jacobian has to be the derivative of that same choice, i.e. of the forces the
 code returns: checked against central differences of them.
 

@@ -166,7 +166,7 @@ def test_parameter_continuation_matches_pointwise_solutions(parameter, start, st
 
 
 def test_performance_curve_asymptotes():
-    """Amplitude over excitation (seed Fig. 6, right): stuck receptance at small
+    """Amplitude over excitation (Firrone & Zucca Fig. 6, right): stuck receptance at small
     forces, free receptance at large ones."""
     w = 0.7
     hb = jenkins_oscillator(H=3, n_samples=128, P=1.0)

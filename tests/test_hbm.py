@@ -270,7 +270,7 @@ def test_orders_with_dofs_of_their_own():
     assert a.converged and b.converged
     # same unknowns, same equations: agreement to the Newton tolerance (1e-9 of the forces)
     np.testing.assert_allclose(b.x, a.x, atol=1e-8 * np.abs(a.x).max())
-    # every order's own DOFs satisfy that order's equations (seed eq. 9)
+    # every order's own DOFs satisfy that order's equations (Firrone & Zucca eq. 9)
     D = own.linear.dynamic_stiffness(p)
     Fo, _ = own.forces(p)
     X = own.recover_orders(b.x, p)

@@ -58,8 +58,8 @@ def test_undersampled_curves_are_warned_once_on_the_terminal_and_in_show(tmp_pat
     assert "raise harmonics.samples from 64, e.g. to 256" in shown[flagged[0]]
 
 
-# a law-B contact with a gap (seed Fig. 8): at one point a stick arc falls within two of the
-# 256 samples, but the curve does not depend on it (sub-sample transitions locate it)
+# a law-B contact with a gap (Firrone & Zucca Fig. 8): at one point a stick arc falls within
+# two of the 256 samples, but the curve does not depend on it (sub-sample transitions locate it)
 GAP = {
     "title": "gap",
     "model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0], "damping": [0.02]},

@@ -54,7 +54,7 @@ def test_fig5_preload_family(sdof):
     # rad/s (at 2.5 m the spring force 7.5 N still exceeds mu N0 = 1 N: it slips)
     w1, a1 = peak(g["curve_005"])
     assert 1.9 < w1 < 2.0 and a1 < 2.5
-    # friction first lowers and then raises the peak (seed Fig. 5, left)
+    # friction first lowers and then raises the peak (Firrone & Zucca Fig. 5, left)
     peaks = [peak(g[f"curve_{i:03d}"])[1] for i in range(6)]
     assert np.argmin(peaks) not in (0, 5)
 
@@ -152,7 +152,7 @@ def test_fig10_two_directions_damp_more(tmp_path_factory):
         g = f["fig10"]
         minima = [g[f"curve_{i:03d}"]["amplitude"][()].min() for i in range(3)]
     one, two, plane = minima
-    # neglecting the y motion overestimates the minimum amplitude (seed Fig. 10)
+    # neglecting the y motion overestimates the minimum amplitude (Firrone & Zucca Fig. 10)
     assert one > 1.5 * two and one > 1.5 * plane
     # two 1D elements and one 2D element agree to within their different laws
     assert plane == pytest.approx(two, rel=0.5)

@@ -21,7 +21,7 @@ def jenkins_oscillator(
     P: float = 0.1,
 ) -> HarmonicBalance:
     """A mass on a spring rubbing on a wall through a Jenkins element (law A,
-    seed Fig. 4): ``m x'' + c x' + k x + T = P cos(w t)``, slip force ``fs = mu N0``.
+    Firrone & Zucca Fig. 4): ``m x'' + c x' + k x + T = P cos(w t)``, slip force ``fs = mu N0``.
 
     Defaults are issue 2's benchmark: m = 1 kg, c = 0.02 N s/m, k = 1 N/m,
     kt = 3 N/m, mu N = 0.05 N, P = 0.1 N (peak near 1.841 m at 1.002 rad/s)."""

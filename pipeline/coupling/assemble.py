@@ -1,4 +1,4 @@
-"""Reduced bodies + contact patches -> the harmonic-balance model (seed 4.2, 5.1-5.3).
+"""Reduced bodies + contact patches -> the harmonic-balance model (Firrone & Zucca 4.2, 5.1-5.3).
 
 Per harmonic order n, a cyclic body enters with its reduced model at nodal diameter
 h(n) = n EO mod Ns (folded into 0..Ns/2; a backward wave takes the complex conjugates), a

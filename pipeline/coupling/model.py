@@ -130,8 +130,8 @@ class CoupledModel:
     def body_coordinates(self, x: np.ndarray, point: OperatingPoint
                          ) -> dict[str, list[np.ndarray]]:
         """Per body, per harmonic order, the (r,) complex reduced coordinates (its masters,
-        then its fixed-interface modes at the order's ND) of a solution ``x`` (seed eq. 9:
-        the modes recovered from the masters per order)."""
+        then its fixed-interface modes at the order's ND) of a solution ``x`` (Firrone & Zucca
+        eq. 9: the modes recovered from the masters per order)."""
         X = self.hb.recover_orders(x, point)
         n_dof = self.hb.linear.n_dof
         out: dict[str, list[np.ndarray]] = {b.body: [] for b in self.layout}

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 
 #: Contact elements per node pair: "2D" one law-D element (2D tangential, variable normal
-#: load, seed section 3); "1D+1D" two orthogonal law-B elements (1D tangential along t1 and t2,
-#: each with half the normal stiffness: the seed's choice for the blade root, section 5.3.1).
+#: load, Firrone & Zucca section 3); "1D+1D" two orthogonal law-B elements (1D tangential
+#: along t1 and t2, each with half the normal stiffness: Firrone & Zucca's choice for the
+#: blade root, section 5.3.1).
 ELEMENTS = ("2D", "1D+1D")
 #: Named directions of loads and outputs at a node of the fundamental sector (x, y, z global;
 #: radial, tangential, axial in the cylindrical frame of the node about the disk axis +z).
@@ -54,7 +55,8 @@ class PatchContact:
     """Friction contact on every node pair of one meshed patch.
 
     mu: friction coefficient [-]; interference: design interference [m] (negative: a gap),
-    the geometric gap of each pair subtracted (seed eq. 24: ``N = max(kn (Delta + v), 0)``);
+    the geometric gap of each pair subtracted (Firrone & Zucca eq. 24:
+    ``N = max(kn (Delta + v), 0)``);
     elements: see ELEMENTS.
     """
 

@@ -1,4 +1,4 @@
-"""Contact-status and static-load maps of contact patches (seed Fig. 20, 23), off screen.
+"""Contact-status and static-load maps of contact patches (Firrone & Zucca Fig. 20, 23), off screen.
 
 Each node pair of a patch's structured grid is drawn as the cell of its own tributary area
 (the dual grid: corners halfway between neighbouring nodes, the outer ones extrapolated), so
@@ -7,7 +7,7 @@ in its own plane, seen from body b onto body a's face, turned so that the direct
 growing radius (at the patch centre, projected onto the plane) points up; the edge at the
 highest radius is also drawn thick and labelled, so the orientation reads without the text.
 
-Colours of the states over the period follow the seed's Fig. 23 (white: stick; grey:
+Colours of the states over the period follow Firrone & Zucca's Fig. 23 (white: stick; grey:
 alternate stick-slip; black: partial lift-off); gross slip and open, which that figure does
 not show, get colours of their own.
 """

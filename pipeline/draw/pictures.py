@@ -221,7 +221,7 @@ def slip_at_peaks(g: h5py.Group) -> tuple[np.ndarray, dict[str, np.ndarray]]:
 
 def slip_growth(g: h5py.Group, name: str, out: Path) -> list[Path]:
     """The slipping share of each patch's node pairs (and of all) at each curve's peak
-    against the family value (seed Fig. 20 right: slip growing with the excitation). Only
+    against the family value (Firrone & Zucca Fig. 20 right: slip growing with the excitation). Only
     for a family of at least two curves with maps at their peaks."""
     x, shares = slip_at_peaks(g)
     if len(x) < 2:
@@ -440,7 +440,7 @@ def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
 
 def transient(g: h5py.Group, name: str, out: Path, options: Options = Options()
               ) -> list[Path]:
-    """The load steps (seed Fig. 13): the outputs over time and the first contact's
+    """The load steps (Firrone & Zucca Fig. 13): the outputs over time and the first contact's
     tangential force within its slip limits +- mu N."""
     steps = []
     for key in sorted(k for k in g if schema.is_step(k)):

@@ -175,7 +175,7 @@ def loops(path: Path, title: str, loops_: Sequence[dict], *, two_d: bool) -> Fig
 
 
 def transient(path: Path, title: str, steps: Sequence[dict]) -> Figure:
-    """Load steps (seed Fig. 13): per step, the outputs over time (top) and a
+    """Load steps (Firrone & Zucca Fig. 13): per step, the outputs over time (top) and a
     contact's tangential force with the limits +-mu N (bottom)."""
     fig = _figure((6 * len(steps), 6.5))
     axes = fig.subplots(2, len(steps), squeeze=False)

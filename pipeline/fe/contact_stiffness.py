@@ -1,4 +1,4 @@
-"""Contact stiffness of a patch (seed 5.2) and local contact frames.
+"""Contact stiffness of a patch (Firrone & Zucca 5.2) and local contact frames.
 
 Flat punch on a half-space for the whole patch of area A (Johnson, *Contact Mechanics*, 1985;
 tangential after Mindlin 1949), equivalent radius a = sqrt(A / pi):

@@ -1,4 +1,4 @@
-"""Cyclic symmetry (seed 5.1.1): sector matrices per nodal diameter.
+"""Cyclic symmetry (Firrone & Zucca 5.1.1): sector matrices per nodal diameter.
 
 Sector angle phi = 2 pi / Ns about the disk axis +z. The right-face nodes are the images of the
 left-face nodes under R(+phi) (``CyclicBoundary.right[i] = R(phi) left[i]``). For nodal diameter

@@ -1,5 +1,5 @@
-"""Craig-Bampton reduction per body and nodal diameter (seed 5.1.3, eqs. 37-44), and modal
-superposition (eqs. 33-36) as the alternative.
+"""Craig-Bampton reduction per body and nodal diameter (Firrone & Zucca 5.1.3, eqs. 37-44),
+and modal superposition (eqs. 33-36) as the alternative.
 
 Reduced coordinates q = [master DOFs ; fixed-interface modal amplitudes]. Master DOFs are the
 global Cartesian x, y, z displacements of the master nodes, node-major: coordinate 3 i + d is

@@ -1,6 +1,6 @@
 """Harmonic layout, time sampling and the discrete Fourier pair of the balance.
 
-Convention (seed eq. 2): ``x(t) = Re(sum_n X_n exp(i n w t))``.
+Convention (Firrone & Zucca eq. 2): ``x(t) = Re(sum_n X_n exp(i n w t))``.
 Per DOF the real coefficients are laid out ``[a0, a1, b1, ..., aH, bH]`` with
 ``x = a0 + sum(a_n cos(n w t) + b_n sin(n w t))``, so that ``X_n = a_n - i b_n``.
 Only the orders kept in :class:`Harmonics` appear (e.g. 0 and the odd ones).

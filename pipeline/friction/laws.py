@@ -1,6 +1,6 @@
-"""Friction contact elements in the frequency domain (seed section 3 and 4.2).
+"""Friction contact elements in the frequency domain (Firrone & Zucca section 3 and 4.2).
 
-Four laws (seed sections 3 and 4.2), each vectorised over many points with per-point
+Four laws (Firrone & Zucca sections 3 and 4.2), each vectorised over many points with per-point
 parameters:
 
 ====  ============  ===============  =====================================
@@ -20,10 +20,10 @@ relative motion: on the DOFs they act as ``-B^T [T; N]``.
 
 Forms
 -----
-uncoupled (seed eq. 13/17): ``N = max(N0 + kn v, 0)`` with ``N0`` given a
+uncoupled (Firrone & Zucca eq. 13/17): ``N = max(N0 + kn v, 0)`` with ``N0`` given a
     priori; the static (0th) harmonic of the inputs is ignored and the static
     part of the forces is not returned: the static state was solved before.
-coupled (seed eqs. 24-28): ``N = max(kn (interference + v), 0)`` with ``v``
+coupled (Firrone & Zucca eqs. 24-28): ``N = max(kn (interference + v), 0)`` with ``v``
     holding its 0th harmonic; the tangential static force follows from the 0th
     harmonic of ``u`` (unique under slip, the predictor/corrector of eqs.
     26-28 under full stick). Internally ``n0 = kn * interference``.
@@ -168,7 +168,7 @@ class ContactElements:
         variable laws), or ``kn * interference`` (coupled).
     kn: normal contact stiffness, N/m (> 0 for the variable laws B and D; 0 for
         A and C).
-    coupled: static/dynamic coupling (seed section 4.2).
+    coupled: static/dynamic coupling (Firrone & Zucca section 4.2).
     """
 
     law: str

@@ -1,4 +1,4 @@
-"""Newton's method and continuation of solution branches (seed appendix).
+"""Newton's method and continuation of solution branches (Firrone & Zucca appendix).
 
 The problem is a callable ``fun(x, lam, jacobian) -> (R, J, R_lam)``: the
 residual ``R`` (n,), its Jacobian ``J = dR/dx`` (n, n) and ``R_lam = dR/dlam``
@@ -7,10 +7,10 @@ residual ``R`` (n,), its Jacobian ``J = dR/dx`` (n, n) and ``R_lam = dR/dlam``
 the arclength metric mean the same for a 1 N blade and a 30 kN disk.
 
 * :func:`newton` - damped Newton at fixed ``lam`` (backtracking on ||R||).
-* :func:`natural` - natural continuation (seed 7.1): ``lam`` stepped, the last
+* :func:`natural` - natural continuation (Firrone & Zucca 7.1): ``lam`` stepped, the last
   solutions extrapolated as predictor, the step halved where Newton fails; at a fold
-  the sweep jumps to the other branch, as a slow physical sweep does (seed Fig. 24).
-* :func:`arclength` - pseudo-arclength continuation (seed 7.2, eqs. 55-56):
+  the sweep jumps to the other branch, as a slow physical sweep does (Firrone & Zucca Fig. 24).
+* :func:`arclength` - pseudo-arclength continuation (Firrone & Zucca 7.2, eqs. 55-56):
   tangent predictor, corrector on the hyperplane orthogonal to the tangent,
   adaptive step, turning points followed and reported.
 
@@ -235,9 +235,9 @@ def natural(
 
     Where the predictor fails, Newton restarts from the last solution. Where the step has
     fallen below ``min_step``, the branch ends within it: a fold. The sweep then jumps, as a
-    slow physical sweep does (seed Fig. 24): it lands at the next value, one regular step on,
-    on the branch that the fold's own branch reaches there after turning back (followed by
-    arclength, :func:`_detour`), else on a solution from ``guesses(value)``; the jump is kept
+    slow physical sweep does (Firrone & Zucca Fig. 24): it lands at the next value, one
+    regular step on, on the branch that the fold's own branch reaches there after turning
+    back (followed by arclength, :func:`_detour`), else on a solution from ``guesses(value)``; the jump is kept
     in ``Branch.jumps``. Where neither gives a solution (the end of the solution set), the
     sweep stops and says so."""
     check_range(start, stop, parameter)
@@ -680,7 +680,7 @@ STAGNATION = 6
 
 
 def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
-    """Newton on [R(y) = 0; t . (y - y_pred) = 0] (seed eq. 56), damped like
+    """Newton on [R(y) = 0; t . (y - y_pred) = 0] (Firrone & Zucca eq. 56), damped like
     :func:`newton`: near a stick/slip kink the full step can jump between two
     linear pieces and cycle; halving it until the residual falls breaks that."""
     n = pred.size - 1

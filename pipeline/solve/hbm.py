@@ -1,4 +1,4 @@
-"""Multi-harmonic balance on the contact DOFs (seed section 2 and appendix).
+"""Multi-harmonic balance on the contact DOFs (Firrone & Zucca section 2 and appendix).
 
 For each kept harmonic order n the linear part is the dynamic stiffness
 ``D_n(w) = K_n - (n w)^2 M_n + i n w C_n`` (real, or complex Hermitian from the
@@ -6,7 +6,7 @@ cyclic-symmetry stage). DOFs that no contact touches are condensed exactly per
 harmonic, ``S_n = D_cc - D_ci D_ii^-1 D_ic``, so the unknowns are the contact
 DOFs only and no receptance (``K^-1`` at n = 0) is needed: a free-free damper
 held only by its contacts is fine. Every other DOF is recovered afterwards
-(seed eq. 9).
+(Firrone & Zucca eq. 9).
 
 Unknowns ``x`` are real, DOF-major: ``x[dof, coeff]`` in the layout of
 :class:`~microslip.pipeline.friction.harmonics.Harmonics`. The residual is
@@ -529,7 +529,7 @@ class HarmonicBalance:
 
     def recover_orders(self, x: np.ndarray, point: OperatingPoint) -> list[np.ndarray]:
         """Per order the (n_n,) complex amplitudes of every DOF, the order's own included
-        (seed eq. 9): what a reduced body's recovery matrix takes."""
+        (Firrone & Zucca eq. 9): what a reduced body's recovery matrix takes."""
         h = self.harmonics
         lin = self.condensed(point)
         Xc = h.to_complex(x.reshape(self.dofs.size, h.n_coeffs))
@@ -542,7 +542,7 @@ class HarmonicBalance:
         return out
 
     def recover(self, x: np.ndarray, point: OperatingPoint) -> np.ndarray:
-        """(n_dof, ncoeff) coefficients of every shared DOF (seed eq. 9)."""
+        """(n_dof, ncoeff) coefficients of every shared DOF (Firrone & Zucca eq. 9)."""
         h = self.harmonics
         n = self.linear.n_dof
         X = self.recover_orders(x, point)

@@ -566,7 +566,7 @@ def peak_curve(
     vibration: bool = False,
 ) -> PeakCurve:
     """Optimization / performance curves: the peak traced by natural continuation
-    in ``parameter`` (seed Fig. 6).
+    in ``parameter`` (Firrone & Zucca Fig. 6).
 
     The first value gets a full arclength FRF over ``window`` (the global peak
     there). Each next one predicts the peak frequency from the last two and finds

@@ -19,7 +19,7 @@ second order (measured on the circle's closed form: 1.1e-3, 6.7e-5, 4.2e-6 at
 64, 256, 1024 samples).
 
 The march starts as if the previous sample had ``T = kt u_{N-1}``, so the
-first predictor is ``kt u_0`` (the static part included: seed eqs. 26-28), and
+first predictor is ``kt u_0`` (the static part included: Firrone & Zucca eqs. 26-28), and
 repeats periods until the force at the end of a period repeats. A cycle that
 sticks all period is periodic from any nearby start (it is not unique, and
 the periodicity leaves its derivative free: Phi = I): the one returned is
@@ -119,7 +119,7 @@ def march(*args: object) -> None:
     sample either slips on an isolated 2D cycle, whose derivative is that of
     the periodic orbit (:func:`periodic_derivative`), or sticks all period
     (possibly touching the limit): then its start state, and so every force,
-    is what the march from the start convention left (seed eqs. 26-28), and
+    is what the march from the start convention left (Firrone & Zucca eqs. 26-28), and
     the march is repeated with derivatives from the start (as is any march of
     at most two periods), or it sits on a corner of the stuck set
     (:func:`corner_derivative`).

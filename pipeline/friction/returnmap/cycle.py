@@ -28,7 +28,7 @@ def periodic_cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods
     isolated cycle. A cycle that sticks all period, or only touches the limit,
     is one of a continuum of periodic cycles (shifted stuck cycles, Phi = I),
     and which one holds is the history's choice: the predictor/corrector of
-    seed eqs. 26-28, the march from ``T = kt u``. A Newton jump into that
+    Firrone & Zucca eqs. 26-28, the march from ``T = kt u``. A Newton jump into that
     continuum lands on one of them by chance (and its derivative would need
     that of Phi). Two cases are told apart:
 
@@ -191,7 +191,7 @@ def _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = (d + int(has_normal)) * nc + 1  # derivative columns (dT may be a placeholder)
-    # start: previous sample at k = ns - 1 with T = kt u (seed eq. 26), or open
+    # start: previous sample at k = ns - 1 with T = kt u (Firrone & Zucca eq. 26), or open
     closed = n0[p] + kn[p] * v[p, ns - 1] > 0.0
     if want_jac:
         dT[:, :] = 0.0

@@ -80,7 +80,7 @@ def _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac
                 p, u, v, kt, kn, mu, n0, E, has_normal, how == PLAIN, T, Tp, dT, G, T_out,
                 N_out, state_out):
             # the march again with derivatives from the start convention: short, or a
-            # stuck cycle whose start state is the march's choice (seed eqs. 26-28)
+            # stuck cycle whose start state is the march's choice (Firrone & Zucca eqs. 26-28)
             periodic_cycle(p, u, v, kt, kn, mu, n0, E, has_normal, yes, periods, 0.0,
                    T, Tp, dT, G, T_out, N_out, state_out)
     periods_out[p] = periods

@@ -1,7 +1,7 @@
-"""Direct time integration (DTI) of lumped models with friction contacts (seed 4.1).
+"""Direct time integration (DTI) of lumped models with friction contacts (Firrone & Zucca 4.1).
 
 The reference the text uses for its harmonic-balance results: the equations of
-motion (seed eq. 20)
+motion (Firrone & Zucca eq. 20)
 
     M q'' + C q' + K q = F(t) - sum_c B_c^T f_c(B_c q)
 
