@@ -237,9 +237,9 @@ def natural(
     fallen below ``min_step``, the branch ends within it: a fold. The sweep then jumps, as a
     slow physical sweep does (Firrone & Zucca Fig. 24): it lands at the next value, one
     regular step on, on the branch that the fold's own branch reaches there after turning
-    back (followed by arclength, :func:`_detour`), else on a solution from ``guesses(value)``; the jump is kept
-    in ``Branch.jumps``. Where neither gives a solution (the end of the solution set), the
-    sweep stops and says so."""
+    back (followed by arclength, :func:`_detour`), else on a solution from
+    ``guesses(value)``; the jump is kept in ``Branch.jumps``. Where neither gives a solution
+    (the end of the solution set), the sweep stops and says so."""
     check_range(start, stop, parameter)
     span = stop - start
     out = _Collector(parameter)
