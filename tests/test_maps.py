@@ -183,8 +183,9 @@ def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
     # Firrone & Zucca Fig. 24 (the hardening curve of cases/normal_load.toml): a fine
     # arclength branch thinned to every 20th point before its first turning point and after
     # its second, and the two turning points (the middle branch one chord between them, the
-    # secant guess far off the branch: it finds 2 of the 3 solutions); at a frequency at `share` of the
-    # fold from its lower turn (0.99: the lower and middle solutions 1 % of the fold apart),
+    # secant guess far off the branch: it finds 2 of the 3 solutions); at a frequency at
+    # `share` of the fold from its lower turn (0.99: the lower and middle solutions 1 % of
+    # the fold apart),
     # the three solutions match those solved from the fine branch's own short brackets
     import dataclasses
 
