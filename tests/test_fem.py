@@ -100,7 +100,7 @@ def _check_convergence(sizes):
     results = [bending_frequencies(s) for s in sizes]
     for res in results:
         for key, f in res.items():
-            # 0.5 %: the bound; it covers the 3D effects Euler-Bernoulli leaves out
+            # 0.5 %: what the 3D effects Euler-Bernoulli leaves out allow
             # (shear and rotary inertia ~0.15 % for mode 2 at L/W = 33, Poisson at the clamp).
             assert f == pytest.approx(REFERENCE[key], rel=5e-3), (key, f, REFERENCE[key])
     for key in REFERENCE:

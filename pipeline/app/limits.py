@@ -12,6 +12,7 @@ import numpy as np
 from microslip.pipeline.case import Case, curve_variants, operating_point
 from microslip.pipeline.case.specs import Frf
 from microslip.pipeline.results import schema
+from microslip.pipeline.results.file import ResultsWriter
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import refine_peak, response_measure
 
@@ -20,7 +21,7 @@ from .models import CoupledModels
 Progress = Callable[[str], None]
 
 
-def linear_limits(models: CoupledModels, case: Case, spec: Frf, w, group,
+def linear_limits(models: CoupledModels, case: Case, spec: Frf, writer: ResultsWriter, group,
                   store, progress: Progress) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
     directly (linear): written beside the curves (the pictures draw them with them). The
@@ -56,7 +57,7 @@ def linear_limits(models: CoupledModels, case: Case, spec: Frf, w, group,
                                             ws)
         if spec.normalise:  # linear: the same for every excitation level
             shown = shown / base.excitation
-        w.write_group(group, key, {"omega": ws_all, "coefficients": coef, "response": shown},
+        writer.write_group(group, key, {"omega": ws_all, "coefficients": coef, "response": shown},
                       {"label": label, "status": "complete", "message": "linear, solved "
                        "directly", "mass_multiplier": m})
         store.save(stored, group[key])
@@ -96,7 +97,8 @@ LEVEL_POINTS = 5  # parameter values at which the fully stuck peak level is comp
 
 
 def peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_name: str,
-                 window: tuple[float, float], vibration: bool, w, group, progress,
+                 window: tuple[float, float], vibration: bool, writer: ResultsWriter, group,
+                 progress,
                  name: str) -> None:
     """The linear levels of a peak curve: the free blisk's peak (one value: no damper, no
     parameter) and the fully stuck system's at LEVEL_POINTS values spread as ``values``."""
@@ -111,7 +113,7 @@ def peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_n
         if springs == "free":
             peaks = peaks * 2
         level = schema.LEVEL_FREE if springs == "free" else schema.LEVEL_STUCK
-        w.write_group(group, level, {
+        writer.write_group(group, level, {
             "parameter": pars, "omega": np.array([p[0] for p in peaks]),
             "amplitude": np.array([p[1] for p in peaks])},
             {"label": springs, "status": "complete", "message": "linear, solved directly"})
@@ -132,8 +134,8 @@ def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
         return float(response_measure(h, coef, "vibration" if vibration else "peak"))
 
     ws = np.linspace(*window, grid)
-    a = np.array([amp(x) for x in ws])
-    i = int(np.argmax(a))
+    peaks = np.array([amp(x) for x in ws])
+    i = int(np.argmax(peaks))
     lo, hi = ws[max(i - 1, 0)], ws[min(i + 1, grid - 1)]
-    w, top = refine_peak(amp, lo, hi, 1e-6 * (window[1] - window[0]))
-    return (w, top) if top >= a[i] else (float(ws[i]), float(a[i]))
+    omega, top = refine_peak(amp, lo, hi, 1e-6 * (window[1] - window[0]))
+    return (omega, top) if top >= peaks[i] else (float(ws[i]), float(peaks[i]))

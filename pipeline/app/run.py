@@ -88,32 +88,32 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
     out.mkdir(parents=True, exist_ok=True)
     store = CurveStore(out / "cache" / "curves" if cache else None)
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
-                       case_hash=case.content_hash, case=case.data) as w:
+                       case_hash=case.content_hash, case=case.data) as writer:
         stopped = ""
         models: LumpedModels | CoupledModels = LumpedModels()
         if "geometry" in case.data:
             t = time.perf_counter()
             m = mesh_geometry(case.data["geometry"], out, progress)
-            w.write_group(w.file, schema.GEOMETRY, {}, {
+            writer.write_group(writer.file, schema.GEOMETRY, {}, {
                 "model": m.model, "content_hash": m.content_hash, "nodes": m.points.shape[0],
                 "tetrahedra": m.tetrahedra.shape[0], "bodies": sorted(m.bodies),
                 "contacts": sorted(m.contacts), "parameters": m.parameters, "status": "complete",
                 "elapsed_s": time.perf_counter() - t, "type": "geometry"})
-            write_contact_grids(w, m)
+            write_contact_grids(writer, m)
             if "reduction" in case.data:
                 try:
-                    result = write_structure(w, m, case, out, progress)
+                    result = write_structure(writer, m, case, out, progress)
                 except StageFailed as err:  # numerical: said, kept in the file, exit 1
                     progress(f"[reduction] failed: {err}")
-                    return w.close("failed", str(err))
+                    return writer.close("failed", str(err))
                 if "coupling" in case.data:
                     models = CoupledModels(m, result)
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
-        run = Run(w, out, progress, models, store)
+        run = Run(writer, out, progress, models, store)
         for spec in case.analysis_specs:
             name = spec.name
             t = time.perf_counter()
-            group = w.analysis(name, spec.record())
+            group = writer.analysis(name, spec.record())
             progress(f"[{name}] {spec.type} ...")
             if spec.type in ("frf", "peak", "loops") and (case.contacts_enabled()
                                                           or "coupling" in case.data):
@@ -122,7 +122,7 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t
-            w.flush()
+            writer.flush()
             progress(f"[{name}] {status} in {time.perf_counter() - t:.2f} s {message}".rstrip())
             if status == "interrupted":
                 stopped = f"interrupted by the user in analysis {name}"
@@ -130,11 +130,11 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
             if status != "complete":
                 unfinished.append((name, status, message))
         if stopped:
-            return w.close("partial", stopped)
+            return writer.close("partial", stopped)
         if unfinished:  # a stopped or failed curve is not a complete run
             failed = [u for u in unfinished if u[1] == "failed"]
             status = "failed" if len(failed) == len(case.analyses) else "partial"
-            return w.close(status, "; ".join(f"analysis {n} {s}: {m}".rstrip(": ")
+            return writer.close(status, "; ".join(f"analysis {n} {s}: {m}".rstrip(": ")
                                              for n, s, m in unfinished))
     return out / "results.h5"
 
@@ -167,19 +167,19 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
     return m
 
 
-def write_contact_grids(w: ResultsWriter, mesh) -> None:
+def write_contact_grids(writer: ResultsWriter, mesh) -> None:
     """/contact_grids/<patch>: each patch's node grid, frame and map orientation
     (maps.PatchGrid), what the maps are drawn on."""
     from microslip.pipeline.draw.maps import PatchGrid
 
     for name in sorted(mesh.contacts):
         grid = PatchGrid.from_mesh(mesh, name)
-        w.write_group(w.file.require_group(schema.CONTACT_GRIDS), name, grid.datasets(),
+        writer.write_group(writer.file.require_group(schema.CONTACT_GRIDS), name, grid.datasets(),
                       {"body_a": grid.body_a, "body_b": grid.body_b,
                        "high_edge": grid.high_edge, "high_edge_name": EDGES[grid.high_edge]})
 
 
-def write_structure(w: ResultsWriter, mesh, case: Case, out: Path,
+def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
                     progress: Progress = print) -> StructureResult:
     """The [reduction] stage: reduced models in out/models (reused when unchanged) and their
     summary in results.h5 /reduction/<body>/nd<h> (frequencies of the reduced model with free
@@ -198,7 +198,7 @@ def write_structure(w: ResultsWriter, mesh, case: Case, out: Path,
     except ReductionError as err:
         raise StageFailed(str(err)) from err
     if shapes:
-        write_surfaces(w, mesh)
+        write_surfaces(writer, mesh)
     datasets: dict = {body: {schema.nodal_diameter(h): {
         "frequencies_hz": result.frequencies[body, h], "mode_frequencies_hz": m.mode_frequencies,
         "master_nodes": m.master_nodes} for h, m in models.items()}
@@ -206,14 +206,14 @@ def write_structure(w: ResultsWriter, mesh, case: Case, out: Path,
     datasets[schema.CONTACT_STIFFNESS] = {
         name: {"normal_n_per_m": s.normal, "tangential_n_per_m": s.tangential}
         for name, s in result.patch_stiffness.items()}
-    w.write_group(w.file, schema.REDUCTION, datasets, {
+    writer.write_group(writer.file, schema.REDUCTION, datasets, {
         "nodal_diameters": list(result.nodal_diameters), "status": "complete",
         "f_max_hz": -1.0 if result.f_max is None else result.f_max,
         "cached": [f"{b} ND {h}" for b, h in result.cached], "type": "reduction",
         "elapsed_s": time.perf_counter() - t})
     for body, models in result.models.items():
         for h, m in models.items():
-            attrs = w.file[schema.REDUCTION][body][schema.nodal_diameter(h)].attrs
+            attrs = writer.file[schema.REDUCTION][body][schema.nodal_diameter(h)].attrs
             attrs["n_modes"], attrs["n_master_dofs"] = m.n_modes, m.n_masters
             path = result.files.get((body, h))
             attrs["file"] = "" if path is None else str(path.relative_to(out))
@@ -222,7 +222,7 @@ def write_structure(w: ResultsWriter, mesh, case: Case, out: Path,
     return result
 
 
-def write_surfaces(w: ResultsWriter, mesh) -> None:
+def write_surfaces(writer: ResultsWriter, mesh) -> None:
     """/surfaces/<body>: nodes (p,) global indices, points (p, 3) [m], triangles (t, 3) into
     the nodes (outward), attr cyclic (a sector body); /surfaces attr sectors (0: no cyclic
     body). The shapes at the map points are given on these nodes."""
@@ -234,7 +234,8 @@ def write_surfaces(w: ResultsWriter, mesh) -> None:
                         "points": mesh.points[nodes],
                         "triangles": np.searchsorted(nodes, triangles)}
     sectors = sorted({c.sectors for c in mesh.cyclic.values()})
-    w.write_group(w.file, schema.SURFACES, groups, {"sectors": sectors[0] if sectors else 0})
+    writer.write_group(writer.file, schema.SURFACES, groups,
+                       {"sectors": sectors[0] if sectors else 0})
 
 
 def _outputs(case: Case, names: tuple[str, ...] | None, models=None

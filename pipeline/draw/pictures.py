@@ -78,10 +78,10 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
             series.setdefault(n, []).append({"x": x, "y": y[:, k], "label": label,
                                              "turning_points": tp, "ls": style,
                                              "jumps": jumps + (jumps >= at)})
-        for cname, cd in c.get(schema.CONTACTS, {}).items():
+        for contact, cd in c.get(schema.CONTACTS, {}).items():
             for what, y in static_lines(cd["static_force"][()],
                                         [_text(x) for x in cd["columns"][()]]):
-                static.setdefault(cname, []).append({
+                static.setdefault(contact, []).append({
                     "x": c["parameter"][()], "y": y, "ls": style, "jumps": jumps,
                     "label": ", ".join(s for s in (label, what) if s)})
     masses = [float(c.attrs.get("mass_multiplier", 1.0)) for _, c in curves(g)]
@@ -188,9 +188,9 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
             ", normalised by the excitation" if normalised else ""), plots.LABELS[par], lines,
                      label, markers=marks.get(n, ()))
         paths.append(path)
-    for cname, lines in static.items():
-        path = out / f"{name}_static_{cname}.png"
-        plots.curves(path, f"{name}: static forces, contact {cname}", plots.LABELS[par],
+    for contact, lines in static.items():
+        path = out / f"{name}_static_{contact}.png"
+        plots.curves(path, f"{name}: static forces, contact {contact}", plots.LABELS[par],
                      lines, "static contact force [N]")
         paths.append(path)
     return paths + frf_maps(g, name, out, options) + slip_growth(g, name, out)

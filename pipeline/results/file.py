@@ -215,7 +215,7 @@ def _analysis_lines(f: h5py.File) -> list[str]:
         if ga.get("type") == "reduction":
             lines.extend(_reduction_lines(g))
             continue
-        for cname, c in g.items():
+        for curve, c in g.items():
             if not isinstance(c, h5py.Group):
                 continue
             ca = c.attrs
@@ -225,7 +225,7 @@ def _analysis_lines(f: h5py.File) -> list[str]:
             if "amplitude" in c and c["amplitude"].size:
                 extra = f", max amplitude {np.max(c['amplitude'][()]):.6g}"
             label = f" {ca['label']}" if ca.get("label", "") else ""
-            lines.append(f"  {cname}{label}: {npts} points "
+            lines.append(f"  {curve}{label}: {npts} points "
                          f"[{ca.get('status', '?')}]{extra} {ca.get('message', '')}".rstrip())
             coarse = sampling_warning(c)
             if coarse:
