@@ -208,9 +208,14 @@ def test_render_redraws_the_pictures_from_the_results_file_alone(coarse_run, tmp
     assert main(["render", str(coarse_run), "--out", str(tmp_path), "--at", "3260",
                  "--size", "300x200", "--colour", "stick=lightyellow"]) == 0
     names = sorted(p.name for p in tmp_path.glob("*.png"))
+    previews = ["blisk_sector_sector.png", "blisk_sector_contacts.png",
+                "blisk_sector_full_disk.png"]
     assert names == sorted(["frf_tip.png", "frf_status.png", "frf_normal_load.png",
                             "frf_static_damper_left.png", "frf_static_damper_right.t1.png",
-                            "frf_static_damper_right.t2.png"])
+                            "frf_static_damper_right.t2.png", *previews])
+    for name in previews:  # the mesh previews as the run drew them, pixel for pixel
+        np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / name)),
+                                      np.asarray(Image.open(coarse_run / name)), err_msg=name)
     # one row of maps (--at: one point per curve), two patches of 300 x 200 pixels
     w, h = Image.open(tmp_path / "frf_status.png").size
     assert (w, h) == (600, 200 + 2 * round(200 / 7))
@@ -274,7 +279,7 @@ def test_a_shape_picture_is_a_non_blank_png_of_the_asked_size(coarse_run, tmp_pa
     from microslip.pipeline.results.file import summary
 
     text = summary(coarse_run / "results.h5")
-    assert "surfaces (of the shape pictures): blisk" in text and " 0 points" not in text
+    assert "surfaces (of the previews and shapes): blisk" in text and " 0 points" not in text
 
 
 @pytest.mark.parametrize("args, expected", [

@@ -93,13 +93,9 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
         models: LumpedModels | CoupledModels = LumpedModels()
         if "geometry" in case.data:
             t = time.perf_counter()
-            m = mesh_geometry(case.data["geometry"], out, progress)
-            writer.write_group(writer.file, schema.GEOMETRY, {}, {
-                "model": m.model, "content_hash": m.content_hash, "nodes": m.points.shape[0],
-                "tetrahedra": m.tetrahedra.shape[0], "bodies": sorted(m.bodies),
-                "contacts": sorted(m.contacts), "parameters": m.parameters, "status": "complete",
-                "elapsed_s": time.perf_counter() - t, "type": "geometry"})
-            write_contact_grids(writer, m)
+            m = mesh_geometry(case.data["geometry"], out, progress, pictures=False)
+            write_mesh(writer, m, time.perf_counter() - t)
+            draw_previews(writer.file, m.content_hash, out, progress)
             if "reduction" in case.data:
                 try:
                     result = write_structure(writer, m, case, out, progress)
@@ -140,7 +136,8 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
 
 
 def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bool = True):
-    """Build the [geometry] of a case; write mesh.msh, mesh.vtu and previews."""
+    """Build the [geometry] of a case; write mesh.msh, mesh.vtu and (``pictures``) the
+    previews (``microslip mesh``: no results file; a run draws them from results.h5)."""
     from microslip import geometry
 
     t = time.perf_counter()
@@ -152,19 +149,44 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
              f"tetrahedra, bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in "
              f"{elapsed:.2f} s; hash {m.content_hash[:12]}")
     if pictures:
-        from microslip.pipeline.draw.previews import render_previews
+        from microslip.pipeline.draw.previews import MeshView
 
-        stamp = out / "cache" / "previews.hash"  # the mesh the previews show
-        names = [out / f"{m.model}_{x}.png" for x in ("sector", "contacts", "full_disk")]
-        drawn = [p for p in names if p.is_file()]
-        if stamp.is_file() and stamp.read_text() == m.content_hash and drawn:
-            progress(f"[geometry] previews unchanged ({', '.join(p.name for p in drawn)})")
-            return m
-        for path in render_previews(m, out):
-            progress(f"[geometry] wrote {path}")
-        stamp.parent.mkdir(parents=True, exist_ok=True)
-        stamp.write_text(m.content_hash)
+        draw_previews(MeshView.from_mesh(m), m.content_hash, out, progress)
     return m
+
+
+def draw_previews(source, content_hash: str, out: Path, progress: Progress = print) -> None:
+    """The mesh previews of ``source`` (a results file being written, or a
+    ``previews.MeshView``), unless those of the same mesh (``content_hash``) are there."""
+    from microslip.pipeline.draw.previews import MeshView, preview_names, render_previews
+
+    view = source if isinstance(source, MeshView) else MeshView.from_results(source)
+    stamp = out / "cache" / "previews.hash"  # the mesh the previews show
+    names = [out / name for name in preview_names(view)]
+    if stamp.is_file() and stamp.read_text() == content_hash and all(
+            p.is_file() for p in names):
+        progress(f"[geometry] previews unchanged ({', '.join(p.name for p in names)})")
+        return
+    for path in render_previews(view, out):
+        progress(f"[geometry] wrote {path}")
+    stamp.parent.mkdir(parents=True, exist_ok=True)
+    stamp.write_text(content_hash)
+
+
+def write_mesh(writer: ResultsWriter, mesh, elapsed: float) -> None:
+    """/geometry (attrs: the model, its sizes and names; /geometry/cyclic/<body>: the cyclic
+    faces' node positions), /surfaces (every body's outer surface) and /contact_grids:
+    what the previews, maps and shapes are drawn on."""
+    from microslip.pipeline.draw.previews import MeshView
+
+    cyclic = MeshView.from_mesh(mesh).cyclic_datasets()
+    writer.write_group(writer.file, schema.GEOMETRY, {schema.CYCLIC: cyclic}, {
+        "model": mesh.model, "content_hash": mesh.content_hash, "nodes": mesh.points.shape[0],
+        "tetrahedra": mesh.tetrahedra.shape[0], "bodies": sorted(mesh.bodies),
+        "contacts": sorted(mesh.contacts), "parameters": mesh.parameters,
+        "status": "complete", "elapsed_s": elapsed, "type": "geometry"})
+    write_contact_grids(writer, mesh)
+    write_surfaces(writer, mesh)
 
 
 def write_contact_grids(writer: ResultsWriter, mesh) -> None:
@@ -174,9 +196,13 @@ def write_contact_grids(writer: ResultsWriter, mesh) -> None:
 
     for name in sorted(mesh.contacts):
         grid = PatchGrid.from_mesh(mesh, name)
-        writer.write_group(writer.file.require_group(schema.CONTACT_GRIDS), name, grid.datasets(),
-                      {"body_a": grid.body_a, "body_b": grid.body_b,
-                       "high_edge": grid.high_edge, "high_edge_name": EDGES[grid.high_edge]})
+        patch = mesh.contacts[name]
+        writer.write_group(writer.file.require_group(schema.CONTACT_GRIDS), name,
+                           grid.datasets() | {"points_b": mesh.points[patch.nodes_b]},
+                           {"body_a": grid.body_a, "body_b": grid.body_b,
+                            "high_edge": grid.high_edge,
+                            "high_edge_name": EDGES[grid.high_edge],
+                            "b_sector_offset": int(patch.b_sector_offset)})
 
 
 def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
@@ -197,8 +223,6 @@ def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
                                   progress, surfaces=shapes)
     except ReductionError as err:
         raise StageFailed(str(err)) from err
-    if shapes:
-        write_surfaces(writer, mesh)
     datasets: dict = {body: {schema.nodal_diameter(h): {
         "frequencies_hz": result.frequencies[body, h], "mode_frequencies_hz": m.mode_frequencies,
         "master_nodes": m.master_nodes} for h, m in models.items()}

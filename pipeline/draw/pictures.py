@@ -20,7 +20,7 @@ from microslip.pipeline.friction.laws import slip_share
 from microslip.pipeline.friction.states import STATE_NAMES, STICK
 from microslip.pipeline.results import schema
 
-from . import maps, plots, shapes
+from . import maps, plots, previews, shapes
 
 MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [m]",
                  "harmonic": "first-harmonic amplitude of {} [m]"}
@@ -464,7 +464,8 @@ def transient(g: h5py.Group, name: str, out: Path, options: Options = Options()
 
 #: Every analysis type's pictures: ``run`` draws them once an analysis is written, ``render``
 #: again from a finished file. A new analysis type registers its drawer here.
-DRAWERS = {"frf": frf, "peak": peak, "loops": loops, "dti": dti, "transient": transient}
+DRAWERS = {"frf": frf, "peak": peak, "loops": loops, "dti": dti, "transient": transient,
+           "geometry": previews.geometry_previews}
 
 
 def render(results: Path, out: Path | None = None, options: Options = Options(),

@@ -1,9 +1,14 @@
-"""Off-screen PNG previews of a mesh (pyvista): bodies, contact patches, full disk."""
+"""Off-screen PNG previews of a mesh (pyvista): bodies, contact patches, full disk.
+
+They draw a :class:`MeshView`: what a preview shows of a mesh (each body's outer surface,
+the cyclic faces, each patch's node grids), read from results.h5 (``run`` and ``render``)
+or taken from a ``Mesh`` (``microslip mesh``, which writes no results file)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +16,8 @@ import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkObject
 
 from microslip.geometry.mesh import Mesh, rotation_z
+from microslip.pipeline.results import schema
+from microslip.pipeline.results.file import ATTRS
 
 BODY_COLOURS = ("lightsteelblue", "orange", "palegreen", "plum", "khaki")
 PATCH_COLOURS = ("red", "blue", "magenta", "darkgreen")
@@ -18,12 +25,92 @@ WINDOW = (1200, 900)  # pixels of every preview
 TITLE_ROWS = (1, 12)  # heights of the title strip and of the model below it
 
 
-def body_surface(mesh: Mesh, body: str) -> pv.PolyData:
-    """Outer surface (triangles) of one body, as pyvista PolyData (m)."""
-    tets = mesh.tetrahedra[mesh.bodies[body]]
-    cells = np.hstack([np.full((len(tets), 1), 4), tets]).ravel()
-    grid = pv.UnstructuredGrid(cells, np.full(len(tets), pv.CellType.TETRA), mesh.points)
-    return grid.extract_surface(algorithm="dataset_surface")
+@dataclass(frozen=True)
+class BodyView:
+    """One body's outer surface: points (p, 3) [m], triangles (t, 3) into them."""
+
+    name: str
+    points: np.ndarray
+    triangles: np.ndarray
+
+    def polydata(self) -> pv.PolyData:
+        faces = np.hstack([np.full((len(self.triangles), 1), 3), self.triangles]).ravel()
+        return pv.PolyData(self.points, faces)
+
+
+@dataclass(frozen=True)
+class CyclicView:
+    """A sector body's cyclic faces: left and right (k, 3) node positions [m]."""
+
+    body: str
+    left: np.ndarray
+    right: np.ndarray
+    sectors: int
+
+
+@dataclass(frozen=True)
+class PatchView:
+    """A contact patch: side a's node grid (n1, n2, 3) [m], side b's own (fundamental
+    sector) nodes (n1, n2, 3) [m] and its sector offset (a neighbour's patch: +-1)."""
+
+    name: str
+    body_a: str
+    body_b: str
+    points_a: np.ndarray
+    points_b: np.ndarray
+    b_sector_offset: int
+
+
+@dataclass(frozen=True)
+class MeshView:
+    """What the previews show of a mesh; bodies and patches in name order."""
+
+    model: str
+    nodes: int
+    tetrahedra: int
+    bodies: tuple[BodyView, ...]
+    cyclic: tuple[CyclicView, ...]
+    patches: tuple[PatchView, ...]
+
+    @classmethod
+    def from_mesh(cls, mesh: Mesh) -> MeshView:
+        bodies = []
+        for body in sorted(mesh.bodies):
+            triangles = mesh.surface(body)
+            nodes = np.unique(triangles)
+            bodies.append(BodyView(body, mesh.points[nodes], np.searchsorted(nodes, triangles)))
+        cyclic = tuple(CyclicView(b, mesh.points[c.left], mesh.points[c.right], c.sectors)
+                       for b, c in sorted(mesh.cyclic.items()))
+        patches = tuple(PatchView(name, p.body_a, p.body_b, mesh.patch_points(name, "a"),
+                                  mesh.points[p.nodes_b], int(p.b_sector_offset))
+                        for name, p in sorted(mesh.contacts.items()))
+        return cls(mesh.model, len(mesh.points), len(mesh.tetrahedra), tuple(bodies), cyclic,
+                   patches)
+
+    @classmethod
+    def from_results(cls, f) -> MeshView:
+        """The view a results file (h5py.File) keeps: /geometry, /surfaces, /contact_grids."""
+        geo = f[schema.GEOMETRY]
+        bodies = tuple(BodyView(name, g["points"][()], g["triangles"][()])
+                       for name, g in sorted(f[schema.SURFACES].items()))
+        cyclic = tuple(CyclicView(name, g["left"][()], g["right"][()], int(g.attrs["sectors"]))
+                       for name, g in sorted(geo.get(schema.CYCLIC, {}).items()))
+        patches = tuple(PatchView(name, _text(g.attrs["body_a"]), _text(g.attrs["body_b"]),
+                                  g["points"][()], g["points_b"][()],
+                                  int(g.attrs["b_sector_offset"]))
+                        for name, g in sorted(f.get(schema.CONTACT_GRIDS, {}).items()))
+        return cls(_text(geo.attrs["model"]), int(geo.attrs["nodes"]),
+                   int(geo.attrs["tetrahedra"]), bodies, cyclic, patches)
+
+    def cyclic_datasets(self) -> dict:
+        """/geometry/cyclic as results.file writes it (the surfaces are /surfaces, the
+        patches /contact_grids: what the shapes and the maps draw too)."""
+        return {c.body: {"left": c.left, "right": c.right, ATTRS: {"sectors": c.sectors}}
+                for c in self.cyclic}
+
+
+def _text(value) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def patch_surface(points: np.ndarray) -> pv.StructuredGrid:
@@ -83,19 +170,20 @@ def _legend(pl: pv.Plotter, width: float, entries: int) -> None:
     legend.SetPosition(1.0 - width - 0.01, 0.02)
 
 
-def render_sector(mesh: Mesh, path: Path) -> Path:
+def render_sector(mesh: MeshView, path: Path) -> Path:
     """The sector (or plain model) with each body in its own colour and mesh edges."""
-    pl = _plotter(f"{mesh.model}: {len(mesh.points)} nodes, {len(mesh.tetrahedra)} tets")
+    pl = _plotter(f"{mesh.model}: {mesh.nodes} nodes, {mesh.tetrahedra} tets")
     for i, body in enumerate(mesh.bodies):
-        pl.add_mesh(body_surface(mesh, body), color=BODY_COLOURS[i % len(BODY_COLOURS)],
-                    show_edges=True, edge_color="dimgray", line_width=0.5, label=body)
-    for cyc_body, cyc in mesh.cyclic.items():
+        pl.add_mesh(body.polydata(), color=BODY_COLOURS[i % len(BODY_COLOURS)],
+                    show_edges=True, edge_color="dimgray", line_width=0.5, label=body.name)
+    for cyc in mesh.cyclic:
         for side, colour in (("left", "green"), ("right", "purple")):
-            pl.add_points(mesh.points[getattr(cyc, side)], color=colour, point_size=4,
-                          render_points_as_spheres=True, label=f"cyclic {cyc_body} {side}")
+            pl.add_points(getattr(cyc, side), color=colour, point_size=4,
+                          render_points_as_spheres=True, label=f"cyclic {cyc.body} {side}")
     _legend(pl, 0.26, len(mesh.bodies) + 2 * len(mesh.cyclic))
     pl.add_axes()
-    axial_view(pl, mesh.points.mean(axis=0), np.ptp(mesh.points, axis=0).max())
+    points = np.concatenate([b.points for b in mesh.bodies])
+    axial_view(pl, points.mean(axis=0), np.ptp(points, axis=0).max())
     pl.reset_camera()
     pl.camera.zoom(0.92)  # a margin: the tilted view otherwise puts a tall blade on the edge
     return _save(pl, path)
@@ -109,7 +197,7 @@ def axial_view(pl: pv.Plotter, focus: np.ndarray, span: float) -> None:
     pl.camera.up = (1.0, 0.0, 0.0)
 
 
-def render_contacts(mesh: Mesh, path: Path) -> Path:
+def render_contacts(mesh: MeshView, path: Path) -> Path:
     """Contact patches highlighted on translucent bodies, zoomed on the patches.
 
     Side a is drawn as a coloured grid; side b as spheres at its own (fundamental-sector)
@@ -117,21 +205,21 @@ def render_contacts(mesh: Mesh, path: Path) -> Path:
     cyclic side of the sector - which is where its nodes are."""
     pl = _plotter(f"{mesh.model}: contact patches")
     for i, body in enumerate(mesh.bodies):
-        pl.add_mesh(body_surface(mesh, body), color=BODY_COLOURS[i % len(BODY_COLOURS)],
+        pl.add_mesh(body.polydata(), color=BODY_COLOURS[i % len(BODY_COLOURS)],
                     opacity=0.25, show_edges=True, edge_color="gray", line_width=0.3)
     centres = []
-    for i, (name, patch) in enumerate(mesh.contacts.items()):
+    for i, patch in enumerate(mesh.patches):
         colour = PATCH_COLOURS[i % len(PATCH_COLOURS)]
-        a = mesh.patch_points(name, "a")
+        a, b_own = patch.points_a, patch.points_b
         pl.add_mesh(patch_surface(a), color=colour, show_edges=True, edge_color="black",
-                    label=f"{name} {patch.shape[0]}x{patch.shape[1]}: {patch.body_a} face")
-        b_own = mesh.points[patch.nodes_b]
+                    label=f"{patch.name} {a.shape[0]}x{a.shape[1]}: {patch.body_a} face")
         pl.add_points(b_own.reshape(-1, 3), color=colour, point_size=8,
                       render_points_as_spheres=True,
-                      label=f"{name}: {patch.body_b} nodes, offset {patch.b_sector_offset}")
+                      label=f"{patch.name}: {patch.body_b} nodes, offset "
+                            f"{patch.b_sector_offset}")
         centres.append(a.reshape(-1, 3).mean(axis=0))
         centres.append(b_own.reshape(-1, 3).mean(axis=0))
-    _legend(pl, 0.42, 2 * len(mesh.contacts))  # a corner away from the centred patches
+    _legend(pl, 0.42, 2 * len(mesh.patches))  # a corner away from the centred patches
     pl.add_axes()
     if centres:
         pts = np.array(centres)
@@ -139,12 +227,12 @@ def render_contacts(mesh: Mesh, path: Path) -> Path:
     return _save(pl, path)
 
 
-def render_full_disk(mesh: Mesh, path: Path) -> Path:
+def render_full_disk(mesh: MeshView, path: Path) -> Path:
     """The full disk made of Ns rotated copies of the sector's body surfaces."""
     if not mesh.cyclic:
         raise ValueError(f"{mesh.model} has no cyclic body: no full disk to draw")
-    ns = next(iter(mesh.cyclic.values())).sectors
-    surfaces = {b: body_surface(mesh, b) for b in mesh.bodies}
+    ns = mesh.cyclic[0].sectors
+    surfaces = {b.name: b.polydata() for b in mesh.bodies}
     pl = _plotter(f"{mesh.model}: full disk, {ns} sectors (sector 0 in red)")
     for k in range(ns):
         rot = np.eye(4)
@@ -157,15 +245,28 @@ def render_full_disk(mesh: Mesh, path: Path) -> Path:
     return _save(pl, path)
 
 
-def render_previews(mesh: Mesh, out_dir) -> list[Path]:
-    """Write PNG previews (sector, contact patches if any, full disk if cyclic) to out_dir.
+def preview_names(mesh: MeshView) -> list[str]:
+    """The files of a mesh's previews: "<model>_sector.png", with contact patches
+    "<model>_contacts.png", with a cyclic body "<model>_full_disk.png"."""
+    return [f"{mesh.model}_{x}.png" for x, shown in (
+        ("sector", True), ("contacts", bool(mesh.patches)), ("full_disk", bool(mesh.cyclic)))
+        if shown]
 
-    Files: "<model>_sector.png", "<model>_contacts.png", "<model>_full_disk.png"."""
+
+def render_previews(mesh: Mesh | MeshView, out_dir) -> list[Path]:
+    """Write the PNG previews (:func:`preview_names`) of a mesh to out_dir."""
+    view = mesh if isinstance(mesh, MeshView) else MeshView.from_mesh(mesh)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [render_sector(mesh, out / f"{mesh.model}_sector.png")]
-    if mesh.contacts:
-        paths.append(render_contacts(mesh, out / f"{mesh.model}_contacts.png"))
-    if mesh.cyclic:
-        paths.append(render_full_disk(mesh, out / f"{mesh.model}_full_disk.png"))
+    paths = [render_sector(view, out / f"{view.model}_sector.png")]
+    if view.patches:
+        paths.append(render_contacts(view, out / f"{view.model}_contacts.png"))
+    if view.cyclic:
+        paths.append(render_full_disk(view, out / f"{view.model}_full_disk.png"))
     return paths
+
+
+def geometry_previews(g, name: str, out: Path, options=None) -> list[Path]:
+    """The drawer of a results file's /geometry group (pictures.DRAWERS): the previews of
+    the mesh it keeps."""
+    return render_previews(MeshView.from_results(g.file), out)

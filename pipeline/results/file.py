@@ -205,8 +205,8 @@ def _analysis_lines(f: h5py.File) -> list[str]:
     for name, g in f.items():
         if name in (schema.CASE, schema.CONTACT_GRIDS):
             continue
-        if name == schema.SURFACES:  # what the shape pictures draw on
-            lines.append("surfaces (of the shape pictures): " + ", ".join(
+        if name == schema.SURFACES:  # what the previews and shape pictures draw on
+            lines.append("surfaces (of the previews and shapes): " + ", ".join(
                 f"{b} {sg['nodes'].shape[0]} nodes" for b, sg in g.items()))
             continue
         ga = g.attrs
@@ -214,6 +214,8 @@ def _analysis_lines(f: h5py.File) -> list[str]:
                      f"{ga.get('elapsed_s', 0.0):.2f} s {ga.get('message', '')}".rstrip())
         if ga.get("type") == "reduction":
             lines.extend(_reduction_lines(g))
+            continue
+        if ga.get("type") == "geometry":  # its cyclic faces are no curves
             continue
         for curve, c in g.items():
             if not isinstance(c, h5py.Group):

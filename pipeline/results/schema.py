@@ -23,6 +23,7 @@ CONTACT_GRIDS = "contact_grids"
 SURFACES = "surfaces"
 REDUCTION = "reduction"
 CONTACT_STIFFNESS = "contact_stiffness"
+CYCLIC = "cyclic"
 
 # ------------------------------------------------------------------ inside an analysis
 CONTACTS = "contacts"
@@ -189,10 +190,15 @@ LAYOUT = group(
     group(CASE, "", ("json (the case as run)",)),
     group(GEOMETRY, "(meshed cases)", ("type", "model", "content_hash", "nodes", "tetrahedra",
                                        "bodies", "contacts", "parameters", "status",
-                                       "elapsed_s")),
+                                       "elapsed_s"),
+          group(CYCLIC, "", (), group("<body>", "a sector body", ("sectors",),
+                                      data("left", "(k, 3) m, the left cyclic face's nodes"),
+                                      data("right", "(k, 3) m, their images on the right")))),
     group(CONTACT_GRIDS, "(meshed cases)", (),
-          group("<patch>", "", ("body_a", "body_b", "high_edge", "high_edge_name"),
+          group("<patch>", "", ("body_a", "body_b", "high_edge", "high_edge_name",
+                                "b_sector_offset (body b in the neighbour sector: +-1)"),
                 data("points", "(n1, n2, 3) m, side a"),
+                data("points_b", "(n1, n2, 3) m, side b's own nodes (fundamental sector)"),
                 data("nodes_a", "(n1, n2) mesh nodes of body a"),
                 data("nodes_b", "(n1, n2) mesh nodes of body b"),
                 data("frame", "(3, 3) rows t1, t2, n"),
@@ -200,7 +206,7 @@ LAYOUT = group(
                      "right x up = n: seen from body b onto body a)"),
                 data("map_coordinates", "(n1, n2, 2) m"),
                 data("connectivity", "((n1-1)(n2-1), 4) quads of the node grid (i n2 + j)"))),
-    group(SURFACES, "(map_types with shape)", ("sectors (0: no cyclic body)",),
+    group(SURFACES, "(meshed cases)", ("sectors (0: no cyclic body)",),
           group("<body>", "", ("cyclic",),
                 data("nodes", "(p,) mesh nodes of the body's outer surface"),
                 data("points", "(p, 3) m"),
