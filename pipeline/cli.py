@@ -19,7 +19,7 @@ BENCHES = {
     "mesh": "microslip.pipeline.bench.meshing",
     "reduction": "microslip.pipeline.bench.reduction",
     "teaching": "microslip.pipeline.bench.teaching",
-    "coupled": "microslip.pipeline.bench.coupled",
+    "assembly": "microslip.pipeline.bench.assembly",
     "trade": "microslip.pipeline.bench.trade",
 }
 
@@ -72,11 +72,14 @@ def _load_case(command: str, path):
     from microslip.pipeline.case import CaseError, load
 
     try:
-        return load(path)
+        case = load(path)
     except CaseError as err:
         text = f"{path}: {err.faults[0]}" if len(err.faults) == 1 else str(err)
         print(f"microslip {command}: {text}", file=sys.stderr)
         return None
+    for note in case.renamed:  # the user has something to do: rename the table
+        print(f"{path}: note: {note}")
+    return case
 
 
 def _output_folder(command: str, out: Path, given: bool) -> bool:
@@ -204,7 +207,7 @@ def check(argv: list[str]) -> int:
             size = f"; largest analysis: {largest}" if largest else ""
             print(f"{path}: ok ({len(c.analyses)} analyses: "
                   f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)}{size})")
-            for note in notes(c.data):
+            for note in (*c.renamed, *notes(c.data)):
                 print(f"{path}: note: {note}")
         except CaseError as err:
             print(err, file=sys.stderr)
@@ -442,7 +445,7 @@ def main(argv: list[str] | None = None) -> int:
               "  bench mesh       meshing time and size over a mesh-size sweep\n"
               "  bench reduction  assembly, cyclic matrices and Craig-Bampton: time, memory\n"
               "  bench teaching   harmonic balance against time integration; the teaching set\n"
-              "  bench coupled    coupled blisk + damper: time per point against contact grid\n"
+              "  bench assembly   blisk + damper assembly: time per point against contact grid\n"
               "  bench trade      the blisk-damper study's knobs: accuracy against time\n"
               "\n"
               "microslip COMMAND --help: the options of a command; --version: the version",

@@ -38,9 +38,9 @@ def test_bench_teaching_frf_table_matches_hbm_and_dti(capsys):
 
 
 @pytest.mark.slow
-def test_bench_coupled_smallest_grid(tmp_path, capsys):
+def test_bench_assembly_smallest_grid(tmp_path, capsys):
     args = ["--grids", "6x4", "--harmonics", "1", "--points", "2", "--cache", str(tmp_path)]
-    assert main(["bench", "coupled", *args]) == 0
+    assert main(["bench", "assembly", *args]) == 0
     rows = [line.split() for line in capsys.readouterr().out.splitlines()
             if line.split()[:2] == ["2x24", "1"]]
     assert len(rows) == 1 and rows[0][2] == "864"

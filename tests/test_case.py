@@ -1,6 +1,7 @@
 """Case files: every fault named before any work; runs write what they promise."""
 
 import copy
+import tomllib
 from pathlib import Path
 
 import h5py
@@ -178,3 +179,24 @@ def test_linear_model_and_response_measures(tmp_path):
         # grid spacing 1.5 / 800: the sampled resonance within two steps of a mode
         assert np.min(np.abs(w[np.argmax(vib)] - w_modes)) < 2 * 1.5 / 800
         assert np.allclose(peak, vib + abs(x0), rtol=1e-9)  # harmonic 1 only: |x| = |x0| + |x1|
+
+
+def test_the_old_coupling_table_is_read_as_assembly_with_a_note(tmp_path, capsys):
+    # [coupling] was renamed [assembly] ("coupled" is the contact form of eqs. 24-28):
+    # an old file still runs, read as the new table, and check says to rename it
+    from microslip.pipeline.cli import main
+
+    new = (Path(__file__).parents[1] / "cases" / "blisk_damper.toml").read_text()
+    assert "[assembly]" in new and "coupling" not in new and '"assembly.' in new
+    old = tmp_path / "old.toml"  # the tables and the dotted key paths under the old name
+    old.write_text(new.replace("[assembly", "[coupling").replace('"assembly.', '"coupling.'))
+    assert cases.load(old).data == tomllib.loads(new)
+    assert main(["check", str(old)]) == 0
+    out = capsys.readouterr().out
+    assert "note: [coupling] is now called [assembly] (read as [assembly]); rename" in out
+    both = tmp_path / "both.toml"
+    both.write_text(new + "\n[coupling]\nexcitation = 1.0\n")
+    with pytest.raises(cases.CaseError) as err:
+        cases.load(both)
+    assert err.value.faults == ["[coupling] and [assembly]: [coupling] is the old name of "
+                                "[assembly]; give [assembly] only"]

@@ -59,7 +59,7 @@ def test_top_level_help_lists_version(capsys):
 @pytest.mark.parametrize("command", [["run"], ["check"], ["show"], ["mesh"], ["demo"], ["compare"],
                                      ["bench", "core"], ["bench", "mesh"],
                                      ["bench", "reduction"], ["bench", "teaching"],
-                                     ["bench", "coupled"], ["bench", "trade"]])
+                                     ["bench", "assembly"], ["bench", "trade"]])
 def test_help_names_the_real_program(capsys, command):
     with pytest.raises(SystemExit) as exit_:
         main([*command, "--help"])

@@ -126,7 +126,7 @@ def test_odd_harmonics_tend_to_the_square_wave():
 
 
 def test_full_stick_is_linear_with_static_part_in_coupled_form():
-    """Seed eq. 26: a fully stuck coupled contact keeps T = kt u, T0 = kt u0."""
+    """Firrone & Zucca eq. 26: a fully stuck coupled contact keeps T = kt u, T0 = kt u0."""
     h = Harmonics.up_to(2, 64)
     el = ContactElements.create("B", kt=2.0, kn=5.0, mu=0.5, interference=1.0, coupled=True)
     g = np.zeros((1, 2, h.n_coeffs))
@@ -139,7 +139,7 @@ def test_full_stick_is_linear_with_static_part_in_coupled_form():
 
 
 def test_coupled_stick_tangent_to_coulomb_limit():
-    """Seed eqs. 27-28: when kt u(t) crosses mu N, the stuck cycle is shifted to
+    """Firrone & Zucca eqs. 27-28: when kt u(t) crosses mu N, the stuck cycle is shifted to
     touch the limit, T(t) = T0_max + kt (u(t) - u0)."""
     h = Harmonics.up_to(1, 256)
     kt, mu, N = 2.0, 0.5, 4.0
@@ -171,7 +171,7 @@ def test_uncoupled_form_ignores_static_parts():
 
 
 def test_partial_liftoff_loop_is_a_triangle():
-    """Seed Fig. 7: in-phase u and v with large v -> T = 0 while open, contact
+    """Firrone & Zucca Fig. 7: in-phase u and v with large v -> T = 0 while open, contact
     state 'partial lift-off', less dissipation than at constant load."""
     h = Harmonics([1], 512)
     kt, kn, mu, N0 = 1.0, 1.0, 0.5, 1.0

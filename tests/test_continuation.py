@@ -68,7 +68,7 @@ def test_natural_sweep_stops_where_the_solution_set_ends():
 
 
 def test_softening_fold_of_the_variable_normal_load_oscillator():
-    """Seed Fig. 8 / 24: a preload that lets the contact open softens the peak
+    """Firrone & Zucca Fig. 8 / 24: a preload that lets the contact open softens the peak
     into a fold; arclength follows it, natural continuation cannot."""
     hb = normal_oscillator(0.3, H=5, ns=256)
     arc = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5))
@@ -94,8 +94,8 @@ def test_softening_fold_of_the_variable_normal_load_oscillator():
 
 
 def test_fig24_natural_sweeps_jump_at_both_folds():
-    """Seed Fig. 24 (law B, a gap of 0.5 N / kn that closes during the motion: hardening):
-    the ascending and the descending natural sweeps each jump at their fold, onto the
+    """Firrone & Zucca Fig. 24 (law B, a gap of 0.5 N / kn that closes during the motion:
+    hardening): the ascending and the descending natural sweeps each jump at their fold, onto the
     branch that arclength continuation computes there."""
     hb = normal_oscillator(-0.5, mu=0.1)
     arc = sweep(hb, "frequency", 0.9, 1.6, OperatingPoint(0.9))

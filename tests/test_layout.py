@@ -16,22 +16,22 @@ ROOT = Path(__file__).resolve().parents[1]
 TOPS = {"geometry": "microslip.geometry", "pipeline": "microslip.pipeline"}
 
 # Each stage and the stages below it that it may import (besides its own modules). Read top
-# down, this is the data flow: cli -> bench -> app -> case -> coupling -> solve -> friction,
+# down, this is the data flow: cli -> bench -> app -> case -> assembly -> solve -> friction,
 # fe -> geometry; app reads cases (case), writes results (results) and draws them (draw);
 # draw reads only results, the analysis specs that name what they hold, and the numerical
 # stages' constants (states, harmonics, frames), never app.
 _GEO, _FE, _FRICTION = "microslip.geometry", "microslip.pipeline.fe", "microslip.pipeline.friction"
-_SOLVE, _COUPLING = "microslip.pipeline.solve", "microslip.pipeline.coupling"
+_SOLVE, _ASSEMBLY = "microslip.pipeline.solve", "microslip.pipeline.assembly"
 _RESULTS, _DRAW = "microslip.pipeline.results", "microslip.pipeline.draw"
 _CASE, _APP = "microslip.pipeline.case", "microslip.pipeline.app"
 _BENCH = "microslip.pipeline.bench"
-_NUMERICS = {_COUPLING, _SOLVE, _FRICTION, _FE, _GEO}
+_NUMERICS = {_ASSEMBLY, _SOLVE, _FRICTION, _FE, _GEO}
 BELOW = {
     _GEO: set(),
     _FE: {_GEO},
     _FRICTION: set(),
     _SOLVE: {_FRICTION, _FE, _GEO},
-    _COUPLING: {_SOLVE, _FRICTION, _FE, _GEO},
+    _ASSEMBLY: {_SOLVE, _FRICTION, _FE, _GEO},
     _CASE: _NUMERICS,
     _RESULTS: set(),
     _DRAW: {_RESULTS, _CASE, _FRICTION, _FE, _GEO},

@@ -110,7 +110,7 @@ def test_the_slip_at_each_peak_is_the_share_of_slipping_pairs_against_the_family
         g = f.create_group("frf")
         # the analysis' record (specs.Analysis.record): what the drawers read
         g.attrs.update({"type": "frf", "name": "frf", "start": 1.0, "stop": 2.0})
-        g.attrs["family"] = ('{"key": "coupling.excitation", "label": "excitation [N]", '
+        g.attrs["family"] = ('{"key": "assembly.excitation", "label": "excitation [N]", '
                              '"values": [1.0, 3.0]}')
         for j, (value, (left, right)) in enumerate(states.items()):
             c = g.create_group(f"curve_{j:03d}")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from microslip.pipeline.case import coupling, reduction, specs, validate
+from microslip.pipeline.case import assembly, reduction, specs, validate
 
 README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
 
@@ -106,7 +106,7 @@ def _analysis_keys() -> set[str]:
 def _documented() -> set[str]:
     return (_documented_keys(_section("Case files"), "") | _analysis_keys()
             | _documented_keys(_section("The `[reduction]` table"), "reduction")
-            | _documented_keys(_section("The `[coupling]` table"), "coupling"))
+            | _documented_keys(_section("The `[assembly]` table"), "assembly"))
 
 
 def _accepted() -> set[str]:
@@ -124,9 +124,9 @@ def _accepted() -> set[str]:
               "reduction.damping": reduction.DAMPING_KEYS,
               "reduction.bodies.<body>": reduction.BODY_KEYS,
               "reduction.contact_stiffness.<patch>": reduction.STIFFNESS_KEYS,
-              "coupling": coupling.KEYS - {"contacts", "loads", "outputs"},
-              "coupling.contacts": coupling.CONTACT_KEYS, "coupling.loads": coupling.LOAD_KEYS,
-              "coupling.outputs": coupling.OUTPUT_KEYS}
+              "assembly": assembly.KEYS - {"contacts", "loads", "outputs"},
+              "assembly.contacts": assembly.CONTACT_KEYS, "assembly.loads": assembly.LOAD_KEYS,
+              "assembly.outputs": assembly.OUTPUT_KEYS}
     tables |= {f"analysis.{kind}": specs.keys(kind) for kind in specs.ANALYSES}
     # every top-level key is a table above (or text): no table of the reader is left out
     assert validate.TOP_KEYS == {"title", "description"} | {p.split(".")[0] for p in tables}

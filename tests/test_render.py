@@ -33,7 +33,7 @@ EVERY_KIND["model"]["damping"] = [0.05, 0.05]
 
 
 def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):
-    # every analysis type (and the mesh previews of a meshed case: test_coupled_case)
+    # every analysis type (and the mesh previews of a meshed case: test_assembly_case)
     assert {a["type"] for a in EVERY_KIND["analysis"]} == set(DRAWERS) - {"geometry"}
     run = tmp_path / "run"
     path = run_case(cases.Case(copy.deepcopy(EVERY_KIND), "every.toml"), run,

@@ -1,4 +1,4 @@
-"""The linear limits drawn with a coupled FRF or peak curve: the free blisk (no damper, no
+"""The linear limits drawn with an assembly's FRF or peak curve: the free blisk (no damper, no
 contact) and the fully stuck system (every contact its stick springs), solved directly
 order by order over the FRF's range or at the peak of a window."""
 
@@ -16,12 +16,12 @@ from microslip.pipeline.results.file import ResultsWriter
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import refine_peak, response_measure
 
-from .models import CoupledModels
+from .models import AssemblyModels
 
 Progress = Callable[[str], None]
 
 
-def linear_limits(models: CoupledModels, case: Case, spec: Frf, writer: ResultsWriter, group,
+def linear_limits(models: AssemblyModels, case: Case, spec: Frf, writer: ResultsWriter, group,
                   store, progress: Progress) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
     directly (linear): written beside the curves (the pictures draw them with them). The
@@ -29,14 +29,14 @@ def linear_limits(models: CoupledModels, case: Case, spec: Frf, writer: ResultsW
     names = list(spec.outputs) if spec.outputs is not None else models.names(case)
     measure = spec.measure
     ws = np.linspace(spec.start, spec.stop, LINEAR_POINTS)
-    variants = {}  # mass multiplier -> (case variant, coupled model, operating point)
+    variants = {}  # mass multiplier -> (case variant, assembly model, operating point)
     for c, _, _ in curve_variants(case, spec):
         point = operating_point(c, spec.omega)
         variants.setdefault(point.mass_multiplier, (c, point))
     masses = sorted(variants)
     # the free limit is the cyclic bodies alone: drawn only where every output is on them
     # (a blade held by its root joint has no free limit)
-    cm0 = models.coupled(variants[masses[0]][0])
+    cm0 = models.assembly(variants[masses[0]][0])
     cyclic = np.zeros(cm0.hb.linear.n_dof, dtype=bool)
     for b in cm0.layout:
         cyclic[b.offset: b.offset + b.n_masters] = b.cyclic
@@ -53,7 +53,7 @@ def linear_limits(models: CoupledModels, case: Case, spec: Frf, writer: ResultsW
         if store.load(stored, group, key):
             group[key].attrs["label"] = label
             continue
-        ws_all, coef, shown = linear_curve(models.coupled(c), base, springs, names, measure,
+        ws_all, coef, shown = linear_curve(models.assembly(c), base, springs, names, measure,
                                             ws)
         if spec.normalise:  # linear: the same for every excitation level
             shown = shown / base.excitation
@@ -89,7 +89,7 @@ def linear_curve(cm, base: OperatingPoint, springs: str, names: list[str], measu
             np.concatenate([shown, s2])[order])
 
 
-LINEAR_POINTS = 201  # frequencies of the linear limits drawn with a coupled FRF
+LINEAR_POINTS = 201  # frequencies of the linear limits drawn with an assembly's FRF
 PEAK_POINTS = 24  # more frequencies around each peak of a linear limit
 
 
@@ -123,7 +123,7 @@ def peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_n
 def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
                 window: tuple[float, float], vibration: bool,
                 grid: int = 101) -> tuple[float, float]:
-    """(w, amplitude) of the largest response of a linear limit of a coupled model in a
+    """(w, amplitude) of the largest response of a linear limit of an assembly model in a
     frequency window: a grid, then :func:`refine_peak` between the grid neighbours of its
     maximum (to 1e-6 of the window)."""
     h = cm.hb.harmonics

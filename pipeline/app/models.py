@@ -1,5 +1,5 @@
-"""The models a case's analyses solve: the lumped one its [model] writes, or the coupled
-one of its [geometry], [reduction] and [coupling] tables. Both answer the same three
+"""The models a case's analyses solve: the lumped one its [model] writes, or the assembly
+one of its [geometry], [reduction] and [assembly] tables. Both answer the same three
 questions, so the runners need not know which they have."""
 
 from __future__ import annotations
@@ -9,11 +9,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from microslip.pipeline.case import Case, coupling, harmonics, lumped_model
+from microslip.pipeline.case import Case, assembly, harmonics, lumped_model
 from microslip.pipeline.solve.hbm import HarmonicBalance
 
 if TYPE_CHECKING:
-    from microslip.pipeline.coupling.model import CoupledModel
+    from microslip.pipeline.assembly.model import AssemblyModel
 
 
 class LumpedModels:
@@ -30,42 +30,42 @@ class LumpedModels:
         return [case.dofs.index(n) for n in names]
 
 
-class CoupledModels:
-    """A [coupling] case: the mesh and reduced bodies are built once; each variant of the
-    case (an analysis' ``set``, a family value) gets its coupled model, kept while its
-    coupling (but for the mass and excitation multipliers), harmonics and solver tables are
+class AssemblyModels:
+    """A [assembly] case: the mesh and reduced bodies are built once; each variant of the
+    case (an analysis' ``set``, a family value) gets its assembly model, kept while its
+    assembly (but for the mass and excitation multipliers), harmonics and solver tables are
     unchanged."""
 
     def __init__(self, mesh: Any, structure: Any):
         self.mesh = mesh
         self.structure = structure
-        self._built: dict[str, CoupledModel] = {}
+        self._built: dict[str, AssemblyModel] = {}
 
-    def coupled(self, case: Case) -> CoupledModel:
-        from microslip.pipeline.coupling.assemble import couple  # the FE stages, when needed
+    def assembly(self, case: Case) -> AssemblyModel:
+        from microslip.pipeline.assembly.join import join  # the FE stages, when needed
 
         # the mass and excitation multipliers enter per operating point (hb.linear's mass
         # part, the loads' scale): a damper mass study or excitation levels share one model
-        table = {k: case.data.get(k) for k in ("coupling", "harmonics", "solver")}
-        table["coupling"] = {k: v for k, v in (table["coupling"] or {}).items()
+        table = {k: case.data.get(k) for k in ("assembly", "harmonics", "solver")}
+        table["assembly"] = {k: v for k, v in (table["assembly"] or {}).items()
                              if k not in ("mass_multiplier", "excitation")}
         key = json.dumps(table, sort_keys=True, default=str)
         if key not in self._built:
             if len(self._built) >= 8:
                 self._built.pop(next(iter(self._built)))
-            self._built[key] = couple(
+            self._built[key] = join(
                 self.mesh, self.structure.models, self.structure.patch_stiffness,
-                coupling.spec(case.data, tuple(self.mesh.cyclic)), harmonics(case),
+                assembly.spec(case.data, tuple(self.mesh.cyclic)), harmonics(case),
                 sub_sample=case.solver_table.sub_sample)
         return self._built[key]
 
     def model(self, case: Case) -> HarmonicBalance:
-        return self.coupled(case).hb
+        return self.assembly(case).hb
 
     def names(self, case: Case) -> list[str]:
-        return coupling.output_names(case.data)
+        return assembly.output_names(case.data)
 
     def selection(self, case: Case, names: list[str]) -> np.ndarray:
         """(n_outputs, n_dof) rows of the named outputs over the shared DOFs."""
-        rows = self.coupled(case).outputs
+        rows = self.assembly(case).outputs
         return np.array([rows[n] for n in names])

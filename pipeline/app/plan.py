@@ -89,7 +89,7 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
                 stages.append(Stage(f"{name}: curve {j + 1}" + (f" ({what})" if what else ""),
                                     cached, 0.0 if cached else seconds, nbytes,
                                     f"{unknowns:,} unknowns"))
-        if "coupling" in data and isinstance(spec, Frf) and spec.parameter == "frequency":
+        if "assembly" in data and isinstance(spec, Frf) and spec.parameter == "frequency":
             masses = {operating_point(c, spec.omega).mass_multiplier
                       for c, _, _ in curve_variants(case, spec)}
             seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** 2

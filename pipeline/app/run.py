@@ -48,13 +48,13 @@ from microslip.pipeline.solve.response import (
 )
 
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
-from .models import CoupledModels, LumpedModels
+from .models import AssemblyModels, LumpedModels
 from .progress import time_left
 from .solutions import map_groups, map_solutions, sampling_change, surfaces
 from .store import CurveStore, PictureStamps
 
 if TYPE_CHECKING:
-    from microslip.pipeline.coupling.model import PatchState
+    from microslip.pipeline.assembly.model import PatchState
 
     from .structure import StructureResult
 
@@ -69,7 +69,7 @@ class Run:
     writer: ResultsWriter
     out: Path
     progress: Progress
-    models: LumpedModels | CoupledModels
+    models: LumpedModels | AssemblyModels
     store: CurveStore
 
 
@@ -90,7 +90,7 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
                        case_hash=case.content_hash, case=case.data) as writer:
         stopped = ""
-        models: LumpedModels | CoupledModels = LumpedModels()
+        models: LumpedModels | AssemblyModels = LumpedModels()
         if "geometry" in case.data:
             t = time.perf_counter()
             m = mesh_geometry(case.data["geometry"], out, progress, pictures=False)
@@ -102,8 +102,8 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
                 except StageFailed as err:  # numerical: said, kept in the file, exit 1
                     progress(f"[reduction] failed: {err}")
                     return writer.close("failed", str(err))
-                if "coupling" in case.data:
-                    models = CoupledModels(m, result)
+                if "assembly" in case.data:
+                    models = AssemblyModels(m, result)
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
         run = Run(writer, out, progress, models, store)
         for spec in case.analysis_specs:
@@ -112,7 +112,7 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
             group = writer.analysis(name, spec.record())
             progress(f"[{name}] {spec.type} ...")
             if spec.type in ("frf", "peak", "loops") and (case.contacts_enabled()
-                                                          or "coupling" in case.data):
+                                                          or "assembly" in case.data):
                 warm_up(progress)  # says so when a first run compiles the contact kernels
             status, message = RUNNERS[spec.type](case, spec, group, run)
             group.attrs["status"] = status
@@ -353,7 +353,7 @@ def frf_key(store: CurveStore, case: Case, spec: Frf, method: str) -> str:
 
 def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, str]:
     """Every curve of an frf (a family value and a method each), the linear limits of a
-    coupled case's frequency sweep, the pictures; (status, message) of the worst curve."""
+    assembly case's frequency sweep, the pictures; (status, message) of the worst curve."""
     name, store, progress = spec.name, run.store, run.progress
     methods = spec.method
     statuses = []
@@ -382,7 +382,7 @@ def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, st
                 break
         if statuses and statuses[-1][0] == "interrupted":
             break
-    if isinstance(run.models, CoupledModels) and spec.parameter == "frequency" and statuses \
+    if isinstance(run.models, AssemblyModels) and spec.parameter == "frequency" and statuses \
             and statuses[-1][0] != "interrupted":
         linear_limits(run.models, case, spec, run.writer, group, store, progress)
     every = len(keys) + sum(schema.is_linear(k) for k in group)
@@ -458,10 +458,10 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
         "unknowns": b.x, "unknown_dofs": hb.dofs,
         schema.CONTACTS: contacts, "sampling_change": change, "sampling_shift": shift,
     }
-    if isinstance(models, CoupledModels):  # each unknown's mesh node and x/y/z
-        from microslip.pipeline.coupling.model import patch_states
+    if isinstance(models, AssemblyModels):  # each unknown's mesh node and x/y/z
+        from microslip.pipeline.assembly.model import patch_states
 
-        cm = models.coupled(c)
+        cm = models.assembly(c)
         data["unknown_nodes"] = cm.dof_nodes[hb.dofs]
         data["unknown_directions"] = hb.dofs % 3
         names_c = [ct.name for ct in hb.contacts]
@@ -507,7 +507,7 @@ def _peak_ticker(progress: Progress, name: str, label: str, par: str):
 
 
 def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, str]:
-    """Every peak curve (one per family value) and, with ``levels`` on a coupled case, the
+    """Every peak curve (one per family value) and, with ``levels`` on an assembly case, the
     free and fully stuck peak levels; the picture; (status, message) of the worst curve."""
     name, store, models = spec.name, run.store, run.models
     statuses = []
@@ -525,7 +525,7 @@ def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, 
         run.writer.flush()
         if status == "interrupted":
             break
-    if spec.levels and isinstance(models, CoupledModels) and not (
+    if spec.levels and isinstance(models, AssemblyModels) and not (
             statuses and statuses[-1][0] == "interrupted"):
         variant = case.with_values(spec.set)
         key = store.key(variant.data, spec.table(), curve="levels", points=LEVEL_POINTS)
@@ -534,7 +534,7 @@ def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, 
             for k in (schema.LEVEL_FREE, schema.LEVEL_STUCK):
                 if k in group:
                     del group[k]
-            peak_levels(models.coupled(variant), operating_point(variant, spec.window[0]),
+            peak_levels(models.assembly(variant), operating_point(variant, spec.window[0]),
                         spec.parameter, spec.values(), spec.output, spec.window,
                         spec.measure == "vibration", run.writer, group, run.progress, name)
             store.save(key + "f", group[schema.LEVEL_FREE])

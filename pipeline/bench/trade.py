@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .coupled import unknowns
+from .assembly import unknowns
 
 FINE = (0.008, 0.004)  # m: tet size of the sector and of the blade (the case's defaults)
 COARSE = (0.010, 0.005)
@@ -99,7 +99,7 @@ def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
     data["reduction"]["modes"] = s.modes
     data["reduction"].pop("harmonics", None)  # the NDs follow [harmonics] max
     data["harmonics"] = {**data.get("harmonics", {}), "max": s.harmonics}
-    output = data["coupling"]["outputs"][0]["name"]
+    output = data["assembly"]["outputs"][0]["name"]
     data["analysis"] = [{"name": "frf", "type": "frf", "start": start, "stop": stop,
                          "outputs": [output], "measure": "vibration"}]
     return data
@@ -108,7 +108,7 @@ def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
 def measure(data: dict, source: str) -> dict:
     """One setting, cold, in this process: times [s], peak, sizes and peak memory [MB]."""
     from microslip.pipeline.app.limits import linear_peak
-    from microslip.pipeline.app.models import CoupledModels
+    from microslip.pipeline.app.models import AssemblyModels
     from microslip.pipeline.app.run import mesh_geometry
     from microslip.pipeline.app.solutions import map_solutions, response_at
     from microslip.pipeline.app.structure import reduce_structure
@@ -134,7 +134,7 @@ def measure(data: dict, source: str) -> dict:
         structure = reduce_structure(mesh, data["reduction"], Path(tmp) / "models",
                                      harmonics(case).orders, quiet)
         t2 = time.perf_counter()
-        models = CoupledModels(mesh, structure)
+        models = AssemblyModels(mesh, structure)
         hb = models.model(case)
         rows = models.selection(case, list(spec.outputs))
         t3 = time.perf_counter()
@@ -144,7 +144,7 @@ def measure(data: dict, source: str) -> dict:
         t4 = time.perf_counter()
         # the fully stuck and free linear peaks of the same model (not timed): they split
         # a setting's change into the linear model's (mesh, modes) and the friction's
-        cm = models.coupled(case)
+        cm = models.assembly(case)
         window = (spec.start, spec.stop)
         stuck = linear_peak(cm, base, "stuck", spec.outputs[0], window, True)
         free = linear_peak(cm, base, "free", spec.outputs[0], window, True)

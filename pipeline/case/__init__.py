@@ -4,7 +4,7 @@
 (the typed analysis specs and their defaults), ``validate`` (the faults of a table),
 ``checks`` (the helpers every table's validation uses), ``paths`` (dotted key paths),
 ``estimate`` (unknowns, memory and notes before anything is built), ``build`` (the lumped
-model, harmonics, settings), ``reduction`` and ``coupling`` (the tables of meshed cases).
+model, harmonics, settings), ``reduction`` and ``assembly`` (the tables of meshed cases).
 """
 
 from .build import (

@@ -100,9 +100,9 @@ def lumped_model(case: Case) -> HarmonicBalance:
 
 def operating_point(case: Case | None = None, omega: float = 1.0) -> OperatingPoint:
     """The operating point at frequency ``omega`` (rad/s) with the fixed values of the other
-    parameters: a coupled case's damper mass multiplier and excitation multiplier from
-    [coupling] mass_multiplier and excitation (1 elsewhere)."""
-    table = {} if case is None else case.data.get("coupling", {})
+    parameters: an assembly case's damper mass multiplier and excitation multiplier from
+    [assembly] mass_multiplier and excitation (1 elsewhere)."""
+    table = {} if case is None else case.data.get("assembly", {})
     return OperatingPoint(float(omega), excitation=float(table.get("excitation", 1.0)),
                           mass_multiplier=float(table.get("mass_multiplier", 1.0)))
 

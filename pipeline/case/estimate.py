@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microslip.pipeline.coupling.spec import PatchContact
+from microslip.pipeline.assembly.spec import PatchFriction
 from microslip.pipeline.friction.laws import LAWS, FrictionLaw
 from microslip.pipeline.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
 from microslip.pipeline.solve.memory import (
@@ -94,7 +94,7 @@ def _size(name: str, data: dict, a: dict) -> Size:
         samples = specs.analysis(a).samples
         nbytes = balance_bytes(0, 0, 2, 3, samples, [shape], 1, CACHE_LIMIT)
         return Size(name, 0, nbytes, "prescribed motion")
-    if "coupling" in data:
+    if "assembly" in data:
         contact_dofs, shapes = _patch_contacts(data)
         linear_dofs = contact_dofs  # a lower bound: the modes and other masters come later
     else:
@@ -126,7 +126,7 @@ def _lumped_contacts(data: dict) -> tuple[int, list[ContactShape]]:
 
 
 def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
-    """(contact DOFs, shapes) of a coupled case from its contact grids, known before meshing:
+    """(contact DOFs, shapes) of an assembly case from its contact grids, known before meshing:
     a patch has n_axial x n_flank node pairs, each pair a node of each body (3 DOFs each)."""
     from microslip import geometry
 
@@ -140,12 +140,12 @@ def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
 
     pairs = count("contact_n_axial") * count("contact_n_flank")
     shapes = []
-    for c in data["coupling"]["contacts"]:
-        if c.get("elements", PatchContact.elements) == "2D":
+    for c in data["assembly"]["contacts"]:
+        if c.get("elements", PatchFriction.elements) == "2D":
             shapes.append(ContactShape(pairs, 3, 2, 6))
         else:  # two law-B elements (t1 or t2, and n)
             shapes += [ContactShape(pairs, 2, 1, 6)] * 2
-    return 6 * pairs * len(data["coupling"]["contacts"]), shapes
+    return 6 * pairs * len(data["assembly"]["contacts"]), shapes
 
 
 def notes(data: dict) -> list[str]:

@@ -3,7 +3,7 @@
 A lumped case names its DOFs and writes M, K, C directly; contacts give their law, form,
 parameters and the relative displacements as linear combinations of named DOFs (the
 reference text's eqs. 21-23); loads are amplitude and phase per DOF and harmonic (order 0:
-static). A meshed case gives [geometry], [reduction] and [coupling] instead. Analyses
+static). A meshed case gives [geometry], [reduction] and [assembly] instead. Analyses
 (``[[analysis]]``) say what to compute; their keys and defaults are :mod:`.specs`'.
 
 Every fault found is reported, one line each, naming the key, the value and what is
@@ -35,8 +35,58 @@ def load(path: str | Path) -> Case:
             "not UTF-8; a case file is TOML text (UTF-8)"]) from None
     except tomllib.TOMLDecodeError as err:
         raise CaseError(str(path), [f"not valid TOML: {err}"]) from None
+    data, renamed = renamed_tables(data, str(path))
     check(data, str(path))
-    return Case(data, str(path))
+    return Case(data, str(path), renamed)
+
+
+#: Tables renamed since a release, old name -> new: a file with the old name is read as the
+#: new one, and ``check`` and ``run`` say so (a note: rename the table).
+RENAMED = {"coupling": "assembly"}  # joined bodies are an assembly: "coupled" is a contact form
+
+
+def renamed_tables(data: dict, source: str) -> tuple[dict, tuple[str, ...]]:
+    """(the case table with every old table name read as its new one, a note per rename);
+    a file giving both names is refused."""
+    notes = []
+    for old, new in RENAMED.items():
+        if old not in data:
+            continue
+        if new in data:
+            raise CaseError(source, [f"[{old}] and [{new}]: [{old}] is the old name of "
+                                     f"[{new}]; give [{new}] only"])
+        data = {(new if k == old else k): v for k, v in data.items()}
+        data["analysis"] = [_renamed_paths(a, old, new) for a in data.get("analysis", [])]
+        notes.append(f"[{old}] is now called [{new}] (read as [{new}]); rename the table "
+                     f"and its [[{old}.*]] arrays")
+    return data, tuple(notes)
+
+
+def _renamed_paths(analysis, old: str, new: str):
+    """An [[analysis]] table with its dotted key paths (``set``, ``family``) under the old
+    table name moved to the new one."""
+    if not isinstance(analysis, dict):
+        return analysis
+
+    def path(key):
+        return new + key[len(old):] if isinstance(key, str) and key.startswith(old + ".") \
+            else key
+
+    def table(t):
+        return {path(k): v for k, v in t.items()} if isinstance(t, dict) else t
+
+    out = dict(analysis)
+    if "set" in out:
+        out["set"] = table(out["set"])
+    family = out.get("family")
+    if isinstance(family, dict):
+        family = dict(family)
+        if "key" in family:
+            family["key"] = path(family["key"])
+        if isinstance(family.get("sets"), list):
+            family["sets"] = [table(t) for t in family["sets"]]
+        out["family"] = family
+    return out
 
 
 def check(data: dict, source: str = "case", *, memory: bool = True) -> None:

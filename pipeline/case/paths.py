@@ -1,5 +1,5 @@
 """Dotted key paths into a case table: ``contacts.wall.n0``, ``loads.0.amplitude``,
-``coupling.contacts.damper_left.mu``; a table of an array is picked by its ``name`` or its
+``assembly.contacts.damper_left.mu``; a table of an array is picked by its ``name`` or its
 index. ``set`` overrides and family keys are such paths."""
 
 from __future__ import annotations

@@ -27,7 +27,7 @@ from microslip.pipeline.solve.response import MEASURES  # noqa: F401 (the measur
 
 #: continuation methods of an frf; ``natural-down`` sweeps from stop to start
 METHODS = ("arclength", "natural", "natural-down")
-#: the maps an frf of a coupled case can draw at its map points
+#: the maps an frf of an assembly case can draw at its map points
 MAP_TYPES = ("status", "normal_load", "shape")
 #: what a peak curve sweeps
 PEAK_PARAMETERS = ("excitation", "preload", "mass")
@@ -80,7 +80,7 @@ class Frf(Analysis):
     """A response curve: ``parameter`` from ``start`` to ``stop`` by each of ``method``
     (one curve each), at the fixed ``frequency`` (rad/s) when the parameter is not the
     frequency; ``outputs``: DOF or output names (None: every output); ``maps``: where a
-    coupled case draws contact maps ("peak" or parameter values), ``map_types`` which."""
+    assembly case draws contact maps ("peak" or parameter values), ``map_types`` which."""
 
     type: ClassVar[str] = "frf"
     start: float
@@ -111,7 +111,7 @@ class Peak(Analysis):
     """The largest ``measure`` of ``output`` over the frequency ``window`` (rad/s) at
     ``points`` values of ``parameter`` from ``start`` to ``stop`` (``spacing`` linear or
     log), each found by ``tracking`` (continuation from the last peak, or a sweep per
-    value); ``levels``: the free and fully stuck peaks too (a coupled case)."""
+    value); ``levels``: the free and fully stuck peaks too (an assembly case)."""
 
     type: ClassVar[str] = "peak"
     parameter: str

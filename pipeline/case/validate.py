@@ -11,13 +11,13 @@ import numpy as np
 from microslip.pipeline.friction.laws import LAWS, FrictionLaw
 from microslip.pipeline.solve.hbm import PARAMETERS
 
-from . import coupling, specs
+from . import assembly, specs
 from .checks import is_int, is_number, number, samples_rule, unknown_keys
 from .paths import get_path, set_path
 from .reduction import check as check_reduction
 
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
-            "analysis", "geometry", "reduction", "coupling"}
+            "analysis", "geometry", "reduction", "assembly"}
 MODEL_KEYS = {"dofs", "mass", "stiffness", "damping", "mass_part"}
 CONTACT_KEYS = {"name", "law", "form", "kt", "kn", "mu", "n0", "interference", "u", "u1", "u2",
                 "v", "enabled"}
@@ -36,8 +36,8 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
         _geometry(data["geometry"], out)
     if "reduction" in data:
         check_reduction(data["reduction"], data, out)
-    if "coupling" in data:
-        _check_coupled(data, out, analyses)
+    if "assembly" in data:
+        _check_assembly(data, out, analyses)
         return
     if "geometry" in data and "model" not in data and "analysis" not in data:
         _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
@@ -89,27 +89,27 @@ def _analysis_tables(data: dict, kinds: tuple[str, ...], out: list[str]) -> list
     return list(enumerate(items))
 
 
-def _check_coupled(data: dict, out: list[str], analyses: bool) -> None:
-    """A case of reduced FE bodies joined by friction patches ([coupling])."""
-    coupling.check(data["coupling"], data, out)
+def _check_assembly(data: dict, out: list[str], analyses: bool) -> None:
+    """A case of reduced FE bodies joined by friction patches ([assembly])."""
+    assembly.check(data["assembly"], data, out)
     for key in ("contacts", "loads"):
         if key in data:
-            out.append(f"{key}: a coupled case gives its contacts and loads in [coupling]")
+            out.append(f"{key}: an assembly case gives its contacts and loads in [assembly]")
     _harmonics(data.get("harmonics", {}), out)
     _solver(data.get("solver", {}), out)
     if not analyses:
         return
-    outputs = set(coupling.output_names(data))
-    for i, a in _analysis_tables(data, coupling.ANALYSES, out):
-        if isinstance(a, dict) and a.get("type") not in coupling.ANALYSES:
-            out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: a coupled case "
-                       f"runs {list(coupling.ANALYSES)}")
+    outputs = set(assembly.output_names(data))
+    for i, a in _analysis_tables(data, assembly.ANALYSES, out):
+        if isinstance(a, dict) and a.get("type") not in assembly.ANALYSES:
+            out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: an assembly case "
+                       f"runs {list(assembly.ANALYSES)}")
             continue
         par = a.get("parameter", specs.defaults(a["type"]).get("parameter")) \
             if isinstance(a, dict) else None
-        if par is not None and par not in coupling.PARAMETERS:
-            out.append(f"analysis.{a.get('name', i)}.parameter = {a.get('parameter')!r}: a "
-                       f"coupled case sweeps {list(coupling.PARAMETERS)}")
+        if par is not None and par not in assembly.PARAMETERS:
+            out.append(f"analysis.{a.get('name', i)}.parameter = {a.get('parameter')!r}: an "
+                       f"assembly case sweeps {list(assembly.PARAMETERS)}")
             continue
         _analysis(i, a, data, set(), outputs, out)
 
@@ -390,7 +390,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         out.append(f"{pre}.measure = {a.get('measure')!r}: expected 'peak' or 'vibration'")
     if kind == "peak" and "levels" in a and not isinstance(a["levels"], bool):
         out.append(f"{pre}.levels = {a['levels']!r}: expected true or false (the free and "
-                   "fully stuck peak levels, a coupled case)")
+                   "fully stuck peak levels, an assembly case)")
     if kind in ("frf", "dti"):
         if a["measure"] not in specs.MEASURES:
             out.append(f"{pre}.measure = {a['measure']!r}: expected one of "
@@ -465,8 +465,8 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
 def _maps(pre: str, a: dict, data: dict, out: list[str]) -> None:
     """``maps``: where an frf draws its contact maps ("peak", or parameter values: every
     solution there); ``map_types``: which maps."""
-    if "coupling" not in data:
-        out.append(f"{pre}.maps: contact maps need contact patches: a [coupling] case")
+    if "assembly" not in data:
+        out.append(f"{pre}.maps: contact maps need contact patches: a [assembly] case")
         return
     where = a["maps"]
     lo, hi = sorted((a.get("start", 0.0), a.get("stop", 0.0)))

@@ -27,10 +27,12 @@ class CaseError(ValueError):
 
 @dataclass(frozen=True)
 class Case:
-    """A validated case: the raw table (as run) plus its content hash."""
+    """A validated case: the raw table (as run) plus its content hash; ``renamed``: a note
+    per table the file gives by an old name (``file.RENAMED``)."""
 
     data: dict
     source: str
+    renamed: tuple[str, ...] = ()
 
     @property
     def title(self) -> str:
@@ -93,4 +95,4 @@ class Case:
         faults(data, found)
         if found:
             raise CaseError(self.source, found)
-        return Case(data, self.source)
+        return Case(data, self.source, self.renamed)

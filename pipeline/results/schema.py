@@ -150,8 +150,8 @@ FRF_CURVE = group(
     data("jump_parameter", "(k, 2) their parameter values"),
     data("unknowns", "(n, u) the balance unknowns"),
     data("unknown_dofs", "(u / nc,) model DOF of each unknown block"),
-    data("unknown_nodes", "(u / nc,) mesh node of each unknown block (coupled)"),
-    data("unknown_directions", "(u / nc,) 0 x, 1 y, 2 z (coupled)"),
+    data("unknown_nodes", "(u / nc,) mesh node of each unknown block (assembly)"),
+    data("unknown_directions", "(u / nc,) 0 x, 1 y, 2 z (assembly)"),
     group(CONTACTS, "", (),
           group("<contact>", "", (),
                 data("state", "(n,) 0 stick, 1 stick-slip, 2 gross slip, 3 partial "
@@ -165,8 +165,8 @@ FRF_CURVE = group(
     data("sampling_change", "(n,) where undersampled: first-order relative change of "
          "the response at twice the samples"),
     data("sampling_shift", "(n,) and the shift of the parameter"),
-    group(PATCHES, "(coupled)", (), group("<patch>", "", (), *_PATCH_STATE)),
-    group(MAPS, "(coupled, maps)", (),
+    group(PATCHES, "(assembly)", (), group("<patch>", "", (), *_PATCH_STATE)),
+    group(MAPS, "(assembly, maps)", (),
           group("point_NN", "", ("what (peak | value)", "parameter", "omega (rad/s)",
                                  "excitation"),
                 data("unknowns", "(u,) the solution"),
@@ -225,9 +225,9 @@ LAYOUT = group(
     group("<analysis>", "", ("type", "name", *_RUN, "elapsed_s", "... (the analysis keys, "
                              "given or by default)"),
           FRF_CURVE,
-          group(LINEAR_FREE, "(coupled frf) the free bodies (no damper), linear",
+          group(LINEAR_FREE, "(assembly frf) the free bodies (no damper), linear",
                 ("label", *_RUN, "mass_multiplier"), *LINEAR_CURVE_DATA),
-          group(LINEAR_STUCK, "(coupled frf) fully stuck, linear; linear_stuck_NNN per "
+          group(LINEAR_STUCK, "(assembly frf) fully stuck, linear; linear_stuck_NNN per "
                 "damper mass of a mass family", ("label", *_RUN, "mass_multiplier"),
                 *LINEAR_CURVE_DATA),
           group("linear_stuck_NNN", "", ("label", *_RUN, "mass_multiplier"),

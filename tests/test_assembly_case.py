@@ -1,5 +1,5 @@
-"""A coupled case end to end: the [coupling] table checked before any meshing (one line per
-fault), then mesh -> reduction -> coupling -> FRF with the linear limits, into results.h5."""
+"""An assembly case end to end: the [assembly] table checked before any meshing (one line per
+fault), then mesh -> reduction -> assembly -> FRF with the linear limits, into results.h5."""
 
 import copy
 
@@ -14,14 +14,14 @@ from microslip.pipeline.app.run import run_case
 from microslip.pipeline.cli import main
 
 CASE = {
-    "title": "coarse coupled blisk",
+    "title": "coarse blisk assembly",
     "geometry": {"model": "blisk_sector", "parameters": {
         "sectors": 6, "size": 0.03, "blade_size": 0.012, "contact_n_axial": 3,
         "contact_n_flank": 2}},
     "reduction": {"engine_order": 1, "order": 1, "modes": "auto", "f_max": 1500.0,
                   "damping": {"modal_ratios": 0.005}},
     "harmonics": {"max": 1, "samples": 64},
-    "coupling": {
+    "assembly": {
         "speed": 1000.0, "centrifugal": ["damper"], "mass_multiplier": 2.0,
         "contacts": [{"patch": "damper_left", "mu": 0.5},
                      {"patch": "damper_right", "mu": 0.5, "elements": "1D+1D"}],
@@ -45,29 +45,29 @@ def test_the_shipped_case_is_valid():
 
 
 @pytest.mark.parametrize("mutate, expected", [
-    (lambda d: d["coupling"]["contacts"][0].update(patch="flank"),
+    (lambda d: d["assembly"]["contacts"][0].update(patch="flank"),
      "patch = 'flank': not a patch of the geometry"),
-    (lambda d: d["coupling"]["contacts"][0].pop("mu"), "mu: missing"),
-    (lambda d: d["coupling"]["contacts"][0].update(mu=-1), "mu = -1: must be >= 0"),
-    (lambda d: d["coupling"]["contacts"][0].update(elements="3D"), "elements = '3D'"),
-    (lambda d: d["coupling"]["loads"][0].update(direction="up"), "direction = 'up'"),
-    (lambda d: d["coupling"]["loads"][0].update(node_set="blisk/hub"),
+    (lambda d: d["assembly"]["contacts"][0].pop("mu"), "mu: missing"),
+    (lambda d: d["assembly"]["contacts"][0].update(mu=-1), "mu = -1: must be >= 0"),
+    (lambda d: d["assembly"]["contacts"][0].update(elements="3D"), "elements = '3D'"),
+    (lambda d: d["assembly"]["loads"][0].update(direction="up"), "direction = 'up'"),
+    (lambda d: d["assembly"]["loads"][0].update(node_set="blisk/hub"),
      "node_set = 'blisk/hub': not a node set"),
-    (lambda d: d["coupling"].update(speed=-3), "coupling.speed = -3"),
-    (lambda d: d["coupling"].update(centrifugal=["rotor"]), "'rotor' is not a body"),
-    (lambda d: d["coupling"].update(colour=1), "coupling.colour: unknown key"),
-    (lambda d: d["coupling"].update(mass_multiplier=0), "mass_multiplier = 0: must be > 0"),
+    (lambda d: d["assembly"].update(speed=-3), "assembly.speed = -3"),
+    (lambda d: d["assembly"].update(centrifugal=["rotor"]), "'rotor' is not a body"),
+    (lambda d: d["assembly"].update(colour=1), "assembly.colour: unknown key"),
+    (lambda d: d["assembly"].update(mass_multiplier=0), "mass_multiplier = 0: must be > 0"),
     (lambda d: d["analysis"][0].update(outputs=["hub"]), "'hub' is not a DOF"),
     (lambda d: d["analysis"][0].update(parameter="preload", frequency=3000.0),
-     "a coupled case sweeps"),
-    (lambda d: d["analysis"][0].update(type="dti"), "a coupled case runs"),
+     "an assembly case sweeps"),
+    (lambda d: d["analysis"][0].update(type="dti"), "an assembly case runs"),
     (lambda d: d.update(model={"dofs": ["x"]}), "remove [model]"),
     (lambda d: d["analysis"][0].update(maps=["top"]),
      "maps: 'top' is neither 'peak' nor a parameter value in the range 3200..3300"),
     (lambda d: d["analysis"][0].update(maps=[4000.0]), "maps: 4000.0 is neither"),
     (lambda d: d["analysis"][0].update(map_types=["modes"]), "map_types = ['modes']"),
-    (lambda d: d["coupling"].update(excitation=0), "coupling.excitation = 0: must be > 0"),
-    (lambda d: d["coupling"].update(static_anchor=2.0), "static_anchor = 2.0"),
+    (lambda d: d["assembly"].update(excitation=0), "assembly.excitation = 0: must be > 0"),
+    (lambda d: d["assembly"].update(static_anchor=2.0), "static_anchor = 2.0"),
     (lambda d: d["analysis"][0].update(normalise="yes"), "normalise = 'yes'"),
 ])
 def test_faults_are_reported_before_any_meshing(monkeypatch, mutate, expected):
@@ -84,14 +84,14 @@ def coarse_run(tmp_path_factory):
     return out
 
 
-def test_the_multipliers_of_the_coupling_table_set_the_operating_point():
+def test_the_multipliers_of_the_assembly_table_set_the_operating_point():
     data = copy.deepcopy(CASE)
-    data["coupling"].update(excitation=3.0, mass_multiplier=5.0)
+    data["assembly"].update(excitation=3.0, mass_multiplier=5.0)
     point = cases.operating_point(cases.Case(data, "c.toml"), 3100.0)
     assert (point.omega, point.excitation, point.mass_multiplier) == (3100.0, 3.0, 5.0)
 
 
-def test_a_coupled_case_runs_end_to_end(coarse_run):
+def test_an_assembly_case_runs_end_to_end(coarse_run):
     tmp_path = coarse_run
     with h5py.File(tmp_path / "results.h5") as f:
         assert f.attrs["status"] == "complete"
@@ -316,7 +316,7 @@ def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coars
                                       b["frf/linear_stuck/response"][()])
     # another damper mass: that curve (and its stuck limit) again, the free limit reused
     changed = copy.deepcopy(CASE)
-    changed["coupling"]["mass_multiplier"] = 3.0
+    changed["assembly"]["mass_multiplier"] = 3.0
     lines.clear()
     run_case(cases.Case(changed, "coarse.toml"), tmp_path, progress=lines.append)
     assert any(" point 1, value" in x for x in lines)
@@ -352,7 +352,7 @@ def test_a_dry_run_lists_what_comes_from_the_caches_and_what_runs(coarse_run, mo
     assert not by_name["geometry: Gmsh mesh and previews"].cached
     # another damper mass: the models are reused, the curve runs, with an estimate
     changed = copy.deepcopy(CASE)
-    changed["coupling"]["mass_multiplier"] = 7.0
+    changed["assembly"]["mass_multiplier"] = 7.0
     stages = {s.name: s for s in plan.plan(cases.Case(changed, "c.toml"), coarse_run)}
     assert stages["reduction: blisk ND 1"].cached
     assert not stages["frf: curve 1"].cached and stages["frf: curve 1"].seconds > 0
@@ -369,7 +369,7 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     # Craig-Bampton keeps the masters' DOFs as they are (identity rows of the recovery):
     # the response node, a master of the blisk and one of its recovery nodes, moves as the
     # harmonic balance's shared DOFs say, order by order (the ND's complex wave included)
-    from microslip.pipeline.app.models import CoupledModels
+    from microslip.pipeline.app.models import AssemblyModels
     from microslip.pipeline.app.run import mesh_geometry
     from microslip.pipeline.app.structure import reduce_structure
     from microslip.pipeline.solve.hbm import OperatingPoint
@@ -378,7 +378,7 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     mesh = mesh_geometry(CASE["geometry"], tmp_path, progress=lambda s: None, pictures=False)
     result = reduce_structure(mesh, CASE["reduction"], None, cases.harmonics(case).orders,
                               progress=lambda s: None)
-    cm = CoupledModels(mesh, result).coupled(case)
+    cm = AssemblyModels(mesh, result).assembly(case)
     rng = np.random.default_rng(3)
     x = rng.standard_normal(cm.hb.dofs.size * cm.hb.harmonics.n_coeffs) * 1e-6
     point = OperatingPoint(3210.0, mass_multiplier=2.0)

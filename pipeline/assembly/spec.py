@@ -1,7 +1,7 @@
 """What couples the reduced bodies: contacts per patch, loads, rotation speed, outputs.
 
 Plain frozen dataclasses, validated on creation (a bad value raises ValueError naming the
-field, the value and what is allowed). The case file's [coupling] table maps onto them.
+field, the value and what is allowed). The case file's [assembly] table maps onto them.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def _direction(name: str, value: str | tuple[float, float, float]):
 
 
 @dataclass(frozen=True)
-class PatchContact:
+class PatchFriction:
     """Friction contact on every node pair of one meshed patch.
 
     mu: friction coefficient [-]; interference: design interference [m] (negative: a gap),
@@ -110,8 +110,8 @@ class Output:
 
 
 @dataclass(frozen=True)
-class CouplingSpec:
-    """Everything the coupling stage needs besides the mesh and the reduced bodies.
+class AssemblySpec:
+    """Everything the assembly stage needs besides the mesh and the reduced bodies.
 
     engine_order: EO of the excitation (harmonic n lives on ND n EO mod Ns).
     speed: rotation speed [rad/s] of the centrifugal load, or None to tie it to the
@@ -122,7 +122,7 @@ class CouplingSpec:
         fraction of their kt (assemble.static_anchor); 0: none.
     """
 
-    contacts: tuple[PatchContact, ...]
+    contacts: tuple[PatchFriction, ...]
     engine_order: int
     loads: tuple[NodalLoad, ...] = ()
     outputs: tuple[Output, ...] = ()

@@ -1,7 +1,7 @@
-"""The [coupling] table of a case: reduced FE bodies joined by friction patches.
+"""The [assembly] table of a case: reduced FE bodies joined by friction patches.
 
 ```toml
-[coupling]
+[assembly]
 engine_order = 12            # default: [reduction] engine_order
 speed = "frequency"          # centrifugal load's speed: rad/s, or "frequency": w / EO
 centrifugal = ["damper"]     # bodies under centrifugal load (default: none)
@@ -9,18 +9,18 @@ mass_bodies = ["damper"]     # bodies the mass multiplier scales (default: the n
 mass_multiplier = 1.0        # their mass as a multiple of the meshed one (analyses may sweep it)
 excitation = 1.0             # multiplier of every load (a family over it: excitation levels)
 static_anchor = 1e-3         # order-0 spring on each pair's mean tangential slip, x kt (0: none)
-[[coupling.contacts]]        # one per patch: a contact element per node pair
+[[assembly.contacts]]        # one per patch: a contact element per node pair
 patch = "damper_left"
 mu = 0.5
 interference = 0.0           # [m] design interference (negative: gap); default 0
 elements = "2D"              # "2D" (law D) or "1D+1D" (two law-B elements); default "2D"
-[[coupling.loads]]           # amplitude cos(harmonic w t + phase) [N] over a node set
+[[assembly.loads]]           # amplitude cos(harmonic w t + phase) [N] over a node set
 node_set = "blisk/excitation"
 direction = "tangential"     # x y z radial tangential axial, or [dx, dy, dz]
 amplitude = 1.0
 harmonic = 1                 # default 1; 0: static
 phase = 0.0                  # [deg], default 0
-[[coupling.outputs]]         # what the analyses' outputs name: a node set's mean
+[[assembly.outputs]]         # what the analyses' outputs name: a node set's mean
 name = "tip"                 #   displacement along a direction [m]
 node_set = "blisk/response"
 direction = "tangential"
@@ -37,14 +37,14 @@ from collections.abc import Mapping
 from typing import Any
 
 from microslip import geometry
-from microslip.pipeline.coupling.spec import (
+from microslip.pipeline.assembly.spec import (
     DIRECTIONS,
     ELEMENTS,
     STATIC_ANCHOR_RULE,
-    CouplingSpec,
+    AssemblySpec,
     NodalLoad,
     Output,
-    PatchContact,
+    PatchFriction,
     static_anchor_allowed,
 )
 
@@ -55,67 +55,67 @@ KEYS = {"engine_order", "speed", "centrifugal", "mass_bodies", "mass_multiplier"
 CONTACT_KEYS = {"patch", "mu", "interference", "elements"}
 LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase"}
 OUTPUT_KEYS = {"name", "node_set", "direction"}
-#: Parameters a coupled case's analyses may sweep.
+#: Parameters an assembly case's analyses may sweep.
 PARAMETERS = ("frequency", "excitation", "mass")
 ANALYSES = ("frf", "peak")
 
 
 def output_names(data: Mapping[str, Any]) -> list[str]:
-    """The outputs an analysis of a coupled case may name."""
-    table = data.get("coupling", {})
+    """The outputs an analysis of an assembly case may name."""
+    table = data.get("assembly", {})
     outs = table.get("outputs", []) if isinstance(table, dict) else []
     return [o.get("name") for o in outs if isinstance(o, dict)]
 
 
 def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
-    """Append one line per fault of a case's [coupling] table to ``out``."""
+    """Append one line per fault of a case's [assembly] table to ``out``."""
     if not isinstance(table, dict):
-        out.append(f"coupling: expected a table, got {table!r}")
+        out.append(f"assembly: expected a table, got {table!r}")
         return
-    unknown_keys("coupling.", table, KEYS, out)
+    unknown_keys("assembly.", table, KEYS, out)
     if "reduction" not in data or "geometry" not in data:
-        out.append("coupling: needs [geometry] and [reduction] (the bodies it couples)")
+        out.append("assembly: needs [geometry] and [reduction] (the bodies it joins)")
     if "model" in data:
-        out.append("model: a coupled case takes its bodies from [geometry] and [reduction]; "
-                   "remove [model] (or [coupling])")
+        out.append("model: an assembly case takes its bodies from [geometry] and [reduction]; "
+                   "remove [model] (or [assembly])")
     geo = data.get("geometry", {})
     names = geometry.NAMES.get(geo.get("model")) if isinstance(geo, dict) else None
     if isinstance(geo, dict) and geo.get("model") in geometry.MODELS and names is None:
-        out.append(f"coupling: geometry model {geo.get('model')!r} has no contact patches; "
-                   f"coupled models: {sorted(geometry.NAMES)}")
+        out.append(f"assembly: geometry model {geo.get('model')!r} has no contact patches; "
+                   f"assembly models: {sorted(geometry.NAMES)}")
     red = data.get("reduction", {})
     eo = table.get("engine_order", red.get("engine_order") if isinstance(red, dict) else None)
     if eo is None:
-        out.append("coupling.engine_order: missing (and no [reduction] engine_order): the "
+        out.append("assembly.engine_order: missing (and no [reduction] engine_order): the "
                    "engine order of the excitation")
     elif not (is_int(eo) and eo >= 1):
-        out.append(f"coupling.engine_order = {eo!r}: expected an integer >= 1")
+        out.append(f"assembly.engine_order = {eo!r}: expected an integer >= 1")
     speed = table.get("speed")
     if speed is not None and speed != "frequency" and not (is_number(speed) and speed >= 0):
-        out.append(f"coupling.speed = {speed!r}: expected a rotation speed >= 0 [rad/s] or "
+        out.append(f"assembly.speed = {speed!r}: expected a rotation speed >= 0 [rad/s] or "
                    "'frequency' (speed = w / engine order)")
     for key in ("centrifugal", "mass_bodies"):
         bodies = table.get(key, [])
         if not (isinstance(bodies, list) and all(isinstance(b, str) for b in bodies)):
-            out.append(f"coupling.{key} = {bodies!r}: expected a list of body names")
+            out.append(f"assembly.{key} = {bodies!r}: expected a list of body names")
         elif names is not None:
             for b in bodies:
                 if b not in names["bodies"]:
-                    out.append(f"coupling.{key}: {b!r} is not a body; bodies: "
+                    out.append(f"assembly.{key}: {b!r} is not a body; bodies: "
                                f"{list(names['bodies'])}")
     for key in ("mass_multiplier", "excitation"):
         if key in table:
-            number(f"coupling.{key}", table[key], out, positive=True)
-    anchor = table.get("static_anchor", CouplingSpec.static_anchor)
+            number(f"assembly.{key}", table[key], out, positive=True)
+    anchor = table.get("static_anchor", AssemblySpec.static_anchor)
     if not static_anchor_allowed(anchor):
-        out.append(f"coupling.static_anchor = {anchor!r}: expected {STATIC_ANCHOR_RULE}")
+        out.append(f"assembly.static_anchor = {anchor!r}: expected {STATIC_ANCHOR_RULE}")
     if table.get("centrifugal") and "speed" not in table:
-        out.append("coupling.speed: missing; the centrifugal load needs a speed [rad/s] or "
+        out.append("assembly.speed: missing; the centrifugal load needs a speed [rad/s] or "
                    "'frequency'")
     contacts = _tables(table, "contacts", out, required=True)
     seen = set()
     for i, c in enumerate(contacts):
-        pre = f"coupling.contacts[{c.get('patch', i)}]"
+        pre = f"assembly.contacts[{c.get('patch', i)}]"
         unknown_keys(pre + ".", c, CONTACT_KEYS, out)
         patch = c.get("patch")
         if names is not None and patch not in names["patches"]:
@@ -130,11 +130,11 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
             number(f"{pre}.mu", c["mu"], out, nonneg=True)
         if "interference" in c:
             number(f"{pre}.interference", c["interference"], out)
-        if c.get("elements", PatchContact.elements) not in ELEMENTS:
+        if c.get("elements", PatchFriction.elements) not in ELEMENTS:
             out.append(f"{pre}.elements = {c.get('elements')!r}: expected one of "
                        f"{list(ELEMENTS)}")
     for i, ld in enumerate(_tables(table, "loads", out)):
-        pre = f"coupling.loads[{i}]"
+        pre = f"assembly.loads[{i}]"
         unknown_keys(pre + ".", ld, LOAD_KEYS, out)
         _node_set(pre, ld, names, out)
         _direction(pre, ld, out)
@@ -146,7 +146,7 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
     outputs = _tables(table, "outputs", out, required=True)
     seen = set()
     for i, o in enumerate(outputs):
-        pre = f"coupling.outputs[{o.get('name', i)}]"
+        pre = f"assembly.outputs[{o.get('name', i)}]"
         unknown_keys(pre + ".", o, OUTPUT_KEYS, out)
         if not isinstance(o.get("name"), str) or not o.get("name"):
             out.append(f"{pre}.name: expected a name (the analyses' outputs use it)")
@@ -160,10 +160,10 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
 def _tables(table: dict, key: str, out: list[str], required: bool = False) -> list[dict]:
     value = table.get(key, [])
     if not isinstance(value, list) or not all(isinstance(x, dict) for x in value):
-        out.append(f"coupling.{key}: expected an array of tables [[coupling.{key}]]")
+        out.append(f"assembly.{key}: expected an array of tables [[assembly.{key}]]")
         return []
     if required and not value:
-        out.append(f"coupling.{key}: missing; add at least one [[coupling.{key}]]")
+        out.append(f"assembly.{key}: missing; add at least one [[assembly.{key}]]")
     return value
 
 
@@ -185,17 +185,17 @@ def _direction(pre: str, t: dict, out: list[str]) -> None:
                    "non-zero [dx, dy, dz]")
 
 
-def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> CouplingSpec:
-    """The CouplingSpec of a validated case (``cyclic_bodies``: the mesh's, whose complement
+def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> AssemblySpec:
+    """The AssemblySpec of a validated case (``cyclic_bodies``: the mesh's, whose complement
     the mass multiplier scales by default)."""
-    table = data["coupling"]
+    table = data["assembly"]
     eo = int(table.get("engine_order", data.get("reduction", {}).get("engine_order", 1)))
     speed = table.get("speed")
     bodies = geometry.NAMES[data["geometry"]["model"]]["bodies"]
-    return CouplingSpec(
-        contacts=tuple(PatchContact(c["patch"], float(c["mu"]),
-                                    float(c.get("interference", PatchContact.interference)),
-                                    c.get("elements", PatchContact.elements))
+    return AssemblySpec(
+        contacts=tuple(PatchFriction(c["patch"], float(c["mu"]),
+                                    float(c.get("interference", PatchFriction.interference)),
+                                    c.get("elements", PatchFriction.elements))
                        for c in table["contacts"]),
         engine_order=eo,
         loads=tuple(NodalLoad(ld["node_set"], _dir(ld["direction"]), float(ld["amplitude"]),
@@ -207,7 +207,7 @@ def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> Coupli
         centrifugal=tuple(table.get("centrifugal", ())),
         mass_bodies=tuple(table.get("mass_bodies",
                                     [b for b in bodies if b not in cyclic_bodies])),
-        static_anchor=float(table.get("static_anchor", CouplingSpec.static_anchor)),
+        static_anchor=float(table.get("static_anchor", AssemblySpec.static_anchor)),
     )
 
 

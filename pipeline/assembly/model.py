@@ -1,4 +1,4 @@
-"""The coupled model and its recovery: from harmonic-balance unknowns back to bodies,
+"""The assembly model and its recovery: from harmonic-balance unknowns back to bodies,
 patches, nodes and named outputs (what results, maps and pictures need)."""
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from microslip.pipeline.fe.reduction import ReducedModel
 from microslip.pipeline.friction.laws import ContactResponse, slip_share
 from microslip.pipeline.solve.hbm import HarmonicBalance, OperatingPoint
 
-from .spec import CouplingSpec
+from .spec import AssemblySpec
 
 
 @dataclass(frozen=True, eq=False)
 class BodyLayout:
-    """Where one body sits in the coupled model.
+    """Where one body sits in the assembly model.
 
     offset: its first master DOF among the shared DOFs (3 per master node, x y z);
     models, conjugate: per harmonic order, the reduced model and whether its complex
@@ -108,7 +108,7 @@ def patch_states(names: list[str], points: Mapping[str, ContactPoints],
 
 
 @dataclass(frozen=True, eq=False)
-class CoupledModel:
+class AssemblyModel:
     """A harmonic-balance model built from reduced bodies and contact patches.
 
     hb: what the solvers take; layout: the bodies; dof_nodes: (n_dof,) global node of each
@@ -120,7 +120,7 @@ class CoupledModel:
     dof_nodes: np.ndarray
     outputs: Mapping[str, np.ndarray]
     points: Mapping[str, ContactPoints]
-    spec: CouplingSpec
+    spec: AssemblySpec
 
     def patches(self, x: np.ndarray, point: OperatingPoint) -> dict[str, PatchState]:
         """Per patch its node pairs' states and static forces at a solution ``x``."""

@@ -3,5 +3,5 @@
 spec       what couples the bodies: contacts per patch, loads, speed, outputs (dataclasses)
 assemble   ``couple``: per-order linear blocks, contact kinematics (neighbour-sector phase
            and rotation), nodal and centrifugal loads
-model      the coupled model and its recovery to bodies, patches, nodes and outputs
+model      the assembly model and its recovery to bodies, patches, nodes and outputs
 """

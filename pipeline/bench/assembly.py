@@ -1,11 +1,11 @@
 """Speed of the coupled harmonic balance at full scale: the blisk sector with its wedge damper,
 contact grids from 2 x 24 to 2 x 240 node pairs, harmonics 0-1 and 0-3.
 
-    microslip bench coupled                                 # the whole table
-    microslip bench coupled --grids 6x4,9x4 --harmonics 1 --points 10
+    microslip bench assembly                                 # the whole table
+    microslip bench assembly --grids 6x4,9x4 --harmonics 1 --points 10
 
 Per configuration, in a fresh process (its own peak memory): the mesh and the reduced bodies
-(cached under --cache), the coupled model, the first point (linear guesses, scales, Newton
+(cached under --cache), the assembly model, the first point (linear guesses, scales, Newton
 from cold) and then --points arclength points from there. Printed: unknowns, time before the
 first point, median time per point, Newton iterations per point, peak memory, and the floor,
 the dense LU of the unknowns at this machine's measured rate (a 400 x 400 LU in the same
@@ -40,8 +40,8 @@ def run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dict
     """One configuration (run in a child process)."""
     from microslip import geometry
     from microslip.pipeline.app import structure
-    from microslip.pipeline.coupling.assemble import couple
-    from microslip.pipeline.coupling.spec import CouplingSpec, NodalLoad, Output, PatchContact
+    from microslip.pipeline.assembly.join import join
+    from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
     from microslip.pipeline.friction.harmonics import Harmonics
     from microslip.pipeline.solve import continuation as cont
     from microslip.pipeline.solve.hbm import OperatingPoint
@@ -52,12 +52,12 @@ def run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dict
     red = structure.reduce_structure(
         mesh, {"engine_order": 12, "harmonics": H, "damping": {"modal_ratios": 0.001}},
         Path(cache) / f"{n_axial}x{n_flank}", range(H + 1), progress=lambda s: None)
-    spec = CouplingSpec(
-        contacts=(PatchContact("damper_left", 0.5), PatchContact("damper_right", 0.5)),
+    spec = AssemblySpec(
+        contacts=(PatchFriction("damper_left", 0.5), PatchFriction("damper_right", 0.5)),
         engine_order=12, loads=(NodalLoad("blisk/excitation", "tangential", 5.0),),
         outputs=(Output("tip", "blisk/response", "tangential"),), centrifugal=("damper",),
         mass_bodies=("damper",))
-    hb = couple(mesh, red.models, red.patch_stiffness, spec, Harmonics.up_to(H, 64)).hb
+    hb = join(mesh, red.models, red.patch_stiffness, spec, Harmonics.up_to(H, 64)).hb
     setup = time.perf_counter() - t0
     w0 = 0.96 * 2 * np.pi * red.frequencies["blisk", 12][0]
     base = OperatingPoint(w0, mass_multiplier=25.0)
@@ -91,7 +91,7 @@ def _grids(text: str) -> list[tuple[int, int]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="microslip bench coupled", description=__doc__,
+    parser = argparse.ArgumentParser(prog="microslip bench assembly", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--grids", type=_grids, default=list(GRIDS),
                         help="contact grids per patch, e.g. 6x4,9x4 (axial x flank)")
@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--points", type=int, default=10, help="arclength points timed")
     parser.add_argument("--budget", type=float, default=30.0,
                         help="skip a configuration whose one LU would take longer [s]")
-    parser.add_argument("--cache", default=".microslip-cache/bench-coupled",
+    parser.add_argument("--cache", default=".microslip-cache/bench-assembly",
                         help="where the reduced bodies are kept between runs")
     args = parser.parse_args(argv)
     if args.points < 2:

@@ -1,4 +1,4 @@
-"""Reduced FE bodies coupled by friction patches (the blisk sector and its wedge damper) in
+"""Reduced FE bodies joined by friction patches (the blisk sector and its wedge damper) in
 the cyclic harmonic balance: linear limits solved directly, the static balance of the
 damper, the energy balance, derivatives against finite differences, and the cyclic sector
 against the full-disk model (the test of the neighbour-sector phase and rotation)."""
@@ -9,8 +9,8 @@ from derivatives import fd_residual_jacobian
 
 from microslip import geometry
 from microslip.pipeline.app import structure
-from microslip.pipeline.coupling.assemble import couple
-from microslip.pipeline.coupling.spec import CouplingSpec, NodalLoad, Output, PatchContact
+from microslip.pipeline.assembly.join import join
+from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import solve_point, sweep
@@ -33,8 +33,8 @@ def sector():
 
 def spec(mu, eo=1, amplitude=1.0, contacts=("damper_left", "damper_right"), speed=SPEED,
          elements="2D", anchor=1e-3):
-    return CouplingSpec(
-        contacts=tuple(PatchContact(p, mu, elements=elements) for p in contacts),
+    return AssemblySpec(
+        contacts=tuple(PatchFriction(p, mu, elements=elements) for p in contacts),
         engine_order=eo, loads=(NodalLoad("blisk/excitation", "tangential", amplitude),),
         outputs=(Output("tip", "blisk/response", "tangential"),), speed=speed,
         centrifugal=("damper",) if contacts else (),
@@ -43,7 +43,7 @@ def spec(mu, eo=1, amplitude=1.0, contacts=("damper_left", "damper_right"), spee
 
 def model(sector, mu, h=None, **kw):
     mesh, red = sector
-    return couple(mesh, red.models, red.patch_stiffness, spec(mu, **kw),
+    return join(mesh, red.models, red.patch_stiffness, spec(mu, **kw),
                   h or Harmonics.up_to(1, 64))
 
 
@@ -86,7 +86,7 @@ def test_no_damper_is_the_free_blisk(sector):
     """Without the damper the model is linear (no contact DOF) and equals the blisk alone;
     the damper, stuck, moves the resonance up (it stiffens the platforms)."""
     mesh, red = sector
-    cm = couple(mesh, {"blisk": red.models["blisk"]}, red.patch_stiffness, spec(0.5, contacts=()),
+    cm = join(mesh, {"blisk": red.models["blisk"]}, red.patch_stiffness, spec(0.5, contacts=()),
                 Harmonics.up_to(1, 64))
     assert cm.hb.n_unknowns == 0
     with_damper = model(sector, 0.5)
@@ -204,14 +204,14 @@ def full_disk_model(full_disk, mu, eo, h, amplitude=1.0):
     full, red = full_disk
     dampers = tuple(b for b in full.bodies if b.startswith("damper"))
     phi = 2 * np.pi / NS
-    s = CouplingSpec(
-        contacts=tuple(PatchContact(p, mu) for p in sorted(full.contacts)), engine_order=eo,
+    s = AssemblySpec(
+        contacts=tuple(PatchFriction(p, mu) for p in sorted(full.contacts)), engine_order=eo,
         loads=tuple(NodalLoad(f"blisk/excitation#{k}", "tangential", amplitude, 1,
                               k * eo * phi)
                     for k in range(NS)),
         outputs=(Output("tip", "blisk/response#0", "tangential"),), speed=SPEED,
         centrifugal=dampers, mass_bodies=dampers)
-    return couple(full, red.models, red.patch_stiffness, s, h)
+    return join(full, red.models, red.patch_stiffness, s, h)
 
 
 @pytest.mark.parametrize("eo", [1, 5])  # ND 1 forward, and backward (conjugated matrices)

@@ -31,14 +31,14 @@ from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.laws import ContactElements
 from microslip.pipeline.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
 
-from .model import BodyLayout, ContactPoints, CoupledModel, body_positions
-from .spec import CouplingSpec, PatchContact
+from .model import AssemblyModel, BodyLayout, ContactPoints, body_positions
+from .spec import AssemblySpec, PatchFriction
 
 
-def couple(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
-           patch_stiffness: Mapping[str, PatchStiffness], spec: CouplingSpec,
-           harmonics: Harmonics, *, sub_sample: bool = True) -> CoupledModel:
-    """The coupled model of ``spec`` over the reduced ``models`` (body -> ND -> model, as the
+def join(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
+           patch_stiffness: Mapping[str, PatchStiffness], spec: AssemblySpec,
+           harmonics: Harmonics, *, sub_sample: bool = True) -> AssemblyModel:
+    """The assembly model of ``spec`` over the reduced ``models`` (body -> ND -> model, as the
     structural stage gives them) with the patches' stiffness per node pair.
 
     Everything named is checked before any matrix is built (ValueError naming it)."""
@@ -61,13 +61,13 @@ def couple(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
     outputs = {o.name: _row(mesh, node_dof, n_dof, o.node_set, o.direction)
                for o in spec.outputs}
     dof_nodes = np.concatenate([np.repeat(b.master_nodes, 3) for b in layout])
-    return CoupledModel(hb, tuple(layout), dof_nodes, outputs, points, spec)
+    return AssemblyModel(hb, tuple(layout), dof_nodes, outputs, points, spec)
 
 
 # --- checks -----------------------------------------------------------------------------------
 
 
-def _check(mesh, models, stiffness, spec: CouplingSpec, harmonics: Harmonics) -> None:
+def _check(mesh, models, stiffness, spec: AssemblySpec, harmonics: Harmonics) -> None:
     for pc in spec.contacts:
         if pc.patch not in mesh.contacts:
             raise ValueError(f"contacts.{pc.patch}: not a contact patch of the mesh; it has "
@@ -96,7 +96,7 @@ def _check(mesh, models, stiffness, spec: CouplingSpec, harmonics: Harmonics) ->
 # --- the linear part ----------------------------------------------------------------------------
 
 
-def _layout(mesh: Mesh, models, spec: CouplingSpec, harmonics: Harmonics) -> list[BodyLayout]:
+def _layout(mesh: Mesh, models, spec: AssemblySpec, harmonics: Harmonics) -> list[BodyLayout]:
     """Each body's model per order and where its masters and modes sit."""
     out, offset = [], 0
     for body in sorted(models):
@@ -171,7 +171,7 @@ def static_anchor(contacts: list[Contact], n_dof: int, ratio: float) -> np.ndarr
 # --- contacts -----------------------------------------------------------------------------------
 
 
-def _patch_contacts(mesh: Mesh, pc: PatchContact, stiffness: PatchStiffness,
+def _patch_contacts(mesh: Mesh, pc: PatchFriction, stiffness: PatchStiffness,
                     node_dof: dict[int, int], n_dof: int, engine_order: int,
                     harmonics: Harmonics) -> list[tuple[Contact, ContactPoints]]:
     """The contact(s) of one patch: one law-D element per node pair, or two law-B ones."""
@@ -268,7 +268,7 @@ def _row(mesh: Mesh, node_dof: dict[int, int], n_dof: int, node_set: str,
 
 
 def _excitation(mesh: Mesh, layout: list[BodyLayout], node_dof: dict[int, int], n_dof: int,
-                spec: CouplingSpec, harmonics: Harmonics) -> Excitation:
+                spec: AssemblySpec, harmonics: Harmonics) -> Excitation:
     """The nodal loads per order and the centrifugal loads per unit speed^2 (order 0: the
     reduced load vector of each body, masters and modes)."""
     forces: dict[int, np.ndarray] = {}
