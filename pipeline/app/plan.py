@@ -59,7 +59,7 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
                             "tetrahedra; every run"))
         if "reduction" in data:
             orders = harmonics(case).orders if "harmonics" in data else None
-            stages += _reduction(mesh, data["reduction"], out / "models", orders,
+            stages += _reduction(mesh, case.reduction_table, out / "models", orders,
                                  case.draws_shapes)
     store = CurveStore(out / "cache" / "curves" if cache else None)
     by_name = {s.analysis: s for s in sizes(data)}
@@ -107,7 +107,7 @@ def _point_seconds(unknowns: int, samples: int) -> float:
     return max(0.005, POINT_S * scale)
 
 
-def _reduction(mesh, red: dict, cache: Path, orders, surfaces: bool = False) -> list[Stage]:
+def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[Stage]:
     """Per body and nodal diameter: the reduced model's cache file exists, or it runs."""
     import numpy as np
 
@@ -139,7 +139,7 @@ def _reduction(mesh, red: dict, cache: Path, orders, surfaces: bool = False) -> 
     return stages
 
 
-def _with_reference(spec, mesh, red: dict, nds, cache: Path, surfaces: bool = False):
+def _with_reference(spec, mesh, red, nds, cache: Path, surfaces: bool = False):
     """A non-cyclic body's spec with the f_max its run would infer from the cyclic bodies'
     (cached) models."""
     from dataclasses import replace

@@ -219,7 +219,7 @@ def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
     orders = harmonics(case).orders if "harmonics" in case.data else None
     shapes = case.draws_shapes
     try:
-        result = reduce_structure(mesh, case.data["reduction"], out / "models", orders,
+        result = reduce_structure(mesh, case.reduction_table, out / "models", orders,
                                   progress, surfaces=shapes)
     except ReductionError as err:
         raise StageFailed(str(err)) from err

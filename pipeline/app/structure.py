@@ -17,6 +17,7 @@ from typing import Any
 from numpy.typing import NDArray
 
 from microslip.pipeline.case.reduction import (
+    ReductionTable,
     body_specs,
     needed_nodal_diameters,
     patch_stiffnesses,
@@ -56,7 +57,8 @@ class StructureResult:
 
 
 
-def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | None,
+def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
+                     cache_dir: str | Path | None,
                      case_orders: Iterable[int] | None = None, progress: Progress = print,
                      surfaces: bool = False) -> StructureResult:
     """Reduce every body of ``mesh`` for the NDs the [reduction] table asks (see the module).
@@ -67,6 +69,7 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | 
     assembly. Cyclic bodies go first; without f_max, the others get the highest 10th
     fixed-interface frequency of the cyclic bodies as theirs.
     """
+    red = ReductionTable.of(red)
     specs = body_specs(mesh, red, surfaces)
     sectors = {b.sectors for b in mesh.cyclic.values()}
     if not sectors:
@@ -76,10 +79,8 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any], cache_dir: str | Path | 
     for spec in specs:  # names and node sets, before any heavy work
         reduction.spec_nodes(mesh, spec)
     patch_stiffness = patch_stiffnesses(mesh, specs, red)
-    backend = red.get("backend", "auto")
-    backend = None if backend == "auto" else backend
-    result = StructureResult({}, patch_stiffness, nds, None if "f_max" not in red
-                             else float(red["f_max"]))
+    backend = None if red.backend == "auto" else red.backend
+    result = StructureResult({}, patch_stiffness, nds, red.f_max)
     count = _Count(sum(len(set(nds)) if s.body in mesh.cyclic else 1 for s in specs))
     for spec in sorted(specs, key=lambda s: s.body not in mesh.cyclic):  # cyclic bodies first
         is_cyclic = spec.body in mesh.cyclic

@@ -40,6 +40,7 @@ whose mesh, material, constraints, masters and mode selection have not changed.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
@@ -89,7 +90,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
     elif nds is not None and sectors is not None and max(nds) > sectors // 2:
         out.append(f"reduction.nodal_diameters = {nds!r}: at most sectors / 2 = "
                    f"{sectors // 2} (the geometry has {sectors} sectors)")
-    if red.get("backend", "auto") in linalg.BACKENDS and red["backend"] not in \
+    if red.get("backend", ReductionTable.backend) in linalg.BACKENDS and red["backend"] not in \
             linalg.available_backends():
         out.append(f"reduction.backend = {red['backend']!r}: not installed here; available: "
                    f"{list(linalg.available_backends())} or 'auto'")
@@ -212,74 +213,142 @@ def material(table: Mapping[str, Any] | None, default: Material = STEEL) -> Mate
                     float(table["density"]))
 
 
-def needed_nodal_diameters(red: Mapping[str, Any], sectors: int,
+@dataclass(frozen=True, kw_only=True)
+class BodyTable:
+    """[reduction.bodies.<body>]: what one body overrides (None: the table's, or the
+    naming conventions' node sets)."""
+
+    material: Material | None = None
+    damping: Damping | None = None
+    damping_given: bool = False  # an explicit damping table (no damping at all is None)
+    modes: int | str | None = None
+    clamped: tuple[str, ...] | None = None
+    masters: tuple[str, ...] | None = None
+    recovery: tuple[str, ...] | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReductionTable:
+    """A validated [reduction] table with every default resolved (the module docstring):
+    the NDs (explicit, or by engine order and harmonics), the element order, the modes and
+    their cut-off, f_max [Hz], the factorization backend, material and damping, per-body
+    overrides and per-patch contact stiffness per unit area (normal, tangential) [N/m^3]."""
+
+    nodal_diameters: tuple[int, ...] | None = None
+    engine_order: int | None = None
+    harmonics: int | None = None
+    order: int = 2
+    modes: int | str = reduction.DEFAULT_MODES
+    cutoff: float = reduction.CUTOFF
+    f_max: float | None = None
+    backend: str = "auto"
+    material: Material = STEEL
+    damping: Damping | None = None
+    bodies: Mapping[str, BodyTable] = field(default_factory=dict)
+    contact_stiffness: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, table: Mapping[str, Any] | ReductionTable) -> ReductionTable:
+        """The spec of a validated [reduction] table (a spec is returned as it is)."""
+        if isinstance(table, ReductionTable):
+            return table
+        base = material(table.get("material"))
+        bodies = {}
+        for body, b in table.get("bodies", {}).items():
+            bodies[body] = BodyTable(
+                material=material(b["material"], base) if "material" in b else None,
+                damping=damping(b.get("damping")), damping_given="damping" in b,
+                modes=b.get("modes"),
+                **{k: tuple(b[k]) for k in ("clamped", "masters", "recovery") if k in b})
+        return cls(
+            nodal_diameters=None if "nodal_diameters" not in table else tuple(
+                sorted({int(h) for h in table["nodal_diameters"]})),
+            engine_order=None if "engine_order" not in table else int(table["engine_order"]),
+            harmonics=None if "harmonics" not in table else int(table["harmonics"]),
+            order=int(table.get("order", cls.order)),
+            modes=table.get("modes", cls.modes),
+            cutoff=float(table.get("cutoff", cls.cutoff)),
+            f_max=None if "f_max" not in table else float(table["f_max"]),
+            backend=table.get("backend", cls.backend),
+            material=base, damping=damping(table.get("damping")), bodies=bodies,
+            contact_stiffness={name: (float(t["normal"]), float(t["tangential"]))
+                               for name, t in table.get("contact_stiffness", {}).items()})
+
+
+def needed_nodal_diameters(red: Mapping[str, Any] | ReductionTable, sectors: int,
                            case_orders: Iterable[int] | None = None) -> tuple[int, ...]:
     """The NDs of a [reduction] table: explicit, or those of the harmonic orders under the
     engine order (``cyclic.nodal_diameters``: backward waves fold onto 0..Ns/2). Orders:
     0..``harmonics`` of the table, else the case's harmonic orders (``case_orders``), else
     0..1; order 0 (the static part, ND 0) always."""
-    if "nodal_diameters" in red:
-        nds = tuple(sorted(set(int(h) for h in red["nodal_diameters"])))
+    red = ReductionTable.of(red)
+    if red.nodal_diameters is not None:
+        nds = red.nodal_diameters
         for h in nds:
             if not 0 <= h <= sectors // 2:
                 raise ValueError(f"reduction.nodal_diameters = {list(nds)}: ND {h} outside "
                                  f"0..{sectors // 2} (sectors = {sectors})")
         return nds
-    if "harmonics" in red:
-        orders = set(range(int(red["harmonics"]) + 1))
+    if red.harmonics is not None:
+        orders = set(range(red.harmonics + 1))
     else:
         orders = set(case_orders) if case_orders is not None else {0, 1}
-    return cyclic.nodal_diameters(sorted(orders | {0}), int(red["engine_order"]), sectors)
+    return cyclic.nodal_diameters(sorted(orders | {0}), red.engine_order, sectors)
 
 
 def _existing(mesh: Any, body: str, suffixes: Sequence[str]) -> tuple[str, ...]:
     return tuple(f"{body}/{s}" for s in suffixes if f"{body}/{s}" in mesh.node_sets)
 
 
-def body_specs(mesh: Any, red: Mapping[str, Any], surfaces: bool = False) -> list[BodySpec]:
+def _sets(given: tuple[str, ...] | None, mesh: Any, body: str, suffixes: Sequence[str]
+          ) -> tuple[str, ...]:
+    """The node sets a body names (an empty list is a choice too), else the conventions'."""
+    return given if given is not None else _existing(mesh, body, suffixes)
+
+
+def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: bool = False
+               ) -> list[BodySpec]:
     """One BodySpec per body of the mesh, by the naming conventions and the case's overrides;
     ``surfaces``: every body also recovered on its outer surface (deformed-shape pictures)."""
-    base = material(red.get("material"))
+    red = ReductionTable.of(red)
     specs = []
     for body in sorted(mesh.bodies):
-        b = red.get("bodies", {}).get(body, {})
+        b = red.bodies.get(body, BodyTable())
         patches = tuple(sorted(name for name, p in mesh.contacts.items()
                                if body in (p.body_a, p.body_b)))
         specs.append(BodySpec(
             body=body,
-            material=material(b.get("material"), base),
-            damping=damping(b.get("damping", red.get("damping"))),
-            master_sets=tuple(b.get("masters", _existing(mesh, body, _MASTER_SETS))),
+            material=b.material or red.material,
+            damping=b.damping if b.damping_given else red.damping,
+            master_sets=_sets(b.masters, mesh, body, _MASTER_SETS),
             patches=patches,
-            recovery_sets=tuple(b.get("recovery", _existing(mesh, body, _RECOVERY_SETS))),
+            recovery_sets=_sets(b.recovery, mesh, body, _RECOVERY_SETS),
             recovery_surface=surfaces,
-            clamped_sets=tuple(b.get("clamped", _existing(mesh, body, _CLAMP_SETS))),
-            n_modes=b.get("modes", red.get("modes", reduction.DEFAULT_MODES)),
-            cutoff=float(red.get("cutoff", reduction.CUTOFF)),
-            f_max=None if "f_max" not in red else float(red["f_max"]),
-            order=int(red.get("order", 2)),
+            clamped_sets=_sets(b.clamped, mesh, body, _CLAMP_SETS),
+            n_modes=b.modes if b.modes is not None else red.modes,
+            cutoff=red.cutoff,
+            f_max=red.f_max,
+            order=red.order,
         ))
-    unknown = sorted(set(red.get("bodies", {})) - set(mesh.bodies))
+    unknown = sorted(set(red.bodies) - set(mesh.bodies))
     if unknown:
         raise ValueError(f"reduction.bodies: {unknown} are not bodies of this mesh; it has "
                          f"{sorted(mesh.bodies)}")
     return specs
 
 
-def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec], red: Mapping[str, Any]
+def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec],
+                      red: Mapping[str, Any] | ReductionTable
                       ) -> dict[str, contact_stiffness.PatchStiffness]:
     """Flat-punch (or per-area, from the case) stiffness of every contact patch."""
     materials = {s.body: s.material for s in specs}
-    given = red.get("contact_stiffness", {})
+    given = ReductionTable.of(red).contact_stiffness
     unknown = sorted(set(given) - set(mesh.contacts))
     if unknown:
         raise ValueError(f"reduction.contact_stiffness: {unknown} are not contact patches of "
                          f"this mesh; it has {sorted(mesh.contacts)}")
     out = {}
     for name, patch in sorted(mesh.contacts.items()):
-        per_area = None
-        if name in given:
-            per_area = (float(given[name]["normal"]), float(given[name]["tangential"]))
         out[name] = contact_stiffness.patch_stiffness(
-            patch, materials[patch.body_a], materials[patch.body_b], per_area)
+            patch, materials[patch.body_a], materials[patch.body_b], given.get(name))
     return out

@@ -13,6 +13,7 @@ from typing import Any
 
 from . import specs
 from .paths import set_path
+from .reduction import ReductionTable
 from .validate import faults
 
 
@@ -57,6 +58,11 @@ class Case:
     def solver_table(self) -> specs.SolverTable:
         """[solver] as its spec, defaults resolved."""
         return specs.SolverTable.of(self.data.get("solver", {}))
+
+    @cached_property
+    def reduction_table(self) -> ReductionTable:
+        """[reduction] as its spec, defaults resolved."""
+        return ReductionTable.of(self.data["reduction"])
 
     @property
     def draws_shapes(self) -> bool:
