@@ -79,7 +79,8 @@ def lumped_model(case: Case) -> HarmonicBalance:
         mass_part=as_matrix(m["mass_part"], n) if "mass_part" in m else None)
     contacts = []
     for i, c in enumerate(case.data.get("contacts", [])):
-        if not c.get("enabled", True):
+        contact = specs.ContactTable.of(c, i)
+        if not contact.enabled:
             continue
         el = contact_elements(c)
         keys = LAWS[c["law"]].motions
@@ -87,13 +88,13 @@ def lumped_model(case: Case) -> HarmonicBalance:
             B = {o: np.array([kinematic_row(c[k], index, n, o) for k in keys]) for o in h.orders}
         else:
             B = np.array([kinematic_row(c[k], index, n).real for k in keys])
-        contacts.append(Contact(c.get("name", f"contact{i}"), el, B))
+        contacts.append(Contact(contact.name, el, B))
     forces: dict[int, np.ndarray] = {}
-    for load in case.data.get("loads", []):
-        o = load.get("harmonic", 1)
+    for table in case.data.get("loads", []):
+        load = specs.LoadTable.of(table)
+        o = load.harmonic
         f = forces.setdefault(o, np.zeros(n, dtype=complex))
-        f[index[load["dof"]]] += load["amplitude"] * np.exp(1j * np.deg2rad(load.get("phase",
-                                                                                     0.0)))
+        f[index[load.dof]] += load.amplitude * np.exp(1j * np.deg2rad(load.phase))
     sub = case.solver_table.sub_sample
     return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=sub)
 

@@ -114,7 +114,7 @@ def _lumped_contacts(data: dict) -> tuple[int, list[ContactShape]]:
     touched: set[str] = set()
     shapes = []
     for c in data.get("contacts", []):
-        if not c.get("enabled", True):
+        if not specs.ContactTable.of(c, 0).enabled:
             continue
         keys = LAWS[c["law"]].motions
         mine = {dof for k in keys for dof in c[k]}
@@ -172,9 +172,10 @@ def notes(data: dict) -> list[str]:
     limit = (ns / (2 * np.pi)) ** 2
     out = []
     for i, c in enumerate(data.get("contacts", [])):
-        if not c.get("enabled", True):
+        contact = specs.ContactTable.of(c, i)
+        if not contact.enabled:
             continue
-        name = c.get("name", f"contact{i}")
+        name = contact.name
         law = LAWS[c["law"]]
         if not isinstance(law, FrictionLaw):  # the note is about stick arcs
             continue

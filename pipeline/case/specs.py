@@ -225,6 +225,37 @@ class SolverTable:
                    sub_sample=table.get("sub_sample", cls.sub_sample))
 
 
+@dataclass(frozen=True, kw_only=True)
+class ContactTable:
+    """What every [[contacts]] table has besides its law's keys (``friction.law``): its
+    ``name`` (default ``contact<i>``), its ``law`` and whether the model includes it."""
+
+    name: str
+    law: str
+    enabled: bool = True
+
+    @classmethod
+    def of(cls, table: Mapping[str, Any], index: int) -> ContactTable:
+        return cls(name=str(table.get("name", f"contact{index}")), law=table.get("law", ""),
+                   enabled=table.get("enabled", cls.enabled))
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoadTable:
+    """A [[loads]] table: ``amplitude`` cos(``harmonic`` w t + ``phase``) [N, deg] on
+    ``dof``; harmonic 0 is a static load."""
+
+    dof: str
+    amplitude: float
+    harmonic: int = 1
+    phase: float = 0.0
+
+    @classmethod
+    def of(cls, table: Mapping[str, Any]) -> LoadTable:
+        return cls(**{k: table[k] for k in ("dof", "amplitude", "harmonic", "phase")
+                      if k in table})
+
+
 ANALYSES: dict[str, type[Analysis]] = {cls.type: cls for cls in (Frf, Peak, Loops, Dti,
                                                                    Transient)}
 

@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 
-from microslip.pipeline.friction.laws import LAWS, FrictionLaw
+from microslip.pipeline.friction.laws import FORMS, LAWS, FrictionLaw
 from microslip.pipeline.solve.hbm import PARAMETERS
 
 from . import assembly, specs
@@ -175,7 +175,7 @@ def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
     if not isinstance(c, dict):
         out.append(f"{pre}: expected a table")
         return
-    name = c.get("name", f"contact{i}")
+    name = specs.ContactTable.of(c, i).name
     pre = f"contacts.{name}"
     if name in seen:
         out.append(f"{pre}: duplicate contact name")
@@ -210,8 +210,8 @@ def _friction_contact(pre: str, c: dict, friction: FrictionLaw, dofs: set[str],
                       out: list[str]) -> None:
     """The keys of a friction law's contact (laws A-D)."""
     law, d, variable = friction.name, friction.dim, friction.variable_normal
-    form = c.get("form", "uncoupled")
-    if form not in ("uncoupled", "coupled"):
+    form = c.get("form", FORMS[0])
+    if form not in FORMS:
         out.append(f"{pre}.form = {form!r}: expected 'uncoupled' or 'coupled'")
     kt = c.get("kt")
     if isinstance(kt, list):
@@ -283,8 +283,9 @@ def _load(i: int, load, dofs: set[str], out: list[str]) -> None:
         out.append(f"{pre}.amplitude: missing (N)")
     else:
         number(f"{pre}.amplitude", load["amplitude"], out)
-    number(f"{pre}.harmonic", load.get("harmonic", 1), out, nonneg=True, integer=True)
-    number(f"{pre}.phase", load.get("phase", 0.0), out)
+    number(f"{pre}.harmonic", load.get("harmonic", specs.LoadTable.harmonic), out,
+           nonneg=True, integer=True)
+    number(f"{pre}.phase", load.get("phase", specs.LoadTable.phase), out)
 
 
 def _harmonics(h, out: list[str]) -> None:
@@ -452,7 +453,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if has_lag(data):
             out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
                        "with 'lag'); use harmonic balance")
-        orders = {ld.get("harmonic", 1) for ld in data.get("loads", [])}
+        orders = {ld.get("harmonic", specs.LoadTable.harmonic) for ld in data.get("loads", [])}
         if not orders <= {0, 1}:
             out.append(f"{pre}: time integration takes loads of harmonic 0 and 1 only, the "
                        f"case has {sorted(orders)}")

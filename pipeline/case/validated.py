@@ -81,8 +81,8 @@ class Case:
 
     def contacts_enabled(self) -> list[str]:
         """Names of the contacts the model includes, in order."""
-        return [c.get("name", f"contact{i}") for i, c in enumerate(self.data.get("contacts", []))
-                if c.get("enabled", True)]
+        tables = (specs.ContactTable.of(c, i) for i, c in enumerate(self.data.get("contacts", [])))
+        return [c.name for c in tables if c.enabled]
 
     def with_value(self, key: str, value: Any) -> Case:
         """A copy with one key set (dotted path; arrays of tables by name or index)."""

@@ -69,13 +69,18 @@ class FrictionLaw:
     def elements(self, table: Mapping[str, Any], n_points: int = 1) -> ContactElements:
         values: dict[str, Any] = dict(kt=np.atleast_1d(np.array(table["kt"], dtype=float))[None, :],
                                       mu=table["mu"],
-                                      coupled=table.get("form", "uncoupled") == "coupled",
+                                      coupled=table.get("form", FORMS[0]) == "coupled",
                                       kn=table.get("kn", 0.0), n_points=n_points)
         if "interference" in table:
             values["interference"] = table["interference"]
         else:
             values["n0"] = table["n0"]
         return ContactElements.create(self.name, **values)
+
+
+#: The friction laws' two forms: the static state solved before, N0 a priori (eq. 13/17),
+#: or the static and dynamic parts solved together (eqs. 24-28); the first is the default.
+FORMS = ("uncoupled", "coupled")
 
 
 #: Every contact law, by the name a case gives (``law = "A"``): the one registry the case
