@@ -200,3 +200,15 @@ def test_the_old_coupling_table_is_read_as_assembly_with_a_note(tmp_path, capsys
         cases.load(both)
     assert err.value.faults == ["[coupling] and [assembly]: [coupling] is the old name of "
                                 "[assembly]; give [assembly] only"]
+
+
+def test_a_dti_without_compare_is_valid():
+    # compare's default is "" (nothing drawn with it), not a name to look up
+    data = copy.deepcopy(TWO_DOF)
+    data["analysis"] = [{"name": "steady", "type": "dti", "frequencies": [1.0]}]
+    cases.check(data)
+    data["analysis"][0]["compare"] = "nowhere"
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
+    assert err.value.faults == ["analysis.steady.compare = 'nowhere': no analysis of that "
+                                "name; known: ['steady']"]

@@ -11,9 +11,8 @@ from case_helpers import TWO_DOF
 
 from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
-from microslip.pipeline.case import specs
 from microslip.pipeline.cli import main
-from microslip.pipeline.draw.pictures import DRAWERS
+from microslip.pipeline.draw.pictures import DRAWERS, analysis_spec
 from microslip.pipeline.results import schema
 
 # the 2-DOF law-B case (variable normal load), more damped, with every lumped analysis type;
@@ -46,7 +45,7 @@ def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):
         assert schema.undescribed(f) == []
         # the record of each analysis reads back as its spec (what the drawers use)
         for spec in cases.Case(copy.deepcopy(EVERY_KIND), "every.toml").analysis_specs:
-            assert specs.from_record(f[spec.name].attrs).table() == spec.table()
+            assert analysis_spec(f[spec.name]).table() == spec.table()
     again = tmp_path / "again"
     assert main(["render", str(path), "--out", str(again)]) == 0
     assert sorted(p.name for p in again.glob("*.png")) == drawn

@@ -40,6 +40,16 @@ class AssemblyModels:
         self.mesh = mesh
         self.structure = structure
         self._built: dict[str, AssemblyModel] = {}
+        self._surfaces: dict[str, Any] | None = None
+
+    def surfaces(self) -> dict[str, Any]:
+        """Per body its outer-surface nodes (``solutions.surfaces``), found once per run:
+        where the shapes at every curve's map points are recovered."""
+        if self._surfaces is None:
+            from .solutions import surfaces
+
+            self._surfaces = surfaces(self.mesh)
+        return self._surfaces
 
     def assembly(self, case: Case) -> AssemblyModel:
         from microslip.pipeline.assembly.join import join  # the FE stages, when needed

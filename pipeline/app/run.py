@@ -50,7 +50,7 @@ from microslip.pipeline.solve.response import (
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import AssemblyModels, LumpedModels
 from .progress import time_left
-from .solutions import map_groups, map_solutions, sampling_change, surfaces
+from .solutions import map_groups, map_solutions, sampling_change
 from .store import CurveStore, PictureStamps
 
 if TYPE_CHECKING:
@@ -179,14 +179,16 @@ def write_mesh(writer: ResultsWriter, mesh, elapsed: float) -> None:
     what the previews, maps and shapes are drawn on."""
     from microslip.pipeline.draw.previews import MeshView
 
-    cyclic = MeshView.from_mesh(mesh).cyclic_datasets()
-    writer.write_group(writer.file, schema.GEOMETRY, {schema.CYCLIC: cyclic}, {
+    view = MeshView.from_mesh(mesh)  # each body's surface found once
+    writer.write_group(writer.file, schema.GEOMETRY, {schema.CYCLIC: view.cyclic_datasets()}, {
         "model": mesh.model, "content_hash": mesh.content_hash, "nodes": mesh.points.shape[0],
         "tetrahedra": mesh.tetrahedra.shape[0], "bodies": sorted(mesh.bodies),
         "contacts": sorted(mesh.contacts), "parameters": mesh.parameters,
         "status": "complete", "elapsed_s": elapsed, "type": "geometry"})
     write_contact_grids(writer, mesh)
-    write_surfaces(writer, mesh)
+    sectors = min((c.sectors for c in view.cyclic), default=0)
+    writer.write_group(writer.file, schema.SURFACES, view.surface_datasets(),
+                       {"sectors": sectors})
 
 
 def write_contact_grids(writer: ResultsWriter, mesh) -> None:
@@ -244,22 +246,6 @@ def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
     progress(f"[reduction] {len(result.cached)} of {len(result.seconds)} models from the "
              f"cache; stage {time.perf_counter() - t:.1f} s")
     return result
-
-
-def write_surfaces(writer: ResultsWriter, mesh) -> None:
-    """/surfaces/<body>: nodes (p,) global indices, points (p, 3) [m], triangles (t, 3) into
-    the nodes (outward), attr cyclic (a sector body); /surfaces attr sectors (0: no cyclic
-    body). The shapes at the map points are given on these nodes."""
-    groups = {}
-    for body in sorted(mesh.bodies):
-        triangles = mesh.surface(body)
-        nodes = np.unique(triangles)  # as solutions.surfaces
-        groups[body] = {ATTRS: {"cyclic": body in mesh.cyclic}, "nodes": nodes,
-                        "points": mesh.points[nodes],
-                        "triangles": np.searchsorted(nodes, triangles)}
-    sectors = sorted({c.sectors for c in mesh.cyclic.values()})
-    writer.write_group(writer.file, schema.SURFACES, groups,
-                       {"sectors": sectors[0] if sectors else 0})
 
 
 def _outputs(case: Case, names: tuple[str, ...] | None, models=None
@@ -352,7 +338,7 @@ def frf_key(store: CurveStore, case: Case, spec: Frf, method: str) -> str:
 
 
 def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, str]:
-    """Every curve of an frf (a family value and a method each), the linear limits of a
+    """Every curve of an frf (a family value and a method each), the linear limits of an
     assembly case's frequency sweep, the pictures; (status, message) of the worst curve."""
     name, store, progress = spec.name, run.store, run.progress
     methods = spec.method
@@ -470,7 +456,7 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
         if wanted and b.status != "interrupted":
             sols = map_solutions(r, wanted, idx, measure, settings(c))
             data[schema.MAPS] = map_groups(cm, r, sols, idx, measure, spec.normalise,
-                                           surfaces(models.mesh) if spec.shapes else None)
+                                           models.surfaces() if spec.shapes else None)
             for m in data[schema.MAPS].values():
                 progress(f"{which}: map point, {m[ATTRS]['what']} at {par} "
                          f"{m[ATTRS]['parameter']:.6g}: response {m['response'][0]:.4g} m")

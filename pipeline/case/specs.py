@@ -14,7 +14,6 @@ Units: frequencies rad/s, times s, motions m.
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -291,12 +290,12 @@ def analysis(table: Mapping[str, Any], index: int = 0) -> Analysis:
     return cls(**values)
 
 
-def from_record(attrs: Mapping[str, Any]) -> Analysis:
-    """The spec of an analysis group's attributes in results.h5 (:meth:`Analysis.record`);
-    the keys a file from an older version lacks take their defaults."""
-    kind = _text(attrs["type"])
-    names = keys(kind) | {"name"}
-    table = {k: _decoded(attrs[k]) for k in attrs if k in names}
+def from_record(record: Mapping[str, Any]) -> Analysis:
+    """The spec of an analysis' record in results.h5 (:meth:`Analysis.record`, read back
+    as values: ``results.file.attr_table``); the keys a file from an older version lacks
+    take their defaults."""
+    names = keys(record["type"]) | {"name"}
+    table = {k: v for k, v in record.items() if k in names}
     if not table.get("family"):
         table.pop("family", None)
     return analysis(table)
@@ -330,19 +329,3 @@ def _toml(value: Any) -> Any:
     return value
 
 
-def _text(value: Any) -> str:
-    return value.decode() if isinstance(value, bytes) else str(value)
-
-
-def _decoded(value: Any) -> Any:
-    """An attribute as results.file wrote it (tables and lists as JSON text, numbers as
-    numpy scalars or arrays) back in TOML form."""
-    if isinstance(value, bytes):
-        value = value.decode()
-    if isinstance(value, str) and value.startswith(("[", "{")):
-        return json.loads(value)
-    if isinstance(value, np.ndarray):
-        return [_decoded(v) for v in value.tolist()]
-    if isinstance(value, np.generic):
-        return value.item()
-    return value

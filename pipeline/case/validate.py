@@ -368,8 +368,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
             if a.get("output") not in dofs:
                 out.append(f"{pre}.output = {a.get('output')!r}: unknown DOF; known: "
                            f"{sorted(dofs)}")
-            if "points" in a:
-                number(f"{pre}.points", a["points"], out, positive=True, integer=True)
+            number(f"{pre}.points", a["points"], out, positive=True, integer=True)
             if a["tracking"] not in ("continuation", "sweep"):
                 out.append(f"{pre}.tracking = {a.get('tracking')!r}: expected 'continuation' "
                            "(the peak followed from value to value) or 'sweep' (a full FRF "
@@ -389,14 +388,14 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                        "response per unit of the excitation multiplier)")
     if kind == "peak" and a["measure"] not in ("peak", "vibration"):
         out.append(f"{pre}.measure = {a.get('measure')!r}: expected 'peak' or 'vibration'")
-    if kind == "peak" and "levels" in a and not isinstance(a["levels"], bool):
+    if kind == "peak" and not isinstance(a["levels"], bool):
         out.append(f"{pre}.levels = {a['levels']!r}: expected true or false (the free and "
                    "fully stuck peak levels, an assembly case)")
     if kind in ("frf", "dti"):
         if a["measure"] not in specs.MEASURES:
             out.append(f"{pre}.measure = {a['measure']!r}: expected one of "
                        f"{list(specs.MEASURES)}")
-        if "restart" in a and not isinstance(a["restart"], bool):
+        if kind == "dti" and not isinstance(a["restart"], bool):
             out.append(f"{pre}.restart = {a['restart']!r}: expected true or false")
         for o in a.get("outputs", []):
             if o not in dofs:
@@ -423,8 +422,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if a["scale"] not in ("all", "v"):
             out.append(f"{pre}.scale = {a.get('scale')!r}: expected 'all' (the amplitudes "
                        "multiply the whole motion) or 'v' (only the normal motion)")
-        if "samples" in a:  # the loops keep orders 0 and 1 (run.run_loops)
-            samples_rule(f"{pre}.samples", a["samples"], 1, out)
+        samples_rule(f"{pre}.samples", a["samples"], 1, out)  # the loops keep orders 0, 1
     if kind == "transient":
         number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
         for k in ("ramp_time", "settle_time"):
@@ -443,13 +441,10 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                 isinstance(x, (int, float)) and x > 0 for x in f)):
             out.append(f"{pre}.frequencies = {f!r}: expected a list of frequencies > 0 (rad/s)")
         for k in ("steps_per_period", "max_periods"):
-            if k in a:
-                number(f"{pre}.{k}", a[k], out, positive=True, integer=True)
-        if "ramp_periods" in a:
-            number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True, integer=True)
+            number(f"{pre}.{k}", a[k], out, positive=True, integer=True)
+        number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True, integer=True)
         for k in ("ramp_time", "settle_time"):
-            if k in a:
-                number(f"{pre}.{k}", a[k], out, nonneg=True)
+            number(f"{pre}.{k}", a[k], out, nonneg=True)
         if has_lag(data):
             out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
                        "with 'lag'); use harmonic balance")
@@ -458,7 +453,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
             out.append(f"{pre}: time integration takes loads of harmonic 0 and 1 only, the "
                        f"case has {sorted(orders)}")
         names = [x.get("name") for x in data.get("analysis", []) if isinstance(x, dict)]
-        if "compare" in a and a["compare"] not in names:
+        if a["compare"] and a["compare"] not in names:  # "": no comparison
             out.append(f"{pre}.compare = {a['compare']!r}: no analysis of that name; known: "
                        f"{names}")
 

@@ -19,6 +19,7 @@ from microslip.pipeline.case import specs
 from microslip.pipeline.friction.laws import slip_share
 from microslip.pipeline.friction.states import STATE_NAMES, STICK
 from microslip.pipeline.results import schema
+from microslip.pipeline.results.file import attr_table, attr_text
 
 from . import maps, plots, previews, shapes
 
@@ -40,14 +41,15 @@ class Options:
     map_types: tuple[str, ...] | None = None
 
 
-def _text(value) -> str:
-    return value.decode() if isinstance(value, bytes) else str(value)
+def analysis_spec(g: h5py.Group) -> specs.Analysis:
+    """The spec of an analysis group, from its record (what its pictures are drawn by)."""
+    return specs.from_record(attr_table(g.attrs))
 
 
 def _list(value) -> list:
     """An attribute written as a JSON list or as an array."""
     if isinstance(value, (str, bytes)):
-        return list(json.loads(_text(value) or "[]"))
+        return list(json.loads(attr_text(value) or "[]"))
     return list(np.atleast_1d(value))
 
 
@@ -62,13 +64,13 @@ def curves(g: h5py.Group) -> list[tuple[str, h5py.Group]]:
 def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, list[dict]]]:
     """(parameter, output -> line series, contact -> static-force line series) of an frf
     analysis group, with the linear limits where written."""
-    par = specs.from_record(g.attrs).parameter
+    par = analysis_spec(g).parameter
     series: dict[str, list[dict]] = {}
     static: dict[str, list[dict]] = {}
     for _, c in curves(g):
-        outs = [_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
-        style = STYLE.get(_text(c.attrs.get("method", "")), "-")
-        label = _text(c.attrs.get("label", "")) or None
+        outs = [attr_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
+        style = STYLE.get(attr_text(c.attrs.get("method", "")), "-")
+        label = attr_text(c.attrs.get("label", "")) or None
         x, y, at = _with_peak(c)
         tp = c["turning_points"][()] if "turning_points" in c else np.zeros(0, int)
         tp = folds(c["parameter"][()], tp)
@@ -80,7 +82,7 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
                                              "jumps": jumps + (jumps >= at)})
         for contact, cd in c.get(schema.CONTACTS, {}).items():
             for what, y in static_lines(cd["static_force"][()],
-                                        [_text(x) for x in cd["columns"][()]]):
+                                        [attr_text(x) for x in cd["columns"][()]]):
                 static.setdefault(contact, []).append({
                     "x": c["parameter"][()], "y": y, "ls": style, "jumps": jumps,
                     "label": ", ".join(s for s in (label, what) if s)})
@@ -94,7 +96,7 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
             colour = f"C{masses.index(mass) % 10}"
         for k, n in enumerate(series):
             series[n].append({"x": lg["omega"][()], "y": lg["response"][:, k],
-                              "label": _text(lg.attrs["label"]), "lw": 1.0, "color": colour,
+                              "label": attr_text(lg.attrs["label"]), "lw": 1.0, "color": colour,
                               "ls": ":" if key == schema.LINEAR_FREE else "-."})
     return par, series, static
 
@@ -118,7 +120,7 @@ def _with_peak(c: h5py.Group) -> tuple[np.ndarray, np.ndarray, int]:
     (inserted at the end index, len(x), when there is none)."""
     x, y = c["parameter"][()], c["response"][()]
     for _, p in sorted(c.get(schema.MAPS, {}).items()):
-        if _text(p.attrs["what"]) != "peak" or not len(x):
+        if attr_text(p.attrs["what"]) != "peak" or not len(x):
             continue
         v = float(p.attrs["parameter"])
         if np.any(x == v):
@@ -163,7 +165,7 @@ def map_marks(g: h5py.Group) -> dict[str, list[dict]]:
     frequency), labelled by their letter."""
     marks: dict[str, list[dict]] = {}
     for letter, c, p in _map_groups(g):
-        outs = [_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
+        outs = [attr_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
         for k, n in enumerate(outs):
             marks.setdefault(n, []).append({
                 "x": [p.attrs["parameter"]], "y": [p["response"][k]], "style": "ko",
@@ -175,7 +177,7 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Every picture of an frf analysis: the response of each output (with the linear
     limits and the map points marked), the static forces of each contact, and the maps."""
     par, series, static = frf_series(g)
-    measure = specs.from_record(g.attrs).measure
+    measure = analysis_spec(g).measure
     marks = map_marks(g)
     normalised = any(bool(c.attrs.get("normalised", False)) for _, c in curves(g))
     paths = []
@@ -203,7 +205,7 @@ def slip_at_peaks(g: h5py.Group) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     x, shares = [], {}
     for _, c in curves(g):
         peaks = [p for _, p in sorted(c.get(schema.MAPS, {}).items())
-                 if _text(p.attrs["what"]) == "peak"]
+                 if attr_text(p.attrs["what"]) == "peak"]
         value = c.attrs.get("family_value", "")
         if not peaks or isinstance(value, (str, bytes)):
             continue
@@ -226,7 +228,7 @@ def slip_growth(g: h5py.Group, name: str, out: Path) -> list[Path]:
     x, shares = slip_at_peaks(g)
     if len(x) < 2:
         return []
-    family = specs.from_record(g.attrs).family
+    family = analysis_spec(g).family
     series = [{"x": x, "y": v, "label": k, "lw": 2.2 if k.startswith("all") else 1.2,
                "ls": ":" if "not stuck" in k else "-"} for k, v in shares.items()]
     path = out / f"{name}_slip.png"
@@ -259,10 +261,10 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     """The points of an frf analysis that get maps: the case's (each curve's maps/ group),
     or, with ``at``, the computed point of each curve nearest that parameter value."""
     out = []
-    par = specs.from_record(g.attrs).parameter
+    par = analysis_spec(g).parameter
     if at is not None:
         for _, c in curves(g):
-            label = _text(c.attrs.get("label", ""))
+            label = attr_text(c.attrs.get("label", ""))
             if schema.PATCHES not in c or not len(c["parameter"]):
                 continue
             i = int(np.argmin(np.abs(c["parameter"][()] - at)))
@@ -273,7 +275,7 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
                                 {p: pg[p]["static"][i] for p in pg}))
         return out
     for letter, c, p in _map_groups(g):
-        label = _text(c.attrs.get("label", ""))
+        label = attr_text(c.attrs.get("label", ""))
         pg = p[schema.PATCHES]
         what = _what(p, par)
         out.append(MapPoint(f"{letter}: {label}\n{what}" if label else f"{letter}: {what}",
@@ -285,7 +287,7 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
 
 def _what(p: h5py.Group, par: str) -> str:
     """A map point's description ("peak" with where it is)."""
-    what = _text(p.attrs["what"])
+    what = attr_text(p.attrs["what"])
     if what == "peak":
         what += f" at {par} {float(p.attrs['parameter']):.6g}"
     return what
@@ -296,7 +298,7 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
     column per patch. Nothing when the analysis has no map points."""
     points = map_points(g, options.at)
     kinds = options.map_types if options.map_types is not None else \
-        specs.from_record(g.attrs).map_types
+        analysis_spec(g).map_types
     if not points or not kinds:
         return []
     grids = contact_grids(g.file)
@@ -327,14 +329,14 @@ def frf_shapes(g: h5py.Group, name: str, out: Path, options: Options = Options()
                ) -> list[Path]:
     """The deformed sector and full disk at every map point that stored its shape,
     ``<name>_shape_<letter>.png``."""
-    par = specs.from_record(g.attrs).parameter
+    par = analysis_spec(g).parameter
     panel = shapes.PANEL if options.panel == maps.PANEL else options.panel
     paths = []
     for letter, c, p in _map_groups(g):
         found = shapes.read(g.file, p)
         if found is None:
             continue
-        label = _text(c.attrs.get("label", ""))
+        label = attr_text(c.attrs.get("label", ""))
         title = f"{name} ({letter}): " + ", ".join(x for x in (label, _what(p, par)) if x)
         paths.append(shapes.draw(out / f"{name}_shape_{letter}.png", title, *found, panel))
     return paths
@@ -360,10 +362,10 @@ def _seen(grids: Mapping[str, maps.PatchGrid], patches: list[str]) -> str:
 def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """The peak response against the parameter (optimization or performance curve), its
     minimum marked where the parameter is a preload or a mass, with the linear levels."""
-    spec = specs.from_record(g.attrs)
+    spec = analysis_spec(g)
     par, output, (lo, hi) = spec.parameter, spec.output, spec.window
     series = [{"x": c["parameter"][()], "y": c["amplitude"][()],
-               "label": _text(c.attrs.get("label", "")) or None} for _, c in curves(g)]
+               "label": attr_text(c.attrs.get("label", "")) or None} for _, c in curves(g)]
     for key, label, style in ((schema.LEVEL_FREE, "free (no damper)", ":"),
                               (schema.LEVEL_STUCK, "fully stuck", "-.")):
         if key in g:
@@ -389,7 +391,7 @@ def loops(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> 
     two_d = int(c.attrs["dim"]) == 2
     mu = float(c.attrs["mu"])
     work = np.abs(T).max() * np.abs(u).max()  # W to 3 digits, round-off (vs. T u) shown as 0
-    what = _text(c.attrs["motion"])
+    what = attr_text(c.attrs["motion"])
     loops_ = []
     for i, (amp, state, w) in enumerate(zip(c["motion_amplitude"][()], c["state"][()],
                                             c["dissipation"][()], strict=True)):
@@ -398,8 +400,8 @@ def loops(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> 
         loops_.append({"u": u[i, 0], "T": T[i] if two_d else T[i, 0], "limit": mu * N[i],
                        "label": label})
     path = out / f"{name}.png"
-    plots.loops(path, f"{name}: law {_text(c.attrs['law'])}, contact "
-                f"{_text(c.attrs['contact'])}", loops_, two_d=two_d)
+    plots.loops(path, f"{name}: law {attr_text(c.attrs['law'])}, contact "
+                f"{attr_text(c.attrs['contact'])}", loops_, two_d=two_d)
     return [path]
 
 
@@ -407,7 +409,7 @@ def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Steady responses by time integration as markers over the FRF they are compared with
     (the analysis ``compare`` names), per output; the static contact forces likewise."""
     c = g[schema.curve(0)]
-    spec = specs.from_record(g.attrs)
+    spec = analysis_spec(g)
     compare = spec.compare
     ref = g.file.get(compare) if compare else None
     _, series, static = frf_series(ref) if ref is not None else ("", {}, {})
@@ -428,7 +430,7 @@ def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
         paths.append(path)
     measure = spec.measure
     shown = c["response"][()]
-    for k, output in enumerate(_text(x) for x in _list(c.attrs["outputs"])):
+    for k, output in enumerate(attr_text(x) for x in _list(c.attrs["outputs"])):
         path = out / f"{name}_{output}.png"
         plots.curves(path, f"{name}: response of {output}", plots.LABELS["frequency"],
                      series.get(output, []), MEASURE_LABEL[measure].format(output),
@@ -445,12 +447,12 @@ def transient(g: h5py.Group, name: str, out: Path, options: Options = Options()
     steps = []
     for key in sorted(k for k in g if schema.is_step(k)):
         st = g[key]
-        contacts = [_text(x) for x in _list(st.attrs.get(schema.CONTACTS, "[]"))]
+        contacts = [attr_text(x) for x in _list(st.attrs.get(schema.CONTACTS, "[]"))]
         if not contacts:
             continue
-        outputs = [_text(x) for x in _list(st.attrs["outputs"])]
+        outputs = [attr_text(x) for x in _list(st.attrs["outputs"])]
         q, first = st["q"][()], st[schema.CONTACTS][contacts[0]]
-        steps.append({"t": st["t"][()], "label": _text(st.attrs["label"]),
+        steps.append({"t": st["t"][()], "label": attr_text(st.attrs["label"]),
                       "outputs": {n: q[:, i] for i, n in enumerate(outputs)},
                       "T": first["T"][()][:, 0, 0],
                       "limit": float(first.attrs["mu"]) * first["N"][()][:, 0],
@@ -479,7 +481,7 @@ def render(results: Path, out: Path | None = None, options: Options = Options(),
     paths = []
     with open_results(results) as f:
         for name, g in f.items():
-            kind = _text(g.attrs.get("type", ""))
+            kind = attr_text(g.attrs.get("type", ""))
             if kind in DRAWERS and (analyses is None or name in analyses):
                 paths += DRAWERS[kind](g, name, out, options)
     return paths

@@ -17,7 +17,7 @@ from vtkmodules.vtkCommonCore import vtkObject
 
 from microslip.geometry.mesh import Mesh, rotation_z
 from microslip.pipeline.results import schema
-from microslip.pipeline.results.file import ATTRS
+from microslip.pipeline.results.file import ATTRS, attr_text
 
 BODY_COLOURS = ("lightsteelblue", "orange", "palegreen", "plum", "khaki")
 PATCH_COLOURS = ("red", "blue", "magenta", "darkgreen")
@@ -27,11 +27,15 @@ TITLE_ROWS = (1, 12)  # heights of the title strip and of the model below it
 
 @dataclass(frozen=True)
 class BodyView:
-    """One body's outer surface: points (p, 3) [m], triangles (t, 3) into them."""
+    """One body's outer surface: its mesh nodes (p,) (where the shapes are given), their
+    points (p, 3) [m], triangles (t, 3) into them (normals out of the body); whether the
+    body is a cyclic sector."""
 
     name: str
+    nodes: np.ndarray
     points: np.ndarray
     triangles: np.ndarray
+    cyclic: bool
 
     def polydata(self) -> pv.PolyData:
         faces = np.hstack([np.full((len(self.triangles), 1), 3), self.triangles]).ravel()
@@ -78,7 +82,8 @@ class MeshView:
         for body in sorted(mesh.bodies):
             triangles = mesh.surface(body)
             nodes = np.unique(triangles)
-            bodies.append(BodyView(body, mesh.points[nodes], np.searchsorted(nodes, triangles)))
+            bodies.append(BodyView(body, nodes, mesh.points[nodes],
+                                   np.searchsorted(nodes, triangles), body in mesh.cyclic))
         cyclic = tuple(CyclicView(b, mesh.points[c.left], mesh.points[c.right], c.sectors)
                        for b, c in sorted(mesh.cyclic.items()))
         patches = tuple(PatchView(name, p.body_a, p.body_b, mesh.patch_points(name, "a"),
@@ -91,26 +96,28 @@ class MeshView:
     def from_results(cls, f) -> MeshView:
         """The view a results file (h5py.File) keeps: /geometry, /surfaces, /contact_grids."""
         geo = f[schema.GEOMETRY]
-        bodies = tuple(BodyView(name, g["points"][()], g["triangles"][()])
+        bodies = tuple(BodyView(name, g["nodes"][()], g["points"][()], g["triangles"][()],
+                                bool(g.attrs["cyclic"]))
                        for name, g in sorted(f[schema.SURFACES].items()))
         cyclic = tuple(CyclicView(name, g["left"][()], g["right"][()], int(g.attrs["sectors"]))
                        for name, g in sorted(geo.get(schema.CYCLIC, {}).items()))
-        patches = tuple(PatchView(name, _text(g.attrs["body_a"]), _text(g.attrs["body_b"]),
+        patches = tuple(PatchView(name, attr_text(g.attrs["body_a"]), attr_text(g.attrs["body_b"]),
                                   g["points"][()], g["points_b"][()],
                                   int(g.attrs["b_sector_offset"]))
                         for name, g in sorted(f.get(schema.CONTACT_GRIDS, {}).items()))
-        return cls(_text(geo.attrs["model"]), int(geo.attrs["nodes"]),
+        return cls(attr_text(geo.attrs["model"]), int(geo.attrs["nodes"]),
                    int(geo.attrs["tetrahedra"]), bodies, cyclic, patches)
 
+    def surface_datasets(self) -> dict:
+        """/surfaces as results.file writes it (what the previews and shapes draw on)."""
+        return {b.name: {ATTRS: {"cyclic": b.cyclic}, "nodes": b.nodes, "points": b.points,
+                         "triangles": b.triangles} for b in self.bodies}
+
     def cyclic_datasets(self) -> dict:
-        """/geometry/cyclic as results.file writes it (the surfaces are /surfaces, the
-        patches /contact_grids: what the shapes and the maps draw too)."""
+        """/geometry/cyclic as results.file writes it (the patches are /contact_grids, with
+        the maps' grids)."""
         return {c.body: {"left": c.left, "right": c.right, ATTRS: {"sectors": c.sectors}}
                 for c in self.cyclic}
-
-
-def _text(value) -> str:
-    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def patch_surface(points: np.ndarray) -> pv.StructuredGrid:

@@ -38,6 +38,8 @@ def versions() -> dict[str, str]:
 
 
 def _attr(value):
+    """A value as an HDF5 attribute: tables and lists but numeric ones as JSON text
+    (:func:`attr_value` reads it back)."""
     if isinstance(value, (dict, list, tuple)) and not (
             isinstance(value, (list, tuple)) and value and all(
                 isinstance(v, (int, float)) for v in value)):
@@ -45,6 +47,30 @@ def _attr(value):
     if value is None:
         return ""
     return value
+
+
+def attr_text(value) -> str:
+    """An attribute as text (h5py gives bytes or str)."""
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def attr_value(value):
+    """An attribute as :func:`_attr` wrote it, back in TOML form: JSON text as tables and
+    lists, numpy scalars and arrays as Python numbers and lists."""
+    if isinstance(value, bytes):
+        value = value.decode()
+    if isinstance(value, str) and value.startswith(("[", "{")):
+        return json.loads(value)
+    if isinstance(value, np.ndarray):
+        return [attr_value(v) for v in value.tolist()]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def attr_table(attrs) -> dict:
+    """Every attribute of a group (``h5py`` attrs), read back by :func:`attr_value`."""
+    return {k: attr_value(attrs[k]) for k in attrs}
 
 
 class ResultsWriter:
