@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import elements
 from .mesh import ContactPatch, Mesh, rotation_z
 
 
@@ -28,7 +29,8 @@ def disk_node_map(sector: Mesh) -> np.ndarray:
     for cyc in sector.cyclic.values():
         shared_left[cyc.left] = True
     used = np.zeros(n, dtype=bool)
-    used[sector.tetrahedra.ravel()] = True
+    for c in sector.cells.values():
+        used[c.ravel()] = True
     own = np.flatnonzero(used & ~shared_left)
     node_map[:, own] = np.arange(ns * len(own)).reshape(ns, len(own))
     for cyc in sector.cyclic.values():
@@ -49,7 +51,8 @@ def full_disk(sector: Mesh) -> Mesh:
     pairs copy k of body_a with copy k+s of body_b, so every full-disk patch is a plain
     coincident pair (b_sector_offset = 0).
 
-    Shapes: points (Ns * n_unique, 3), tetrahedra (Ns * n_tets, 4). Needs one common Ns.
+    Shapes: points (Ns * n_unique, 3), each element shape Ns times the sector's. Needs one
+    common Ns.
     """
     ns = sector_count(sector)
     phi = 2 * np.pi / ns
@@ -61,14 +64,21 @@ def full_disk(sector: Mesh) -> Mesh:
     for k in range(ns):
         points[node_map[k, own]] = sector.points[own] @ rotation_z(k * phi).T
 
-    tets, bodies, offset = [], {}, 0
+    cells = {shape: [] for shape in elements.SHAPES}  # shape -> copies' corner arrays
+    count = dict.fromkeys(elements.SHAPES, 0)
+    owned: dict[tuple[str, int], list[tuple[str, np.ndarray]]] = {}  # (body, k) -> elements
     for name, idx in sector.bodies.items():
-        copies = []
         for k in range(ns):
-            t = node_map[k][sector.tetrahedra[idx]]
-            tets.append(t)
-            copies.append(np.arange(offset, offset + len(t)))
-            offset += len(t)
+            for shape, c in sector.element_cells(idx).items():
+                cells[shape].append(node_map[k][c])
+                owned.setdefault((name, k), []).append(
+                    (shape, np.arange(count[shape], count[shape] + len(c))))
+                count[shape] += len(c)
+    start = dict(zip(elements.SHAPES, np.cumsum([0, *count.values()])[:-1], strict=True))
+    bodies = {}
+    for name in sector.bodies:
+        copies = [np.concatenate([start[shape] + i for shape, i in owned[name, k]])
+                  for k in range(ns)]
         if name in sector.cyclic:
             bodies[name] = np.concatenate(copies)
         else:
@@ -94,9 +104,15 @@ def full_disk(sector: Mesh) -> Mesh:
     return Mesh(
         model=f"{sector.model}_full",
         points=points,
-        tetrahedra=np.vstack(tets),
+        tetrahedra=_stacked(cells["tetra"], "tetra"),
         bodies=bodies,
         node_sets=node_sets,
         contacts=contacts,
         parameters={**sector.parameters, "full_disk": True},
+        hexahedra=_stacked(cells["hexahedron"], "hexahedron"),
+        wedges=_stacked(cells["wedge"], "wedge"),
     )
+
+
+def _stacked(parts: list[np.ndarray], shape: str) -> np.ndarray:
+    return np.vstack(parts) if parts else elements.empty(shape)

@@ -26,6 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from . import elements
+
+#: The Mesh fields holding each element shape, in element-numbering order.
+_FIELDS = {"tetrahedra": "tetra", "hexahedra": "hexahedron", "wedges": "wedge"}
+
 #: Geometric matching tolerance of cyclic faces and contact grids (m).
 MATCH_TOL = 1e-9
 
@@ -159,18 +164,22 @@ class ContactPatch:
 
 @dataclass(frozen=True)
 class Mesh:
-    """Linear tetrahedral mesh of one model with bodies, named sets, cyclic faces, contacts.
+    """Solid mesh of one model with bodies, named sets, cyclic faces, contacts.
 
-    model:      model name ("blisk_sector", "root_joint", "beam", "annular_sector")
+    model:      model name ("blisk_sector", "root_joint", "beam", "annular_sector",
+                "import")
     points:     (n_nodes, 3) float64 node coordinates (m)
-    tetrahedra: (n_tets, 4) int64 node indices, positively oriented
-    bodies:     body name -> (n_body_tets,) int64 tet indices; bodies partition the tets
-                and share no node
+    tetrahedra: (n_tets, 4) int64 node indices, positively oriented (see ``cells``)
+    bodies:     body name -> (n_body_elements,) int64 element indices; the elements are
+                numbered tetrahedra first, then hexahedra, then wedges; bodies partition
+                the elements and share no node
     node_sets:  name -> sorted unique int64 node indices
     cyclic:     body name -> its :class:`CyclicBoundary` (sector bodies only)
     contacts:   patch name -> :class:`ContactPatch`
     parameters: JSON-serialisable parameters that built the mesh (plus derived values
                 under "derived", e.g. CAD volumes and the damper's nominal mass)
+    hexahedra:  (n_hex, 8) int64 corner node indices, wedges: (n_wedge, 6): the other
+                element shapes of an imported mesh (corner order: ``geometry.cells``)
     """
 
     model: str
@@ -181,6 +190,8 @@ class Mesh:
     cyclic: dict[str, CyclicBoundary] = field(default_factory=dict)
     contacts: dict[str, ContactPatch] = field(default_factory=dict)
     parameters: dict = field(default_factory=dict)
+    hexahedra: np.ndarray = field(default_factory=lambda: elements.empty("hexahedron"))
+    wedges: np.ndarray = field(default_factory=lambda: elements.empty("wedge"))
 
     # ------------------------------------------------------------------ checks
     def __post_init__(self) -> None:
@@ -189,21 +200,24 @@ class Mesh:
             raise MeshValidationError(f"points: expected shape (n, 3), got {points.shape}")
         if not np.all(np.isfinite(points)):
             raise MeshValidationError("points: non-finite coordinates")
-        tets = _index_array("tetrahedra", self.tetrahedra, 2)
-        if tets.shape[1] != 4:
-            raise MeshValidationError(f"tetrahedra: expected shape (m, 4), got {tets.shape}")
-        n = len(points)
-        if tets.size and (tets.min() < 0 or tets.max() >= n):
-            raise MeshValidationError(f"tetrahedra: indices outside [0, {n})")
         points = _frozen(points)
         object.__setattr__(self, "points", points)
-        object.__setattr__(self, "tetrahedra", tets)
-        vol = signed_volumes(points, tets)
-        if vol.size and vol.min() <= 0.0:
-            raise MeshValidationError(
-                f"tetrahedra: {int((vol <= 0).sum())} elements not positively oriented"
-            )
-        object.__setattr__(self, "bodies", self._checked_bodies(len(tets)))
+        for name, shape in _FIELDS.items():
+            arr = _index_array(name, getattr(self, name), 2)
+            corners = elements.SHAPES[shape]
+            if arr.shape[1] != corners:
+                raise MeshValidationError(
+                    f"{name}: expected shape (m, {corners}), got {arr.shape}")
+            if arr.size and (arr.min() < 0 or arr.max() >= len(points)):
+                raise MeshValidationError(f"{name}: indices outside [0, {len(points)})")
+            bad = elements.inverted(points, shape, arr)
+            if bad.size:
+                raise MeshValidationError(
+                    f"{name}: {bad.size} elements inverted or not positively oriented "
+                    f"(first: element {int(bad[0])})")
+            object.__setattr__(self, name, arr)
+        n = len(points)
+        object.__setattr__(self, "bodies", self._checked_bodies(self.element_count))
         object.__setattr__(self, "node_sets", self._checked_node_sets(n))
         self._check_cyclic()
         self._check_contacts()
@@ -212,22 +226,24 @@ class Mesh:
         except TypeError as exc:
             raise MeshValidationError(f"parameters are not JSON-serialisable: {exc}") from exc
 
-    def _checked_bodies(self, n_tets: int) -> dict[str, np.ndarray]:
+    def _checked_bodies(self, n_elements: int) -> dict[str, np.ndarray]:
         if not self.bodies:
             raise MeshValidationError("bodies: at least one body is required")
         bodies = {k: _index_array(f"bodies[{k!r}]", v, 1) for k, v in self.bodies.items()}
-        owner = np.full(n_tets, -1)
+        owner = np.full(n_elements, -1)
         for i, (name, idx) in enumerate(bodies.items()):
-            if idx.size and (idx.min() < 0 or idx.max() >= n_tets):
-                raise MeshValidationError(f"bodies[{name!r}]: tet indices outside [0, {n_tets})")
+            if idx.size and (idx.min() < 0 or idx.max() >= n_elements):
+                raise MeshValidationError(
+                    f"bodies[{name!r}]: element indices outside [0, {n_elements})")
             if np.any(owner[idx] >= 0):
-                raise MeshValidationError(f"bodies[{name!r}]: tets assigned to two bodies")
+                raise MeshValidationError(f"bodies[{name!r}]: elements assigned to two bodies")
             owner[idx] = i
         if np.any(owner < 0):
-            raise MeshValidationError(f"bodies: {int((owner < 0).sum())} tets belong to no body")
+            raise MeshValidationError(
+                f"bodies: {int((owner < 0).sum())} elements belong to no body")
         seen: set[int] = set()
         for name, idx in bodies.items():
-            nodes = set(np.unique(self.tetrahedra[idx]).tolist())
+            nodes = set(self._nodes_of(idx).tolist())
             if nodes & seen:
                 raise MeshValidationError(f"bodies[{name!r}] shares nodes with another body")
             seen |= nodes
@@ -277,9 +293,44 @@ class Mesh:
                 )
 
     # ----------------------------------------------------------------- queries
+    @property
+    def cells(self) -> dict[str, np.ndarray]:
+        """shape -> (m, corners) elements of that shape (every shape, in element order)."""
+        return {shape: getattr(self, name) for name, shape in _FIELDS.items()}
+
+    def element_summary(self) -> str:
+        """"4210 tetrahedra", "800 hexahedra + 40 wedges": the element count per shape."""
+        return " + ".join(f"{len(getattr(self, name))} {name}" for name in _FIELDS
+                          if len(getattr(self, name))) or "no elements"
+
+    @property
+    def element_count(self) -> int:
+        """Elements of every shape."""
+        return sum(len(c) for c in self.cells.values())
+
+    def element_cells(self, index: np.ndarray) -> dict[str, np.ndarray]:
+        """shape -> (m_s, corners) the given elements (global indices) of that shape, for
+        the shapes among them."""
+        index = np.asarray(index, dtype=np.int64)
+        out, start = {}, 0
+        for shape, c in self.cells.items():
+            inside = (index >= start) & (index < start + len(c))
+            if inside.any():
+                out[shape] = c[index[inside] - start]
+            start += len(c)
+        return out
+
+    def body_cells(self, body: str) -> dict[str, np.ndarray]:
+        """shape -> (m_s, corners) elements of ``body`` (the shapes it has)."""
+        return self.element_cells(self.bodies[body])
+
+    def _nodes_of(self, index: np.ndarray) -> np.ndarray:
+        parts = [c.ravel() for c in self.element_cells(index).values()]
+        return np.unique(np.concatenate(parts)) if parts else np.empty(0, dtype=np.int64)
+
     def body_nodes(self, body: str) -> np.ndarray:
-        """(k,) sorted unique int64 node indices used by the tets of ``body``."""
-        return np.unique(self.tetrahedra[self.bodies[body]])
+        """(k,) sorted unique int64 node indices used by the elements of ``body``."""
+        return self._nodes_of(self.bodies[body])
 
     def sector_angle(self, body: str) -> float:
         """phi = 2 pi / Ns of a cyclic body (rad)."""
@@ -304,12 +355,14 @@ class Mesh:
 
     def surface(self, body: str) -> np.ndarray:
         """(t, 3) int64 outer surface triangles of ``body`` (global node indices, normals
-        out of the body); a sector body's cyclic faces are part of it."""
-        return boundary_triangles(self.tetrahedra[self.bodies[body]])
+        out of the body; a quad face as two triangles); a sector body's cyclic faces are
+        part of it."""
+        return elements.triangulated(*elements.boundary_faces(self.body_cells(body)))
 
     def body_volume(self, body: str) -> float:
-        """Sum of the tet volumes of ``body`` (m^3)."""
-        return float(signed_volumes(self.points, self.tetrahedra[self.bodies[body]]).sum())
+        """Sum of the element volumes of ``body`` (m^3)."""
+        return float(sum(elements.volumes(self.points, shape, c).sum()
+                         for shape, c in self.body_cells(body).items()))
 
     @cached_property
     def content_hash(self) -> str:
@@ -325,6 +378,9 @@ class Mesh:
         put(self.model)
         put("points", self.points)
         put("tetrahedra", self.tetrahedra)
+        for name in ("hexahedra", "wedges"):  # (absent from tetrahedral meshes' digests)
+            if len(getattr(self, name)):
+                put(name, getattr(self, name))
         for name in sorted(self.bodies):
             put("body/" + name, self.bodies[name])
         for name in sorted(self.node_sets):
@@ -343,13 +399,15 @@ class Mesh:
 
     # ---------------------------------------------------------------------- IO
     def to_meshio(self):
-        """meshio.Mesh: one tetra block per body, cell data "body" (int), and per node set a
-        0/1 point-data mask named like the set ("/" replaced by "."), for ParaView."""
+        """meshio.Mesh: one cell block per body and shape, cell data "body" (int), and per node
+        set a 0/1 point-data mask named like the set ("/" replaced by "."), for ParaView."""
         import meshio
 
         names = list(self.bodies)
-        cells = [("tetra", self.tetrahedra[self.bodies[b]]) for b in names]
-        body_id = [np.full(len(self.bodies[b]), i, dtype=np.int32) for i, b in enumerate(names)]
+        blocks = [(i, shape, c) for i, b in enumerate(names)
+                  for shape, c in self.body_cells(b).items()]
+        cells = [(shape, _vtk_order(shape, c)) for _, shape, c in blocks]
+        body_id = [np.full(len(c), i, dtype=np.int32) for i, _, c in blocks]
         point_data = {}
         for name, idx in self.node_sets.items():
             mask = np.zeros(len(self.points), dtype=np.uint8)
@@ -371,9 +429,10 @@ class Mesh:
         path = Path(path)
         cells, phys, geom, field_data = [], [], [], {}
         tag = 1
-        for name, idx in self.bodies.items():
-            cells.append(("tetra", self.tetrahedra[idx]))
-            phys.append(np.full(len(idx), tag, dtype=np.int32))
+        for name in self.bodies:
+            for shape, c in self.body_cells(name).items():
+                cells.append((shape, c))
+                phys.append(np.full(len(c), tag, dtype=np.int32))
             field_data[name] = np.array([tag, 3])
             tag += 1
         for name, idx in self.node_sets.items():
@@ -402,21 +461,18 @@ class Mesh:
         return path
 
 
+def _vtk_order(shape: str, corners: np.ndarray) -> np.ndarray:
+    """Corners in VTK's order: its wedge has the bottom triangle's normal pointing away from
+    the top one (ours, Abaqus' and Gmsh's point to it)."""
+    return corners[:, [0, 2, 1, 3, 5, 4]] if shape == "wedge" else corners
+
+
 def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     """(m,) signed volumes (m^3) of tets (m, 4) over points (n, 3); > 0 when positive."""
-    p = np.asarray(points)[np.asarray(tets)]
-    d = p[:, 1:] - p[:, :1]
-    return np.einsum("ij,ij->i", d[:, 0], np.cross(d[:, 1], d[:, 2])) / 6.0
-
-
-# The faces of a positively oriented tet (v0..v3) with their normals pointing out of it.
-_TET_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+    return elements.volumes(points, "tetra", tets)
 
 
 def boundary_triangles(tets: np.ndarray) -> np.ndarray:
     """(t, 3) faces of positively oriented tets (m, 4) that belong to one tet only: the
     outer surface, each triangle ordered so that its normal points out of the solid."""
-    faces = np.asarray(tets, dtype=np.int64)[:, _TET_FACES].reshape(-1, 3)
-    _, index, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True,
-                                return_counts=True)
-    return faces[np.sort(index[count == 1])]
+    return elements.boundary_faces({"tetra": tets})[0]

@@ -57,7 +57,7 @@ def _moments(mesh, body_name, density):
     """Mass-weighted integrals over the body's straight-sided tets, in closed form per tet:
     first moments rho int x_i dV (3,) and second moments rho int x_i x_j dV (3, 3), with
     int x_i x_j dV = V / 20 (sum_a x_ai x_aj + (sum_a x_ai)(sum_a x_aj)) on a tet."""
-    tets = fem.body_tetrahedra(mesh, body_name)
+    tets = mesh.body_cells(body_name)["tetra"]
     p = mesh.points[tets]  # (m, 4, 3)
     V = np.abs(signed_volumes(mesh.points, tets))
     first = density * np.einsum("e,ei->i", V, p.mean(axis=1))

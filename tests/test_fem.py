@@ -18,8 +18,9 @@ def beam_mesh():
 
 def _doflocs(mesh, body, order):
     """DOF locations straight from scikit-fem (independent of BodyModel's tables)."""
-    tets = fem.body_tetrahedra(mesh, body)
-    skm, nodes = fem.skfem_mesh(np.asarray(mesh.points), tets)
+    tets = mesh.body_cells(body)["tetra"]
+    nodes, local = np.unique(tets, return_inverse=True)
+    skm = fe.MeshTet(np.asarray(mesh.points)[nodes].T, local.reshape(tets.shape).T)
     elem = fe.ElementVector(fe.ElementTetP2() if order == 2 else fe.ElementTetP1())
     return fe.Basis(skm, elem, intorder=2).doflocs.T  # (N, 3)
 

@@ -55,8 +55,8 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
         geo = data["geometry"]
         mesh = geometry.MODELS[geo["model"]](**geo.get("parameters", {}))
         stages.append(Stage("geometry: Gmsh mesh and previews", False, MESH_S, 0,
-                            f"{mesh.points.shape[0]} nodes, {mesh.tetrahedra.shape[0]} "
-                            "tetrahedra; every run"))
+                            f"{mesh.points.shape[0]} nodes, {mesh.element_summary()}; "
+                            "every run"))
         if "reduction" in data:
             orders = harmonics(case).orders if "harmonics" in data else None
             stages += _reduction(mesh, case.reduction_table, out / "models", orders,
@@ -109,7 +109,6 @@ def _point_seconds(unknowns: int, samples: int) -> float:
 
 def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[Stage]:
     """Per body and nodal diameter: the reduced model's cache file exists, or it runs."""
-    import numpy as np
 
     from microslip.pipeline.case.reduction import body_specs, needed_nodal_diameters
     from microslip.pipeline.fe import reduction
@@ -119,7 +118,7 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
     stages = []
     cyclic_cached = True
     for spec in sorted(body_specs(mesh, red, surfaces), key=lambda s: s.body not in mesh.cyclic):
-        nodes = np.unique(mesh.tetrahedra[mesh.bodies[spec.body]]).size
+        nodes = mesh.body_nodes(spec.body).size
         seconds = REDUCTION_S_PER_KNODE * nodes / 1000 * (1.0 if spec.order == 2 else 0.2)
         is_cyclic = spec.body in mesh.cyclic
         for h in (nds if is_cyclic else (None,)):

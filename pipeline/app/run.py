@@ -145,8 +145,8 @@ def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bo
     elapsed = time.perf_counter() - t
     m.write_msh(out / "mesh.msh")
     m.write(out / "mesh.vtu")
-    progress(f"[geometry] {m.model}: {m.points.shape[0]} nodes, {m.tetrahedra.shape[0]} "
-             f"tetrahedra, bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in "
+    progress(f"[geometry] {m.model}: {m.points.shape[0]} nodes, {m.element_summary()}, "
+             f"bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in "
              f"{elapsed:.2f} s; hash {m.content_hash[:12]}")
     if pictures:
         from microslip.pipeline.draw.previews import MeshView
@@ -182,7 +182,7 @@ def write_mesh(writer: ResultsWriter, mesh, elapsed: float) -> None:
     view = MeshView.from_mesh(mesh)  # each body's surface found once
     writer.write_group(writer.file, schema.GEOMETRY, {schema.CYCLIC: view.cyclic_datasets()}, {
         "model": mesh.model, "content_hash": mesh.content_hash, "nodes": mesh.points.shape[0],
-        "tetrahedra": mesh.tetrahedra.shape[0], "bodies": sorted(mesh.bodies),
+        "elements": mesh.element_summary(), "bodies": sorted(mesh.bodies),
         "contacts": sorted(mesh.contacts), "parameters": mesh.parameters,
         "status": "complete", "elapsed_s": elapsed, "type": "geometry"})
     write_contact_grids(writer, mesh)

@@ -71,7 +71,7 @@ class MeshView:
 
     model: str
     nodes: int
-    tetrahedra: int
+    elements: str  # the element count per shape ("4210 tetrahedra")
     bodies: tuple[BodyView, ...]
     cyclic: tuple[CyclicView, ...]
     patches: tuple[PatchView, ...]
@@ -89,7 +89,7 @@ class MeshView:
         patches = tuple(PatchView(name, p.body_a, p.body_b, mesh.patch_points(name, "a"),
                                   mesh.points[p.nodes_b], int(p.b_sector_offset))
                         for name, p in sorted(mesh.contacts.items()))
-        return cls(mesh.model, len(mesh.points), len(mesh.tetrahedra), tuple(bodies), cyclic,
+        return cls(mesh.model, len(mesh.points), mesh.element_summary(), tuple(bodies), cyclic,
                    patches)
 
     @classmethod
@@ -105,8 +105,10 @@ class MeshView:
                                   g["points"][()], g["points_b"][()],
                                   int(g.attrs["b_sector_offset"]))
                         for name, g in sorted(f.get(schema.CONTACT_GRIDS, {}).items()))
-        return cls(attr_text(geo.attrs["model"]), int(geo.attrs["nodes"]),
-                   int(geo.attrs["tetrahedra"]), bodies, cyclic, patches)
+        elements = (attr_text(geo.attrs["elements"]) if "elements" in geo.attrs
+                    else f"{int(geo.attrs['tetrahedra'])} tetrahedra")  # (before 0.24)
+        return cls(attr_text(geo.attrs["model"]), int(geo.attrs["nodes"]), elements, bodies,
+                   cyclic, patches)
 
     def surface_datasets(self) -> dict:
         """/surfaces as results.file writes it (what the previews and shapes draw on)."""
@@ -179,7 +181,7 @@ def _legend(pl: pv.Plotter, width: float, entries: int) -> None:
 
 def render_sector(mesh: MeshView, path: Path) -> Path:
     """The sector (or plain model) with each body in its own colour and mesh edges."""
-    pl = _plotter(f"{mesh.model}: {mesh.nodes} nodes, {mesh.tetrahedra} tets")
+    pl = _plotter(f"{mesh.model}: {mesh.nodes} nodes, {mesh.elements}")
     for i, body in enumerate(mesh.bodies):
         pl.add_mesh(body.polydata(), color=BODY_COLOURS[i % len(BODY_COLOURS)],
                     show_edges=True, edge_color="dimgray", line_width=0.5, label=body.name)

@@ -1,16 +1,17 @@
 """Finite-element assembly: stiffness and mass of 3D isotropic linear elasticity per body.
 
-Quadratic tetrahedra by default: scikit-fem's ``ElementVector(ElementTetP2())`` on the order-1
-Gmsh mesh (the P2 element adds one DOF triple per mesh edge; loading a Gmsh ``tetra10`` mesh would
-drop the boundary tags and renumber the nodes). Linear tetrahedra (``order=1``) as an option.
+Quadratic elements by default, on the corner mesh: scikit-fem's ``ElementTetP2``,
+``ElementHexS2`` and our ``ElementWedgeS2`` add one DOF triple per mesh edge (a quadratic
+file's mid-edge nodes are these DOFs; the importer checks that they sit on the straight
+edges). Linear elements (``order=1``) as an option. The elements and quadrature rules of
+each shape: ``fe.elements``.
 
-Quadrature is the cheapest exact rule for straight-sided (affine) tetrahedra: the stiffness
-integrand is a product of gradients (degree 2(p-1)) and the mass a product of shape functions
-(degree 2p), so P2 uses ``intorder=2`` / ``intorder=4`` and P1 ``intorder=0`` / ``intorder=2``.
-
-DOF numbering is scikit-fem's: for a vertex node the three DOFs (x, y, z) are
-``node_dofs[i]``; P2 edge DOFs follow. Contact and response nodes are mesh vertices and are mapped
-to DOFs through these explicit tables, never by a coordinate search.
+DOF numbering: the three DOFs (x, y, z) of vertex i of the body are ``node_dofs[i]``; the
+quadratic elements' edge DOFs follow, ``edge_dofs[e]`` for edge ``edges[e]``. A body of one
+shape is numbered as scikit-fem numbers it; a body mixing shapes assembles each shape's
+block with scikit-fem and sums the blocks on this numbering, the edge DOFs shared by edge.
+Contact and response nodes are mesh vertices and are mapped to DOFs through these explicit
+tables, never by a coordinate search.
 
 Units: SI (m, kg, Pa); matrices in N/m and kg.
 
@@ -33,23 +34,27 @@ from numpy.typing import NDArray
 from skfem.helpers import dot
 from skfem.models.elasticity import linear_elasticity
 
+from microslip.geometry import elements as geometry_elements
+
+from . import elements
+
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
 
-# Quadrature order (exact polynomial degree) per element order: (stiffness, mass).
-_INTORDER = {1: (0, 2), 2: (2, 4)}
+_ORDERS = (1, 2)
 
 
 class MeshLike(Protocol):
     """The fields of ``geometry.mesh.Mesh`` this stage reads."""
 
     points: FloatArray  # (n, 3) m
-    tetrahedra: IntArray  # (m, 4) linear tets
-    bodies: Mapping[str, IntArray]  # body -> tet indices
+    bodies: Mapping[str, IntArray]  # body -> element indices
     node_sets: Mapping[str, IntArray]  # name -> sorted node indices
     cyclic: Mapping[str, Any]  # body -> CyclicBoundary
     contacts: Mapping[str, Any]  # name -> ContactPatch
     content_hash: str
+
+    def body_cells(self, body: str) -> dict[str, IntArray]: ...  # shape -> corner nodes
 
 
 @dataclass(frozen=True)
@@ -99,9 +104,11 @@ class BodyModel:
     node_dofs: (n_v, 3) DOF indices of each vertex (x, y, z).
     edges: (n_e, 2) global vertex pairs (sorted per row) of the mesh edges.
     edge_dofs: (n_e, 3) DOF indices of the P2 edge nodes (empty for order 1).
-    boundary_facets: (n_f, 3) global vertex triples of the body's boundary triangles.
-    tetrahedra: (m_b, 4) global vertex indices of the body's tetrahedra (mesh order), from
-        which the scikit-fem basis (same DOF numbering) is rebuilt for loads.
+    boundary_facets: (n_f, 3) global vertex triples of the body's boundary triangles (a
+        quad face as two).
+    cells: shape -> (m_s, corners) global vertex indices of the body's elements of that
+        shape (mesh order), from which the scikit-fem bases (same DOF numbering) are
+        rebuilt for loads.
     stiffness, mass: (N, N) CSR [N/m], [kg].
     """
 
@@ -115,7 +122,7 @@ class BodyModel:
     edges: IntArray
     edge_dofs: IntArray
     boundary_facets: IntArray
-    tetrahedra: IntArray
+    cells: Mapping[str, IntArray]
     stiffness: sp.csr_matrix
     mass: sp.csr_matrix
 
@@ -199,31 +206,13 @@ def node_sets_union(mesh: MeshLike, names: Sequence[str]) -> IntArray:
 
 
 def _check_order(order: int) -> None:
-    if order not in _INTORDER:
+    if order not in _ORDERS:
         raise ValueError(f"order={order!r}: element order must be 1 (linear) or 2 (quadratic)")
-
-
-def body_tetrahedra(mesh: MeshLike, body: str) -> IntArray:
-    """(m_b, 4) global vertex indices of the body's tetrahedra."""
-    if body not in mesh.bodies:
-        raise ValueError(f"body={body!r} does not exist; available: {sorted(mesh.bodies)}")
-    return np.asarray(mesh.tetrahedra, dtype=np.int64)[np.asarray(mesh.bodies[body])]
-
-
-def _element(order: int) -> fe.ElementVector:
-    return fe.ElementVector(fe.ElementTetP2() if order == 2 else fe.ElementTetP1())
 
 
 @fe.BilinearForm
 def _mass_form(u, v, w):
     return w["rho"] * dot(u, v)
-
-
-def skfem_mesh(points: FloatArray, tetrahedra: IntArray) -> tuple[fe.MeshTet, IntArray]:
-    """scikit-fem mesh of a tet subset, and the global index of each of its vertices."""
-    nodes, local = np.unique(tetrahedra, return_inverse=True)
-    local = local.reshape(tetrahedra.shape)
-    return fe.MeshTet(np.ascontiguousarray(points[nodes].T), np.ascontiguousarray(local.T)), nodes
 
 
 def stiffness(basis: fe.Basis, material: Material) -> sp.csr_matrix:
@@ -237,29 +226,86 @@ def mass(basis: fe.Basis, material: Material) -> sp.csr_matrix:
     return _mass_form.assemble(basis, rho=material.density).tocsr()
 
 
+@dataclass(frozen=True, eq=False)
+class _Block:
+    """The elements of one shape in a body: their scikit-fem mesh and where each of its
+    DOFs goes in the body's numbering (``dof_map``: block DOF -> body DOF)."""
+
+    shape: str
+    mesh: fe.Mesh
+    dof_map: IntArray
+
+    def basis(self, order: int, degree: int) -> fe.CellBasis:
+        return elements.SHAPES[self.shape].basis(self.mesh, order, degree)
+
+
+def _blocks(points: FloatArray, cells: Mapping[str, IntArray], order: int
+            ) -> tuple[IntArray, IntArray, list[_Block]]:
+    """(vertices (n_v,), edges (n_e, 2) sorted global vertex pairs, blocks) of a body.
+
+    Vertex i's DOFs are 3 i + (0, 1, 2); with order 2, edge e's are 3 (n_v + e) + (0, 1, 2)
+    (scikit-fem's numbering when the body has one shape). Edges are numbered as the first
+    block that has them.
+    """
+    nodes = np.unique(np.concatenate([np.asarray(c).ravel() for c in cells.values()]))
+    key_of: dict[tuple[int, int], int] = {}
+    blocks = []
+    for shape, corners in cells.items():
+        kind = elements.SHAPES[shape]
+        local = np.searchsorted(nodes, corners)[:, list(kind.to_skfem)]
+        used, inverse = np.unique(local, return_inverse=True)
+        skm = kind.mesh(np.ascontiguousarray(points[nodes[used]].T),
+                        np.ascontiguousarray(inverse.reshape(local.shape).T))
+        dof_map = (3 * used[:, None] + np.arange(3)).ravel()
+        if order == 2:
+            pairs = np.sort(used[skm.edges.T], axis=1)
+            index = np.array([key_of.setdefault((int(a), int(b)), len(key_of))
+                              for a, b in pairs], dtype=np.int64)
+            dof_map = np.concatenate([dof_map, (3 * (len(nodes) + index[:, None])
+                                                + np.arange(3)).ravel()])
+        blocks.append(_Block(shape, skm, dof_map.astype(np.int64)))
+    edges = np.array(list(key_of), dtype=np.int64).reshape(-1, 2)
+    return nodes, nodes[edges] if len(edges) else edges, blocks
+
+
+def _summed(parts: list[tuple[sp.spmatrix, IntArray]], n: int) -> sp.csr_matrix:
+    """sum_b P_b^T A_b P_b (n, n): block matrices A_b scattered by their DOF maps."""
+    if len(parts) == 1 and np.array_equal(parts[0][1], np.arange(n)):
+        return parts[0][0].tocsr()
+    rows, cols, vals = [], [], []
+    for a, dof_map in parts:
+        a = a.tocoo()
+        rows.append(dof_map[a.row])
+        cols.append(dof_map[a.col])
+        vals.append(a.data)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n, n))
+
+
 def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> BodyModel:
     """Assemble K and M of one body of ``mesh`` (see the module docstring for the choices)."""
     _check_order(order)
     if not isinstance(material, Material):
         raise ValueError(f"material={material!r}: expected a fem.Material")
-    tets = body_tetrahedra(mesh, body)
-    if len(tets) == 0:
-        raise ValueError(f"body={body!r} has no tetrahedra")
+    if body not in mesh.bodies:
+        raise ValueError(f"body={body!r} does not exist; available: {sorted(mesh.bodies)}")
+    cells = mesh.body_cells(body)
+    if not cells:
+        raise ValueError(f"body={body!r} has no elements")
     points = np.asarray(mesh.points, dtype=np.float64)
-    skm, nodes = skfem_mesh(points, tets)
-    elem = _element(order)
-    k_order, m_order = _INTORDER[order]
-    basis_k = fe.Basis(skm, elem, intorder=k_order)
-    basis_m = fe.Basis(skm, elem, intorder=m_order)
-    K = stiffness(basis_k, material)
-    M = mass(basis_m, material)
+    nodes, edges, blocks = _blocks(points, cells, order)
+    n = 3 * (len(nodes) + (len(edges) if order == 2 else 0))
+    k_parts, m_parts = [], []
+    for block in blocks:
+        k_degree, m_degree = elements.SHAPES[block.shape].degrees[order]
+        k_parts.append((stiffness(block.basis(order, k_degree), material), block.dof_map))
+        m_parts.append((mass(block.basis(order, m_degree), material), block.dof_map))
+    K, M = _summed(k_parts, n), _summed(m_parts, n)
     K = ((K + K.T) * 0.5).tocsr()  # remove assembly round-off asymmetry
     M = ((M + M.T) * 0.5).tocsr()
-    dofs = basis_k.dofs
-    edges = nodes[skm.edges.T]
-    edge_dofs = (
-        dofs.edge_dofs.T.astype(np.int64) if order == 2 else np.empty((0, 3), dtype=np.int64)
-    )
+    vertex_dofs = 3 * np.arange(len(nodes))[:, None] + np.arange(3)
+    edge_dofs = (3 * (len(nodes) + np.arange(len(edges)))[:, None] + np.arange(3)
+                 if order == 2 else np.empty((0, 3), dtype=np.int64))
     return BodyModel(
         body=body,
         order=order,
@@ -267,11 +313,12 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
         mesh_hash=str(getattr(mesh, "content_hash", "")),
         nodes=nodes.astype(np.int64),
         points=points[nodes],
-        node_dofs=dofs.nodal_dofs.T.astype(np.int64),
+        node_dofs=vertex_dofs.astype(np.int64),
         edges=np.sort(edges, axis=1).astype(np.int64),
-        edge_dofs=edge_dofs,
-        boundary_facets=nodes[skm.facets[:, skm.boundary_facets()].T].astype(np.int64),
-        tetrahedra=tets,
+        edge_dofs=edge_dofs.astype(np.int64),
+        boundary_facets=geometry_elements.triangulated(
+            *geometry_elements.boundary_faces(cells)),
+        cells={shape: np.asarray(c, dtype=np.int64) for shape, c in cells.items()},
         stiffness=K,
         mass=M,
     )
@@ -294,24 +341,24 @@ def centrifugal_load(body: BodyModel) -> FloatArray:
     speed Omega is rho Omega^2 (x, y, 0) [N/m^3]; its consistent load is f_i = int rho (x, y, 0)
     . N_i dV, assembled with scikit-fem on the body's own basis (same DOF numbering as K and M).
     The integrand is a shape function (degree p) times a linear field, so ``intorder = p + 1``
-    is exact on straight-sided (affine) tetrahedra; as the field is linear, f = M g exactly,
+    is exact on straight-sided (affine) elements; as the field is linear, f = M g exactly,
     with g the interpolant of (x, y, 0).
 
     Not modelled: spin softening (the -Omega^2 M_c term of the rotating frame) and stress
     stiffening (the geometric stiffness of the centrifugal prestress): K and M stay those of
     the body at rest, this is the load only.
     """
-    if len(body.tetrahedra) == 0:
-        raise ValueError(f"body {body.body!r}: no tetrahedra to integrate the load over")
-    tets = body.tetrahedra
-    local = body.local_nodes(tets.ravel(), "tetrahedra").reshape(tets.shape)
-    # Same vertex order and connectivity as in ``assemble`` (skfem_mesh): same DOF numbering.
-    skm = fe.MeshTet(np.ascontiguousarray(body.points.T), np.ascontiguousarray(local.T))
-    basis = fe.Basis(skm, _element(body.order), intorder=body.order + 1)
-    f = _centrifugal_form.assemble(basis, rho=body.material.density)
-    if f.shape != (body.n_dofs,):
-        raise ValueError(f"body {body.body!r}: load has {f.shape[0]} DOFs, the body has "
-                         f"{body.n_dofs} (tetrahedra do not match the assembled body)")
+    if not body.cells:
+        raise ValueError(f"body {body.body!r}: no elements to integrate the load over")
+    # The same vertices, edges and blocks as in ``assemble``: the same DOF numbering.
+    points = np.zeros((int(body.nodes[-1]) + 1, 3))
+    points[body.nodes] = body.points
+    _, _, blocks = _blocks(points, body.cells, body.order)
+    f = np.zeros(body.n_dofs)
+    for block in blocks:
+        part = _centrifugal_form.assemble(block.basis(body.order, body.order + 1),
+                                          rho=body.material.density)
+        np.add.at(f, block.dof_map, part)
     return np.asarray(f, dtype=np.float64)
 
 

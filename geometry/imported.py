@@ -1,0 +1,324 @@
+"""Meshes from other tools: a mesh file read into a :class:`Mesh` (SI units, corner nodes).
+
+Formats, by suffix: CalculiX/Abaqus ``.inp``, Nastran ``.bdf`` / ``.nas`` / ``.dat``, Gmsh
+``.msh`` and everything else meshio reads (``.vtu``, ``.med``, ``.exo``, ...), all through
+meshio. Solid elements: 4- and 10-node tetrahedra, 8-, 20- and 27-node hexahedra, 6- and
+15-node wedges. A mesh keeps their corners; the mid-edge nodes of the quadratic ones are the
+quadratic elements' edge DOFs (``[reduction] order = 2``), which sit at the midpoints of the
+straight edges: :attr:`ImportReport.midnode_offset` says how far the file's were from them.
+
+Names the file gives carry over:
+
+* bodies: the groups of solid elements (Gmsh physical volumes, Abaqus element sets, Nastran
+  property ids as ``pid<N>``) that are disjoint and together hold every solid element; or
+  the groups the case names (``bodies = [...]``); or, without groups, one body ``"body"``.
+  Bodies share no node (touching bodies carry distinct, coincident nodes);
+* node sets: the file's node sets (Abaqus ``*NSET``), the nodes of every group of elements
+  (Gmsh physical points, curves and surfaces; element sets), under their own names.
+
+Element orientation: each shape's corners are taken in the orientation most of the file's
+elements of that shape have (readers differ, VTK mirrors the wedge); an element against it,
+or tangled, is an inverted element and an error.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import elements
+from .mesh import Mesh, MeshValidationError
+
+#: meshio cell type -> (our shape, corner count) of the solid elements read
+SOLID_TYPES = {
+    "tetra": "tetra", "tetra10": "tetra",
+    "hexahedron": "hexahedron", "hexahedron20": "hexahedron", "hexahedron27": "hexahedron",
+    "wedge": "wedge", "wedge15": "wedge",
+}
+#: meshio cell types that are not solids: their nodes form node sets, nothing else
+_FACE_TYPES = ("vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9")
+# The corners an element's mirror image takes: the same element, opposite orientation.
+_MIRROR = {"tetra": [0, 2, 1, 3], "hexahedron": [0, 3, 2, 1, 4, 7, 6, 5],
+           "wedge": [0, 2, 1, 3, 5, 4]}
+# Edges of the corner elements (corner pairs), where a quadratic element's mid nodes sit.
+_EDGES = {
+    "tetra": [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)],
+    "hexahedron": [(0, 1), (1, 2), (2, 3), (0, 3), (4, 5), (5, 6), (6, 7), (4, 7), (0, 4),
+                   (1, 5), (2, 6), (3, 7)],
+    "wedge": [(0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5), (0, 3), (1, 4), (2, 5)],
+}
+_NAME = re.compile(r"^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$")
+
+
+class MeshImportError(ValueError):
+    """A mesh file cannot be read into a Mesh; the message is one line naming what and why."""
+
+
+@dataclass(frozen=True)
+class Units:
+    """A unit system by the SI value of its length, mass and time units."""
+
+    name: str
+    length: float  # m
+    mass: float  # kg
+    time: float = 1.0  # s
+
+    @property
+    def force(self) -> float:
+        """N per force unit."""
+        return self.mass * self.length / self.time**2
+
+    @property
+    def stress(self) -> float:
+        """Pa per stress unit."""
+        return self.force / self.length**2
+
+    @property
+    def density(self) -> float:
+        """kg/m^3 per density unit."""
+        return self.mass / self.length**3
+
+
+_INCH, _LBF = 0.0254, 4.4482216152605
+#: The unit systems a file may be written in (``[geometry] units``).
+UNITS = {u.name: u for u in (
+    Units("SI", 1.0, 1.0),
+    Units("mm-t-s", 1e-3, 1e3),  # N, MPa, t/mm^3
+    Units("mm-kg-s", 1e-3, 1.0),  # mN, kPa, kg/mm^3
+    Units("in-lbf-s", _INCH, _LBF / _INCH),  # lbf, psi, lbf s^2/in^4 (slinch/in^3)
+)}
+
+
+@dataclass(frozen=True)
+class ImportReport:
+    """What reading the file found besides the mesh (for the run's log and the checks).
+
+    elements: meshio cell type -> count of the solid elements read; midnode_offset: the
+    largest distance of a quadratic element's mid node from its straight edge's midpoint,
+    relative to that edge's length (0 for a linear mesh); dropped_sets: the file's node sets
+    left empty by dropping mid nodes (they held nothing else).
+    """
+
+    elements: dict[str, int]
+    midnode_offset: float = 0.0
+    dropped_sets: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class ImportedMesh:
+    """The mesh and what reading it found."""
+
+    mesh: Mesh
+    report: ImportReport = field(default_factory=lambda: ImportReport({}))
+
+
+def read(path: str | Path):
+    """The file as a meshio.Mesh; MeshImportError (one line) if it is missing or unreadable."""
+    import meshio
+
+    path = Path(path)
+    if not path.is_file():
+        raise MeshImportError(f"{path}: no such file")
+    fmt = "nastran" if path.suffix.lower() in (".bdf", ".nas", ".dat") else None
+    try:
+        return meshio.read(path, file_format=fmt)
+    except Exception as exc:  # meshio raises anything from KeyError to IndexError
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise MeshImportError(f"{path}: not a readable mesh ({why})") from None
+
+
+def import_mesh(path: str | Path, units: str = "SI", bodies: tuple[str, ...] | None = None,
+                model: str = "import") -> ImportedMesh:
+    """Read a mesh file into a :class:`Mesh` in SI units (see the module).
+
+    units: the file's unit system (a key of :data:`UNITS`); bodies: the element groups that
+    are the bodies (None: found as the module says).
+    """
+    if units not in UNITS:
+        raise MeshImportError(f"units = {units!r}: expected one of {sorted(UNITS)}")
+    raw = read(path)
+    solids = [(i, b) for i, b in enumerate(raw.cells) if b.type in SOLID_TYPES]
+    unknown = sorted({b.type for b in raw.cells} - set(SOLID_TYPES) - set(_FACE_TYPES))
+    if unknown:
+        raise MeshImportError(
+            f"{path}: element type(s) {unknown} not supported; solids read: "
+            f"{sorted(set(SOLID_TYPES))}")
+    if not solids:
+        raise MeshImportError(f"{path}: no solid elements (tetrahedra, hexahedra, wedges)")
+    points = np.asarray(raw.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
+        raise MeshImportError(f"{path}: node coordinates must be finite 3D points")
+    groups = _element_groups(raw)
+    corners, offset = _corners(points, raw, solids, path)
+    body_of = _bodies(groups, solids, raw, bodies, path)
+
+    # keep the corner nodes only, in file order
+    shapes = list(elements.SHAPES)
+    used = np.zeros(len(points), dtype=bool)
+    for c in corners.values():
+        used[c.ravel()] = True
+    new = np.cumsum(used) - 1
+    # element numbering of the Mesh: by shape, then in file order
+    order = {s: [k for k, (i, b) in enumerate(solids) if SOLID_TYPES[b.type] == s]
+             for s in shapes}
+    start, first = 0, {}
+    for s in shapes:
+        for k in order[s]:
+            first[k] = start
+            start += len(solids[k][1].data)
+    body_index = {name: np.sort(np.concatenate([first[k] + idx for k, idx in parts.items()]))
+                  for name, parts in body_of.items()}
+    cells = {s: (np.concatenate([new[corners[k]] for k in order[s]]) if order[s]
+                 else elements.empty(s)) for s in shapes}
+
+    node_sets, dropped = _node_sets(raw, groups, used, new)
+    try:
+        mesh = Mesh(
+            model=model,
+            points=points[used] * UNITS[units].length,
+            tetrahedra=cells["tetra"],
+            hexahedra=cells["hexahedron"],
+            wedges=cells["wedge"],
+            bodies=body_index,
+            node_sets=node_sets,
+            parameters={"file": Path(path).name, "units": units},
+        )
+    except MeshValidationError as exc:
+        raise MeshImportError(f"{path}: {exc}") from None
+    count = {b.type: 0 for _, b in solids}
+    for _, b in solids:
+        count[b.type] += len(b.data)
+    return ImportedMesh(mesh, ImportReport(count, offset, dropped))
+
+
+def _element_groups(raw) -> dict[str, dict[int, np.ndarray]]:
+    """Group name -> cell block index -> element indices in that block: the file's element
+    sets, Gmsh physical groups and Nastran property ids."""
+    groups: dict[str, dict[int, np.ndarray]] = {}
+    for name, per_block in (raw.cell_sets or {}).items():
+        for i, idx in enumerate(per_block):
+            if idx is not None and len(idx):
+                groups.setdefault(name, {})[i] = np.asarray(idx, dtype=np.int64)
+    names = {(int(tag), int(dim)): name for name, (tag, dim) in (raw.field_data or {}).items()}
+    for key, prefix in (("gmsh:physical", None), ("nastran:ref", "pid")):
+        for i, tags in enumerate(raw.cell_data.get(key, [])):
+            if tags is None:
+                continue
+            dim = _DIM.get(raw.cells[i].type, 3)
+            tags = np.asarray(tags).astype(np.int64).ravel()
+            for tag in np.unique(tags):
+                name = (f"{prefix}{tag}" if prefix else names.get((int(tag), dim)))
+                if name is not None:
+                    groups.setdefault(name, {})[i] = np.flatnonzero(tags == tag)
+    return groups
+
+
+_DIM = {"vertex": 0, "line": 1, "line3": 1, "triangle": 2, "triangle6": 2, "quad": 2,
+        "quad8": 2, "quad9": 2}
+
+
+def _corners(points: np.ndarray, raw, solids, path) -> tuple[dict[int, np.ndarray], float]:
+    """Block index -> (m, corners) positively oriented corner nodes; and the largest mid-node
+    offset from its straight edge's midpoint, relative to the edge length."""
+    out, offset = {}, 0.0
+    for k, (i, block) in enumerate(solids):
+        shape = SOLID_TYPES[block.type]
+        data = np.asarray(block.data, dtype=np.int64)
+        c = data[:, : elements.SHAPES[shape]]
+        if data.shape[1] > c.shape[1]:
+            offset = max(offset, _midnode_offset(points, shape, c, data[:, c.shape[1]:]))
+        jac = elements.corner_jacobians(points, shape, c)
+        positive = (jac > 0).all(axis=1)
+        negative = (jac < 0).all(axis=1)
+        if negative.sum() > positive.sum():  # this reader's convention mirrors ours
+            c, positive = c[:, _MIRROR[shape]], negative
+        bad = np.flatnonzero(~positive)
+        if bad.size:
+            raise MeshImportError(
+                f"{path}: {bad.size} {block.type} element(s) inverted or tangled (first: "
+                f"element {int(bad[0]) + 1} of that type in the file)")
+        out[k] = c
+    return out, offset
+
+
+def _midnode_offset(points, shape, corners, extra) -> float:
+    """max over elements and mid nodes of min over the element's edges of |node - edge
+    midpoint| / edge length (order-free: readers order mid nodes differently)."""
+    edges = np.asarray(_EDGES[shape])
+    a, b = points[corners[:, edges[:, 0]]], points[corners[:, edges[:, 1]]]  # (m, e, 3)
+    mid, length = 0.5 * (a + b), np.linalg.norm(b - a, axis=2)
+    extra = extra[:, : len(edges)]  # a hexahedron27's face and centre nodes are not on edges
+    d = np.linalg.norm(points[extra][:, :, None, :] - mid[:, None, :, :], axis=3)
+    return float((d / length[:, None, :]).min(axis=2).max(initial=0.0))
+
+
+def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]]:
+    """Body name -> solid block position (in ``solids``) -> element indices in that block."""
+    position = {i: k for k, (i, _) in enumerate(solids)}
+    total = sum(len(b.data) for _, b in solids)
+    solid_groups = {name: {position[i]: idx for i, idx in g.items() if i in position}
+                    for name, g in groups.items()}
+    solid_groups = {n: g for n, g in solid_groups.items() if g}
+    sizes = {n: sum(len(v) for v in g.values()) for n, g in solid_groups.items()}
+    listing = ", ".join(f"{n} ({sizes[n]})" for n in sorted(solid_groups)) or "none"
+    if names is not None:
+        missing = [n for n in names if n not in solid_groups]
+        if missing:
+            raise MeshImportError(f"geometry.bodies: {missing} are not element groups of "
+                                  f"{path}; its element groups: {listing}")
+        chosen = {n: solid_groups[n] for n in names}
+    elif not solid_groups:
+        chosen = {"body": {k: np.arange(len(b.data)) for k, (_, b) in enumerate(solids)}}
+    else:
+        chosen = {n: g for n, g in solid_groups.items()
+                  if all(_disjoint(g, h) for m, h in solid_groups.items() if m != n)}
+        if sum(sizes[n] for n in chosen) != total:
+            raise MeshImportError(
+                f"{path}: its element groups overlap or leave elements out, so the bodies are "
+                f"not clear; name them in geometry.bodies (element groups: {listing})")
+    covered = sum(sum(len(v) for v in g.values()) for g in chosen.values())
+    if covered != total or any(not _disjoint(g, h) for n, g in chosen.items()
+                               for m, h in chosen.items() if n < m):
+        raise MeshImportError(f"geometry.bodies = {sorted(chosen)}: must hold every solid "
+                              f"element of {path} once ({total} elements)")
+    for name in chosen:
+        if not _NAME.match(name):
+            raise MeshImportError(f"{path}: body name {name!r} must be letters, digits, "
+                                  "'_', '.', '-'")
+    nodes = {n: np.unique(np.concatenate([np.asarray(solids[k][1].data)[idx].ravel()
+                                          for k, idx in g.items()])) for n, g in chosen.items()}
+    for n in chosen:
+        for m in chosen:
+            shared = np.intersect1d(nodes[n], nodes[m]).size if n < m else 0
+            if shared:
+                raise MeshImportError(
+                    f"{path}: bodies {n!r} and {m!r} share {shared} nodes; bodies in contact "
+                    "carry distinct, coincident nodes (or list them as one body)")
+    return chosen
+
+
+def _disjoint(g: dict[int, np.ndarray], h: dict[int, np.ndarray]) -> bool:
+    return all(np.intersect1d(g[k], h[k]).size == 0 for k in g.keys() & h.keys())
+
+
+def _node_sets(raw, groups, used, new) -> tuple[dict[str, np.ndarray], tuple[str, ...]]:
+    """The file's node sets and the nodes of its element groups, renumbered to the corner
+    nodes kept; the names left empty by that (sets of mid nodes only)."""
+    found: dict[str, np.ndarray] = {}
+    for name, idx in (raw.point_sets or {}).items():
+        found[name] = np.asarray(idx, dtype=np.int64).ravel()
+    for name, g in groups.items():
+        if name not in found:
+            found[name] = np.unique(np.concatenate(
+                [np.asarray(raw.cells[i].data)[idx].ravel() for i, idx in g.items()]))
+    sets, dropped = {}, []
+    for name, idx in sorted(found.items()):
+        kept = np.unique(new[idx[used[idx]]])
+        if kept.size:
+            sets[name] = kept
+        else:
+            dropped.append(name)
+    return sets, tuple(dropped)

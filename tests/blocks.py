@@ -1,0 +1,59 @@
+"""Structured blocks meshed with each element shape, for the element and import tests.
+
+A box [0, L] x [0, W] x [0, H] on an (nx, ny, nz) grid of cells, each cell a hexahedron,
+two wedges (its bottom and top split along the diagonal from corner 0 to 2, the same in
+every cell, so neighbours conform) or six tetrahedra (Kuhn's split along the diagonal 0-6,
+conforming likewise). ``distort`` moves the interior nodes at random (elements stay valid).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from microslip.geometry import Mesh
+
+# cell corners (VTK order) -> two wedges / six tetrahedra, positively oriented
+_WEDGES = [[0, 1, 2, 4, 5, 6], [0, 2, 3, 4, 6, 7]]
+_TETS = [[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]]
+
+
+def grid(size, cells, distort: float = 0.0, seed: int = 0):
+    """(points (n, 3), hexahedra (m, 8)) of the box ``size`` = (L, W, H) on ``cells`` =
+    (nx, ny, nz); interior nodes moved by up to ``distort`` x the cell size."""
+    (L, W, H), (nx, ny, nz) = size, cells
+    x, y, z = (np.linspace(0, s, n + 1) for s, n in zip(size, cells, strict=True))
+    P = np.stack(np.meshgrid(x, y, z, indexing="ij"), axis=-1).reshape(-1, 3)
+    ids = np.arange(len(P)).reshape(nx + 1, ny + 1, nz + 1)
+    if distort:
+        h = np.array([L / nx, W / ny, H / nz])
+        inner = ((P > 1e-12) & (P < np.array(size) - 1e-12)).all(axis=1)
+        rng = np.random.default_rng(seed)
+        P[inner] += distort * h * rng.uniform(-1, 1, (inner.sum(), 3))
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz),
+                                               indexing="ij"))
+    hexes = np.stack([ids[i, j, k], ids[i + 1, j, k], ids[i + 1, j + 1, k], ids[i, j + 1, k],
+                      ids[i, j, k + 1], ids[i + 1, j, k + 1], ids[i + 1, j + 1, k + 1],
+                      ids[i, j + 1, k + 1]], axis=1)
+    return P, hexes
+
+
+def block(shape: str, size=(1.0, 0.1, 0.1), cells=(10, 2, 2), distort: float = 0.0,
+          mixed: bool = False) -> Mesh:
+    """A one-body Mesh ("block") of the box in ``shape`` ("hexahedron", "wedge", "tetra");
+    ``mixed``: the cells with x < L / 2 hexahedra, the others two wedges each. Node sets:
+    "block/clamp" (x = 0), "block/tip" (x = L)."""
+    P, hexes = grid(size, cells, distort)
+    tets, wedges = np.empty((0, 4), int), np.empty((0, 6), int)
+    if mixed:
+        right = P[hexes].mean(axis=1)[:, 0] > size[0] / 2
+        wedges = hexes[right][:, _WEDGES].reshape(-1, 6)
+        hexes = hexes[~right]
+    elif shape == "wedge":
+        wedges, hexes = hexes[:, _WEDGES].reshape(-1, 6), np.empty((0, 8), int)
+    elif shape == "tetra":
+        tets, hexes = hexes[:, _TETS].reshape(-1, 4), np.empty((0, 8), int)
+    n = len(tets) + len(hexes) + len(wedges)
+    sets = {"block/clamp": np.flatnonzero(P[:, 0] < 1e-12),
+            "block/tip": np.flatnonzero(P[:, 0] > size[0] - 1e-12)}
+    return Mesh("block", P, tets, {"block": np.arange(n)}, node_sets=sets, hexahedra=hexes,
+                wedges=wedges)
