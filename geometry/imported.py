@@ -224,7 +224,7 @@ def _corners(points: np.ndarray, raw, solids, path) -> tuple[dict[int, np.ndarra
     """Block index -> (m, corners) positively oriented corner nodes; and the largest mid-node
     offset from its straight edge's midpoint, relative to the edge length."""
     out, offset = {}, 0.0
-    for k, (i, block) in enumerate(solids):
+    for k, (_, block) in enumerate(solids):
         shape = SOLID_TYPES[block.type]
         data = np.asarray(block.data, dtype=np.int64)
         c = data[:, : elements.SHAPES[shape]]

@@ -2,12 +2,13 @@
 the patch test (constant strain exactly) on distorted and mixed meshes, mass, rigid motion,
 and the cantilever's frequencies agreeing across shapes."""
 
+from math import factorial
+
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from math import factorial
-
 from blocks import block
+
 from microslip.geometry import elements as shapes
 from microslip.pipeline.fe import fem
 from microslip.pipeline.fe.elements import ElementWedgeS2, wedge_quadrature
