@@ -1,11 +1,12 @@
 """Meshes from other tools: a mesh file read into a :class:`Mesh` (SI units, corner nodes).
 
-Formats, by suffix: CalculiX/Abaqus ``.inp``, Nastran ``.bdf`` / ``.nas`` / ``.dat``, Gmsh
-``.msh`` and everything else meshio reads (``.vtu``, ``.med``, ``.exo``, ...), all through
-meshio. Solid elements: 4- and 10-node tetrahedra, 8-, 20- and 27-node hexahedra, 6- and
-15-node wedges. A mesh keeps their corners; the mid-edge nodes of the quadratic ones are the
-quadratic elements' edge DOFs (``[reduction] order = 2``), which sit at the midpoints of the
-straight edges: :attr:`ImportReport.midnode_offset` says how far the file's were from them.
+Formats, by suffix: CalculiX/Abaqus ``.inp`` (``geometry.abaqus``: meshio loses sets that
+span element types), Nastran ``.bdf`` / ``.nas`` / ``.dat``, Gmsh ``.msh`` and everything
+else meshio reads (``.vtu``, ``.med``, ``.exo``, ...) through meshio. Solid elements: 4- and
+10-node tetrahedra, 8-, 20- and 27-node hexahedra, 6- and 15-node wedges. A mesh keeps their
+corners; the mid-edge nodes of the quadratic ones are the quadratic elements' edge DOFs
+(``[reduction] order = 2``), which sit at the midpoints of the straight edges:
+:attr:`ImportReport.midnode_offset` says how far the file's were from them.
 
 Names the file gives carry over:
 
@@ -23,14 +24,17 @@ or tangled, is an inverted element and an error.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from . import elements
+from . import abaqus, elements
 from .mesh import Mesh, MeshValidationError
+from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 
 #: meshio cell type -> (our shape, corner count) of the solid elements read
 SOLID_TYPES = {
@@ -93,6 +97,41 @@ UNITS = {u.name: u for u in (
 
 
 @dataclass(frozen=True)
+class Selection:
+    """A node set chosen by geometry: the nodes of the bodies' outer surfaces (of ``body``
+    only, if given) within ``tolerance`` [m] of a region of the file's frame, in metres:
+
+    box: ((x0, y0, z0), (x1, y1, z1)) corners; plane: (point, normal); radius: the cylinder
+    of that radius about the sector's axis (needs a sector).
+    """
+
+    box: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    plane: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    radius: float | None = None
+    tolerance: float = 1e-6
+    body: str | None = None
+
+    def nodes(self, mesh: Mesh, sector: SectorSpec | None) -> np.ndarray:
+        """Sorted indices of the selected nodes of ``mesh`` (in the file's frame, SI)."""
+        bodies = [self.body] if self.body else list(mesh.bodies)
+        surface = np.unique(np.concatenate([mesh.surface(b).ravel() for b in bodies]))
+        x = mesh.points[surface]
+        inside = np.ones(len(x), dtype=bool)
+        if self.box is not None:
+            lo, hi = np.minimum(*self.box), np.maximum(*self.box)
+            inside &= ((x >= lo - self.tolerance) & (x <= hi + self.tolerance)).all(axis=1)
+        if self.plane is not None:
+            normal = np.asarray(self.plane[1]) / np.linalg.norm(self.plane[1])
+            inside &= np.abs((x - np.asarray(self.plane[0])) @ normal) <= self.tolerance
+        if self.radius is not None:
+            axis = np.asarray(sector.axis) / np.linalg.norm(sector.axis)
+            d = x - np.asarray(sector.origin)
+            r = np.linalg.norm(d - np.outer(d @ axis, axis), axis=1)
+            inside &= np.abs(r - self.radius) <= self.tolerance
+        return surface[inside]
+
+
+@dataclass(frozen=True)
 class ImportReport:
     """What reading the file found besides the mesh (for the run's log and the checks).
 
@@ -118,24 +157,43 @@ class ImportedMesh:
 def read(path: str | Path):
     """The file as a meshio.Mesh; MeshImportError (one line) if it is missing or unreadable."""
     import meshio
+    from meshio import _mesh
 
+    # meshio 5.3.5 reads 15-node wedges (C3D15, CPENTA, Gmsh type 18) but its table of cell
+    # dimensions lacks them, so building the cell block fails: the missing entry, added once
+    _mesh.topological_dimension.setdefault("wedge15", 3)
     path = Path(path)
     if not path.is_file():
         raise MeshImportError(f"{path}: no such file")
-    fmt = "nastran" if path.suffix.lower() in (".bdf", ".nas", ".dat") else None
-    try:
-        return meshio.read(path, file_format=fmt)
-    except Exception as exc:  # meshio raises anything from KeyError to IndexError
-        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    suffix = path.suffix.lower()
+    if suffix == ".inp":
+        try:
+            return abaqus.read(path)
+        except abaqus.DeckError as exc:
+            raise MeshImportError(str(exc)) from None
+    fmt = {".bdf": "nastran", ".nas": "nastran", ".dat": "nastran", ".msh": "gmsh"}.get(suffix)
+    said = io.StringIO()
+    try:  # meshio prints its complaints and exits when no reader takes the file
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            return meshio.read(path, file_format=fmt)
+    except (Exception, SystemExit) as exc:  # anything from KeyError to IndexError
+        text = said.getvalue() if isinstance(exc, SystemExit) else str(exc) or said.getvalue()
+        lines = [x for x in text.strip().splitlines() if x.strip()]
+        why = lines[-1] if lines else type(exc).__name__
         raise MeshImportError(f"{path}: not a readable mesh ({why})") from None
 
 
-def import_mesh(path: str | Path, units: str = "SI", bodies: tuple[str, ...] | None = None,
+def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | None = None,
+                sector: SectorSpec | None = None, sets: dict[str, Selection] | None = None,
                 model: str = "import") -> ImportedMesh:
     """Read a mesh file into a :class:`Mesh` in SI units (see the module).
 
-    units: the file's unit system (a key of :data:`UNITS`); bodies: the element groups that
-    are the bodies (None: found as the module says).
+    units: the file's unit system (a key of :data:`UNITS`); bodies: body name -> the element
+    group that is that body (None: found as the module says); sector: how the mesh is a
+    sector of a cyclic structure (``geometry.sector``); sets: node sets chosen by geometry
+    (:class:`Selection`), beside the file's. With a sector, the mesh is moved into the
+    contract's frame (axis +z, sector around +x) and its cyclic faces paired;
+    ``parameters["frame"]`` records the motion: x = rotation (x_file [m] - origin).
     """
     if units not in UNITS:
         raise MeshImportError(f"units = {units!r}: expected one of {sorted(UNITS)}")
@@ -175,19 +233,48 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: tuple[str, ...] | N
                  else elements.empty(s)) for s in shapes}
 
     node_sets, dropped = _node_sets(raw, groups, used, new)
-    try:
-        mesh = Mesh(
-            model=model,
-            points=points[used] * UNITS[units].length,
-            tetrahedra=cells["tetra"],
-            hexahedra=cells["hexahedron"],
-            wedges=cells["wedge"],
-            bodies=body_index,
-            node_sets=node_sets,
-            parameters={"file": Path(path).name, "units": units},
-        )
-    except MeshValidationError as exc:
-        raise MeshImportError(f"{path}: {exc}") from None
+    parameters = {"file": Path(path).name, "units": units}
+
+    def mesh_of(xyz: np.ndarray, cyclic: dict | None = None) -> Mesh:
+        try:
+            return Mesh(model=model, points=xyz, tetrahedra=cells["tetra"],
+                        hexahedra=cells["hexahedron"], wedges=cells["wedge"],
+                        bodies=body_index, node_sets=node_sets, cyclic=cyclic or {},
+                        parameters=parameters)
+        except MeshValidationError as exc:
+            raise MeshImportError(f"{path}: {exc}") from None
+
+    mesh = mesh_of(points[used] * UNITS[units].length)
+    for name, selection in (sets or {}).items():
+        if name in node_sets:
+            raise MeshImportError(f"geometry.sets.{name}: the file has a set of that name")
+        if selection.body is not None and selection.body not in mesh.bodies:
+            raise MeshImportError(f"geometry.sets.{name}.body = {selection.body!r}: not a "
+                                  f"body; bodies: {sorted(mesh.bodies)}")
+        if selection.radius is not None and sector is None:
+            raise MeshImportError(f"geometry.sets.{name}.radius: needs [geometry.sector] "
+                                  "(the axis it is measured from)")
+        node_sets[name] = selection.nodes(mesh, sector)
+        if not node_sets[name].size:
+            raise MeshImportError(f"geometry.sets.{name}: selects no surface node (widen "
+                                  "the region or its tolerance)")
+    mesh = mesh_of(mesh.points)
+    if sector is not None:
+        rotation, origin = sector_frame(sector.axis, sector.origin)
+        mesh = mesh_of((mesh.points - origin) @ rotation.T)
+        try:
+            xyz, boundaries = cyclic_boundaries(mesh, sector)
+        except SectorError as exc:
+            raise MeshImportError(str(exc)) from None
+        if not boundaries:
+            raise MeshImportError(
+                f"geometry.sector: no body of {path} has two faces on planes through the axis "
+                f"{list(sector.axis)} 2 pi / {sector.sectors} apart; name them in "
+                "[geometry.sector.faces]")
+        centre = centring(xyz, boundaries, sector.angle)
+        parameters["frame"] = {"rotation": (centre @ rotation).tolist(),
+                               "origin": origin.tolist(), "sectors": sector.sectors}
+        mesh = mesh_of(xyz @ centre.T, boundaries)
     count = {b.type: 0 for _, b in solids}
     for _, b in solids:
         count[b.type] += len(b.data)
@@ -265,11 +352,11 @@ def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]
     sizes = {n: sum(len(v) for v in g.values()) for n, g in solid_groups.items()}
     listing = ", ".join(f"{n} ({sizes[n]})" for n in sorted(solid_groups)) or "none"
     if names is not None:
-        missing = [n for n in names if n not in solid_groups]
+        missing = [g for g in names.values() if g not in solid_groups]
         if missing:
             raise MeshImportError(f"geometry.bodies: {missing} are not element groups of "
                                   f"{path}; its element groups: {listing}")
-        chosen = {n: solid_groups[n] for n in names}
+        chosen = {n: solid_groups[g] for n, g in names.items()}
     elif not solid_groups:
         chosen = {"body": {k: np.arange(len(b.data)) for k, (_, b) in enumerate(solids)}}
     else:

@@ -361,7 +361,7 @@ def mesh(argv: list[str]) -> int:
     if not _output_folder("mesh", out, args.out is not None):
         return 2
     try:
-        mesh_geometry(c.data["geometry"], out, progress=print, pictures=not args.no_pictures)
+        mesh_geometry(c.geometry_table, out, progress=print, pictures=not args.no_pictures)
     except (TypeError, ValueError) as err:
         print(f"microslip mesh: [geometry.parameters]: {err}", file=sys.stderr)
         return 2

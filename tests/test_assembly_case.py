@@ -11,6 +11,7 @@ from case_helpers import case_faults
 from microslip import geometry
 from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
+from microslip.pipeline.case import GeometryTable
 from microslip.pipeline.cli import main
 
 CASE = {
@@ -375,7 +376,8 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     from microslip.pipeline.solve.hbm import OperatingPoint
 
     case = cases.Case(copy.deepcopy(CASE), "coarse.toml")
-    mesh = mesh_geometry(CASE["geometry"], tmp_path, progress=lambda s: None, pictures=False)
+    mesh = mesh_geometry(GeometryTable.of(CASE["geometry"]), tmp_path, progress=lambda s: None,
+                         pictures=False)
     result = reduce_structure(mesh, CASE["reduction"], None, cases.harmonics(case).orders,
                               progress=lambda s: None)
     cm = AssemblyModels(mesh, result).assembly(case)

@@ -50,11 +50,9 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
     stages: list[Stage] = []
     data = case.data
     if "geometry" in data:
-        from microslip import geometry
-
-        geo = data["geometry"]
-        mesh = geometry.MODELS[geo["model"]](**geo.get("parameters", {}))
-        stages.append(Stage("geometry: Gmsh mesh and previews", False, MESH_S, 0,
+        mesh = case.geometry_table.build()
+        what = "mesh read" if case.geometry_table.imported else "Gmsh mesh"
+        stages.append(Stage(f"geometry: {what} and previews", False, MESH_S, 0,
                             f"{mesh.points.shape[0]} nodes, {mesh.element_summary()}; "
                             "every run"))
         if "reduction" in data:

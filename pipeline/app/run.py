@@ -18,6 +18,7 @@ import numpy as np
 
 from microslip.pipeline.case import (
     Case,
+    GeometryTable,
     contact_elements,
     curve_variants,
     harmonics,
@@ -93,7 +94,7 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
         models: LumpedModels | AssemblyModels = LumpedModels()
         if "geometry" in case.data:
             t = time.perf_counter()
-            m = mesh_geometry(case.data["geometry"], out, progress, pictures=False)
+            m = mesh_geometry(case.geometry_table, out, progress, pictures=False)
             write_mesh(writer, m, time.perf_counter() - t)
             draw_previews(writer.file, m.content_hash, out, progress)
             if "reduction" in case.data:
@@ -135,19 +136,29 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
     return out / "results.h5"
 
 
-def mesh_geometry(geo: dict, out: Path, progress: Progress = print, pictures: bool = True):
-    """Build the [geometry] of a case; write mesh.msh, mesh.vtu and (``pictures``) the
-    previews (``microslip mesh``: no results file; a run draws them from results.h5)."""
-    from microslip import geometry
+#: A mid-edge node further than this (relative to its edge) from the straight edge's midpoint
+#: is noted: the quadratic elements straighten curved edges.
+MIDNODE_NOTE = 1e-3
 
+
+def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
+                  pictures: bool = True):
+    """Build (or read) the [geometry] of a case; write mesh.msh, mesh.vtu and (``pictures``)
+    the previews (``microslip mesh``: no results file; a run draws them from results.h5)."""
     t = time.perf_counter()
-    m = geometry.MODELS[geo["model"]](**geo.get("parameters", {}))
+    m = table.build()
     elapsed = time.perf_counter() - t
     m.write_msh(out / "mesh.msh")
     m.write(out / "mesh.vtu")
-    progress(f"[geometry] {m.model}: {m.points.shape[0]} nodes, {m.element_summary()}, "
-             f"bodies {sorted(m.bodies)}, contacts {sorted(m.contacts)} in "
-             f"{elapsed:.2f} s; hash {m.content_hash[:12]}")
+    source = (f"{table.file} ({table.units})" if table.imported else m.model)
+    progress(f"[geometry] {source}: {m.points.shape[0]} nodes, {m.element_summary()}, "
+             f"bodies {sorted(m.bodies)}, cyclic {sorted(m.cyclic)}, contacts "
+             f"{sorted(m.contacts)} in {elapsed:.2f} s; hash {m.content_hash[:12]}")
+    if table.imported and table.read().report.midnode_offset > MIDNODE_NOTE:
+        progress(f"[geometry] note: the file's mid-edge nodes lie up to "
+                 f"{100 * table.read().report.midnode_offset:.2g} % of an edge off its "
+                 "straight midpoint; the quadratic elements have straight edges (refine the "
+                 "mesh where curvature matters)")
     if pictures:
         from microslip.pipeline.draw.previews import MeshView
 

@@ -129,7 +129,7 @@ def measure(data: dict, source: str) -> dict:
     spec = case.analysis_specs[0]
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        mesh = mesh_geometry(data["geometry"], Path(tmp), quiet, pictures=False)
+        mesh = mesh_geometry(case.geometry_table, Path(tmp), quiet, pictures=False)
         t1 = time.perf_counter()
         structure = reduce_structure(mesh, data["reduction"], Path(tmp) / "models",
                                      harmonics(case).orders, quiet)

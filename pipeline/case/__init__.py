@@ -4,7 +4,8 @@
 (the typed analysis specs and their defaults), ``validate`` (the faults of a table),
 ``checks`` (the helpers every table's validation uses), ``paths`` (dotted key paths),
 ``estimate`` (unknowns, memory and notes before anything is built), ``build`` (the lumped
-model, harmonics, settings), ``reduction`` and ``assembly`` (the tables of meshed cases).
+model, harmonics, settings), ``geometry``, ``reduction`` and ``assembly`` (the tables of
+meshed cases).
 """
 
 from .build import (
@@ -17,7 +18,9 @@ from .build import (
 )
 from .estimate import Size, notes, sizes
 from .file import check, load
+from .geometry import GeometryTable
 from .validated import Case, CaseError
 
-__all__ = ["Case", "CaseError", "Size", "check", "contact_elements", "curve_variants",
-           "harmonics", "load", "lumped_model", "notes", "operating_point", "settings", "sizes"]
+__all__ = ["Case", "CaseError", "GeometryTable", "Size", "check", "contact_elements",
+           "curve_variants", "harmonics", "load", "lumped_model", "notes", "operating_point",
+           "settings", "sizes"]

@@ -80,7 +80,11 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
                    "remove [model] (or [assembly])")
     geo = data.get("geometry", {})
     names = geometry.NAMES.get(geo.get("model")) if isinstance(geo, dict) else None
-    if isinstance(geo, dict) and geo.get("model") in geometry.MODELS and names is None:
+    if isinstance(geo, dict) and geo.get("model") == "import":
+        out.append("assembly: the contacts of an imported mesh are not declared yet (they "
+                   "come with [geometry] contacts between named surfaces); an imported mesh "
+                   "runs [geometry] and [reduction] only")
+    elif isinstance(geo, dict) and geo.get("model") in geometry.MODELS and names is None:
         out.append(f"assembly: geometry model {geo.get('model')!r} has no contact patches; "
                    f"assembly models: {sorted(geometry.NAMES)}")
     red = data.get("reduction", {})

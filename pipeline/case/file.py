@@ -36,8 +36,19 @@ def load(path: str | Path) -> Case:
     except tomllib.TOMLDecodeError as err:
         raise CaseError(str(path), [f"not valid TOML: {err}"]) from None
     data, renamed = renamed_tables(data, str(path))
+    data = with_mesh_path(data, path.parent)
     check(data, str(path))
     return Case(data, str(path), renamed)
+
+
+def with_mesh_path(data: dict, base: Path) -> dict:
+    """The case with an imported mesh's ``geometry.file`` made absolute (it is relative to
+    the case file): the case as run names the file it read, wherever it runs from."""
+    geo = data.get("geometry")
+    if not (isinstance(geo, dict) and geo.get("model") == "import"
+            and isinstance(geo.get("file"), str) and geo["file"]):
+        return data
+    return {**data, "geometry": {**geo, "file": str((base / geo["file"]).resolve())}}
 
 
 #: Tables renamed since a release, old name -> new: a file with the old name is read as the

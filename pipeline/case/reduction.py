@@ -48,6 +48,8 @@ from microslip.pipeline.fe.fem import Damping, Material
 from microslip.pipeline.fe.reduction import BodySpec
 
 from .checks import is_int, is_number, unknown_keys
+from .geometry import GeometryTable
+from .geometry import check as check_geometry
 
 STEEL = Material(2.0e11, 0.3, 7850.0)
 KEYS = {"nodal_diameters", "engine_order", "harmonics", "order", "modes", "cutoff", "f_max",
@@ -131,18 +133,24 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
                 out.append(f"{pre}.{k} = {s[k]!r}: expected a stiffness per area > 0 [N/m^3]")
 
 
+def names_faults(mesh: Any, red: Any, out: list[str]) -> None:
+    """The fault (one line) of a body, node set or patch the [reduction] table names, or its
+    conventions need, that ``mesh`` lacks (an imported mesh is read at check time)."""
+    try:
+        for spec in body_specs(mesh, ReductionTable.of(red)):
+            if not reduction.spec_nodes(mesh, spec)[0].size:
+                out.append(f"reduction.bodies.{spec.body}.masters: body {spec.body!r} has no "
+                           "master node (no contact, excitation or response set); name its "
+                           f"interface node sets; node sets: {sorted(mesh.node_sets)}")
+    except ValueError as exc:
+        out.append(f"reduction: {exc}")
+
+
 def _sectors(geo: Any) -> int | None:
     """Sectors of a [geometry] table's model (given or the model's default); None for a model
     without cyclic symmetry or an invalid table (reported elsewhere)."""
-    from microslip import geometry
-
-    if not isinstance(geo, dict) or geo.get("model") not in geometry.PARAMETERS:
-        return None
-    params = geo.get("parameters", {})
-    given = params.get("sectors") if isinstance(params, dict) else None
-    value = given if given is not None else getattr(geometry.PARAMETERS[geo["model"]](),
-                                                    "sectors", None)
-    return int(value) if is_int(value) and value >= 3 else None
+    valid = isinstance(geo, dict) and check_geometry(geo, ".", []) is not None
+    return GeometryTable.of(geo).sectors if valid else None
 
 
 

@@ -13,8 +13,10 @@ from microslip.pipeline.solve.hbm import PARAMETERS
 
 from . import assembly, specs
 from .checks import is_int, is_number, number, samples_rule, unknown_keys
+from .geometry import check as check_geometry
 from .paths import get_path, set_path
 from .reduction import check as check_reduction
+from .reduction import names_faults as reduction_names
 
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
             "analysis", "geometry", "reduction", "assembly"}
@@ -32,10 +34,14 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
     """Append one line per fault of a case table to ``out`` (the analyses too with
     ``analyses``)."""
     unknown_keys("", data, TOP_KEYS, out)
-    if "geometry" in data:
-        _geometry(data["geometry"], out)
+    table = None
+    if "geometry" in data:  # (load made an imported file's path absolute)
+        table = check_geometry(data["geometry"], ".", out)
     if "reduction" in data:
+        before = len(out)
         check_reduction(data["reduction"], data, out)
+        if table is not None and table.imported and len(out) == before:
+            reduction_names(table.build(), data["reduction"], out)  # read once, kept
     if "assembly" in data:
         _check_assembly(data, out, analyses)
         return
@@ -529,16 +535,3 @@ def _overrides(pre: str, data: dict, table: dict, out: list[str]) -> None:
     found: list[str] = []
     faults(trial, found, analyses=False)
     out.extend(f"{pre}: {f}" for f in found if f not in base)  # only what the overrides break
-
-
-def _geometry(geo, out: list[str]) -> None:
-    from microslip import geometry
-
-    if not isinstance(geo, dict) or geo.get("model") not in geometry.MODELS:
-        out.append(f"geometry.model = {geo.get('model') if isinstance(geo, dict) else geo!r}: "
-                   f"expected one of {sorted(geometry.MODELS)}")
-        return
-    unknown_keys("geometry.", geo, {"model", "parameters"}, out)
-    params = geo.get("parameters", {})
-    if not isinstance(params, dict):
-        out.append("geometry.parameters: expected a table")

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from . import specs
+from .geometry import GeometryTable
 from .paths import set_path
 from .reduction import ReductionTable
 from .validate import faults
@@ -58,6 +59,11 @@ class Case:
     def solver_table(self) -> specs.SolverTable:
         """[solver] as its spec, defaults resolved."""
         return specs.SolverTable.of(self.data.get("solver", {}))
+
+    @cached_property
+    def geometry_table(self) -> GeometryTable:
+        """[geometry] as its spec."""
+        return GeometryTable.of(self.data["geometry"])
 
     @cached_property
     def reduction_table(self) -> ReductionTable:

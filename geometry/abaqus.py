@@ -1,0 +1,172 @@
+"""A small reader of CalculiX / Abaqus input decks (.inp): nodes, solid elements, sets.
+
+meshio reads .inp too, but it keeps only the last of several ``*ELSET`` cards (or
+``ELSET=`` parameters) of one name, so the body of a deck that mixes element types (C3D20
+and C3D15 under one ELSET, as Abaqus/CAE and CalculiX write them) comes out wrong. This
+reader keeps the keywords a model needs and follows Abaqus' rules for them:
+
+* ``*NODE`` (``NSET=``), ``*ELEMENT`` (``TYPE=``, ``ELSET=``; data lines continue while a
+  line ends with a comma), ``*NSET`` / ``*ELSET`` (``GENERATE``; members may be other sets;
+  a repeated name adds to the set), ``*INCLUDE`` (``INPUT=``, relative to the deck);
+* solid types C3D4, C3D10, C3D8, C3D20, C3D6, C3D15 with any suffix (H, R, I, M, T...);
+  any other element type is reported by name.
+
+Everything else (materials, steps, loads) is skipped here. It returns a meshio.Mesh, so the
+importer treats every format alike. Tested on decks meshio and Gmsh write.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+# Abaqus type (without suffix letters) -> meshio cell type
+_SOLIDS = {"C3D4": "tetra", "C3D10": "tetra10", "C3D8": "hexahedron",
+           "C3D20": "hexahedron20", "C3D6": "wedge", "C3D15": "wedge15"}
+_TYPE = re.compile(r"^(C3D(?:4|10|8|20|6|15))[A-Z]*$")
+
+
+class DeckError(ValueError):
+    """The deck cannot be read; one line naming the file, the line and why."""
+
+
+def _lines(path: Path, seen: tuple[Path, ...] = ()):
+    """(path, line number, text) of every non-comment line, ``*INCLUDE`` files inlined."""
+    if path in seen:
+        raise DeckError(f"{path}: *INCLUDE loop")
+    try:
+        text = path.read_text(errors="strict")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DeckError(f"{path}: cannot read ({exc})") from None
+    for number, line in enumerate(text.splitlines(), 1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("**"):
+            continue
+        if stripped.upper().startswith("*INCLUDE"):
+            target = _params(stripped).get("INPUT")
+            if not target:
+                raise DeckError(f"{path}:{number}: *INCLUDE without INPUT=")
+            yield from _lines((path.parent / target.strip('"')).resolve(), (*seen, path))
+            continue
+        yield path, number, stripped
+
+
+def _params(line: str) -> dict[str, str]:
+    """KEY=VALUE parameters of a keyword line (keys upper case; flags map to "")."""
+    out = {}
+    for part in line.split(",")[1:]:
+        key, _, value = part.partition("=")
+        if key.strip():
+            out[key.strip().upper()] = value.strip()
+    return out
+
+
+def read(path: str | Path):
+    """The deck as a meshio.Mesh: points in file order, one cell block per *ELEMENT card,
+    point_sets and cell_sets (per block) by name; DeckError on what it cannot read."""
+    import meshio
+
+    path = Path(path)
+    ids: list[int] = []
+    xyz: list[list[float]] = []
+    blocks: list[tuple[str, list[int], list[list[int]]]] = []  # (type, element ids, nodes)
+    nsets: dict[str, list] = {}
+    elsets: dict[str, list] = {}
+    keyword, params, pending = "", {}, []
+    for where, number, line in _lines(path):
+        if line.startswith("*"):
+            keyword, params = line.split(",")[0].strip().upper(), _params(line)
+            if keyword == "*ELEMENT":
+                kind = params.get("TYPE", "").upper()
+                match = _TYPE.match(kind)
+                if match is None:
+                    raise DeckError(f"{where}:{number}: element type {kind or '?'} not "
+                                    f"supported; solids read: {sorted(_SOLIDS)}")
+                blocks.append((_SOLIDS[match.group(1)], [], []))
+            elif keyword in ("*NSET", "*ELSET"):
+                name = params.get(keyword[1:])
+                if not name:
+                    raise DeckError(f"{where}:{number}: {keyword} without {keyword[1:]}=")
+                (nsets if keyword == "*NSET" else elsets).setdefault(name, [])
+            pending = []
+            continue
+        try:
+            values = [v.strip() for v in line.split(",") if v.strip()]
+            if keyword == "*NODE":
+                ids.append(int(values[0]))
+                xyz.append([float(v) for v in values[1:4]] + [0.0] * (4 - len(values)))
+                if "NSET" in params:
+                    nsets.setdefault(params["NSET"], []).append(int(values[0]))
+            elif keyword == "*ELEMENT":
+                pending += [int(v) for v in values]
+                if line.rstrip().endswith(","):
+                    continue  # the element continues on the next line
+                kind, eids, nodes = blocks[-1]
+                eids.append(pending[0])
+                nodes.append(pending[1:])
+                if "ELSET" in params:
+                    elsets.setdefault(params["ELSET"], []).append(pending[0])
+                pending = []
+            elif keyword in ("*NSET", "*ELSET"):
+                target = (nsets if keyword == "*NSET" else elsets)[params[keyword[1:]]]
+                if "GENERATE" in params:
+                    a, b, *step = (int(v) for v in values)
+                    target.extend(range(a, b + 1, step[0] if step else 1))
+                else:
+                    target.extend(int(v) if _is_int(v) else v for v in values)
+        except (ValueError, IndexError):
+            raise DeckError(f"{where}:{number}: cannot read {keyword} data line "
+                            f"{line[:60]!r}") from None
+    if pending:
+        raise DeckError(f"{path}: the last element's node list ends with a comma (truncated?)")
+    if not ids:
+        raise DeckError(f"{path}: no *NODE")
+    index = {nid: i for i, nid in enumerate(ids)}
+    if len(index) != len(ids):
+        raise DeckError(f"{path}: a node id is defined twice")
+    cells, where_is = [], {}
+    for k, (kind, eids, nodes) in enumerate(blocks):
+        want = {"tetra": 4, "tetra10": 10, "hexahedron": 8, "hexahedron20": 20, "wedge": 6,
+                "wedge15": 15}[kind]
+        if any(len(n) != want for n in nodes):
+            raise DeckError(f"{path}: a {kind} element has not {want} nodes (truncated?)")
+        try:
+            cells.append((kind, np.array([[index[n] for n in row] for row in nodes],
+                                         dtype=np.int64).reshape(-1, want)))
+        except KeyError as exc:
+            raise DeckError(f"{path}: an element uses node {exc.args[0]}, which no *NODE "
+                            "defines") from None
+        where_is.update({e: (k, i) for i, e in enumerate(eids)})
+    point_sets = {name: np.unique([index[n] for n in _members(name, nsets, path)
+                                   if n in index]) for name in nsets}
+    cell_sets = {}
+    for name in elsets:
+        per_block = [[] for _ in blocks]
+        for e in _members(name, elsets, path):
+            if e in where_is:
+                k, i = where_is[e]
+                per_block[k].append(i)
+        cell_sets[name] = [np.unique(np.array(p, dtype=np.int64)) for p in per_block]
+    return meshio.Mesh(np.array(xyz, dtype=np.float64), cells, point_sets=point_sets,
+                       cell_sets=cell_sets)
+
+
+def _is_int(v: str) -> bool:
+    return v.lstrip("-").isdigit()
+
+
+def _members(name: str, sets: dict[str, list], path: Path, depth: int = 0) -> list[int]:
+    """The ids of a set, the sets it names expanded."""
+    if depth > 32:
+        raise DeckError(f"{path}: set {name!r} names itself (through other sets)")
+    out = []
+    for m in sets[name]:
+        if isinstance(m, int):
+            out.append(m)
+        elif m in sets:
+            out += _members(m, sets, path, depth + 1)
+        else:
+            raise DeckError(f"{path}: set {name!r} names {m!r}, which is no set of its kind")
+    return out

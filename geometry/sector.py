@@ -1,0 +1,151 @@
+"""A sector of a cyclic structure from any mesh: its axis, its two cyclic faces, their pairing.
+
+The mesh contract puts the disk axis on +z through the origin and the fundamental sector
+around +x (``geometry.mesh``). A mesh from another tool has its own axis (``axis`` through
+``origin``); :func:`sector_frame` is the rigid motion into the contract's frame, which the
+importer applies to the nodes (and records, so directions given in the file's frame follow).
+
+Cyclic faces: given as two node sets per body, or found by geometry: the body's boundary
+faces that lie on two planes through the axis ``phi = 2 pi / Ns`` apart. Faces whose nodes
+match under the rotation are paired node to node; the right face's nodes are then placed on
+the exact images of the left ones (they moved by less than the tolerance), so the pairing
+holds to round-off downstream.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .mesh import CyclicBoundary, Mesh, rotation_z
+
+
+class SectorError(ValueError):
+    """The cyclic faces cannot be found or do not match; one line naming the face."""
+
+
+@dataclass(frozen=True)
+class SectorSpec:
+    """How an imported mesh is a sector.
+
+    sectors: Ns >= 3; axis: (3,) the disk axis (any length, file frame); origin: (3,) a
+    point of the axis [m]; faces: body -> (left set, right set) node-set names (the other
+    bodies' faces are found by geometry); tolerance: the largest distance [m] between a
+    node and its partner's image (and from a face's plane).
+    """
+
+    sectors: int
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    faces: tuple[tuple[str, str, str], ...] = ()  # (body, left set, right set)
+    tolerance: float = 1e-6
+
+    @property
+    def angle(self) -> float:
+        """phi = 2 pi / Ns (rad)."""
+        return 2.0 * np.pi / self.sectors
+
+
+def sector_frame(axis, origin) -> tuple[np.ndarray, np.ndarray]:
+    """(R (3, 3), origin (3,)) with x' = R (x - origin) putting ``axis`` on +z (a rotation;
+    the identity for an axis along +z)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    z = np.array([0.0, 0.0, 1.0])
+    v, c = np.cross(a, z), float(a @ z)
+    if np.linalg.norm(v) < 1e-15:  # along +z or -z
+        R = np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    else:  # Rodrigues: the rotation by the angle between a and z about a x z
+        vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+        R = np.eye(3) + vx + vx @ vx / (1.0 + c)
+    return R, np.asarray(origin, dtype=float)
+
+
+def planar_faces(mesh: Mesh, body: str, angle: float, tol: float
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
+    """(left nodes, right nodes) of ``body``: its boundary faces on two planes through the z
+    axis ``angle`` apart (right = left rotated by +angle); None if it has no such pair."""
+    tri = mesh.surface(body)
+    p = mesh.points[tri]  # (t, 3, 3)
+    radius = np.hypot(p[..., 0], p[..., 1])
+    theta = np.arctan2(p[..., 1], p[..., 0])
+    # a facet on a plane through the axis: every corner off the axis at one angle theta
+    theta0 = theta[:, 0]
+    off = np.abs(np.sin(theta - theta0[:, None])) * radius  # distance to that plane
+    on_plane = (off.max(axis=1) <= tol) & (radius.min(axis=1) > tol)
+    if not on_plane.any():
+        return None
+    lengths = float(np.abs(mesh.points.max(axis=0) - mesh.points.min(axis=0)).max())
+    step = max(tol / max(lengths, tol), 1e-9)  # angular resolution of the planes
+    groups: dict[int, list[int]] = {}
+    for i in np.flatnonzero(on_plane):
+        groups.setdefault(int(round(theta0[i] / step)), []).append(i)
+    keys = sorted(groups, key=lambda k: -len(groups[k]))
+    for a in keys:
+        for b in keys:
+            gap = (b - a) * step - angle
+            if abs(np.angle(np.exp(1j * gap))) <= 2 * step:
+                left = np.unique(tri[groups[a]])
+                right = np.unique(tri[groups[b]])
+                return left, right
+    return None
+
+
+def paired(points: np.ndarray, left: np.ndarray, right: np.ndarray, angle: float,
+           tol: float, face: str) -> tuple[np.ndarray, np.ndarray]:
+    """(left, right) node pairs with right[i] the image of left[i] by the rotation +angle
+    about z; SectorError naming ``face`` and the worst distance when they do not match."""
+    if len(left) != len(right):
+        raise SectorError(f"{face}: the faces have {len(left)} and {len(right)} nodes; "
+                          "non-matching cyclic faces are not supported yet")
+    image = points[left] @ rotation_z(angle).T
+    dist, nearest = cKDTree(points[right]).query(image)
+    worst = float(dist.max(initial=0.0))
+    if worst > tol or len(np.unique(nearest)) != len(right):
+        raise SectorError(f"{face}: the right face is not the left one rotated by 2 pi / Ns "
+                          f"(worst distance {worst:.3e} m, tolerance {tol:.3e} m)")
+    return left, right[nearest]
+
+
+def cyclic_boundaries(mesh: Mesh, spec: SectorSpec) -> tuple[np.ndarray, dict]:
+    """(points with each right face on its left face's exact image, body -> CyclicBoundary)
+    of a mesh already in the sector frame (axis +z through the origin)."""
+    given = {body: (left, right) for body, left, right in spec.faces}
+    points = np.array(mesh.points)
+    out = {}
+    for body in mesh.bodies:
+        if body in given:
+            names = given[body]
+            missing = [n for n in names if n not in mesh.node_sets]
+            if missing:
+                raise SectorError(f"geometry.sector.faces.{body} = {list(names)}: no node set "
+                                  f"{missing[0]!r}; node sets: {sorted(mesh.node_sets)}")
+            left, right = (mesh.node_sets[n] for n in names)
+            try:
+                left, right = paired(points, left, right, spec.angle, spec.tolerance,
+                                     f"geometry.sector.faces.{body}")
+            except SectorError:  # given the other way round
+                left, right = paired(points, right, left, spec.angle, spec.tolerance,
+                                     f"geometry.sector.faces.{body}")
+        else:
+            found = planar_faces(mesh, body, spec.angle, spec.tolerance)
+            if found is None:
+                continue  # not a cyclic body (a blade on its own, a damper)
+            left, right = paired(points, *found, spec.angle, spec.tolerance,
+                                 f"the cyclic faces of body {body!r}")
+        points[right] = points[left] @ rotation_z(spec.angle).T
+        out[body] = CyclicBoundary(left, right, spec.sectors)
+    return points, out
+
+
+def centring(points: np.ndarray, boundaries: dict, angle: float) -> np.ndarray:
+    """Rotation about z (3, 3) that puts the middle of the cyclic faces on +x (the contract's
+    fundamental sector spans -phi/2 .. +phi/2); the identity without cyclic bodies."""
+    if not boundaries:
+        return np.eye(3)
+    left = np.concatenate([b.left for b in boundaries.values()])
+    p = points[left]
+    theta = float(np.angle(np.exp(1j * np.arctan2(p[:, 1], p[:, 0])).mean()))
+    return rotation_z(-(theta + 0.5 * angle))

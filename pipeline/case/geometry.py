@@ -1,0 +1,249 @@
+"""The [geometry] table of a case: a parametric model, or a mesh the user brings.
+
+    [geometry]                       # a parametric model
+    model = "blisk_sector"           # a key of geometry.MODELS
+    [geometry.parameters]            # its parameters (geometry.PARAMETERS: units, ranges)
+
+    [geometry]                       # an imported mesh (geometry.imported)
+    model = "import"
+    file = "blade.inp"               # relative to the case file: .inp .bdf .msh ...
+    units = "mm-t-s"                 # the file's units: SI, mm-t-s, mm-kg-s, in-lbf-s
+    bodies = ["BLADE", "DISK"]       # optional: the element groups that are the bodies, or
+                                     # a table body = "group" (Nastran: "pid<N>")
+    [geometry.sector]                # optional: the mesh is one sector of Ns
+    sectors = 24
+    axis = [1.0, 0.0, 0.0]           # the disk axis, through
+    origin = [0.0, 0.0, 0.0]         # [m]
+    tolerance = 1e-6                 # [m] node matching
+    [geometry.sector.faces]          # optional per body: its cyclic faces' node sets (left,
+    disk = ["CYC_L", "CYC_R"]        # right = left rotated by +2 pi / Ns about the axis);
+                                     # found by geometry (planar faces) otherwise
+    [geometry.sets."disk/bore"]      # optional: node sets chosen by geometry, in metres in
+    radius = 0.05                    # the file's frame: surface nodes near a cylinder about
+    tolerance = 1e-5                 # the axis (radius), a plane (plane = {point, normal})
+    body = "disk"                    # or in a box (box = [[x0, y0, z0], [x1, y1, z1]])
+
+Every number of a case is SI; only the mesh file is in its own units. ``check`` reads the
+file (it is quick beside a reduction) so that a missing set or an unmatched face is one line
+before any heavy work; the mesh read is kept for the run (keyed by the file's path, size and
+modification time).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from microslip import geometry
+from microslip.geometry.imported import (
+    UNITS,
+    ImportedMesh,
+    MeshImportError,
+    Selection,
+    import_mesh,
+)
+from microslip.geometry.sector import SectorSpec
+
+from .checks import is_int, is_number, unknown_keys
+
+IMPORT = "import"
+PARAMETRIC_KEYS = {"model", "parameters"}
+IMPORT_KEYS = {"model", "file", "units", "bodies", "sector", "sets"}
+SECTOR_KEYS = {"sectors", "axis", "origin", "tolerance", "faces"}
+SELECTION_KEYS = {"box", "plane", "radius", "tolerance", "body"}
+
+
+@dataclass(frozen=True)
+class GeometryTable:
+    """[geometry], read (see the module). ``base``: the case file's folder (``file`` is
+    relative to it)."""
+
+    model: str
+    parameters: Mapping[str, Any] = field(default_factory=dict)
+    file: str = ""
+    units: str = "SI"
+    bodies: tuple[tuple[str, str], ...] | None = None  # (body name, element group)
+    sector: SectorSpec | None = None
+    sets: tuple[tuple[str, Selection], ...] = ()
+    base: Path = Path(".")
+
+    @classmethod
+    def of(cls, table: Mapping[str, Any], base: str | Path = ".") -> GeometryTable:
+        """The spec of a validated [geometry] table."""
+        if table["model"] != IMPORT:
+            return cls(table["model"], dict(table.get("parameters", {})), base=Path(base))
+        bodies = table.get("bodies")
+        if isinstance(bodies, list):
+            bodies = tuple((b, b) for b in bodies)
+        elif isinstance(bodies, dict):
+            bodies = tuple(bodies.items())
+        sector = table.get("sector")
+        if sector is not None:
+            sector = SectorSpec(
+                int(sector["sectors"]), tuple(map(float, sector.get("axis", SectorSpec.axis))),
+                tuple(map(float, sector.get("origin", SectorSpec.origin))),
+                tuple((b, *f) for b, f in sector.get("faces", {}).items()),
+                float(sector.get("tolerance", SectorSpec.tolerance)))
+        sets = tuple((name, _selection(t)) for name, t in table.get("sets", {}).items())
+        return cls(IMPORT, {}, table["file"], table.get("units", cls.units), bodies, sector,
+                   sets, Path(base))
+
+    @property
+    def imported(self) -> bool:
+        return self.model == IMPORT
+
+    @property
+    def path(self) -> Path:
+        """The mesh file (imports)."""
+        return (self.base / self.file).resolve()
+
+    def build(self) -> geometry.Mesh:
+        """The mesh (Gmsh for a parametric model; read for an import): the heavy step."""
+        if self.imported:
+            return self.read().mesh
+        return geometry.MODELS[self.model](**self.parameters)
+
+    def read(self) -> ImportedMesh:
+        """The imported mesh and what reading it found (kept while the file is unchanged)."""
+        stat = self.path.stat() if self.path.is_file() else None
+        key = (str(self.path), stat.st_mtime_ns if stat else 0, stat.st_size if stat else 0)
+        return _read(key, self.units, self.bodies, self.sector, self.sets)
+
+    @property
+    def sectors(self) -> int | None:
+        """Ns of the model's cyclic bodies (None: no cyclic symmetry)."""
+        if self.imported:
+            return self.sector.sectors if self.sector else None
+        given = self.parameters.get("sectors")
+        value = given if given is not None else getattr(geometry.PARAMETERS[self.model](),
+                                                        "sectors", None)
+        return int(value) if is_int(value) and value >= 3 else None
+
+
+def _selection(t: Mapping[str, Any]) -> Selection:
+    def point(v) -> tuple[float, ...]:
+        return tuple(float(x) for x in v)
+
+    plane = t.get("plane")
+    return Selection(
+        box=tuple(point(c) for c in t["box"]) if "box" in t else None,
+        plane=(point(plane["point"]), point(plane["normal"])) if plane else None,
+        radius=float(t["radius"]) if "radius" in t else None,
+        tolerance=float(t.get("tolerance", Selection.tolerance)), body=t.get("body"))
+
+
+@functools.lru_cache(maxsize=4)
+def _read(key: tuple, units: str, bodies, sector, sets) -> ImportedMesh:
+    return import_mesh(key[0], units, dict(bodies) if bodies is not None else None, sector,
+                       dict(sets))
+
+
+def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
+    """Append one line per fault of [geometry] to ``out``; the table's spec when it has
+    none (an import is read: the file, its units, bodies and cyclic faces checked)."""
+    models = sorted([*geometry.MODELS, IMPORT])
+    if not isinstance(geo, dict) or geo.get("model") not in models:
+        out.append(f"geometry.model = {geo.get('model') if isinstance(geo, dict) else geo!r}: "
+                   f"expected one of {models}")
+        return None
+    if geo["model"] != IMPORT:
+        unknown_keys("geometry.", geo, PARAMETRIC_KEYS, out)
+        if not isinstance(geo.get("parameters", {}), dict):
+            out.append("geometry.parameters: expected a table")
+            return None
+        return GeometryTable.of(geo, base)
+    before = len(out)
+    unknown_keys("geometry.", geo, IMPORT_KEYS, out)
+    if not isinstance(geo.get("file"), str) or not geo.get("file"):
+        out.append(f"geometry.file = {geo.get('file')!r}: expected the mesh file's path "
+                   "(relative to the case file)")
+    elif not (Path(base) / geo["file"]).is_file():
+        out.append(f"geometry.file = {geo['file']!r}: no such file" + (
+            "" if Path(geo["file"]).is_absolute()
+            else f" (looked for {(Path(base) / geo['file']).resolve()})"))
+    if geo.get("units", "SI") not in UNITS:
+        out.append(f"geometry.units = {geo['units']!r}: expected one of {list(UNITS)}")
+    bodies = geo.get("bodies")
+    if bodies is not None and not (
+            (isinstance(bodies, list) and bodies and all(isinstance(b, str) for b in bodies))
+            or (isinstance(bodies, dict) and bodies
+                and all(isinstance(b, str) for b in bodies.values()))):
+        out.append(f"geometry.bodies = {bodies!r}: expected a list of element-group names or a "
+                   "table body = \"group\"")
+    if "sector" in geo:
+        _check_sector(geo["sector"], out)
+    sets = geo.get("sets", {})
+    if not isinstance(sets, dict):
+        out.append("geometry.sets: expected a table of node sets chosen by geometry")
+    else:
+        for name, t in sets.items():
+            _check_selection(f"geometry.sets.{name}", t, out)
+    if len(out) > before:
+        return None
+    table = GeometryTable.of(geo, base)
+    try:
+        table.read()
+    except MeshImportError as exc:
+        out.append(f"geometry.file: {exc}")  # (the message names the file)
+        return None
+    return table
+
+
+def _vector(v: Any) -> bool:
+    return isinstance(v, list) and len(v) == 3 and all(is_number(x) for x in v)
+
+
+def _check_selection(pre: str, t: Any, out: list[str]) -> None:
+    if not isinstance(t, dict):
+        out.append(f"{pre}: expected a table (box, plane or radius; tolerance, body)")
+        return
+    unknown_keys(f"{pre}.", t, SELECTION_KEYS, out)
+    if not {"box", "plane", "radius"} & set(t):
+        out.append(f"{pre}: give its region: box, plane or radius")
+    box = t.get("box", [[0, 0, 0], [0, 0, 0]])
+    if not (isinstance(box, list) and len(box) == 2 and all(_vector(c) for c in box)):
+        out.append(f"{pre}.box = {box!r}: expected [[x0, y0, z0], [x1, y1, z1]] [m]")
+    plane = t.get("plane", {"point": [0, 0, 0], "normal": [0, 0, 1]})
+    if not (isinstance(plane, dict) and set(plane) == {"point", "normal"}
+            and _vector(plane["point"]) and _vector(plane["normal"])
+            and math.hypot(*plane["normal"]) > 0):
+        out.append(f"{pre}.plane = {plane!r}: expected {{point = [x, y, z], normal = "
+                   "[nx, ny, nz]}} [m]")
+    if "radius" in t and not (is_number(t["radius"]) and t["radius"] > 0):
+        out.append(f"{pre}.radius = {t['radius']!r}: expected a radius > 0 [m]")
+    tol = t.get("tolerance", Selection.tolerance)
+    if not (is_number(tol) and tol > 0):
+        out.append(f"{pre}.tolerance = {tol!r}: expected a distance > 0 [m]")
+    if "body" in t and not isinstance(t["body"], str):
+        out.append(f"{pre}.body = {t['body']!r}: expected a body name")
+
+
+def _check_sector(sector: Any, out: list[str]) -> None:
+    if not isinstance(sector, dict):
+        out.append("geometry.sector: expected a table (sectors, axis, origin, tolerance, faces)")
+        return
+    unknown_keys("geometry.sector.", sector, SECTOR_KEYS, out)
+    n = sector.get("sectors")
+    if not (is_int(n) and n >= 3):
+        out.append(f"geometry.sector.sectors = {n!r}: expected an integer >= 3 (the sector "
+                   "count of the full disk)")
+
+    axis = sector.get("axis", [0.0, 0.0, 1.0])
+    if not (_vector(axis) and math.hypot(*axis) > 0):
+        out.append(f"geometry.sector.axis = {axis!r}: expected a non-zero [ax, ay, az]")
+    if not _vector(sector.get("origin", [0.0, 0.0, 0.0])):
+        out.append(f"geometry.sector.origin = {sector['origin']!r}: expected a point "
+                   "[x, y, z] of the axis [m]")
+    tol = sector.get("tolerance", SectorSpec.tolerance)
+    if not (is_number(tol) and tol > 0):
+        out.append(f"geometry.sector.tolerance = {tol!r}: expected a distance > 0 [m]")
+    faces = sector.get("faces", {})
+    if not (isinstance(faces, dict) and all(
+            isinstance(f, list) and len(f) == 2 and all(isinstance(s, str) for s in f)
+            for f in faces.values())):
+        out.append(f"geometry.sector.faces = {faces!r}: expected a table body = "
+                   "[\"left set\", \"right set\"]")

@@ -1,0 +1,74 @@
+"""Meshes written as other tools write them, for the import tests: a Mesh moved into another
+frame and unit, optionally quadratic (mid-edge nodes at the edge midpoints), to .inp, .bdf,
+.msh or any meshio format, with the bodies as element sets and the node sets as node sets
+(Gmsh: physical groups; Nastran: the property id of each body, no sets)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import meshio
+import numpy as np
+
+from microslip.geometry import Mesh
+
+# meshio's corner-edge order of each quadratic type (VTK's): where its mid nodes sit
+EDGES = {
+    "tetra": [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)],
+    "hexahedron": [(0, 1), (1, 2), (2, 3), (0, 3), (4, 5), (5, 6), (6, 7), (4, 7), (0, 4),
+                   (1, 5), (2, 6), (3, 7)],
+    "wedge": [(0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5), (0, 3), (1, 4), (2, 5)],
+}
+QUADRATIC = {"tetra": "tetra10", "hexahedron": "hexahedron20", "wedge": "wedge15"}
+FORMATS = {".inp": "abaqus", ".bdf": "nastran", ".msh": "gmsh22"}
+
+
+def write(mesh: Mesh, path: Path, *, scale: float = 1.0, rotation=None, origin=(0, 0, 0),
+          quadratic: bool = False) -> Path:
+    """Write ``mesh`` with x_file = (rotation x + origin) / scale (``scale``: metres per
+    file length unit). Corner nodes keep their numbers; mid nodes follow."""
+    R = np.eye(3) if rotation is None else np.asarray(rotation)
+    points = (mesh.points @ R.T + np.asarray(origin)) / scale
+    blocks, extra = [], {}  # (type, body, cells); mid node of each corner pair
+    for body in mesh.bodies:
+        for shape, corners in mesh.body_cells(body).items():
+            if not quadratic:
+                blocks.append((shape, body, corners))
+                continue
+            mids = np.empty((len(corners), len(EDGES[shape])), dtype=np.int64)
+            for e, (a, b) in enumerate(EDGES[shape]):
+                for i, pair in enumerate(np.sort(corners[:, [a, b]], axis=1)):
+                    mids[i, e] = extra.setdefault(tuple(pair), len(points) + len(extra))
+            blocks.append((QUADRATIC[shape], body, np.hstack([corners, mids])))
+    if extra:
+        pairs = np.array(list(extra))
+        points = np.vstack([points, 0.5 * (points[pairs[:, 0]] + points[pairs[:, 1]])])
+    fmt = FORMATS.get(Path(path).suffix, None)
+    cells = [(t, c) for t, _, c in blocks]
+    names = list(mesh.bodies)
+    tags = [np.full(len(c), names.index(b) + 1) for _, b, c in blocks]
+    if fmt == "gmsh22":
+        field = {b: np.array([i + 1, 3]) for i, b in enumerate(names)}
+        for j, (name, idx) in enumerate(mesh.node_sets.items()):
+            cells.append(("vertex", idx.reshape(-1, 1)))
+            tags.append(np.full(len(idx), len(names) + j + 1))
+            field[name] = np.array([len(names) + j + 1, 0])
+        out = meshio.Mesh(points, cells, cell_data={"gmsh:physical": tags,
+                                                    "gmsh:geometrical": tags},
+                          field_data=field)
+        meshio.write(path, out, file_format=fmt, binary=False)
+        return Path(path)
+    if fmt == "nastran":
+        # meshio 5.3's large-field writer asserts 16 characters, which a negative number at
+        # its precision (12 digits) or an exponent beyond +-9 exceeds: 11 digits, and
+        # round-off zeros written as zeros
+        points = np.where(np.abs(points) < 1e-9 * np.abs(points).max(), 0.0, points)
+        points = np.vectorize(lambda v: float(f"{v:.10e}"))(points)
+        out = meshio.Mesh(points, cells, cell_data={"nastran:ref": tags})
+        meshio.write(path, out, file_format=fmt)
+        return Path(path)
+    cell_sets = {b: [np.arange(len(c)) if bb == b else np.empty(0, dtype=np.int64)
+                     for _, bb, c in blocks] for b in names}
+    out = meshio.Mesh(points, cells, point_sets=dict(mesh.node_sets), cell_sets=cell_sets)
+    meshio.write(path, out, file_format=fmt)
+    return Path(path)

@@ -1,0 +1,180 @@
+"""Meshes from other tools: the shipped parametric models written to .inp, .bdf and .msh (in
+another frame and unit, linear and quadratic) read back as the same mesh and the same
+matrices; units; sets chosen by geometry; cyclic faces found and paired; every bad file one
+line, exit 2."""
+
+import subprocess
+import sys
+
+import meshio
+import numpy as np
+import pytest
+from blocks import block
+from exports import write
+
+from microslip import geometry
+from microslip.geometry.imported import UNITS, MeshImportError, Selection, import_mesh
+from microslip.geometry.sector import SectorSpec, sector_frame
+from microslip.pipeline.fe import fem
+
+STEEL = fem.Material(2.0e11, 0.3, 7850.0)
+AXIS = np.array([1.0, 0.2, -0.3]) / np.linalg.norm([1.0, 0.2, -0.3])
+ORIGIN = np.array([10.0, -5.0, 2.0]) * 1e-3  # [m]: the axis passes here in the file
+
+
+@pytest.fixture(scope="module")
+def blisk():
+    return geometry.blisk_sector()
+
+
+def _moved(mesh, path, **kw):
+    """``mesh`` written with its axis on AXIS through ORIGIN, in millimetres."""
+    rotation = sector_frame(AXIS, (0, 0, 0))[0].T  # takes +z to AXIS
+    return write(mesh, path, scale=1e-3, rotation=rotation, origin=ORIGIN, **kw)
+
+
+def _sector(mesh):
+    return SectorSpec(mesh.cyclic["blisk"].sectors, tuple(AXIS), tuple(ORIGIN))
+
+
+# (suffix, quadratic, bodies, coordinate agreement [m]): .inp and .msh keep 17 digits; the
+# .bdf large field 11 (1e-11 relative of 0.3 m), see exports.write
+FORMATS = [(".inp", True, None, 1e-15), (".msh", False, None, 1e-15),
+           (".bdf", True, {"blisk": "pid1", "damper": "pid2"}, 1e-11)]
+
+
+@pytest.mark.parametrize(("suffix", "quadratic", "bodies", "tol"), FORMATS)
+def test_round_trip_gives_the_native_mesh_and_matrices(blisk, tmp_path, suffix, quadratic,
+                                                       bodies, tol):
+    path = _moved(blisk, tmp_path / f"blisk{suffix}", quadratic=quadratic)
+    read = import_mesh(path, "mm-t-s", bodies, _sector(blisk))
+    mesh = read.mesh
+    # moved back into the contract's frame: the same nodes, elements, cyclic pairs
+    assert np.abs(mesh.points - blisk.points).max() < tol
+    np.testing.assert_array_equal(mesh.tetrahedra, blisk.tetrahedra)
+    assert sorted(mesh.bodies) == ["blisk", "damper"]
+    for name in blisk.bodies:
+        np.testing.assert_array_equal(mesh.bodies[name], blisk.bodies[name])
+    np.testing.assert_array_equal(mesh.cyclic["blisk"].left, blisk.cyclic["blisk"].left)
+    np.testing.assert_array_equal(mesh.cyclic["blisk"].right, blisk.cyclic["blisk"].right)
+    assert "damper" not in mesh.cyclic  # found by geometry: it has no cyclic faces
+    if suffix != ".bdf":  # Nastran has no named node sets
+        for name, nodes in blisk.node_sets.items():
+            np.testing.assert_array_equal(mesh.node_sets[name], nodes)
+    # mid nodes at the midpoints, to the written digits
+    assert read.report.midnode_offset < (1e-8 if quadratic else 1e-300)
+    assert read.report.elements == {("tetra10" if quadratic else "tetra"): len(blisk.tetrahedra)}
+    # the same K and M (hence frequencies): relative to their largest entry, 1e-12 from the
+    # 17 digits, 1e-9 from the .bdf's 11
+    native = fem.assemble(blisk, "blisk", STEEL)
+    again = fem.assemble(mesh, "blisk", STEEL)
+    for a, b in ((native.stiffness, again.stiffness), (native.mass, again.mass)):
+        assert abs(a - b).max() <= (1e-12 if tol < 1e-14 else 1e-9) * abs(a).max()
+
+
+@pytest.mark.parametrize("suffix", [".inp", ".bdf", ".msh"])
+def test_hexahedra_and_wedges_round_trip(tmp_path, suffix):
+    """A mixed hex20 / wedge15 block through each format (Nastran orders the mid nodes of its
+    CHEXA and CPENTA otherwise than VTK: the importer does not depend on their order)."""
+    native = block("hexahedron", cells=(4, 2, 2), distort=0.2, mixed=True)
+    read = import_mesh(write(native, tmp_path / f"b{suffix}", quadratic=True), "SI")
+    mesh = read.mesh
+    assert read.report.midnode_offset < 1e-9
+    assert mesh.element_summary() == native.element_summary()
+    a = fem.assemble(native, "block", STEEL)
+    b = fem.assemble(mesh, next(iter(mesh.bodies)), STEEL)
+    order = np.argsort(np.linalg.norm(a.points - b.points[:, None], axis=2).argmin(axis=0))
+    assert np.abs(b.points[order] - a.points).max() < 1e-10  # the same nodes
+    # the same eigenvalues of the free-free block (K and M equal up to the DOF numbering):
+    # 1e-9 relative, the six rigid-body zeros to 1e-9 of the largest
+    lam = [_lowest(m) for m in (a, b)]
+    np.testing.assert_allclose(lam[1], lam[0], rtol=1e-9, atol=1e-9 * lam[0][-1])
+
+
+def _lowest(body, n=12):
+    import scipy.linalg as sla
+
+    return sla.eigh(body.stiffness.toarray(), body.mass.toarray(), eigvals_only=True,
+                    subset_by_index=[0, n - 1])
+
+
+def test_units():
+    """The unit systems against their definitions (NIST SP 811): psi = 6894.757 Pa, the
+    slinch/in^3 = 1.068690e7 kg/m^3; mm-t-s: N, MPa, t/mm^3 = 1e12 kg/m^3."""
+    si, mts, mks, ips = (UNITS[k] for k in ("SI", "mm-t-s", "mm-kg-s", "in-lbf-s"))
+    assert (si.force, si.stress, si.density) == (1.0, 1.0, 1.0)
+    assert mts.force == pytest.approx(1.0) and mts.stress == pytest.approx(1e6)
+    assert mts.density == pytest.approx(1e12)
+    assert mks.force == pytest.approx(1e-3) and mks.stress == pytest.approx(1e3)
+    assert ips.force == pytest.approx(4.4482216152605, rel=1e-12)
+    assert ips.stress == pytest.approx(6894.757293168, rel=1e-9)
+    assert ips.density == pytest.approx(1.0686894e7, rel=1e-6)
+
+
+def test_sets_chosen_by_geometry(blisk, tmp_path):
+    """The bore of the .bdf (no named sets) chosen as the surface nodes on r = r_bore about
+    the axis: the native 'blisk/bore'."""
+    path = _moved(blisk, tmp_path / "b.bdf")
+    sets = {"bore": Selection(radius=0.10, tolerance=1e-7, body="blisk")}
+    mesh = import_mesh(path, "mm-t-s", {"blisk": "pid1", "damper": "pid2"}, _sector(blisk),
+                       sets).mesh
+    np.testing.assert_array_equal(mesh.node_sets["bore"], blisk.node_sets["blisk/bore"])
+    with pytest.raises(MeshImportError, match="selects no surface node"):
+        import_mesh(path, "mm-t-s", None, _sector(blisk),
+                    {"x": Selection(radius=0.5, tolerance=1e-7)})
+
+
+def test_cyclic_faces_by_name_and_mismatch(blisk, tmp_path):
+    path = _moved(blisk, tmp_path / "b.inp")
+    given = SectorSpec(48, tuple(AXIS), tuple(ORIGIN),
+                       (("blisk", "cyclic/blisk/right", "cyclic/blisk/left"),))  # swapped
+    mesh = import_mesh(path, "mm-t-s", None, given).mesh
+    np.testing.assert_array_equal(mesh.cyclic["blisk"].left, blisk.cyclic["blisk"].left)
+    wrong = SectorSpec(47, tuple(AXIS), tuple(ORIGIN),
+                       (("blisk", "cyclic/blisk/left", "cyclic/blisk/right"),))
+    with pytest.raises(MeshImportError, match=r"geometry.sector.faces.blisk: .*worst distance"):
+        import_mesh(path, "mm-t-s", None, wrong)
+
+
+def _check(tmp_path, geometry_table: str, masters: str = '"block/tip"'
+           ) -> subprocess.CompletedProcess:
+    case = tmp_path / "case.toml"
+    case.write_text(f'title = "t"\n[reduction]\n[reduction.bodies.block]\nmasters = [{masters}]\n'
+                    f'[geometry]\nmodel = "import"\n{geometry_table}\n')
+    return subprocess.run([sys.executable, "-m", "microslip.pipeline.cli", "check", str(case)],
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_bad_files_are_one_line_exit_2(tmp_path):
+    good = write(block("hexahedron", cells=(2, 1, 1)), tmp_path / "good.inp")
+    text = good.read_text()
+    (tmp_path / "cut.inp").write_text(text[: len(text) // 2])
+    flipped = block("wedge", cells=(2, 1, 1))
+    pyramid = meshio.Mesh(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1.0]]),
+                          [("pyramid", np.array([[0, 1, 2, 3, 4]]))])
+    meshio.write(tmp_path / "pyramid.msh", pyramid, file_format="gmsh22", binary=False)
+    (tmp_path / "shell.inp").write_text(text.replace("TYPE=C3D8RH", "TYPE=S4R"))
+    w = flipped.wedges.copy()
+    w[1] = w[1][[0, 2, 1, 3, 5, 4]]
+    meshio.write(tmp_path / "flip.inp", meshio.Mesh(flipped.points, [("wedge", w)]))
+    (tmp_path / "noise.msh").write_bytes(bytes(range(256)) * 4)
+    cases = {
+        'file = "missing.inp"': "missing.inp': no such file",
+        'file = "cut.inp"': "cut.inp",
+        'file = "pyramid.msh"': "element type(s) ['pyramid'] not supported",
+        'file = "shell.inp"': "element type S4R not supported",
+        'file = "flip.inp"': "1 wedge element(s) inverted or tangled",
+        'file = "noise.msh"': "not a readable mesh",
+        'file = "good.inp"\nunits = "cm"': "geometry.units = 'cm': expected one of",
+        'file = "good.inp"\n[geometry.sector]\nsectors = 12':
+            "geometry.sector: no body of",
+    }
+    for table, message in cases.items():
+        done = _check(tmp_path, table)
+        assert done.returncode == 2, (table, done.stdout, done.stderr)
+        assert message in done.stderr + done.stdout, (table, done.stderr)
+        assert "Traceback" not in done.stderr
+    ok = _check(tmp_path, 'file = "good.inp"\nbodies = {block = "block"}')
+    assert ok.returncode == 0, ok.stderr
+    missing = _check(tmp_path, 'file = "good.inp"', '"nope"')
+    assert missing.returncode == 2 and "node set 'nope' does not exist" in missing.stderr
