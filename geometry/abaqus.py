@@ -8,8 +8,11 @@ reader keeps the keywords a model needs and follows Abaqus' rules for them:
 * ``*NODE`` (``NSET=``), ``*ELEMENT`` (``TYPE=``, ``ELSET=``; data lines continue while a
   line ends with a comma), ``*NSET`` / ``*ELSET`` (``GENERATE``; members may be other sets;
   a repeated name adds to the set), ``*INCLUDE`` (``INPUT=``, relative to the deck);
-* solid types C3D4, C3D10, C3D8, C3D20, C3D6, C3D15 with any suffix (H, R, I, M, T...);
-  any other element type is reported by name.
+* solid types C3D4, C3D10, C3D8, C3D20, C3D27, C3D6, C3D15 with any suffix (H, R, I, M,
+  T...); another solid (C3D5 pyramids...) is reported by name. Elements of lower dimension (the
+  surface elements Gmsh writes for physical surfaces, shells, beams) are not part of the
+  model: their nodes join their ELSET's node set, and their count is reported
+  (``info["skipped"]``).
 
 Everything else (materials, steps, loads) is skipped here. It returns a meshio.Mesh, so the
 importer treats every format alike. Tested on decks meshio and Gmsh write.
@@ -24,8 +27,10 @@ import numpy as np
 
 # Abaqus type (without suffix letters) -> meshio cell type
 _SOLIDS = {"C3D4": "tetra", "C3D10": "tetra10", "C3D8": "hexahedron",
-           "C3D20": "hexahedron20", "C3D6": "wedge", "C3D15": "wedge15"}
-_TYPE = re.compile(r"^(C3D(?:4|10|8|20|6|15))[A-Z]*$")
+           "C3D20": "hexahedron20", "C3D27": "hexahedron27", "C3D6": "wedge", "C3D15": "wedge15"}
+_WIDTH = {"tetra": 4, "tetra10": 10, "hexahedron": 8, "hexahedron20": 20, "hexahedron27": 27,
+          "wedge": 6, "wedge15": 15}  # nodes per element
+_TYPE = re.compile(r"^(C3D(?:4|10|8|20|27|6|15))[A-Z]*$")
 
 
 class DeckError(ValueError):
@@ -81,10 +86,10 @@ def read(path: str | Path):
             if keyword == "*ELEMENT":
                 kind = params.get("TYPE", "").upper()
                 match = _TYPE.match(kind)
-                if match is None:
+                if match is None and (kind.startswith("C3D") or not kind):
                     raise DeckError(f"{where}:{number}: element type {kind or '?'} not "
                                     f"supported; solids read: {sorted(_SOLIDS)}")
-                blocks.append((_SOLIDS[match.group(1)], [], []))
+                blocks.append((_SOLIDS[match.group(1)] if match else kind, [], []))
             elif keyword in ("*NSET", "*ELSET"):
                 name = params.get(keyword[1:])
                 if not name:
@@ -126,10 +131,19 @@ def read(path: str | Path):
     index = {nid: i for i, nid in enumerate(ids)}
     if len(index) != len(ids):
         raise DeckError(f"{path}: a node id is defined twice")
+    skipped: dict[str, int] = {}
+    for kind, eids, nodes in blocks:  # not solids: their nodes join their element sets
+        if kind not in _WIDTH:
+            skipped[kind] = skipped.get(kind, 0) + len(eids)
+            members = dict(zip(eids, nodes, strict=True))
+            for name, ids_ in elsets.items():
+                extra = [n for e in ids_ if e in members for n in members[e]]
+                if extra:
+                    nsets.setdefault(name, []).extend(extra)
+    blocks = [b for b in blocks if b[0] in _WIDTH]
     cells, where_is = [], {}
     for k, (kind, eids, nodes) in enumerate(blocks):
-        want = {"tetra": 4, "tetra10": 10, "hexahedron": 8, "hexahedron20": 20, "wedge": 6,
-                "wedge15": 15}[kind]
+        want = _WIDTH[kind]
         if any(len(n) != want for n in nodes):
             raise DeckError(f"{path}: a {kind} element has not {want} nodes (truncated?)")
         try:
@@ -150,7 +164,7 @@ def read(path: str | Path):
                 per_block[k].append(i)
         cell_sets[name] = [np.unique(np.array(p, dtype=np.int64)) for p in per_block]
     return meshio.Mesh(np.array(xyz, dtype=np.float64), cells, point_sets=point_sets,
-                       cell_sets=cell_sets)
+                       cell_sets=cell_sets, info={"skipped": skipped})
 
 
 def _is_int(v: str) -> bool:

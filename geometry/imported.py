@@ -138,12 +138,15 @@ class ImportReport:
     elements: meshio cell type -> count of the solid elements read; midnode_offset: the
     largest distance of a quadratic element's mid node from its straight edge's midpoint,
     relative to that edge's length (0 for a linear mesh); dropped_sets: the file's node sets
-    left empty by dropping mid nodes (they held nothing else).
+    left empty by dropping mid nodes (they held nothing else); skipped: element type -> count
+    of the elements that are not solids (surface, shell, beam elements of a deck: their
+    nodes are node sets, they are not part of the model).
     """
 
     elements: dict[str, int]
     midnode_offset: float = 0.0
     dropped_sets: tuple[str, ...] = ()
+    skipped: dict[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -278,7 +281,8 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     count = {b.type: 0 for _, b in solids}
     for _, b in solids:
         count[b.type] += len(b.data)
-    return ImportedMesh(mesh, ImportReport(count, offset, dropped))
+    skipped = dict((getattr(raw, "info", None) or {}).get("skipped", {}))
+    return ImportedMesh(mesh, ImportReport(count, offset, dropped, skipped))
 
 
 def _element_groups(raw) -> dict[str, dict[int, np.ndarray]]:
@@ -360,8 +364,12 @@ def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]
     elif not solid_groups:
         chosen = {"body": {k: np.arange(len(b.data)) for k, (_, b) in enumerate(solids)}}
     else:
-        chosen = {n: g for n, g in solid_groups.items()
-                  if all(_disjoint(g, h) for m, h in solid_groups.items() if m != n)}
+        # a group repeated under another name (Gmsh's "Volume1" beside its physical name)
+        # counts once, by its last name: the explicit sets come after the element cards
+        distinct = {_key(g): n for n, g in solid_groups.items()}
+        unique = {n: solid_groups[n] for n in distinct.values()}
+        chosen = {n: g for n, g in unique.items()
+                  if all(_disjoint(g, h) for m, h in unique.items() if m != n)}
         if sum(sizes[n] for n in chosen) != total:
             raise MeshImportError(
                 f"{path}: its element groups overlap or leave elements out, so the bodies are "
@@ -385,6 +393,11 @@ def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]
                     f"{path}: bodies {n!r} and {m!r} share {shared} nodes; bodies in contact "
                     "carry distinct, coincident nodes (or list them as one body)")
     return chosen
+
+
+def _key(g: dict[int, np.ndarray]) -> tuple:
+    """A hashable identity of a group of elements."""
+    return tuple((k, np.sort(g[k]).tobytes()) for k in sorted(g))
 
 
 def _disjoint(g: dict[int, np.ndarray], h: dict[int, np.ndarray]) -> bool:

@@ -136,6 +136,65 @@ def test_cyclic_faces_by_name_and_mismatch(blisk, tmp_path):
         import_mesh(path, "mm-t-s", None, wrong)
 
 
+def _gmsh_deck(path, order: int, hexahedra: bool):
+    """A 1 x 0.2 x 0.1 m box meshed and written to .inp by Gmsh: physical volume BODY and
+    surface FIX (x = 0), tetrahedra or (transfinite, recombined) serendipity hexahedra.
+    Returns Gmsh's own view: node tag -> coordinates, and the solids' corner node tags."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        box = gmsh.model.occ.addBox(0, 0, 0, 1, 0.2, 0.1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(3, [box], name="BODY")
+        faces = [f for _, f in gmsh.model.getBoundary([(3, box)], oriented=False)]
+        fix = [f for f in faces if abs(gmsh.model.occ.getCenterOfMass(2, f)[0]) < 1e-9]
+        gmsh.model.addPhysicalGroup(2, fix, name="FIX")
+        if hexahedra:
+            for _, tag in gmsh.model.getEntities(1):
+                gmsh.model.mesh.setTransfiniteCurve(tag, 4)
+            for _, tag in gmsh.model.getEntities(2):
+                gmsh.model.mesh.setTransfiniteSurface(tag)
+                gmsh.model.mesh.setRecombine(2, tag)
+            gmsh.model.mesh.setTransfiniteVolume(box)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.05)
+        gmsh.option.setNumber("Mesh.ElementOrder", order)
+        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 1)  # hexahedron20
+        gmsh.option.setNumber("Mesh.SaveGroupsOfNodes", 1)
+        gmsh.model.mesh.generate(3)
+        gmsh.write(str(path))
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        (kind,), _, (nodes,) = gmsh.model.mesh.getElements(3)
+        _, _, _, count, _, corners = gmsh.model.mesh.getElementProperties(kind)
+    finally:
+        gmsh.finalize()
+    position = dict(zip(tags.tolist(), xyz.reshape(-1, 3), strict=True))
+    return position, nodes.reshape(-1, count)[:, :corners]
+
+
+@pytest.mark.parametrize(("order", "hexahedra"), [(1, False), (2, False), (1, True),
+                                                   (2, True)])
+def test_decks_gmsh_writes(tmp_path, order, hexahedra):
+    """The deck reader on decks Gmsh writes (with its surface elements, and its entity
+    ELSETs beside the physical ones) against Gmsh's own mesh: the same corner nodes and
+    elements, the physical names, the box's volume."""
+    position, corners = _gmsh_deck(tmp_path / "box.inp", order, hexahedra)
+    read = import_mesh(tmp_path / "box.inp")
+    mesh = read.mesh
+    assert sorted(mesh.bodies) == ["BODY"]  # the physical name, not Gmsh's "Volume1"
+    assert mesh.body_volume("BODY") == pytest.approx(0.02, rel=1e-12)
+    np.testing.assert_array_equal(mesh.node_sets["FIX"],
+                                  np.flatnonzero(np.abs(mesh.points[:, 0]) < 1e-12))
+    assert read.report.midnode_offset < 1e-9
+    assert sum(read.report.skipped.values()) > 0  # Gmsh's surface elements of FIX
+    cells = mesh.hexahedra if hexahedra else mesh.tetrahedra
+    assert len(cells) == len(corners)
+    ours = {tuple(sorted(map(tuple, np.round(mesh.points[c], 12)))) for c in cells}
+    theirs = {tuple(sorted(tuple(np.round(position[t], 12)) for t in c)) for c in corners}
+    assert ours == theirs  # every element, by its corners' positions
+
+
 def _check(tmp_path, geometry_table: str, masters: str = '"block/tip"'
            ) -> subprocess.CompletedProcess:
     case = tmp_path / "case.toml"
@@ -154,6 +213,7 @@ def test_bad_files_are_one_line_exit_2(tmp_path):
                           [("pyramid", np.array([[0, 1, 2, 3, 4]]))])
     meshio.write(tmp_path / "pyramid.msh", pyramid, file_format="gmsh22", binary=False)
     (tmp_path / "shell.inp").write_text(text.replace("TYPE=C3D8RH", "TYPE=S4R"))
+    (tmp_path / "c3d5.inp").write_text(text.replace("TYPE=C3D8RH", "TYPE=C3D5"))
     w = flipped.wedges.copy()
     w[1] = w[1][[0, 2, 1, 3, 5, 4]]
     meshio.write(tmp_path / "flip.inp", meshio.Mesh(flipped.points, [("wedge", w)]))
@@ -162,7 +222,8 @@ def test_bad_files_are_one_line_exit_2(tmp_path):
         'file = "missing.inp"': "missing.inp': no such file",
         'file = "cut.inp"': "cut.inp",
         'file = "pyramid.msh"': "element type(s) ['pyramid'] not supported",
-        'file = "shell.inp"': "element type S4R not supported",
+        'file = "shell.inp"': "no solid elements",  # shells are skipped, not read
+        'file = "c3d5.inp"': "element type C3D5 not supported",
         'file = "flip.inp"': "1 wedge element(s) inverted or tangled",
         'file = "noise.msh"': "not a readable mesh",
         'file = "good.inp"\nunits = "cm"': "geometry.units = 'cm': expected one of",

@@ -154,9 +154,13 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
     progress(f"[geometry] {source}: {m.points.shape[0]} nodes, {m.element_summary()}, "
              f"bodies {sorted(m.bodies)}, cyclic {sorted(m.cyclic)}, contacts "
              f"{sorted(m.contacts)} in {elapsed:.2f} s; hash {m.content_hash[:12]}")
-    if table.imported and table.read().report.midnode_offset > MIDNODE_NOTE:
+    report = table.read().report if table.imported else None
+    if report is not None and report.skipped:
+        progress("[geometry] note: not solids, so not part of the model (their nodes are node "
+                 "sets): " + ", ".join(f"{n} {t}" for t, n in sorted(report.skipped.items())))
+    if report is not None and report.midnode_offset > MIDNODE_NOTE:
         progress(f"[geometry] note: the file's mid-edge nodes lie up to "
-                 f"{100 * table.read().report.midnode_offset:.2g} % of an edge off its "
+                 f"{100 * report.midnode_offset:.2g} % of an edge off its "
                  "straight midpoint; the quadratic elements have straight edges (refine the "
                  "mesh where curvature matters)")
     if pictures:
