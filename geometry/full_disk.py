@@ -23,6 +23,8 @@ def disk_node_map(sector: Mesh) -> np.ndarray:
     face, so those nodes share one index. The numbering is the one :func:`full_disk` uses.
     """
     ns = sector_count(sector)
+    if not all(c.matching for c in sector.cyclic.values()):
+        raise ValueError("full_disk: needs cyclic faces that match node for node")
     n = len(sector.points)
     node_map = np.full((ns, n), -1, dtype=np.int64)
     shared_left = np.zeros(n, dtype=bool)

@@ -290,6 +290,8 @@ def _element_groups(raw) -> dict[str, dict[int, np.ndarray]]:
     sets, Gmsh physical groups and Nastran property ids."""
     groups: dict[str, dict[int, np.ndarray]] = {}
     for name, per_block in (raw.cell_sets or {}).items():
+        if name.startswith("gmsh:"):  # meshio's bookkeeping of Gmsh entities, not a group
+            continue
         for i, idx in enumerate(per_block):
             if idx is not None and len(idx):
                 groups.setdefault(name, {})[i] = np.asarray(idx, dtype=np.int64)

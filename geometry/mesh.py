@@ -64,22 +64,26 @@ def _frozen(arr: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class CyclicBoundary:
-    """Node-for-node periodic faces of one sector body.
+    """The periodic faces of one sector body.
 
     left:    (k,) int64 node indices on the left cyclic face (theta = -phi/2)
     right:   (k,) int64; ``right[i]`` is the image of ``left[i]`` under the rotation
              by +phi about +z
     sectors: Ns; ``phi = 2 pi / Ns``
+    matching: False for faces meshed independently: ``left`` (k,) and ``right`` (k',) are
+             then just each face's nodes, and the finer face follows the other by
+             interpolation (``fe.cyclic``); the image of one face lies on the other
     """
 
     left: np.ndarray
     right: np.ndarray
     sectors: int
+    matching: bool = True
 
     def __post_init__(self) -> None:
         left = _index_array("CyclicBoundary.left", self.left, 1)
         right = _index_array("CyclicBoundary.right", self.right, 1)
-        if left.shape != right.shape:
+        if self.matching and left.shape != right.shape:
             raise MeshValidationError(
                 f"CyclicBoundary: left {left.shape} and right {right.shape} differ in size"
             )
@@ -268,6 +272,8 @@ class Mesh:
             for side in ("left", "right"):
                 if not np.all(np.isin(getattr(cyc, side), owned)):
                     raise MeshValidationError(f"cyclic[{body!r}].{side}: nodes outside the body")
+            if not cyc.matching:  # (geometry.sector checked the faces' distance)
+                continue
             image = self.points[cyc.left] @ rotation_z(cyc.angle).T
             err = np.abs(image - self.points[cyc.right]).max(initial=0.0)
             if err > MATCH_TOL:
@@ -387,7 +393,11 @@ class Mesh:
             put("set/" + name, self.node_sets[name])
         for name in sorted(self.cyclic):
             cyc = self.cyclic[name]
-            put(f"cyclic/{name}/{cyc.sectors}", np.stack([cyc.left, cyc.right]))
+            if cyc.matching:
+                put(f"cyclic/{name}/{cyc.sectors}", np.stack([cyc.left, cyc.right]))
+            else:
+                put(f"cyclic/{name}/{cyc.sectors}/interpolated", cyc.left)
+                put("right", cyc.right)
         for name in sorted(self.contacts):
             p = self.contacts[name]
             put(f"contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/{p.area!r}")

@@ -9,7 +9,8 @@ Cyclic faces: given as two node sets per body, or found by geometry: the body's 
 faces that lie on two planes through the axis ``phi = 2 pi / Ns`` apart. Faces whose nodes
 match under the rotation are paired node to node; the right face's nodes are then placed on
 the exact images of the left ones (they moved by less than the tolerance), so the pairing
-holds to round-off downstream.
+holds to round-off downstream. Faces meshed independently are tied by interpolation
+(``fe.cyclic``) when the finer one, turned onto the other, lies on it within the tolerance.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .mesh import CyclicBoundary, Mesh, rotation_z
+from .surfaces import project, surface_of
 
 
 class SectorError(ValueError):
@@ -98,8 +100,7 @@ def paired(points: np.ndarray, left: np.ndarray, right: np.ndarray, angle: float
     """(left, right) node pairs with right[i] the image of left[i] by the rotation +angle
     about z; SectorError naming ``face`` and the worst distance when they do not match."""
     if len(left) != len(right):
-        raise SectorError(f"{face}: the faces have {len(left)} and {len(right)} nodes; "
-                          "non-matching cyclic faces are not supported yet")
+        raise SectorError(f"{face}: the faces have {len(left)} and {len(right)} nodes")
     image = points[left] @ rotation_z(angle).T
     dist, nearest = cKDTree(points[right]).query(image)
     worst = float(dist.max(initial=0.0))
@@ -109,9 +110,45 @@ def paired(points: np.ndarray, left: np.ndarray, right: np.ndarray, angle: float
     return left, right[nearest]
 
 
+def tied(mesh: Mesh, body: str, left: np.ndarray, right: np.ndarray, angle: float,
+         tol: float, face: str) -> CyclicBoundary:
+    """Faces that do not match node for node, tied by interpolation (``fe.cyclic``): the
+    finer face's nodes, turned onto the other, must lie on it within ``tol`` (SectorError
+    naming ``face`` and the worst distance otherwise)."""
+    slave_is_right = len(right) >= len(left)
+    slave, master = (right, left) if slave_is_right else (left, right)
+    turn = rotation_z(-angle if slave_is_right else angle)
+    on = project(mesh.points[slave] @ turn.T, mesh.points,
+                 surface_of(mesh.body_cells(body), master))
+    worst = float(on.gap.max(initial=0.0))
+    if worst > tol:
+        raise SectorError(f"{face}: the right face is not the left one rotated by 2 pi / Ns "
+                          f"(worst distance {worst:.3e} m, tolerance {tol:.3e} m)")
+    return CyclicBoundary(left, right, round(2 * np.pi / angle), matching=False)
+
+
+def _boundary(mesh: Mesh, points: np.ndarray, body: str, faces, spec: SectorSpec,
+              face: str) -> CyclicBoundary:
+    """The first way ``faces`` ((left, right) candidates, in order) are cyclic faces: paired
+    node for node (the right face then moved onto the exact images), or tied."""
+    errors = []
+    for left, right in faces:
+        try:
+            left, right = paired(points, left, right, spec.angle, spec.tolerance, face)
+            points[right] = points[left] @ rotation_z(spec.angle).T
+            return CyclicBoundary(left, right, spec.sectors)
+        except SectorError as err:
+            errors.append(err)
+        try:
+            return tied(mesh, body, left, right, spec.angle, spec.tolerance, face)
+        except SectorError as err:
+            errors.append(err)
+    raise errors[-1 if len(faces) == 1 else 1]
+
+
 def cyclic_boundaries(mesh: Mesh, spec: SectorSpec) -> tuple[np.ndarray, dict]:
-    """(points with each right face on its left face's exact image, body -> CyclicBoundary)
-    of a mesh already in the sector frame (axis +z through the origin)."""
+    """(points with each matching right face on its left face's exact image, body ->
+    CyclicBoundary) of a mesh already in the sector frame (axis +z through the origin)."""
     given = {body: (left, right) for body, left, right in spec.faces}
     points = np.array(mesh.points)
     out = {}
@@ -123,20 +160,14 @@ def cyclic_boundaries(mesh: Mesh, spec: SectorSpec) -> tuple[np.ndarray, dict]:
                 raise SectorError(f"geometry.sector.faces.{body} = {list(names)}: no node set "
                                   f"{missing[0]!r}; node sets: {sorted(mesh.node_sets)}")
             left, right = (mesh.node_sets[n] for n in names)
-            try:
-                left, right = paired(points, left, right, spec.angle, spec.tolerance,
-                                     f"geometry.sector.faces.{body}")
-            except SectorError:  # given the other way round
-                left, right = paired(points, right, left, spec.angle, spec.tolerance,
-                                     f"geometry.sector.faces.{body}")
+            faces = [(left, right), (right, left)]  # either order
+            face = f"geometry.sector.faces.{body}"
         else:
             found = planar_faces(mesh, body, spec.angle, spec.tolerance)
             if found is None:
                 continue  # not a cyclic body (a blade on its own, a damper)
-            left, right = paired(points, *found, spec.angle, spec.tolerance,
-                                 f"the cyclic faces of body {body!r}")
-        points[right] = points[left] @ rotation_z(spec.angle).T
-        out[body] = CyclicBoundary(left, right, spec.sectors)
+            faces, face = [found], f"the cyclic faces of body {body!r}"
+        out[body] = _boundary(mesh, points, body, faces, spec, face)
     return points, out
 
 

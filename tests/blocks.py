@@ -57,3 +57,29 @@ def block(shape: str, size=(1.0, 0.1, 0.1), cells=(10, 2, 2), distort: float = 0
             "block/tip": np.flatnonzero(P[:, 0] > size[0] - 1e-12)}
     return Mesh("block", P, tets, {"block": np.arange(n)}, node_sets=sets, hexahedra=hexes,
                 wedges=wedges)
+
+
+def annulus(shape: str = "hexahedron", sectors: int = 12, cells=(3, 4, 2),
+            stretch: float = 0.0, radii=(0.1, 0.2), width: float = 0.02) -> Mesh:
+    """One sector (theta in [-phi/2, phi/2]) of a ring r in ``radii``, z in [0, width], on an
+    (nr, ntheta, nz) grid of cells in ``shape``; ``stretch`` > 0 moves the radial and axial
+    grid lines more the nearer they are to the right face, so the two cyclic faces no longer
+    match. Body "ring"; node sets "ring/bore" (r = r0), "cyclic/left", "cyclic/right"."""
+    nr, nt, nz = cells
+    P, hexes = grid((1.0, 1.0, 1.0), cells)
+    x, t, z = P.T  # unit cube coordinates
+    bend = stretch * t * x * (1 - x)  # 0 on the left face (t = 0) and on r0, r1
+    r = radii[0] + (radii[1] - radii[0]) * (x + bend)
+    theta = (t - 0.5) * 2 * np.pi / sectors
+    zz = width * (z + stretch * t * z * (1 - z))
+    points = np.stack([r * np.cos(theta), r * np.sin(theta), zz], axis=1)
+    tets, wedges = np.empty((0, 4), int), np.empty((0, 6), int)
+    if shape == "wedge":
+        wedges, hexes = hexes[:, _WEDGES].reshape(-1, 6), np.empty((0, 8), int)
+    elif shape == "tetra":
+        tets, hexes = hexes[:, _TETS].reshape(-1, 4), np.empty((0, 8), int)
+    n = len(tets) + len(hexes) + len(wedges)
+    sets = {"ring/bore": np.flatnonzero(x < 1e-12), "cyclic/left": np.flatnonzero(t < 1e-12),
+            "cyclic/right": np.flatnonzero(t > 1 - 1e-12)}
+    return Mesh("annulus", points, tets, {"ring": np.arange(n)}, node_sets=sets,
+                hexahedra=hexes, wedges=wedges)

@@ -7,7 +7,18 @@ h the right-face DOFs are eliminated with
     u_R = exp(i h phi) R(phi) u_L        (Cartesian DOFs, P2 edge DOFs included)
 
 so that u_body = P_h u_free and K_h = P_h^H K P_h, M_h = P_h^H M P_h: complex Hermitian, real for
-h = 0 and h = Ns/2. Sector s of the disk then carries exp(i h s phi) R(s phi) u (a forward
+h = 0 and h = Ns/2.
+
+Faces meshed independently (``CyclicBoundary.matching`` False) are tied by interpolation: each
+DOF of the finer face (the slave; its vertices, and its edge midpoints for quadratic elements)
+follows the other face's displacement interpolated at its rotated position with the facet's
+shape functions (the trace of the element: 3- or 6-node triangle, 4- or 8-node quad),
+
+    u_S = exp(+-i h phi) R(+-phi) W u_M,        (+ when the right face is the slave)
+
+a non-conforming tie whose error is of the order of the discretization error.
+
+Sector s of the disk then carries exp(i h s phi) R(s phi) u (a forward
 travelling wave for a time factor exp(i w t)).
 
 Engine-order excitation EO: temporal harmonic n lives on nodal diameter n EO mod Ns, folded into
@@ -27,6 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from microslip.geometry import surfaces
 from microslip.geometry.mesh import rotation_z
 
 from .fem import BodyModel, IntArray
@@ -83,14 +95,12 @@ def nodal_diameters(harmonics: Iterable[int], engine_order: int, sectors: int) -
 
 
 def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
-    """Validate a CyclicBoundary against the body: pairs in the body, disjoint, rotated images.
-
-    The coordinate comparison only checks the given pairing; it never searches for partners.
-    """
+    """Validate a CyclicBoundary against the body: faces in the body and disjoint; matching
+    faces' pairs rotated images (the comparison only checks the given pairing)."""
     left = np.asarray(boundary.left, dtype=np.int64)
     right = np.asarray(boundary.right, dtype=np.int64)
     _check_sectors(boundary.sectors)
-    if left.shape != right.shape or left.ndim != 1:
+    if left.ndim != 1 or right.ndim != 1 or (boundary.matching and left.shape != right.shape):
         raise ValueError(
             f"cyclic boundary: left {left.shape} and right {right.shape} must be equal 1-D shapes"
         )
@@ -98,6 +108,8 @@ def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
         raise ValueError("cyclic boundary: a node is on both faces (a node on the axis?)")
     pl = body.points[body.local_nodes(left, "cyclic boundary left")]
     pr = body.points[body.local_nodes(right, "cyclic boundary right")]
+    if not boundary.matching:
+        return
     R = rotation_z(2.0 * np.pi / boundary.sectors)
     scale = max(float(np.abs(body.points).max()), 1e-300)
     err = float(np.abs(pl @ R.T - pr).max()) if len(pl) else 0.0
@@ -108,14 +120,28 @@ def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
         )
 
 
-def face_dof_pairs(body: BodyModel, boundary: Any) -> tuple[IntArray, IntArray]:
-    """(k, 3) right-face DOFs and the (k, 3) left-face DOFs they are images of.
+@dataclass(frozen=True)
+class FaceTie:
+    """u_S = sign-phase R W u_M: the slave face's DOFs from the master face's.
 
-    Vertex DOFs from the node pairs; P2 edge DOFs from the edges of the right face's boundary
-    triangles, matched to the left edges through the vertex pairing (topology only).
+    slave: (k, 3) and master: (m, 3) DOF triples (x, y, z); weights: (k, m) CSR;
+    slave_is_right: the right face is the slave (u_S = exp(i h phi) R(phi) W u_M), else
+    the left one (exp(-i h phi) R(-phi)).
     """
+
+    slave: IntArray
+    master: IntArray
+    weights: sp.csr_matrix
+    slave_is_right: bool
+
+
+def face_tie(body: BodyModel, boundary: Any) -> FaceTie:
+    """The tie of a body's cyclic faces: node for node (right from left) when they match,
+    by interpolation (the finer face from the other) when they do not."""
     left = np.asarray(boundary.left, dtype=np.int64)
     right = np.asarray(boundary.right, dtype=np.int64)
+    if not boundary.matching:
+        return _interpolated_tie(body, left, right, 2.0 * np.pi / boundary.sectors)
     right_dofs = [body.dofs_of_nodes(right, "cyclic boundary right")]
     left_dofs = [body.dofs_of_nodes(left, "cyclic boundary left")]
     if body.order == 2:
@@ -131,7 +157,84 @@ def face_dof_pairs(body: BodyModel, boundary: Any) -> tuple[IntArray, IntArray]:
             )
         right_dofs.append(body.edge_dofs[e_right])
         left_dofs.append(body.edge_dofs[e_left])
-    return np.concatenate(right_dofs), np.concatenate(left_dofs)
+    slave, master = np.concatenate(right_dofs), np.concatenate(left_dofs)
+    return FaceTie(slave, master, sp.identity(len(slave), format="csr"), True)
+
+
+def _interpolated_tie(body: BodyModel, left: IntArray, right: IntArray, phi: float) -> FaceTie:
+    """The finer face's vertices (and edge midpoints, order 2) interpolated on the other."""
+    slave_is_right = len(right) >= len(left)
+    slave, master = (right, left) if slave_is_right else (left, right)
+    back = rotation_z(-phi if slave_is_right else phi)  # slave position -> master face
+    xyz = np.zeros((int(body.nodes[-1]) + 1, 3))
+    xyz[body.nodes] = body.points
+    surface = surfaces.surface_of(body.cells, master)
+    # the slave's DOF carriers: vertices, then (order 2) the midpoints of its face edges
+    points = [xyz[slave]]
+    slave_dofs = [body.dofs_of_nodes(slave, "cyclic face")]
+    if body.order == 2:
+        edges = body.set_edges(slave)
+        points.append(xyz[body.edges[edges]].mean(axis=1))
+        slave_dofs.append(body.edge_dofs[edges])
+    where = surfaces.project(np.concatenate(points) @ back.T, xyz, surface)
+    rows, keys, values = _facet_weights(body, surface, where)
+    master_keys, column = np.unique(keys, return_inverse=True)
+    vertex = master_keys < 0  # keys: -(node + 1) for a vertex, edge index otherwise
+    master_dofs = np.empty((len(master_keys), 3), dtype=np.int64)
+    master_dofs[vertex] = body.dofs_of_nodes(-master_keys[vertex] - 1, "cyclic face")
+    master_dofs[~vertex] = body.edge_dofs[master_keys[~vertex]]
+    weights = sp.csr_matrix((values, (rows, column)),
+                            shape=(sum(len(p) for p in points), len(master_keys)))
+    return FaceTie(np.concatenate(slave_dofs), master_dofs, weights, slave_is_right)
+
+
+def _facet_weights(body: BodyModel, surface: Any, where: Any
+                   ) -> tuple[IntArray, IntArray, NDArray]:
+    """(row, key, weight) triplets: point i's value is sum of weight x the DOF keyed (a
+    vertex as -(node + 1), an edge by its index) over its facet's shape functions."""
+    order = body.order
+    rows, keys, values = [], [], []
+    for quad, facets in ((False, surface.triangles), (True, surface.quads)):
+        sel = np.flatnonzero(where.quad == quad)
+        if not sel.size:
+            continue
+        corners = facets[where.facet[sel]]  # (n, c)
+        shape = _quad_shapes if quad else _triangle_shapes
+        n_corner, n_mid = shape(where.local[sel], order)
+        c = corners.shape[1]
+        rows.append(np.repeat(sel, c))
+        keys.append(-(corners.ravel() + 1))
+        values.append(n_corner.ravel())
+        if n_mid is not None:
+            pairs = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2).reshape(-1, 2)
+            rows.append(np.repeat(sel, c))
+            keys.append(body.edge_index(pairs))
+            values.append(n_mid.ravel())
+    return np.concatenate(rows), np.concatenate(keys), np.concatenate(values)
+
+
+def _triangle_shapes(local: NDArray, order: int) -> tuple[NDArray, NDArray | None]:
+    """Shape functions at triangle coordinates (n, 2): corners (n, 3), and with order 2 the
+    edge midpoints (n, 3) of edges (0, 1), (1, 2), (2, 0)."""
+    L = np.stack([1.0 - local[:, 0] - local[:, 1], local[:, 0], local[:, 1]], axis=1)
+    if order == 1:
+        return L, None
+    return L * (2.0 * L - 1.0), 4.0 * L * np.roll(L, -1, axis=1)
+
+
+def _quad_shapes(local: NDArray, order: int) -> tuple[NDArray, NDArray | None]:
+    """Shape functions at quad coordinates (n, 2) in [-1, 1]^2: corners (n, 4), and with
+    order 2 (8-node serendipity) the edge midpoints (n, 4) of edges (0, 1) .. (3, 0)."""
+    s = surfaces.QUAD_CORNERS
+    a = 1.0 + local[:, None, 0] * s[:, 0]
+    b = 1.0 + local[:, None, 1] * s[:, 1]
+    if order == 1:
+        return 0.25 * a * b, None
+    corner = 0.25 * a * b * (local[:, None, 0] * s[:, 0] + local[:, None, 1] * s[:, 1] - 1.0)
+    xi, eta = local[:, 0], local[:, 1]
+    mid = 0.5 * np.stack([(1 - xi**2) * (1 - eta), (1 + xi) * (1 - eta**2),
+                          (1 - xi**2) * (1 + eta), (1 - xi) * (1 - eta**2)], axis=1)
+    return corner, mid
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,8 +302,8 @@ def sector_model(
         sectors = int(boundary.sectors)
         check_nodal_diameter(nodal_diameter, sectors)
         check_boundary(body, boundary)
-        right_dofs, left_dofs = face_dof_pairs(body, boundary)
-        removed[right_dofs.ravel()] = True
+        tie = face_tie(body, boundary)
+        removed[tie.slave.ravel()] = True
     else:
         sectors = None
     free = np.flatnonzero(~removed).astype(np.int64)
@@ -211,18 +314,27 @@ def sector_model(
     vals.append(np.ones(len(free)))
     dtype: type = np.float64
     if boundary is not None:
+        sign = 1 if tie.slave_is_right else -1
         T = phase(nodal_diameter, sectors) * rotation_z(2.0 * np.pi / sectors)
+        if sign < 0:  # the left face follows the right: the inverse rotation and phase
+            T = np.conj(phase(nodal_diameter, sectors)) * rotation_z(-2.0 * np.pi / sectors)
         dtype = np.complex128 if np.iscomplexobj(T) else np.float64
-        # u_R[a] = sum_b T[a, b] u_L[b]; a clamped left DOF contributes nothing.
+        # u_S[a] = sum_b T[a, b] sum_j W[., j] u_M[j, b]; a clamped master DOF contributes
+        # nothing, a clamped slave DOF stays zero.
+        W = tie.weights.tocoo()
+        held = np.zeros(N, dtype=bool)
+        if clamped is not None:
+            held[clamped] = True
         for a in range(3):
             for b in range(3):
                 if T[a, b] == 0:
                     continue
-                c = index[left_dofs[:, b]]
-                keep = c >= 0
-                rows.append(right_dofs[keep, a])
+                c = index[tie.master[W.col, b]]
+                r = tie.slave[W.row, a]
+                keep = (c >= 0) & ~held[r]
+                rows.append(r[keep])
                 cols.append(c[keep])
-                vals.append(np.full(int(keep.sum()), T[a, b]))
+                vals.append(T[a, b] * W.data[keep])
     P = sp.csr_matrix(
         (np.concatenate(vals).astype(dtype), (np.concatenate(rows), np.concatenate(cols))),
         shape=(N, len(free)),

@@ -1,0 +1,146 @@
+"""Surfaces of a body and points projected onto them (cyclic faces tied by interpolation;
+contacts between non-matching surfaces).
+
+A surface is the body's boundary faces whose nodes all belong to a node set: triangles and
+quads (normals out of the body). A point projects onto the facet nearest to it; its place
+there is the facet's local coordinates:
+
+* triangle (xi, eta): x = (1 - xi - eta) p0 + xi p1 + eta p2, inside when xi, eta >= 0 and
+  xi + eta <= 1;
+* quad (xi, eta) in [-1, 1]^2: the bilinear map of p0..p3 (counter-clockwise), found by
+  Newton's method (a warped quad's nearest point).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from . import elements
+
+# bilinear quad: corner signs (xi_i, eta_i), counter-clockwise from (-1, -1)
+QUAD_CORNERS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class Surface:
+    """Facets of a surface: (t, 3) triangles and (q, 4) quads, node indices."""
+
+    triangles: np.ndarray
+    quads: np.ndarray
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """Sorted unique nodes of the surface."""
+        return np.unique(np.concatenate([self.triangles.ravel(), self.quads.ravel()]))
+
+
+@dataclass(frozen=True)
+class Projection:
+    """Where each of n points lies on a surface.
+
+    quad: (n,) bool, the facet is a quad (else a triangle); facet: (n,) its index among the
+    surface's triangles or quads; local: (n, 2) (xi, eta); distance: (n,) [m] from the
+    point to its projection; outside: (n,) [-] how far outside the facet the projection
+    fell, in local units (0 inside); gap: (n,) [m] the distance plus the outside part times
+    the facet's size (how far the point is from the surface itself).
+    """
+
+    quad: np.ndarray
+    facet: np.ndarray
+    local: np.ndarray
+    distance: np.ndarray
+    outside: np.ndarray
+    gap: np.ndarray
+
+
+def surface_of(cells: dict[str, np.ndarray], nodes: np.ndarray) -> Surface:
+    """The boundary faces of a body (``cells``: shape -> corners) lying in ``nodes``."""
+    tri, quad = elements.boundary_faces(cells)
+    return Surface(tri[np.isin(tri, nodes).all(axis=1)], quad[np.isin(quad, nodes).all(axis=1)])
+
+
+def quad_map(p: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(x (n, 3), dx/d(xi, eta) (n, 3, 2)) of bilinear quads p (n, 4, 3) at xi (n, 2)."""
+    s = QUAD_CORNERS
+    n = 0.25 * (1 + xi[:, None, 0] * s[:, 0]) * (1 + xi[:, None, 1] * s[:, 1])  # (n, 4)
+    dn = np.stack([0.25 * s[:, 0] * (1 + xi[:, None, 1] * s[:, 1]),
+                   0.25 * s[:, 1] * (1 + xi[:, None, 0] * s[:, 0])], axis=2)  # (n, 4, 2)
+    return np.einsum("nc,nci->ni", n, p), np.einsum("nci,ncj->nij", p, dn)
+
+
+def _on_triangles(x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(local (n, 2), distance (n,)) of points x (n, 3) projected on the planes of
+    triangles p (n, 3, 3)."""
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    d = x - p[:, 0]
+    g = np.stack([np.stack([np.einsum("ni,ni->n", e1, e1), np.einsum("ni,ni->n", e1, e2)], 1),
+                  np.stack([np.einsum("ni,ni->n", e2, e1), np.einsum("ni,ni->n", e2, e2)], 1)],
+                 axis=1)
+    rhs = np.stack([np.einsum("ni,ni->n", d, e1), np.einsum("ni,ni->n", d, e2)], axis=1)
+    local = np.linalg.solve(g, rhs[..., None])[..., 0]
+    foot = p[:, 0] + local[:, :1] * e1 + local[:, 1:] * e2
+    return local, np.linalg.norm(x - foot, axis=1)
+
+
+def _on_quads(x: np.ndarray, p: np.ndarray, steps: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """(local (n, 2), distance (n,)) of points x (n, 3) projected on bilinear quads p (n, 4,
+    3): Gauss-Newton on |x(xi) - x|^2 from the centre (exact in one step for a
+    parallelogram)."""
+    xi = np.zeros((len(x), 2))
+    for _ in range(steps):
+        y, J = quad_map(p, xi)
+        jtj = np.einsum("nki,nkj->nij", J, J)
+        jtr = np.einsum("nki,nk->ni", J, x - y)
+        delta = np.linalg.solve(jtj, jtr[..., None])[..., 0]
+        xi = xi + delta
+        if np.abs(delta).max(initial=0.0) < 1e-13:
+            break
+    y, _ = quad_map(p, xi)
+    return xi, np.linalg.norm(x - y, axis=1)
+
+
+def _outside(local: np.ndarray, quad: bool) -> np.ndarray:
+    """How far local coordinates lie outside their facet (0 inside)."""
+    if quad:
+        return np.clip(np.abs(local) - 1.0, 0.0, None).max(axis=1)
+    xi, eta = local.T
+    return np.maximum.reduce([-xi, -eta, xi + eta - 1.0, np.zeros_like(xi)])
+
+
+def _fields(p: Projection) -> tuple[np.ndarray, ...]:
+    return (p.quad, p.facet, p.local, p.distance, p.outside, p.gap)
+
+
+def project(points: np.ndarray, xyz: np.ndarray, surface: Surface, candidates: int = 8
+            ) -> Projection:
+    """Project ``points`` (n, 3) onto ``surface`` (nodes at ``xyz``): each onto the facet,
+    among the ``candidates`` nearest by centroid, it lies closest to (inside first)."""
+    points = np.asarray(points, dtype=float)
+    best = None
+    for quad, facets in ((False, surface.triangles), (True, surface.quads)):
+        if len(facets) == 0:
+            continue
+        centroids = xyz[facets].mean(axis=1)
+        k = min(candidates, len(facets))
+        _, near = cKDTree(centroids).query(points, k=k)
+        near = near.reshape(len(points), k)
+        for j in range(k):
+            p = xyz[facets[near[:, j]]]
+            local, dist = (_on_quads if quad else _on_triangles)(points, p)
+            out = _outside(local, quad)
+            # rank by the gap: outside the facet counts as distance (in the facet's size)
+            size = np.linalg.norm(p.max(axis=1) - p.min(axis=1), axis=1)
+            trial = Projection(np.full(len(points), quad), near[:, j], local, dist, out,
+                               dist + out * size)
+            if best is None:
+                best = trial
+                continue
+            better = trial.gap < best.gap
+            best = Projection(*(np.where(better[:, None] if a.ndim == 2 else better, a, b)
+                                for a, b in zip(_fields(trial), _fields(best), strict=True)))
+    if best is None:
+        raise ValueError("project: the surface has no facet")
+    return best
