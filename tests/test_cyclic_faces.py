@@ -131,7 +131,7 @@ def test_matching_and_non_matching_faces_give_the_same_frequencies(tmp_path):
         sector = cyclic.sector_model(body, (), tied, nd)
         u = _field(body, value)
         assert np.abs(sector.expansion @ u[sector.free_dofs] - u).max() < 1e-12
-    for nd in (0, 1, 3, 6):
+    for nd in (0, 3):  # real and complex sector matrices
         f_match, f_free, f_fine = (_frequencies(m, nd) for m in (matching, free, fine))
         discretization = np.abs(f_match - f_fine) / f_fine
         assert (np.abs(f_free - f_match) / f_match).max() < discretization.max(), nd
