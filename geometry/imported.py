@@ -174,6 +174,8 @@ def read(path: str | Path):
             return abaqus.read(path)
         except abaqus.DeckError as exc:
             raise MeshImportError(str(exc)) from None
+    if suffix == ".cdb":
+        return _ansys_archive(path)
     fmt = {".bdf": "nastran", ".nas": "nastran", ".dat": "nastran", ".msh": "gmsh"}.get(suffix)
     said = io.StringIO()
     try:  # meshio prints its complaints and exits when no reader takes the file
@@ -283,6 +285,59 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
         count[b.type] += len(b.data)
     skipped = dict((getattr(raw, "info", None) or {}).get("skipped", {}))
     return ImportedMesh(mesh, ImportReport(count, offset, dropped, skipped))
+
+
+# VTK cell type -> meshio type, of the solids an Ansys archive holds (a degenerate SOLID185 /
+# SOLID186 reads as the wedge or tetrahedron it is)
+_VTK_SOLIDS = {10: "tetra", 24: "tetra10", 12: "hexahedron", 25: "hexahedron20",
+               13: "wedge", 26: "wedge15", 14: "pyramid"}
+
+
+def _ansys_archive(path: Path):
+    """An Ansys archive (.cdb, MAPDL's CDWRITE and Workbench's export) as a meshio.Mesh, read
+    with ansys-mapdl-reader: node components as point sets, element components and material
+    ids (``mat<N>``) as element groups."""
+    import meshio
+
+    try:
+        from ansys.mapdl.reader import Archive
+    except ImportError:
+        raise MeshImportError(f"{path}: reading .cdb needs ansys-mapdl-reader "
+                              "(pip install ansys-mapdl-reader)") from None
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            archive = Archive(str(path))
+            grid = archive.grid
+    except Exception as exc:  # its parser raises what the file makes it raise
+        raise MeshImportError(f"{path}: not a readable Ansys archive ({exc})") from None
+    kinds = np.asarray(grid.celltypes)
+    unknown = sorted({int(k) for k in kinds} - set(_VTK_SOLIDS))
+    if unknown:
+        raise MeshImportError(f"{path}: VTK cell type(s) {unknown} not supported (solids: "
+                              "tetrahedra, hexahedra, wedges)")
+    numbers = np.asarray(grid.point_data["ansys_node_num"])
+    index = {int(n): i for i, n in enumerate(numbers)}
+    elems = np.asarray(grid.cell_data["ansys_elem_num"])
+    mats = np.asarray(grid.cell_data["ansys_material_type"])
+    offsets, conn = np.asarray(grid.cell_offsets), np.asarray(grid.cell_connectivity)
+    cells, cell_ids, cell_mats = [], [], []
+    for vtk in sorted(set(kinds.tolist())):
+        rows = np.flatnonzero(kinds == vtk)
+        data = np.stack([conn[offsets[r]:offsets[r + 1]] for r in rows])
+        if vtk == 13:  # VTK's wedge mirrors ours (and Abaqus', Gmsh's)
+            data = data[:, [0, 2, 1, 3, 5, 4]]
+        cells.append((_VTK_SOLIDS[vtk], data))
+        cell_ids.append(elems[rows])
+        cell_mats.append(mats[rows])
+    point_sets = {name: np.array([index[int(n)] for n in nodes if int(n) in index])
+                  for name, nodes in archive.node_components.items()}
+    cell_sets = {name: [np.flatnonzero(np.isin(ids, np.asarray(members))) for ids in cell_ids]
+                 for name, members in archive.element_components.items()}
+    for m in np.unique(mats):
+        cell_sets[f"mat{int(m)}"] = [np.flatnonzero(cm == m) for cm in cell_mats]
+    return meshio.Mesh(np.asarray(grid.points, dtype=np.float64), cells,
+                       point_sets=point_sets, cell_sets=cell_sets)
 
 
 def _element_groups(raw) -> dict[str, dict[int, np.ndarray]]:

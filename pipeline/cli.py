@@ -21,6 +21,7 @@ BENCHES = {
     "teaching": "microslip.pipeline.bench.teaching",
     "assembly": "microslip.pipeline.bench.assembly",
     "trade": "microslip.pipeline.bench.trade",
+    "elements": "microslip.pipeline.bench.elements",
 }
 
 
@@ -447,6 +448,7 @@ def main(argv: list[str] | None = None) -> int:
               "  bench teaching   harmonic balance against time integration; the teaching set\n"
               "  bench assembly   blisk + damper assembly: time per point against contact grid\n"
               "  bench trade      the blisk-damper study's knobs: accuracy against time\n"
+              "  bench elements   element shapes and orders: frequency error, DOFs, time\n"
               "\n"
               "microslip COMMAND --help: the options of a command; --version: the version",
               file=sys.stdout if asked else sys.stderr)

@@ -5,6 +5,7 @@ frame and unit, optionally quadratic (mid-edge nodes at the edge midpoints), to 
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import meshio
@@ -67,8 +68,44 @@ def write(mesh: Mesh, path: Path, *, scale: float = 1.0, rotation=None, origin=(
         out = meshio.Mesh(points, cells, cell_data={"nastran:ref": tags})
         meshio.write(path, out, file_format=fmt)
         return Path(path)
+    if Path(path).suffix == ".cdb":
+        return _ansys_archive(path, points, blocks, names, mesh.node_sets)
     cell_sets = {b: [np.arange(len(c)) if bb == b else np.empty(0, dtype=np.int64)
                      for _, bb, c in blocks] for b in names}
     out = meshio.Mesh(points, cells, point_sets=dict(mesh.node_sets), cell_sets=cell_sets)
     meshio.write(path, out, file_format=fmt)
+    return Path(path)
+
+
+# meshio type -> VTK cell type, and the corner order VTK wants (its wedge is mirrored)
+_VTK = {"tetra": 10, "tetra10": 24, "hexahedron": 12, "hexahedron20": 25, "wedge": 13,
+        "wedge15": 26}
+
+
+def _ansys_archive(path, points, blocks, names, node_sets) -> Path:
+    """An Ansys archive as ansys-mapdl-reader writes it: the bodies as material ids 1, 2, ...
+    (``mat<N>`` when read), node sets as node components (named in capitals, '/' -> '_')."""
+    import pyvista as pv
+    from ansys.mapdl.reader import save_as_archive
+    from pyvista.core.errors import PyVistaDeprecationWarning
+
+    cells, types, material = [], [], []
+    for kind, body, c in blocks:
+        c = c.copy()
+        if kind.startswith("wedge"):  # VTK's wedge: the bottom triangle the other way round
+            c[:, :6] = c[:, [0, 2, 1, 3, 5, 4]]
+            if kind == "wedge15":
+                c[:, 6:] = c[:, [8, 7, 6, 11, 10, 9, 12, 14, 13]]
+        cells.append(np.hstack([np.full((len(c), 1), c.shape[1]), c]).ravel())
+        types += [_VTK[kind]] * len(c)
+        material += [names.index(body) + 1] * len(c)
+    grid = pv.UnstructuredGrid(np.concatenate(cells), np.array(types, np.uint8), points)
+    grid.cell_data["ansys_material_type"] = np.array(material, dtype=np.int32)
+    for name, idx in node_sets.items():
+        mask = np.zeros(len(points), dtype=bool)
+        mask[idx] = True
+        grid.point_data[name.replace("/", "_").upper()] = mask
+    with warnings.catch_warnings():  # its writer uses a name pyvista 0.49 deprecates
+        warnings.simplefilter("ignore", PyVistaDeprecationWarning)
+        save_as_archive(str(path), grid)
     return Path(path)

@@ -44,3 +44,19 @@ def test_bench_assembly_smallest_grid(tmp_path, capsys):
     rows = [line.split() for line in capsys.readouterr().out.splitlines()
             if line.split()[:2] == ["2x24", "1"]]
     assert len(rows) == 1 and rows[0][2] == "864"
+
+
+def test_bench_elements_converges_for_every_shape(monkeypatch, capsys):
+    """On two coarse grids and a reference one grid finer, every shape's error falls with
+    the grid and the quadratic elements beat the linear ones on the same grid."""
+    from microslip.pipeline.bench import elements
+
+    monkeypatch.setattr(elements, "GRIDS", ((5, 1, 1), (10, 1, 1)))
+    monkeypatch.setattr(elements, "REFERENCE_GRID", (20, 2, 2))
+    assert elements.main(["--repeats", "1"]) == 0
+    rows = [line.split() for line in capsys.readouterr().out.splitlines()[2:]]
+    error = {(r[0], r[1], r[2] + r[3] + r[4]): abs(float(r[7].rstrip("%"))) for r in rows}
+    for shape in ("hexahedron", "wedge", "tetra"):
+        for order in ("1", "2"):
+            assert error[shape, order, "(10,1,1)"] < error[shape, order, "(5,1,1)"]
+        assert error[shape, "2", "(5,1,1)"] < error[shape, "1", "(5,1,1)"]

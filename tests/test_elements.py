@@ -7,9 +7,9 @@ from math import factorial
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from blocks import block
 
 from microslip.geometry import elements as shapes
+from microslip.geometry.structured import block
 from microslip.pipeline.fe import fem
 from microslip.pipeline.fe.elements import ElementWedgeS2, wedge_quadrature
 

@@ -1,24 +1,27 @@
-"""Structured blocks meshed with each element shape, for the element and import tests.
+"""Structured meshes in every element shape, without Gmsh: reference models for the element
+checks and benchmarks (``bench elements``) and the import and cyclic-face tests.
 
 A box [0, L] x [0, W] x [0, H] on an (nx, ny, nz) grid of cells, each cell a hexahedron,
 two wedges (its bottom and top split along the diagonal from corner 0 to 2, the same in
 every cell, so neighbours conform) or six tetrahedra (Kuhn's split along the diagonal 0-6,
-conforming likewise). ``distort`` moves the interior nodes at random (elements stay valid).
+conforming likewise). ``distort`` moves the interior nodes at random (elements stay valid
+for distort < 0.5). A ring sector maps the same grid to (r, theta, z).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from microslip.geometry import Mesh
+from .mesh import Mesh
 
 # cell corners (VTK order) -> two wedges / six tetrahedra, positively oriented
 _WEDGES = [[0, 1, 2, 4, 5, 6], [0, 2, 3, 4, 6, 7]]
 _TETS = [[0, 1, 2, 6], [0, 2, 3, 6], [0, 3, 7, 6], [0, 7, 4, 6], [0, 4, 5, 6], [0, 5, 1, 6]]
 
 
-def grid(size, cells, distort: float = 0.0, seed: int = 0):
-    """(points (n, 3), hexahedra (m, 8)) of the box ``size`` = (L, W, H) on ``cells`` =
+def grid(size: tuple[float, float, float], cells: tuple[int, int, int], distort: float = 0.0,
+         seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(points (n, 3) [m], hexahedra (m, 8)) of the box ``size`` = (L, W, H) on ``cells`` =
     (nx, ny, nz); interior nodes moved by up to ``distort`` x the cell size."""
     (L, W, H), (nx, ny, nz) = size, cells
     x, y, z = (np.linspace(0, s, n + 1) for s, n in zip(size, cells, strict=True))
@@ -37,21 +40,31 @@ def grid(size, cells, distort: float = 0.0, seed: int = 0):
     return P, hexes
 
 
-def block(shape: str, size=(1.0, 0.1, 0.1), cells=(10, 2, 2), distort: float = 0.0,
+def _split(shape: str, hexes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tetrahedra, hexahedra, wedges) of the cells in ``shape``."""
+    none4, none6, none8 = (np.empty((0, k), dtype=np.int64) for k in (4, 6, 8))
+    if shape == "wedge":
+        return none4, none8, hexes[:, _WEDGES].reshape(-1, 6)
+    if shape == "tetra":
+        return hexes[:, _TETS].reshape(-1, 4), none8, none6
+    if shape != "hexahedron":
+        raise ValueError(f"shape = {shape!r}: expected 'tetra', 'hexahedron' or 'wedge'")
+    return none4, hexes, none6
+
+
+def block(shape: str, size: tuple[float, float, float] = (1.0, 0.1, 0.1),
+          cells: tuple[int, int, int] = (10, 2, 2), distort: float = 0.0,
           mixed: bool = False) -> Mesh:
     """A one-body Mesh ("block") of the box in ``shape`` ("hexahedron", "wedge", "tetra");
     ``mixed``: the cells with x < L / 2 hexahedra, the others two wedges each. Node sets:
     "block/clamp" (x = 0), "block/tip" (x = L)."""
     P, hexes = grid(size, cells, distort)
-    tets, wedges = np.empty((0, 4), int), np.empty((0, 6), int)
     if mixed:
         right = P[hexes].mean(axis=1)[:, 0] > size[0] / 2
-        wedges = hexes[right][:, _WEDGES].reshape(-1, 6)
+        tets, _, wedges = _split("wedge", hexes[right])
         hexes = hexes[~right]
-    elif shape == "wedge":
-        wedges, hexes = hexes[:, _WEDGES].reshape(-1, 6), np.empty((0, 8), int)
-    elif shape == "tetra":
-        tets, hexes = hexes[:, _TETS].reshape(-1, 4), np.empty((0, 8), int)
+    else:
+        tets, hexes, wedges = _split(shape, hexes)
     n = len(tets) + len(hexes) + len(wedges)
     sets = {"block/clamp": np.flatnonzero(P[:, 0] < 1e-12),
             "block/tip": np.flatnonzero(P[:, 0] > size[0] - 1e-12)}
@@ -59,8 +72,9 @@ def block(shape: str, size=(1.0, 0.1, 0.1), cells=(10, 2, 2), distort: float = 0
                 wedges=wedges)
 
 
-def annulus(shape: str = "hexahedron", sectors: int = 12, cells=(3, 4, 2),
-            stretch: float = 0.0, radii=(0.1, 0.2), width: float = 0.02) -> Mesh:
+def annulus(shape: str = "hexahedron", sectors: int = 12,
+            cells: tuple[int, int, int] = (3, 4, 2), stretch: float = 0.0,
+            radii: tuple[float, float] = (0.1, 0.2), width: float = 0.02) -> Mesh:
     """One sector (theta in [-phi/2, phi/2]) of a ring r in ``radii``, z in [0, width], on an
     (nr, ntheta, nz) grid of cells in ``shape``; ``stretch`` > 0 moves the radial and axial
     grid lines more the nearer they are to the right face, so the two cyclic faces no longer
@@ -73,11 +87,7 @@ def annulus(shape: str = "hexahedron", sectors: int = 12, cells=(3, 4, 2),
     theta = (t - 0.5) * 2 * np.pi / sectors
     zz = width * (z + stretch * t * z * (1 - z))
     points = np.stack([r * np.cos(theta), r * np.sin(theta), zz], axis=1)
-    tets, wedges = np.empty((0, 4), int), np.empty((0, 6), int)
-    if shape == "wedge":
-        wedges, hexes = hexes[:, _WEDGES].reshape(-1, 6), np.empty((0, 8), int)
-    elif shape == "tetra":
-        tets, hexes = hexes[:, _TETS].reshape(-1, 4), np.empty((0, 8), int)
+    tets, hexes, wedges = _split(shape, hexes)
     n = len(tets) + len(hexes) + len(wedges)
     sets = {"ring/bore": np.flatnonzero(x < 1e-12), "cyclic/left": np.flatnonzero(t < 1e-12),
             "cyclic/right": np.flatnonzero(t > 1 - 1e-12)}
