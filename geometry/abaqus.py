@@ -14,8 +14,13 @@ reader keeps the keywords a model needs and follows Abaqus' rules for them:
   model: their nodes join their ELSET's node set, and their count is reported
   (``info["skipped"]``).
 
-Everything else (materials, steps, loads) is skipped here. It returns a meshio.Mesh, so the
-importer treats every format alike. Tested on decks meshio and Gmsh write.
+* ``*MATERIAL`` (``NAME=``) with ``*ELASTIC`` (isotropic: E, nu) and ``*DENSITY``, and
+  ``*SOLID SECTION`` (``ELSET=``, ``MATERIAL=``): each element's material, for ``material =
+  "file"`` (``info["materials"]``: name -> (E, nu, rho); ``info["element_materials"]``: per
+  cell block, each element's material name or "").
+
+Everything else (steps, loads, boundary conditions) is skipped. It returns a meshio.Mesh,
+so the importer treats every format alike. Tested on decks meshio and Gmsh write.
 """
 
 from __future__ import annotations
@@ -79,7 +84,9 @@ def read(path: str | Path):
     blocks: list[tuple[str, list[int], list[list[int]]]] = []  # (type, element ids, nodes)
     nsets: dict[str, list] = {}
     elsets: dict[str, list] = {}
-    keyword, params, pending = "", {}, []
+    materials: dict[str, list[float]] = {}  # name -> [E, nu, rho] (nan: not given)
+    sections: list[tuple[str, str]] = []  # (ELSET, MATERIAL)
+    keyword, params, pending, current = "", {}, [], ""
     for where, number, line in _lines(path):
         if line.startswith("*"):
             keyword, params = line.split(",")[0].strip().upper(), _params(line)
@@ -95,6 +102,11 @@ def read(path: str | Path):
                 if not name:
                     raise DeckError(f"{where}:{number}: {keyword} without {keyword[1:]}=")
                 (nsets if keyword == "*NSET" else elsets).setdefault(name, [])
+            elif keyword == "*MATERIAL":
+                current = params.get("NAME", "")
+                materials.setdefault(current, [np.nan, np.nan, np.nan])
+            elif keyword == "*SOLID SECTION":
+                sections.append((params.get("ELSET", ""), params.get("MATERIAL", "")))
             pending = []
             continue
         try:
@@ -114,6 +126,11 @@ def read(path: str | Path):
                 if "ELSET" in params:
                     elsets.setdefault(params["ELSET"], []).append(pending[0])
                 pending = []
+            elif keyword == "*ELASTIC" and current and params.get("TYPE", "ISOTROPIC") \
+                    .upper() == "ISOTROPIC" and np.isnan(materials[current][0]):
+                materials[current][:2] = [float(values[0]), float(values[1])]
+            elif keyword == "*DENSITY" and current and np.isnan(materials[current][2]):
+                materials[current][2] = float(values[0])
             elif keyword in ("*NSET", "*ELSET"):
                 target = (nsets if keyword == "*NSET" else elsets)[params[keyword[1:]]]
                 if "GENERATE" in params:
@@ -163,8 +180,17 @@ def read(path: str | Path):
                 k, i = where_is[e]
                 per_block[k].append(i)
         cell_sets[name] = [np.unique(np.array(p, dtype=np.int64)) for p in per_block]
+    element_materials = [np.full(len(b[1]), "", dtype=object) for b in blocks]
+    for elset, name in sections:
+        if elset in elsets:
+            for e in _members(elset, elsets, path):
+                if e in where_is:
+                    k, i = where_is[e]
+                    element_materials[k][i] = name
     return meshio.Mesh(np.array(xyz, dtype=np.float64), cells, point_sets=point_sets,
-                       cell_sets=cell_sets, info={"skipped": skipped})
+                       cell_sets=cell_sets, info={
+                           "skipped": skipped, "element_materials": element_materials,
+                           "materials": {n: tuple(v) for n, v in materials.items()}})
 
 
 def _is_int(v: str) -> bool:

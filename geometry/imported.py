@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import abaqus, elements
+from . import abaqus, elements, materials
 from .mesh import Mesh, MeshValidationError
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 
@@ -180,7 +180,11 @@ def read(path: str | Path):
     said = io.StringIO()
     try:  # meshio prints its complaints and exits when no reader takes the file
         with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
-            return meshio.read(path, file_format=fmt)
+            raw = meshio.read(path, file_format=fmt)
+            if fmt == "nastran":  # each element's property id names its material
+                raw.info = {"element_materials": raw.cell_data.get("nastran:ref"),
+                            "materials": materials.nastran(path)}
+            return raw
     except (Exception, SystemExit) as exc:  # anything from KeyError to IndexError
         text = said.getvalue() if isinstance(exc, SystemExit) else str(exc) or said.getvalue()
         lines = [x for x in text.strip().splitlines() if x.strip()]
@@ -238,7 +242,8 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
                  else elements.empty(s)) for s in shapes}
 
     node_sets, dropped = _node_sets(raw, groups, used, new)
-    parameters = {"file": Path(path).name, "units": units}
+    parameters = {"file": Path(path).name, "units": units,
+                  "materials": _body_materials(raw, solids, body_of, UNITS[units])}
 
     def mesh_of(xyz: np.ndarray, cyclic: dict | None = None) -> Mesh:
         try:
@@ -337,7 +342,43 @@ def _ansys_archive(path: Path):
     for m in np.unique(mats):
         cell_sets[f"mat{int(m)}"] = [np.flatnonzero(cm == m) for cm in cell_mats]
     return meshio.Mesh(np.asarray(grid.points, dtype=np.float64), cells,
-                       point_sets=point_sets, cell_sets=cell_sets)
+                       point_sets=point_sets, cell_sets=cell_sets,
+                       info={"element_materials": cell_mats,
+                             "materials": materials.ansys(path)})
+
+
+def _body_materials(raw, solids, body_of, units: Units) -> dict[str, dict | str]:
+    """Body -> its material from the file's cards in SI (youngs_modulus [Pa], poisson_ratio,
+    density [kg/m^3]), or why the file gives none (``material = "file"`` reads these)."""
+    info = getattr(raw, "info", None) or {}
+    per_block, table = info.get("element_materials"), info.get("materials", {})
+    out: dict[str, dict | str] = {}
+    for body, parts in body_of.items():
+        if per_block is None:
+            out[body] = "the format carries no materials"
+            continue
+        keys = set()
+        for k, idx in parts.items():
+            keys |= {_key_of(v) for v in np.asarray(per_block[solids[k][0]])[idx].ravel()}
+        keys.discard("")
+        if len(keys) != 1:
+            out[body] = ("its elements have no material" if not keys else
+                         f"its elements have {len(keys)} materials {sorted(map(str, keys))}")
+            continue
+        key = keys.pop()
+        E, nu, rho = table.get(key, (np.nan,) * 3)
+        missing = [n for n, v in (("E", E), ("nu", nu), ("density", rho)) if not np.isfinite(v)]
+        out[body] = (f"material {key!r} lacks {', '.join(missing)}" if missing else
+                     {"youngs_modulus": E * units.stress, "poisson_ratio": nu,
+                      "density": rho * units.density, "name": str(key)})
+    return out
+
+
+def _key_of(value) -> str | int:
+    """A material key as the tables hold it (ids as int, names as str)."""
+    if isinstance(value, str):
+        return value
+    return int(value)
 
 
 def _element_groups(raw) -> dict[str, dict[int, np.ndarray]]:

@@ -6,6 +6,7 @@ line, exit 2."""
 import contextlib
 import io
 
+import h5py
 import meshio
 import numpy as np
 import pytest
@@ -207,10 +208,7 @@ def _check(tmp_path, geometry_table: str, masters: str = '"block/tip"'):
     case = tmp_path / "case.toml"
     case.write_text(f'title = "t"\n[reduction]\n[reduction.bodies.block]\nmasters = [{masters}]\n'
                     f'[geometry]\nmodel = "import"\n{geometry_table}\n')
-    said = io.StringIO()
-    with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
-        code = main(["check", str(case)])
-    return code, said.getvalue()
+    return _check_file(case)
 
 
 def test_bad_files_are_one_line_exit_2(tmp_path):
@@ -248,3 +246,101 @@ def test_bad_files_are_one_line_exit_2(tmp_path):
     assert code == 0, said
     code, said = _check(tmp_path, 'file = "good.inp"', '"nope"')
     assert code == 2 and "node set 'nope' does not exist" in said
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("suffix", "quadratic", "bodies", "tol"),
+                         [f for f in FORMATS if f[0] != ".bdf"])  # (no sets to name masters)
+def test_round_trip_gives_the_native_reduced_frequencies(blisk, tmp_path, suffix, quadratic,
+                                                         bodies, tol):
+    """The blisk case reduced (Craig-Bampton, NDs 0 and 3) from its own mesh and from the
+    file read back, as `microslip run` does it: the same frequencies per body and ND, to 1e-9
+    (the damper's six rigid-body zeros to 1e-6 of its highest, their round-off)."""
+    from microslip.pipeline.app.run import run_case
+    from microslip.pipeline.case import load
+
+    path = _moved(blisk, tmp_path / f"blisk{suffix}", quadratic=quadratic)
+    named = {".cdb": lambda n: n.replace("/", "_").upper()}.get(suffix, lambda n: n)
+    common = ("[reduction]\nnodal_diameters = [0, 3]\n[reduction.material]\n"
+              "youngs_modulus = 2.0e11\npoisson_ratio = 0.3\ndensity = 7850.0\n")
+    (tmp_path / "native.toml").write_text('[geometry]\nmodel = "blisk_sector"\n' + common)
+    # the native masters (every patch node + excitation + response) and clamp, by set name
+    masters = {"blisk": ["contact/damper_left/blisk", "contact/damper_right/blisk",
+                         "blisk/excitation", "blisk/response"],
+               "damper": ["contact/damper_left/damper", "contact/damper_right/damper"]}
+    bodies_line = ("bodies = {" + ", ".join(f'{b} = "{g}"' for b, g in bodies.items())
+                   + "}\n") if bodies else ""
+    table = (f'[geometry]\nmodel = "import"\nfile = "{path.name}"\nunits = "mm-t-s"\n'
+             f"{bodies_line}[geometry.sector]\nsectors = 48\naxis = {AXIS.tolist()}\n"
+             f"origin = {ORIGIN.tolist()}\n{common}")
+    for body, names in masters.items():
+        table += (f"[reduction.bodies.{body}]\nmasters = "
+                  + str([named(n) for n in names]).replace("'", '"') + "\n")
+    (tmp_path / "imported.toml").write_text(
+        table.replace("[reduction.bodies.blisk]\n",
+                      f'[reduction.bodies.blisk]\nclamped = ["{named("blisk/bore")}"]\n'))
+    out = {}
+    for name in ("native", "imported"):
+        result = run_case(load(tmp_path / f"{name}.toml"), tmp_path / name,
+                          progress=lambda s: None)
+        with h5py.File(result) as f:
+            out[name] = {(b, h): f[f"reduction/{b}/nd{h}/frequencies_hz"][()]
+                         for b in ("blisk", "damper") for h in (0, 3)}
+    for key, f in out["native"].items():
+        np.testing.assert_allclose(out["imported"][key], f, rtol=1e-9, atol=1e-6 * f.max())
+
+
+def test_materials_from_the_file(tmp_path):
+    """material = "file": each deck's cards in its units, read back in SI (210 GPa, 0.3,
+    7850 kg/m^3 written in mm-t-s as 2.1e5 MPa, 0.3, 7.85e-9 t/mm^3), through `check` and
+    the body specs; a body without cards, and "file" with a parametric model, refused."""
+    from microslip.pipeline.case import load
+    from microslip.pipeline.case.reduction import body_specs
+
+    mesh = block("hexahedron", cells=(4, 1, 1))
+    deck = write(mesh, tmp_path / "b.inp")
+    deck.write_text(deck.read_text() + "*MATERIAL, NAME=STEEL\n*ELASTIC\n210000., 0.3\n"
+                    "*DENSITY\n7.85e-9,\n*SOLID SECTION, ELSET=block, MATERIAL=STEEL\n")
+    nastran = write(mesh, tmp_path / "b.bdf")  # free and small-field cards, Nastran reals
+    nastran.write_text(nastran.read_text().replace(
+        "ENDDATA", "MAT1,7,2.1+5,,.3,7.85-9\nPSOLID  1       7\nENDDATA"))
+    ansys = write(mesh, tmp_path / "b.cdb")  # CDWRITE's MPDATA lines
+    ansys.write_text(ansys.read_text() + "".join(
+        f"MPDATA,R5.0, 1,{label},       1, 1,  {value},\n"
+        for label, value in (("EX  ", "2.10000000E+05"), ("PRXY", "0.300000000"),
+                             ("DENS", "7.85000000E-09"))))
+    steel = fem.Material(2.1e11, 0.3, 7850.0)
+    for path, body in ((deck, "block"), (nastran, "pid1"), (ansys, "mat1")):
+        case = tmp_path / f"{path.suffix[1:]}.toml"
+        case.write_text(f'[geometry]\nmodel = "import"\nfile = "{path.name}"\n'
+                        'units = "mm-t-s"\n[reduction]\nmaterial = "file"\n'
+                        f'[reduction.bodies.{body}]\nmasters = ["{_tip(path)}"]\n')
+        loaded = load(case)
+        (spec,) = body_specs(loaded.geometry_table.build(), loaded.reduction_table)
+        got = spec.material
+        assert (got.youngs_modulus, got.poisson_ratio, got.density) == pytest.approx(
+            (steel.youngs_modulus, steel.poisson_ratio, steel.density), rel=1e-12), path
+    write(mesh, tmp_path / "bare.inp")  # no cards
+    (tmp_path / "bare.toml").write_text(
+        '[geometry]\nmodel = "import"\nfile = "bare.inp"\n[reduction]\nmaterial = "file"\n'
+        '[reduction.bodies.block]\nmasters = ["block/tip"]\n')
+    code, said = _check_file(tmp_path / "bare.toml")
+    assert code == 2 and "body 'block', but its elements have no material" in said
+    (tmp_path / "param.toml").write_text(
+        '[geometry]\nmodel = "beam"\n[reduction]\nmaterial = "file"\n')
+    code, said = _check_file(tmp_path / "param.toml")
+    assert code == 2 and 'reduction.material = "file": only an imported mesh' in said
+
+
+def _tip(path):
+    """The tip set's name as each format keeps it (Nastran: none, so a clamp-free body's
+    masters are chosen as the Ansys components are named)."""
+    return {".cdb": "BLOCK_TIP", ".bdf": "pid1"}.get(path.suffix, "block/tip")
+
+
+def _check_file(case):
+    """``microslip check CASE``: (exit code, what it printed)."""
+    said = io.StringIO()
+    with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+        code = main(["check", str(case)])
+    return code, said.getvalue()

@@ -52,6 +52,7 @@ from .geometry import GeometryTable
 from .geometry import check as check_geometry
 
 STEEL = Material(2.0e11, 0.3, 7850.0)
+FROM_FILE = "file"  # material = "file": each body's from the imported deck's cards
 KEYS = {"nodal_diameters", "engine_order", "harmonics", "order", "modes", "cutoff", "f_max",
         "backend", "material", "damping", "bodies", "contact_stiffness"}
 BODY_KEYS = {"material", "damping", "modes", "clamped", "masters", "recovery"}
@@ -108,6 +109,15 @@ def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
         if key in red and not ok(red[key]):
             out.append(f"reduction.{key} = {red[key]!r}: expected {allowed}")
     _check_material("reduction.material", red.get("material"), out)
+    imported = isinstance(data.get("geometry"), dict) and data["geometry"].get("model") == \
+        "import"
+    given = [("reduction.material", red.get("material"))] + [
+        (f"reduction.bodies.{n}.material", b.get("material"))
+        for n, b in (red.get("bodies") or {}).items() if isinstance(b, dict)]
+    for key, value in given:
+        if value == FROM_FILE and not imported:
+            out.append(f"{key} = \"file\": only an imported mesh (model = \"import\") has "
+                       "material cards; give the material in SI")
     _check_damping("reduction.damping", red.get("damping"), out)
     for name, b in _table_of(red, "bodies", out).items():
         pre = f"reduction.bodies.{name}"
@@ -169,10 +179,11 @@ def _is_modes(v: Any) -> bool:
 
 
 def _check_material(pre: str, m: Any, out: list[str]) -> None:
-    if m is None:
+    if m is None or m == FROM_FILE:  # ("file": the imported mesh's, checked with its names)
         return
     if not isinstance(m, dict) or set(m) != MATERIAL_KEYS:
-        out.append(f"{pre}: expected a table with exactly {sorted(MATERIAL_KEYS)}")
+        out.append(f"{pre}: expected a table with exactly {sorted(MATERIAL_KEYS)}, or "
+                   f"{FROM_FILE!r} (an imported deck's material cards)")
         return
     bad = [k for k in sorted(MATERIAL_KEYS) if not is_number(m[k])]
     if bad:
@@ -213,10 +224,14 @@ def damping(table: Mapping[str, Any] | None) -> Damping | None:
                    float(table.get("rayleigh_beta", 0.0)), tuple(float(z) for z in ratios))
 
 
-def material(table: Mapping[str, Any] | None, default: Material = STEEL) -> Material:
-    """Material from a case table (keys youngs_modulus, poisson_ratio, density)."""
+def material(table: Mapping[str, Any] | str | None, default: Material | str = STEEL
+             ) -> Material | str:
+    """Material from a case table (keys youngs_modulus, poisson_ratio, density), or
+    FROM_FILE (the imported mesh's cards, resolved per body by ``body_specs``)."""
     if table is None:
         return default
+    if table == FROM_FILE:
+        return FROM_FILE
     return Material(float(table["youngs_modulus"]), float(table["poisson_ratio"]),
                     float(table["density"]))
 
@@ -226,7 +241,7 @@ class BodyTable:
     """[reduction.bodies.<body>]: what one body overrides (None: the table's, or the
     naming conventions' node sets)."""
 
-    material: Material | None = None
+    material: Material | str | None = None  # (str: FROM_FILE)
     damping: Damping | None = None
     damping_given: bool = False  # an explicit damping table (no damping at all is None)
     modes: int | str | None = None
@@ -250,7 +265,7 @@ class ReductionTable:
     cutoff: float = reduction.CUTOFF
     f_max: float | None = None
     backend: str = "auto"
-    material: Material = STEEL
+    material: Material | str = STEEL  # (str: FROM_FILE)
     damping: Damping | None = None
     bodies: Mapping[str, BodyTable] = field(default_factory=dict)
     contact_stiffness: Mapping[str, tuple[float, float]] = field(default_factory=dict)
@@ -314,6 +329,18 @@ def _sets(given: tuple[str, ...] | None, mesh: Any, body: str, suffixes: Sequenc
     return given if given is not None else _existing(mesh, body, suffixes)
 
 
+def _resolved(m: Material | str, mesh: Any, body: str) -> Material:
+    """A body's material, FROM_FILE read from the imported mesh's cards (ValueError naming
+    the body and why the file gives none)."""
+    if m != FROM_FILE:
+        return m
+    found = mesh.parameters.get("materials", {}).get(body, "the mesh is not an imported deck")
+    if isinstance(found, str):
+        raise ValueError(f"reduction: material = \"file\" for body {body!r}, but {found}; "
+                         "give [reduction.bodies.<body>.material] in SI")
+    return Material(found["youngs_modulus"], found["poisson_ratio"], found["density"])
+
+
 def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: bool = False
                ) -> list[BodySpec]:
     """One BodySpec per body of the mesh, by the naming conventions and the case's overrides;
@@ -326,7 +353,7 @@ def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: boo
                                if body in (p.body_a, p.body_b)))
         specs.append(BodySpec(
             body=body,
-            material=b.material or red.material,
+            material=_resolved(b.material or red.material, mesh, body),
             damping=b.damping if b.damping_given else red.damping,
             master_sets=_sets(b.masters, mesh, body, _MASTER_SETS),
             patches=patches,
