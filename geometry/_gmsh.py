@@ -49,6 +49,9 @@ def gmsh_session(model_name: str) -> Iterator[None]:
             ("Mesh.OptimizeNetgen", 1),
         ):
             gmsh.option.setNumber(name, value)
+        # string options outlive a session within the process (a STEP import's unit would
+        # then convert the next file): every session starts from the defaults
+        gmsh.option.setString("Geometry.OCCTargetUnit", "")
         gmsh.model.add(model_name)
         yield
     finally:

@@ -27,13 +27,14 @@ from __future__ import annotations
 import contextlib
 import io
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from . import abaqus, elements, materials
+from . import abaqus, cad, elements, materials
 from .mesh import Mesh, MeshValidationError
+from .params import GeometryBuildError
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 
 #: meshio cell type -> (our shape, corner count) of the solid elements read
@@ -157,8 +158,10 @@ class ImportedMesh:
     report: ImportReport = field(default_factory=lambda: ImportReport({}))
 
 
-def read(path: str | Path):
-    """The file as a meshio.Mesh; MeshImportError (one line) if it is missing or unreadable."""
+def read(path: str | Path, length: float = 1.0, size: float | None = None,
+         sector: SectorSpec | None = None):
+    """The file as a meshio.Mesh; MeshImportError (one line) if it is missing or unreadable.
+    A CAD file is meshed (``geometry.cad``: ``length`` [m] per BREP unit, ``size`` [m])."""
     import meshio
     from meshio import _mesh
 
@@ -169,6 +172,11 @@ def read(path: str | Path):
     if not path.is_file():
         raise MeshImportError(f"{path}: no such file")
     suffix = path.suffix.lower()
+    if suffix in cad.SUFFIXES:
+        try:
+            return cad.mesh(path, length, size, sector)
+        except GeometryBuildError as exc:
+            raise MeshImportError(str(exc).splitlines()[0]) from None
     if suffix == ".inp":
         try:
             return abaqus.read(path)
@@ -194,7 +202,7 @@ def read(path: str | Path):
 
 def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | None = None,
                 sector: SectorSpec | None = None, sets: dict[str, Selection] | None = None,
-                model: str = "import") -> ImportedMesh:
+                size: float | None = None, model: str = "import") -> ImportedMesh:
     """Read a mesh file into a :class:`Mesh` in SI units (see the module).
 
     units: the file's unit system (a key of :data:`UNITS`); bodies: body name -> the element
@@ -206,7 +214,18 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     """
     if units not in UNITS:
         raise MeshImportError(f"units = {units!r}: expected one of {sorted(UNITS)}")
-    raw = read(path)
+    cad_file = Path(path).suffix.lower() in cad.SUFFIXES
+    if cad_file and units != "SI" and Path(path).suffix.lower() != ".brep":
+        raise MeshImportError(f"units = {units!r}: {Path(path).name} declares its own unit "
+                              "(STEP and IGES are converted to metres); leave units out")
+    raw = read(path, UNITS[units].length, size, sector)
+    if cad_file and sector is not None:  # the faces Gmsh meshed as each other's images
+        group_of = dict(bodies or {}) or {g: g for g in (raw.cell_sets or {})}
+        given = {b for b, _, _ in sector.faces}
+        found = tuple((b, f"cyclic/{g}/left", f"cyclic/{g}/right")
+                      for b, g in group_of.items() if b not in given
+                      and f"cyclic/{g}/left" in (raw.point_sets or {}))
+        sector = replace(sector, faces=sector.faces + found)
     solids = [(i, b) for i, b in enumerate(raw.cells) if b.type in SOLID_TYPES]
     unknown = sorted({b.type for b in raw.cells} - set(SOLID_TYPES) - set(_FACE_TYPES))
     if unknown:
@@ -254,7 +273,8 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
         except MeshValidationError as exc:
             raise MeshImportError(f"{path}: {exc}") from None
 
-    mesh = mesh_of(points[used] * UNITS[units].length)
+    length = (getattr(raw, "info", None) or {}).get("length", UNITS[units].length)  # (CAD)
+    mesh = mesh_of(points[used] * length)
     for name, selection in (sets or {}).items():
         if name in node_sets:
             raise MeshImportError(f"geometry.sets.{name}: the file has a set of that name")

@@ -6,7 +6,9 @@
 
     [geometry]                       # an imported mesh (geometry.imported)
     model = "import"
-    file = "blade.inp"               # relative to the case file: .inp .bdf .msh ...
+    file = "blade.inp"               # relative to the case file: .inp .cdb .bdf .msh ...,
+                                     # or CAD: .step .stp .iges .igs .brep (meshed by Gmsh)
+    size = 0.004                     # [m] CAD only: element size (default: extent / 10)
     units = "mm-t-s"                 # the file's units: SI, mm-t-s, mm-kg-s, in-lbf-s
     bodies = ["BLADE", "DISK"]       # optional: the element groups that are the bodies, or
                                      # a table body = "group" (Nastran: "pid<N>")
@@ -52,7 +54,7 @@ from .checks import is_int, is_number, unknown_keys
 
 IMPORT = "import"
 PARAMETRIC_KEYS = {"model", "parameters"}
-IMPORT_KEYS = {"model", "file", "units", "bodies", "sector", "sets"}
+IMPORT_KEYS = {"model", "file", "units", "bodies", "sector", "sets", "size"}
 SECTOR_KEYS = {"sectors", "axis", "origin", "tolerance", "faces"}
 SELECTION_KEYS = {"box", "plane", "radius", "tolerance", "body"}
 
@@ -69,6 +71,7 @@ class GeometryTable:
     bodies: tuple[tuple[str, str], ...] | None = None  # (body name, element group)
     sector: SectorSpec | None = None
     sets: tuple[tuple[str, Selection], ...] = ()
+    size: float | None = None  # [m] a CAD file's element size (None: a tenth of its extent)
     base: Path = Path(".")
 
     @classmethod
@@ -89,8 +92,9 @@ class GeometryTable:
                 tuple((b, *f) for b, f in sector.get("faces", {}).items()),
                 float(sector.get("tolerance", SectorSpec.tolerance)))
         sets = tuple((name, _selection(t)) for name, t in table.get("sets", {}).items())
+        size = float(table["size"]) if "size" in table else None
         return cls(IMPORT, {}, table["file"], table.get("units", cls.units), bodies, sector,
-                   sets, Path(base))
+                   sets, size, Path(base))
 
     @property
     def imported(self) -> bool:
@@ -111,7 +115,7 @@ class GeometryTable:
         """The imported mesh and what reading it found (kept while the file is unchanged)."""
         stat = self.path.stat() if self.path.is_file() else None
         key = (str(self.path), stat.st_mtime_ns if stat else 0, stat.st_size if stat else 0)
-        return _read(key, self.units, self.bodies, self.sector, self.sets)
+        return _read(key, self.units, self.bodies, self.sector, self.sets, self.size)
 
     @property
     def sectors(self) -> int | None:
@@ -137,9 +141,9 @@ def _selection(t: Mapping[str, Any]) -> Selection:
 
 
 @functools.lru_cache(maxsize=4)
-def _read(key: tuple, units: str, bodies, sector, sets) -> ImportedMesh:
+def _read(key: tuple, units: str, bodies, sector, sets, size) -> ImportedMesh:
     return import_mesh(key[0], units, dict(bodies) if bodies is not None else None, sector,
-                       dict(sets))
+                       dict(sets), size)
 
 
 def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
@@ -176,6 +180,9 @@ def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
                    "table body = \"group\"")
     if "sector" in geo:
         _check_sector(geo["sector"], out)
+    if "size" in geo and not (is_number(geo["size"]) and geo["size"] > 0):
+        out.append(f"geometry.size = {geo['size']!r}: expected an element size > 0 [m] (CAD "
+                   "files)")
     sets = geo.get("sets", {})
     if not isinstance(sets, dict):
         out.append("geometry.sets: expected a table of node sets chosen by geometry")
