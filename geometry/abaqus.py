@@ -5,9 +5,11 @@ meshio reads .inp too, but it keeps only the last of several ``*ELSET`` cards (o
 and C3D15 under one ELSET, as Abaqus/CAE and CalculiX write them) comes out wrong. This
 reader keeps the keywords a model needs and follows Abaqus' rules for them:
 
-* ``*NODE`` (``NSET=``), ``*ELEMENT`` (``TYPE=``, ``ELSET=``; data lines continue while a
-  line ends with a comma), ``*NSET`` / ``*ELSET`` (``GENERATE``; members may be other sets;
-  a repeated name adds to the set), ``*INCLUDE`` (``INPUT=``, relative to the deck);
+* ``*NODE`` (``NSET=``), ``*ELEMENT`` (``TYPE=``, ``ELSET=``; a solid's data runs over as
+  many lines as its node count needs, another element's while a line ends with a comma),
+  ``*NSET`` / ``*ELSET`` (``GENERATE``; members may be other sets; a repeated name adds to
+  the set), ``*INCLUDE`` (``INPUT=``, relative to the deck); names are case-insensitive, as
+  in Abaqus, and keep their first spelling;
 * solid types C3D4, C3D10, C3D8, C3D20, C3D27, C3D6, C3D15 with any suffix (H, R, I, M,
   T...); another solid (C3D5 pyramids...) is reported by name. Elements of lower dimension (the
   surface elements Gmsh writes for physical surfaces, shells, beams) are not part of the
@@ -86,10 +88,23 @@ def read(path: str | Path):
     elsets: dict[str, list] = {}
     materials: dict[str, list[float]] = {}  # name -> [E, nu, rho] (nan: not given)
     sections: list[tuple[str, str]] = []  # (ELSET, MATERIAL)
+    # names are case-insensitive in a deck: each keeps its first spelling
+    spelled: dict[tuple[str, str], str] = {}
+
+    def name_of(kind: str, name: str) -> str:
+        return spelled.setdefault((kind, name.upper()), name)
+
     keyword, params, pending, current = "", {}, [], ""
     for where, number, line in _lines(path):
         if line.startswith("*"):
+            if pending:
+                raise DeckError(f"{where}:{number}: element {pending[0]} has "
+                                f"{len(pending) - 1} nodes before the next keyword")
             keyword, params = line.split(",")[0].strip().upper(), _params(line)
+            for key, kind in (("NSET", "n"), ("ELSET", "e"), ("NAME", "m"),
+                              ("MATERIAL", "m")):
+                if params.get(key) and not (key == "NAME" and keyword != "*MATERIAL"):
+                    params[key] = name_of(kind, params[key])
             if keyword == "*ELEMENT":
                 kind = params.get("TYPE", "").upper()
                 match = _TYPE.match(kind)
@@ -118,9 +133,10 @@ def read(path: str | Path):
                     nsets.setdefault(params["NSET"], []).append(int(values[0]))
             elif keyword == "*ELEMENT":
                 pending += [int(v) for v in values]
-                if line.rstrip().endswith(","):
-                    continue  # the element continues on the next line
                 kind, eids, nodes = blocks[-1]
+                width = _WIDTH.get(kind)
+                if (len(pending) < 1 + width) if width else line.rstrip().endswith(","):
+                    continue  # the element continues on the next line
                 eids.append(pending[0])
                 nodes.append(pending[1:])
                 if "ELSET" in params:
@@ -137,12 +153,13 @@ def read(path: str | Path):
                     a, b, *step = (int(v) for v in values)
                     target.extend(range(a, b + 1, step[0] if step else 1))
                 else:
-                    target.extend(int(v) if _is_int(v) else v for v in values)
+                    target.extend(int(v) if _is_int(v) else name_of(keyword[1].lower(), v)
+                                  for v in values)
         except (ValueError, IndexError):
             raise DeckError(f"{where}:{number}: cannot read {keyword} data line "
                             f"{line[:60]!r}") from None
     if pending:
-        raise DeckError(f"{path}: the last element's node list ends with a comma (truncated?)")
+        raise DeckError(f"{path}: the last element's node list is incomplete (truncated?)")
     if not ids:
         raise DeckError(f"{path}: no *NODE")
     index = {nid: i for i, nid in enumerate(ids)}

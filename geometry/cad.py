@@ -92,7 +92,7 @@ def _mesh(path: Path, length: float, size: float | None, sector: SectorSpec | No
         occ.synchronize()
         owner = {tag: names[v] for v, pieces in zip(volumes, mapping, strict=True)
                  for dim, tag in pieces if dim == 3}
-    periodic = _periodic_faces(sector) if sector is not None else []
+    periodic = _periodic_faces(sector, scale) if sector is not None else []
     extent = min(np.ptp(np.array(gmsh.model.getBoundingBox(3, v)).reshape(2, 3), axis=0).max()
                  for v in owner)
     h = size / scale if size is not None else extent / 10.0
@@ -117,24 +117,25 @@ def _body_names(volumes: list[int]) -> dict[int, str]:
     return names
 
 
-def _rotation(sector: SectorSpec) -> np.ndarray:
-    """4x4 affine of the rotation by 2 pi / Ns about the sector's axis through its origin."""
+def _rotation(sector: SectorSpec, scale: float) -> np.ndarray:
+    """4x4 affine of the rotation by 2 pi / Ns about the sector's axis through its origin
+    ([m]; the model is in units of ``scale`` metres)."""
     a = np.asarray(sector.axis, dtype=float)
     a /= np.linalg.norm(a)
     phi = sector.angle
     ax = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
     R = np.eye(3) + np.sin(phi) * ax + (1 - np.cos(phi)) * ax @ ax
-    o = np.asarray(sector.origin, dtype=float)
+    o = np.asarray(sector.origin, dtype=float) / scale
     affine = np.eye(4)
     affine[:3, :3] = R
     affine[:3, 3] = o - R @ o
     return affine
 
 
-def _periodic_faces(sector: SectorSpec) -> list[tuple[int, int]]:
+def _periodic_faces(sector: SectorSpec, scale: float) -> list[tuple[int, int]]:
     """(left face, right face) pairs, right = the left turned by 2 pi / Ns; each set
     periodic so that its mesh is the left one's image."""
-    affine = _rotation(sector)
+    affine = _rotation(sector, scale)
     faces = [t for _, t in gmsh.model.getEntities(2)]
     centre = {t: np.array(gmsh.model.occ.getCenterOfMass(2, t)) for t in faces}
     area = {t: gmsh.model.occ.getMass(2, t) for t in faces}
@@ -187,12 +188,13 @@ def _read_back(owner: dict[int, str], periodic: list[tuple[int, int]], meshio):
             nodes = gmsh.model.mesh.getNodes(2, face, includeBoundary=True)[0]
             point_sets.setdefault(f"cyclic/{body}/{side}", []).extend(
                 copies[body].get(index[int(n)], index[int(n)]) for n in nodes)
-    for dim, tag in gmsh.model.getEntities(2):  # faces the CAD names
+    for dim, tag in gmsh.model.getEntities(2):  # faces the CAD names, on their body's nodes
         label = gmsh.model.getEntityName(dim, tag).split("/")[-1].strip()
         if label:
+            body = next(owner[v] for v in owner if tag in _faces_of(v))
             nodes = gmsh.model.mesh.getNodes(2, tag, includeBoundary=True)[0]
             point_sets.setdefault(_NAME.sub("_", label), []).extend(
-                index[int(n)] for n in nodes)
+                copies[body].get(index[int(n)], index[int(n)]) for n in nodes)
     return meshio.Mesh(np.vstack(points), blocks,
                        point_sets={k: np.unique(v) for k, v in point_sets.items()},
                        cell_sets=cell_sets)

@@ -191,7 +191,7 @@ def read(path: str | Path, length: float = 1.0, size: float | None = None,
             raw = meshio.read(path, file_format=fmt)
             if fmt == "nastran":  # each element's property id names its material
                 raw.info = {"element_materials": raw.cell_data.get("nastran:ref"),
-                            "materials": materials.nastran(path)}
+                            "materials": _cards(materials.nastran, path)}
             return raw
     except (Exception, SystemExit) as exc:  # anything from KeyError to IndexError
         text = said.getvalue() if isinstance(exc, SystemExit) else str(exc) or said.getvalue()
@@ -261,7 +261,7 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
                  else elements.empty(s)) for s in shapes}
 
     node_sets, dropped = _node_sets(raw, groups, used, new)
-    parameters = {"file": Path(path).name, "units": units,
+    parameters = {"file": Path(path).name, "units": units, "dropped_sets": list(dropped),
                   "materials": _body_materials(raw, solids, body_of, UNITS[units])}
 
     def mesh_of(xyz: np.ndarray, cyclic: dict | None = None) -> Mesh:
@@ -364,7 +364,16 @@ def _ansys_archive(path: Path):
     return meshio.Mesh(np.asarray(grid.points, dtype=np.float64), cells,
                        point_sets=point_sets, cell_sets=cell_sets,
                        info={"element_materials": cell_mats,
-                             "materials": materials.ansys(path)})
+                             "materials": _cards(materials.ansys, path)})
+
+
+def _cards(reader, path: Path) -> dict | str:
+    """The material cards ``reader`` finds, or why it could not read them (a bad card spoils
+    ``material = "file"`` only, not the mesh)."""
+    try:
+        return reader(path)
+    except (ValueError, IndexError) as exc:
+        return f"its material cards cannot be read ({exc})"
 
 
 def _body_materials(raw, solids, body_of, units: Units) -> dict[str, dict | str]:
@@ -374,8 +383,8 @@ def _body_materials(raw, solids, body_of, units: Units) -> dict[str, dict | str]
     per_block, table = info.get("element_materials"), info.get("materials", {})
     out: dict[str, dict | str] = {}
     for body, parts in body_of.items():
-        if per_block is None:
-            out[body] = "the format carries no materials"
+        if per_block is None or isinstance(table, str):
+            out[body] = table if isinstance(table, str) else "the format carries no materials"
             continue
         keys = set()
         for k, idx in parts.items():
@@ -509,7 +518,8 @@ def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]
             if shared:
                 raise MeshImportError(
                     f"{path}: bodies {n!r} and {m!r} share {shared} nodes; bodies in contact "
-                    "carry distinct, coincident nodes (or list them as one body)")
+                    "carry distinct, coincident nodes (or make them one body: name a group "
+                    "holding both in geometry.bodies)")
     return chosen
 
 

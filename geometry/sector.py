@@ -68,31 +68,39 @@ def sector_frame(axis, origin) -> tuple[np.ndarray, np.ndarray]:
 def planar_faces(mesh: Mesh, body: str, angle: float, tol: float
                  ) -> tuple[np.ndarray, np.ndarray] | None:
     """(left nodes, right nodes) of ``body``: its boundary faces on two planes through the z
-    axis ``angle`` apart (right = left rotated by +angle); None if it has no such pair."""
+    axis ``angle`` apart (right = left rotated by +angle); None if it has no such pair.
+
+    A facet is on a plane through the axis when its corners lie within ``tol`` of the plane
+    at its centroid's angle; such facets are grouped into planes where their angles, in
+    order round the axis, leave a gap wider than the nodes' scatter allows (tol / radius)."""
     tri = mesh.surface(body)
     p = mesh.points[tri]  # (t, 3, 3)
     radius = np.hypot(p[..., 0], p[..., 1])
+    centre = p.mean(axis=1)
+    theta_f = np.arctan2(centre[:, 1], centre[:, 0])
     theta = np.arctan2(p[..., 1], p[..., 0])
-    # a facet on a plane through the axis: every corner off the axis at one angle theta
-    theta0 = theta[:, 0]
-    off = np.abs(np.sin(theta - theta0[:, None])) * radius  # distance to that plane
-    on_plane = (off.max(axis=1) <= tol) & (radius.min(axis=1) > tol)
-    if not on_plane.any():
+    off = np.abs(np.sin(theta - theta_f[:, None])) * radius  # distance to that plane
+    on_plane = np.flatnonzero((off.max(axis=1) <= tol) & (radius.min(axis=1) > tol))
+    if not on_plane.size:
         return None
-    lengths = float(np.abs(mesh.points.max(axis=0) - mesh.points.min(axis=0)).max())
-    step = max(tol / max(lengths, tol), 1e-9)  # angular resolution of the planes
-    groups: dict[int, list[int]] = {}
-    for i in np.flatnonzero(on_plane):
-        groups.setdefault(int(round(theta0[i] / step)), []).append(i)
-    keys = sorted(groups, key=lambda k: -len(groups[k]))
-    for a in keys:
-        for b in keys:
-            gap = (b - a) * step - angle
-            if abs(np.angle(np.exp(1j * gap))) <= 2 * step:
-                left = np.unique(tri[groups[a]])
-                right = np.unique(tri[groups[b]])
-                return left, right
-    return None
+    spread = 4.0 * tol / radius[on_plane].min()  # the angular scatter of one plane's facets
+    order = on_plane[np.argsort(theta_f[on_plane])]
+    angles = theta_f[order]
+    gaps = np.diff(np.concatenate([angles, angles[:1] + 2 * np.pi]))
+    start = (int(np.argmax(gaps)) + 1) % len(order)  # begin after the widest gap
+    order, angles = np.roll(order, -start), np.unwrap(np.roll(angles, -start))
+    cuts = np.flatnonzero(np.diff(angles) > spread) + 1
+    planes = [(float(np.mean(a)), o) for a, o in zip(np.split(angles, cuts),
+                                                    np.split(order, cuts), strict=True)]
+    best = None
+    for a_left, left in planes:
+        for a_right, right in planes:
+            miss = abs(np.angle(np.exp(1j * (a_right - a_left - angle))))
+            if miss <= spread and (best is None or len(left) + len(right) > best[0]):
+                best = (len(left) + len(right), left, right)
+    if best is None:
+        return None
+    return np.unique(tri[best[1]]), np.unique(tri[best[2]])
 
 
 def paired(points: np.ndarray, left: np.ndarray, right: np.ndarray, angle: float,
@@ -150,6 +158,10 @@ def cyclic_boundaries(mesh: Mesh, spec: SectorSpec) -> tuple[np.ndarray, dict]:
     """(points with each matching right face on its left face's exact image, body ->
     CyclicBoundary) of a mesh already in the sector frame (axis +z through the origin)."""
     given = {body: (left, right) for body, left, right in spec.faces}
+    unknown = sorted(set(given) - set(mesh.bodies))
+    if unknown:
+        raise SectorError(f"geometry.sector.faces: {unknown} are not bodies; bodies: "
+                          f"{sorted(mesh.bodies)}")
     points = np.array(mesh.points)
     out = {}
     for body in mesh.bodies:

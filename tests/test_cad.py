@@ -96,3 +96,17 @@ def test_a_sector_is_meshed_with_matching_cyclic_faces(tmp_path):
     finest = _frequencies(import_mesh(path, sector=spec, sets=bore, size=0.01).mesh, 2)
     assert (np.abs(fine / finest - 1) < np.abs(coarse / finest - 1) + 1e-4).all()
     assert np.abs(fine / finest - 1).max() < 0.02  # P2 on this ring: within 2 %
+
+
+def test_periodic_faces_about_an_offset_axis_in_brep_units(tmp_path):
+    """The ring sector moved off the origin, as a BREP in millimetres: the axis' origin is
+    given in metres and the model is in millimetres, and the periodic faces are still found
+    (the cyclic faces match node for node)."""
+    def moved(occ):
+        _ring_sector(occ)
+        occ.translate(occ.getEntities(3), 50.0, -30.0, 10.0)
+
+    path = _write(tmp_path / "ring.brep", moved)
+    spec = SectorSpec(12, axis=(0.0, 0.0, 1.0), origin=(0.05, -0.03, 0.01))
+    mesh = import_mesh(path, "mm-t-s", sector=spec, size=0.03).mesh
+    assert mesh.cyclic["body1"].matching

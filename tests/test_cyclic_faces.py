@@ -135,3 +135,17 @@ def test_matching_and_non_matching_faces_give_the_same_frequencies(tmp_path):
         f_match, f_free, f_fine = (_frequencies(m, nd) for m in (matching, free, fine))
         discretization = np.abs(f_match - f_fine) / f_fine
         assert (np.abs(f_free - f_match) / f_match).max() < discretization.max(), nd
+
+
+def test_faces_found_in_rounded_coordinates():
+    """A deck written with a micrometre's resolution (coordinates rounded to 1e-6 m): the
+    planar faces are still found whole and paired within a tolerance of twice that; a face
+    named for a body the mesh does not have is refused."""
+    ring = annulus("hexahedron", SECTORS, cells=(3, 4, 2))
+    rounded = Mesh(ring.model, np.round(ring.points, 6), ring.tetrahedra, ring.bodies,
+                   ring.node_sets, hexahedra=ring.hexahedra)
+    _, boundaries = cyclic_boundaries(rounded, SectorSpec(SECTORS, tolerance=2e-6))
+    assert boundaries["ring"].matching
+    np.testing.assert_array_equal(boundaries["ring"].left, ring.node_sets["cyclic/left"])
+    with pytest.raises(ValueError, match=r"\['rotor'\] are not bodies"):
+        cyclic_boundaries(ring, SectorSpec(SECTORS, faces=(("rotor", "a", "b"),)))

@@ -344,3 +344,36 @@ def _check_file(case):
     with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
         code = main(["check", str(case)])
     return code, said.getvalue()
+
+
+def test_deck_rules(tmp_path):
+    """Abaqus rules the deck reader keeps: names case-insensitive (two spellings of a set are
+    one set; a section names its set and material in another case), a solid's node list
+    running over lines by its count, a list cut short refused, a set of mid-side nodes only
+    named as such."""
+    from microslip.geometry import abaqus
+
+    nodes = "*NODE\n1, 0,0,0\n2, 1,0,0\n3, 0,1,0\n4, 0,0,1\n5, 1,1,1\n"
+    deck = tmp_path / "a.inp"
+    deck.write_text(nodes + "*ELEMENT, TYPE=C3D4, ELSET=Eall\n1, 1,2,3,4\n"
+                    "*ELEMENT, TYPE=C3D4, ELSET=EALL\n2, 2,3,4,\n5\n"
+                    "*MATERIAL, NAME=Steel\n*ELASTIC\n210000, 0.3\n*DENSITY\n7.85e-9\n"
+                    "*SOLID SECTION, ELSET=eall, MATERIAL=STEEL\n*NSET, NSET=fix\n1, 2\n"
+                    "*NSET, NSET=FIX\n3\n")
+    raw = abaqus.read(deck)
+    assert list(raw.cell_sets) == ["Eall"] and [len(b) for b in raw.cell_sets["Eall"]] == [1, 1]
+    assert raw.point_sets["fix"].tolist() == [0, 1, 2]
+    mesh = import_mesh(deck, "mm-t-s").mesh
+    assert mesh.parameters["materials"]["Eall"]["youngs_modulus"] == pytest.approx(2.1e11)
+    cut = tmp_path / "cut.inp"
+    cut.write_text(nodes + "*ELEMENT, TYPE=C3D4\n1, 1,2,3,\n*ELEMENT, TYPE=C3D4\n2, 1,2,3,4\n")
+    with pytest.raises(MeshImportError, match="element 1 has 3 nodes before the next keyword"):
+        import_mesh(cut)
+    quadratic = write(block("tetra", cells=(1, 1, 1)), tmp_path / "q.inp", quadratic=True)
+    text = quadratic.read_text()
+    first_mid = len(block("tetra", cells=(1, 1, 1)).points) + 1  # mid nodes follow corners
+    quadratic.write_text(text + f"*NSET, NSET=MIDDLE\n{first_mid}\n")
+    read = import_mesh(quadratic)
+    assert read.report.dropped_sets == ("MIDDLE",)
+    with pytest.raises(ValueError, match="holds mid-side nodes only"):
+        fem.node_set(read.mesh, "MIDDLE")

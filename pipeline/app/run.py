@@ -158,6 +158,9 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
     if report is not None and report.skipped:
         progress("[geometry] note: not solids, so not part of the model (their nodes are node "
                  "sets): " + ", ".join(f"{n} {t}" for t, n in sorted(report.skipped.items())))
+    if report is not None and report.dropped_sets:
+        progress("[geometry] note: node sets of mid-side nodes only, so empty on the corner "
+                 "mesh (name corner nodes instead): " + ", ".join(report.dropped_sets))
     if report is not None and report.midnode_offset > MIDNODE_NOTE:
         progress(f"[geometry] note: the file's mid-edge nodes lie up to "
                  f"{100 * report.midnode_offset:.2g} % of an edge off its "

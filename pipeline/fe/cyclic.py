@@ -208,7 +208,10 @@ def _facet_weights(body: BodyModel, surface: Any, where: Any
         if n_mid is not None:
             pairs = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2).reshape(-1, 2)
             rows.append(np.repeat(sel, c))
-            keys.append(body.edge_index(pairs))
+            edges = body.edge_index(pairs)
+            if np.any(edges < 0):  # (-1 would read as vertex 0's key)
+                raise ValueError("cyclic face: a facet edge is not an edge of the body")
+            keys.append(edges)
             values.append(n_mid.ravel())
     return np.concatenate(rows), np.concatenate(keys), np.concatenate(values)
 
@@ -278,8 +281,9 @@ class SectorModel:
         if not ok.all():
             bad = np.asarray(nodes).ravel()[~ok.all(axis=1)]
             raise ValueError(
-                f"{what}: node(s) {bad[:8].tolist()} have no free DOFs (clamped, or on the right "
-                "cyclic face whose DOFs are eliminated; use their left-face images)"
+                f"{what}: node(s) {bad[:8].tolist()} have no free DOFs (clamped, or on the "
+                "cyclic face whose DOFs follow the other face: the right one, or the finer of "
+                "two non-matching faces; use nodes of the other face)"
             )
         return pos_c
 

@@ -191,6 +191,10 @@ class BodyModel:
 def node_set(mesh: MeshLike, name: str) -> IntArray:
     """Sorted global node indices of the named node set; ValueError if it does not exist."""
     if name not in mesh.node_sets:
+        if name in getattr(mesh, "parameters", {}).get("dropped_sets", ()):
+            raise ValueError(f"node set {name!r} holds mid-side nodes only, which the corner "
+                             "mesh drops (the quadratic elements' edge DOFs take their "
+                             "place); name a set of corner nodes")
         raise ValueError(
             f"node set {name!r} does not exist; available: {sorted(mesh.node_sets)}"
         )
