@@ -40,8 +40,9 @@ def grid(size: tuple[float, float, float], cells: tuple[int, int, int], distort:
     return P, hexes
 
 
-def _split(shape: str, hexes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(tetrahedra, hexahedra, wedges) of the cells in ``shape``."""
+def split_cells(shape: str, hexes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(tetrahedra, hexahedra, wedges) of the hexahedral cells (m, 8) made ``shape``: kept,
+    split into two wedges or into six tetrahedra each (conforming between neighbours)."""
     none4, none6, none8 = (np.empty((0, k), dtype=np.int64) for k in (4, 6, 8))
     if shape == "wedge":
         return none4, none8, hexes[:, _WEDGES].reshape(-1, 6)
@@ -61,10 +62,10 @@ def block(shape: str, size: tuple[float, float, float] = (1.0, 0.1, 0.1),
     P, hexes = grid(size, cells, distort)
     if mixed:
         right = P[hexes].mean(axis=1)[:, 0] > size[0] / 2
-        tets, _, wedges = _split("wedge", hexes[right])
+        tets, _, wedges = split_cells("wedge", hexes[right])
         hexes = hexes[~right]
     else:
-        tets, hexes, wedges = _split(shape, hexes)
+        tets, hexes, wedges = split_cells(shape, hexes)
     n = len(tets) + len(hexes) + len(wedges)
     sets = {"block/clamp": np.flatnonzero(P[:, 0] < 1e-12),
             "block/tip": np.flatnonzero(P[:, 0] > size[0] - 1e-12)}
@@ -87,7 +88,7 @@ def annulus(shape: str = "hexahedron", sectors: int = 12,
     theta = (t - 0.5) * 2 * np.pi / sectors
     zz = width * (z + stretch * t * z * (1 - z))
     points = np.stack([r * np.cos(theta), r * np.sin(theta), zz], axis=1)
-    tets, hexes, wedges = _split(shape, hexes)
+    tets, hexes, wedges = split_cells(shape, hexes)
     n = len(tets) + len(hexes) + len(wedges)
     sets = {"ring/bore": np.flatnonzero(x < 1e-12), "cyclic/left": np.flatnonzero(t < 1e-12),
             "cyclic/right": np.flatnonzero(t > 1 - 1e-12)}

@@ -56,6 +56,30 @@ class Projection:
     gap: np.ndarray
 
 
+def triangle_shapes(local: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Shape functions at triangle coordinates (n, 2): corners (n, 3), and with order 2 the
+    edge midpoints (n, 3) of edges (0, 1), (1, 2), (2, 0)."""
+    L = np.stack([1.0 - local[:, 0] - local[:, 1], local[:, 0], local[:, 1]], axis=1)
+    if order == 1:
+        return L, None
+    return L * (2.0 * L - 1.0), 4.0 * L * np.roll(L, -1, axis=1)
+
+
+def quad_shapes(local: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Shape functions at quad coordinates (n, 2) in [-1, 1]^2: corners (n, 4), and with
+    order 2 (8-node serendipity) the edge midpoints (n, 4) of edges (0, 1) .. (3, 0)."""
+    s = QUAD_CORNERS
+    a = 1.0 + local[:, None, 0] * s[:, 0]
+    b = 1.0 + local[:, None, 1] * s[:, 1]
+    if order == 1:
+        return 0.25 * a * b, None
+    corner = 0.25 * a * b * (local[:, None, 0] * s[:, 0] + local[:, None, 1] * s[:, 1] - 1.0)
+    xi, eta = local[:, 0], local[:, 1]
+    mid = 0.5 * np.stack([(1 - xi**2) * (1 - eta), (1 + xi) * (1 - eta**2),
+                          (1 - xi**2) * (1 + eta), (1 - xi) * (1 - eta**2)], axis=1)
+    return corner, mid
+
+
 def surface_of(cells: dict[str, np.ndarray], nodes: np.ndarray) -> Surface:
     """The boundary faces of a body (``cells``: shape -> corners) lying in ``nodes``."""
     tri, quad = elements.boundary_faces(cells)

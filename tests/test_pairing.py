@@ -1,0 +1,86 @@
+"""Surfaces in contact paired node by node (geometry.pairing): matching surfaces node for
+node, non-matching ones node to surface with interpolation weights that carry linear fields
+exactly, tributary areas that sum to the contact area, normals from body a into body b."""
+
+import numpy as np
+import pytest
+
+from microslip.geometry import Mesh
+from microslip.geometry.mesh import rotation_z
+from microslip.geometry.pairing import pair_surfaces
+from microslip.geometry.structured import grid, split_cells
+
+
+def _two_blocks(shape: str, lower_cells, upper_cells, shift=(0.0, 0.0)) -> Mesh:
+    """A 0.1 x 0.05 x 0.02 m block under a 0.06 x 0.03 x 0.01 m one standing on it (its
+    footprint inside the lower top face, moved by ``shift``), meshed independently; sets
+    "lower/top" and "upper/bottom"."""
+    P1, h1 = grid((0.1, 0.05, 0.02), lower_cells)
+    P2, h2 = grid((0.06, 0.03, 0.01), upper_cells)
+    P2 = P2 + np.array([0.02 + shift[0], 0.01 + shift[1], 0.02])
+    t1, x1, w1 = split_cells(shape, h1)
+    t2, x2, w2 = split_cells(shape, h2 + len(P1))
+    cells = [np.vstack([a, b]) for a, b in ((t1, t2), (x1, x2), (w1, w2))]
+    counts = [len(c) for c in cells]
+    lower = np.concatenate([np.arange(len(t1)), counts[0] + np.arange(len(x1)),
+                            counts[0] + counts[1] + np.arange(len(w1))])
+    upper = np.concatenate([len(t1) + np.arange(len(t2)),
+                            counts[0] + len(x1) + np.arange(len(x2)),
+                            counts[0] + counts[1] + len(w1) + np.arange(len(w2))])
+    points = np.vstack([P1, P2])
+    sets = {"lower/top": np.flatnonzero(np.abs(P1[:, 2] - 0.02) < 1e-12),
+            "upper/bottom": len(P1) + np.flatnonzero(np.abs(P2[:, 2] - 0.02) < 1e-12)}
+    return Mesh("blocks", points, cells[0], {"lower": lower, "upper": upper}, sets,
+                hexahedra=cells[1], wedges=cells[2])
+
+
+@pytest.mark.parametrize("shape", ["hexahedron", "wedge", "tetra"])
+def test_non_matching_surfaces_pair_node_to_surface(shape):
+    """The upper block's bottom (finer) on the lower block's top: every weight row
+    interpolates a linear field exactly, the areas sum to the footprint 0.06 x 0.03 m, the
+    normals point down (from the upper body into the lower), gaps and outside distances 0."""
+    mesh = _two_blocks(shape, (5, 4, 1), (7, 5, 1))
+    p = pair_surfaces(mesh, "upper", mesh.node_sets["upper/bottom"], "lower",
+                      mesh.node_sets["lower/top"])
+    assert not p.matching
+    np.testing.assert_allclose(p.weights.sum(axis=1), 1.0, atol=1e-12)
+    field = lambda x: 3.0 * x[:, 0] - 2.0 * x[:, 1] + 0.5  # noqa: E731
+    np.testing.assert_allclose(p.weights @ field(mesh.points[p.nodes_b]),
+                               field(mesh.points[p.nodes_a]), atol=1e-12)
+    assert p.area == pytest.approx(0.06 * 0.03, rel=1e-12)
+    np.testing.assert_allclose(p.normals, np.tile([0.0, 0.0, -1.0], (len(p.nodes_a), 1)),
+                               atol=1e-12)
+    assert np.abs(p.gaps).max() < 1e-12 and p.outside.max() < 1e-12
+
+
+def test_matching_surfaces_pair_node_for_node_and_the_ground():
+    """Two blocks whose faces share the grid (the lower one's top cut to the footprint by a
+    matching grid) pair node for node; against the ground, side a alone."""
+    mesh = _two_blocks("hexahedron", (5, 5, 1), (3, 3, 1), shift=(-0.02, -0.01))
+    top = mesh.node_sets["lower/top"]
+    under = top[(mesh.points[top, 0] <= 0.06 + 1e-12) & (mesh.points[top, 1] <= 0.03 + 1e-12)]
+    # the lower grid has spacing 0.02 x 0.01: its nodes under the 0.06 x 0.03 footprint match
+    p = pair_surfaces(mesh, "upper", mesh.node_sets["upper/bottom"], "lower", under)
+    assert p.matching
+    np.testing.assert_array_equal(mesh.points[p.nodes_b[p.weights.indices]],
+                                  mesh.points[p.nodes_a])
+    ground = pair_surfaces(mesh, "upper", mesh.node_sets["upper/bottom"], None, None)
+    assert ground.weights.shape == (len(ground.nodes_a), 0) and ground.area == pytest.approx(
+        0.06 * 0.03, rel=1e-12)
+
+
+def test_a_neighbouring_surface_is_turned_before_pairing():
+    """Side b given in the fundamental sector and turned by the sector angle meets side a
+    where it touches: the same pairing as the turned copy of the mesh."""
+    mesh = _two_blocks("tetra", (5, 4, 1), (7, 5, 1))
+    phi = 2 * np.pi / 24
+    turn = rotation_z(phi)
+    back = Mesh(mesh.model, np.where(np.isin(np.arange(len(mesh.points)),
+                                             mesh.body_nodes("lower"))[:, None],
+                                     mesh.points @ turn, mesh.points),
+                mesh.tetrahedra, mesh.bodies, mesh.node_sets)
+    direct = pair_surfaces(mesh, "upper", mesh.node_sets["upper/bottom"], "lower",
+                           mesh.node_sets["lower/top"])
+    turned = pair_surfaces(back, "upper", back.node_sets["upper/bottom"], "lower",
+                           back.node_sets["lower/top"], rotation=turn)
+    assert abs(direct.weights - turned.weights).max() < 1e-10
