@@ -258,8 +258,8 @@ class SectorModel:
             bad = np.asarray(nodes).ravel()[~ok.all(axis=1)]
             raise ValueError(
                 f"{what}: node(s) {bad[:8].tolist()} have no free DOFs (clamped, or on the "
-                "cyclic face whose DOFs follow the other face: the right one, or the finer of "
-                "two non-matching faces; use nodes of the other face)"
+                "right cyclic face, or the finer of two non-matching ones, whose DOFs follow "
+                "the other face; use nodes of the other face)"
             )
         return pos_c
 
