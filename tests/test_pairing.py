@@ -84,3 +84,28 @@ def test_a_neighbouring_surface_is_turned_before_pairing():
     turned = pair_surfaces(back, "upper", back.node_sets["upper/bottom"], "lower",
                            back.node_sets["lower/top"], rotation=turn)
     assert abs(direct.weights - turned.weights).max() < 1e-10
+
+
+def test_stiffness_shared_by_area_and_frames_per_normal():
+    """The flat punch of the paired area shared by tributary area: the pairs' stiffnesses
+    sum to the patch's flat punch of 0.06 x 0.03 m; frames orthonormal, right-handed, n
+    the pair's normal."""
+    from microslip.pipeline.fe import contact_stiffness as cs
+    from microslip.pipeline.fe.fem import Material
+
+    steel = Material(2.0e11, 0.3, 7850.0)
+    mesh = _two_blocks("tetra", (5, 4, 1), (7, 5, 1))
+    p = pair_surfaces(mesh, "upper", mesh.node_sets["upper/bottom"], "lower",
+                      mesh.node_sets["lower/top"])
+    k = cs.pairing_stiffness("pad", p.areas, steel, steel)
+    kn, kt = cs.flat_punch_stiffness(0.06 * 0.03, steel, steel)
+    assert k.total_normal == pytest.approx(kn, rel=1e-12)
+    assert k.total_tangential == pytest.approx(kt, rel=1e-12)
+    np.testing.assert_allclose(k.normal / kn, p.areas / p.area, rtol=1e-12)
+    F = cs.normal_frames(p.normals)
+    np.testing.assert_allclose(F @ np.transpose(F, (0, 2, 1)), np.tile(np.eye(3), (len(F), 1, 1)),
+                               atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(F), 1.0, atol=1e-12)
+    np.testing.assert_allclose(F[:, 2], p.normals, atol=1e-12)
+    per_area = cs.pairing_stiffness("pad", p.areas, steel, steel, (1e13, 5e12))
+    assert per_area.total_normal == pytest.approx(1e13 * 0.06 * 0.03, rel=1e-12)

@@ -12,6 +12,11 @@ A per-area stiffness [N/m^3] given by a case overrides it: k_node = k_area A / n
 Frame per node pair: rows (t1, t2, n), right-handed, n = the patch normal (outward from body
 a into body b). The relative displacement of a pair is ``frames @ (u_a - u_b)``: its normal
 component is positive when the bodies approach (the README's conventions).
+
+Surfaces paired node by node (``geometry.pairing``) carry a tributary area and a normal per
+pair: the patch's flat-punch stiffness is shared in proportion to the areas
+(:func:`pairing_stiffness`), and each pair's frame follows its own normal
+(:func:`normal_frames`).
 """
 
 from __future__ import annotations
@@ -134,3 +139,42 @@ def initial_gaps(patch: Any, points_a: NDArray, points_b: NDArray) -> NDArray[np
     """
     n = np.asarray(patch.normal, dtype=np.float64)
     return (np.asarray(points_b) - np.asarray(points_a)) @ n
+
+
+def pairing_stiffness(name: str, areas: NDArray[np.float64], material_a: Material,
+                      material_b: Material, per_area: tuple[float, float] | None = None
+                      ) -> PatchStiffness:
+    """Per-pair (kn, kt) [N/m] of surfaces paired node by node: the flat punch of the whole
+    contact area (the sum of the tributary ``areas`` (k,) [m^2]), shared in proportion to
+    each pair's area; ``per_area`` (kn, kt) [N/m^3] instead of the flat punch. The pairs of a
+    uniform grid get equal shares, as :func:`patch_stiffness` gives them."""
+    areas = np.asarray(areas, dtype=np.float64)
+    if areas.ndim != 1 or not len(areas) or not np.all(areas > 0):
+        raise ValueError(f"contact {name!r}: tributary areas must be positive, one per pair")
+    total = float(areas.sum())
+    if per_area is None:
+        kn, kt = flat_punch_stiffness(total, material_a, material_b)
+    else:
+        kn, kt = (float(v) * total for v in per_area)
+    share = areas / total
+    return PatchStiffness(patch=name, normal=kn * share, tangential=kt * share)
+
+
+def normal_frames(normals: NDArray[np.float64], reference: NDArray[np.float64] | None = None
+                  ) -> NDArray[np.float64]:
+    """(k, 3, 3) frames, rows (t1, t2, n), right-handed and orthonormal, of k unit normals
+    (k, 3): t1 is ``reference`` (default: the axis +z, or +x where the normal is nearly
+    axial) projected onto each tangent plane; t2 = n x t1."""
+    n = np.asarray(normals, dtype=np.float64)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    if reference is None:
+        axial = np.abs(n[:, 2]) > 0.9
+        ref = np.where(axial[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    else:
+        ref = np.broadcast_to(np.asarray(reference, dtype=np.float64), n.shape)
+    t1 = ref - np.einsum("ij,ij->i", ref, n)[:, None] * n
+    length = np.linalg.norm(t1, axis=1)
+    if np.any(length < 1e-6):
+        raise ValueError("normal_frames: the reference direction is along a normal")
+    t1 /= length[:, None]
+    return np.stack([t1, np.cross(n, t1), n], axis=1)
