@@ -8,6 +8,7 @@ NAMES                                    bodies, patches, node sets of the conta
 beam, annular_sector                     reference models for FE checks (geometry.simple)
 blisk_sector, BliskParameters            blisk sector + wedge damper (geometry.blisk)
 root_joint, RootJointParameters          dovetail disk sector + blade (geometry.root_joint)
+shrouded_blisk, ShroudParameters         blisk sector with a z-notch tip shroud (geometry.shroud)
 full_disk, disk_node_map                 Ns rotated copies joined at the cyclic faces
 sicn                                     element quality (geometry.quality)
 GeometryParameterError, GeometryBuildError
@@ -20,17 +21,20 @@ from .mesh import ContactPatch, CyclicBoundary, Mesh, MeshValidationError, rotat
 from .params import GeometryBuildError, GeometryParameterError
 from .quality import sicn
 from .root_joint import RootJointParameters, root_joint
+from .shroud import ShroudParameters, shrouded_blisk
 from .simple import AnnularSectorParameters, BeamParameters, annular_sector, beam
 
 MODELS = {  # name in a case file's [geometry] table -> builder(**parameters) -> Mesh
     "blisk_sector": blisk_sector,
     "root_joint": root_joint,
+    "shrouded_blisk": shrouded_blisk,
     "beam": beam,
     "annular_sector": annular_sector,
 }
 PARAMETERS = {  # the same names -> their parameter dataclasses (units, defaults, ranges)
     "blisk_sector": BliskParameters,
     "root_joint": RootJointParameters,
+    "shrouded_blisk": ShroudParameters,
     "beam": BeamParameters,
     "annular_sector": AnnularSectorParameters,
 }
@@ -44,6 +48,13 @@ NAMES = {  # the bodies, contact patches and node sets each model makes (what a 
                       "cyclic/blisk/left", "cyclic/blisk/right", "damper/all",
                       "contact/damper_left/damper", "contact/damper_left/blisk",
                       "contact/damper_right/damper", "contact/damper_right/blisk"),
+    },
+    "shrouded_blisk": {
+        "bodies": ("blisk",),
+        "patches": ("shroud",),
+        "node_sets": ("blisk/bore", "blisk/shroud", "blisk/excitation", "blisk/response",
+                      "cyclic/blisk/left", "cyclic/blisk/right", "contact/shroud/a",
+                      "contact/shroud/b"),
     },
     "root_joint": {
         "bodies": ("blade", "disk"),
@@ -69,6 +80,7 @@ __all__ = [
     "Mesh",
     "MeshValidationError",
     "RootJointParameters",
+    "ShroudParameters",
     "annular_sector",
     "beam",
     "blisk_sector",
@@ -76,5 +88,6 @@ __all__ = [
     "full_disk",
     "rotation_z",
     "root_joint",
+    "shrouded_blisk",
     "sicn",
 ]

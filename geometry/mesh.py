@@ -106,7 +106,8 @@ class ContactPatch:
     """Two touching faces meshed as the same structured n1 x n2 grid.
 
     name:    patch name (also used in node-set names "contact/<name>/<body>")
-    body_a:  body owning ``nodes_a``
+    body_a:  body owning ``nodes_a``; it may be ``body_b`` when the touching face is a
+             neighbouring sector's (a shroud touching the next blade's)
     body_b:  body owning ``nodes_b``
     nodes_a: (n1, n2) int64 node indices on body_a's face; ``nodes_a[i, j]`` and
              ``nodes_a[i+1, j]`` are neighbours along the patch's first direction
@@ -152,8 +153,10 @@ class ContactPatch:
             )
         if not float(self.area) > 0.0:
             raise MeshValidationError(f"ContactPatch {self.name!r}: area {self.area} <= 0")
-        if self.body_a == self.body_b:
-            raise MeshValidationError(f"ContactPatch {self.name!r}: body_a == body_b")
+        if self.body_a == self.body_b and not self.b_sector_offset:
+            raise MeshValidationError(
+                f"ContactPatch {self.name!r}: body_a == body_b (a body touches itself only "
+                "in a neighbouring sector: b_sector_offset)")
         object.__setattr__(self, "nodes_a", nodes_a)
         object.__setattr__(self, "nodes_b", nodes_b)
         object.__setattr__(self, "normal", _frozen(normal))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -138,7 +139,8 @@ def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
         v = given.get(key, fields[key])
         return v if is_int(v) and v > 0 else fields[key]  # a bad value is refused at meshing
 
-    pairs = count("contact_n_axial") * count("contact_n_flank")
+    # a patch's grid: the model's contact_n_* counts (axial x flank, radial x along, ...)
+    pairs = math.prod(count(k) for k in fields if k.startswith("contact_n_"))
     shapes = []
     for c in data["assembly"]["contacts"]:
         if c.get("elements", PatchFriction.elements) == "2D":

@@ -645,11 +645,15 @@ class BodySpec:
 
 
 def patch_nodes(mesh: MeshLike, name: str, body: str) -> IntArray:
-    """Nodes of contact patch ``name`` that belong to ``body`` (either side), grid order."""
+    """Nodes of contact patch ``name`` that belong to ``body`` (either side, grid order;
+    both sides, a's then b's, when the body touches its neighbouring sector)."""
     if name not in mesh.contacts:
         raise ValueError(f"contact patch {name!r} does not exist; available: "
                          f"{sorted(mesh.contacts)}")
     patch = mesh.contacts[name]
+    if patch.body_a == body == patch.body_b:
+        return np.concatenate([np.asarray(patch.nodes_a, dtype=np.int64).ravel(),
+                               np.asarray(patch.nodes_b, dtype=np.int64).ravel()])
     if patch.body_a == body:
         return np.asarray(patch.nodes_a, dtype=np.int64).ravel()
     if patch.body_b == body:

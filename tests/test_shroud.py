@@ -1,0 +1,80 @@
+"""The shrouded blisk sector (geometry.shroud): its interlock faces meet the neighbour's node
+for node, the mesh is valid and periodic, its parameters are checked before Gmsh runs, and
+its reduced model keeps both interlock faces as masters."""
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as spl
+
+from microslip import geometry
+from microslip.geometry import GeometryParameterError, rotation_z
+from microslip.geometry.quality import sicn
+from microslip.geometry.shroud import ShroudParameters
+from microslip.pipeline.fe import cyclic, fem, reduction
+
+
+@pytest.fixture(scope="module")
+def shroud():
+    return geometry.shrouded_blisk()
+
+
+def test_interlock_faces_meet_the_neighbours(shroud):
+    """Side a (the interlock at +phi/2) is side b's image in the next sector, node for node;
+    the patch is the interlock rectangle (thickness x notch length / cos(angle)); the normal
+    points into the neighbour (tangentially +, along the notch)."""
+    p = ShroudParameters()
+    patch = shroud.contacts["shroud"]
+    assert patch.body_a == patch.body_b == "blisk" and patch.b_sector_offset == 1
+    a, b = shroud.points[patch.nodes_a], shroud.points[patch.nodes_b]
+    np.testing.assert_allclose(a, b @ rotation_z(p.phi).T, atol=1e-12)
+    length = p.notch_length / np.cos(np.radians(p.notch_angle))
+    assert patch.area == pytest.approx(p.shroud_thickness * length, rel=1e-12)
+    tangent = np.array([-np.sin(p.phi / 2), np.cos(p.phi / 2), 0.0])
+    assert patch.normal @ tangent == pytest.approx(np.cos(np.radians(p.notch_angle)))
+    assert shroud.contacts["shroud"].shape == (p.contact_n_radial, p.contact_n_along)
+
+
+def test_mesh_quality_names_and_volume(shroud):
+    assert sicn(shroud.points, shroud.tetrahedra).min() > 0.1
+    names = geometry.NAMES["shrouded_blisk"]
+    assert set(names["bodies"]) == set(shroud.bodies)
+    assert set(names["patches"]) == set(shroud.contacts)
+    assert set(names["node_sets"]) == set(shroud.node_sets)
+    cad = shroud.parameters["derived"]["cad_volume"]["blisk"]
+    # the bore and rim are cylinders: the tets' chords lose ~1e-4 of the volume
+    assert shroud.body_volume("blisk") == pytest.approx(cad, rel=5e-3)
+
+
+def test_parameters_are_checked_before_meshing():
+    with pytest.raises(GeometryParameterError, match="notch_length"):
+        geometry.shrouded_blisk(notch_length=0.05)
+    with pytest.raises(GeometryParameterError, match="arm_clearance"):
+        geometry.shrouded_blisk(arm_clearance=0.004)
+
+
+def _spec():
+    return reduction.BodySpec(body="blisk", material=fem.Material(2.0e11, 0.3, 7850.0),
+                              patches=("shroud",), clamped_sets=("blisk/bore",),
+                              master_sets=("blisk/excitation", "blisk/response"))
+
+
+def test_both_interlock_faces_are_masters(shroud):
+    """A body touching its own neighbour: both sides of its patch are its masters."""
+    masters, _, _, _ = reduction.spec_nodes(shroud, _spec())
+    patch = shroud.contacts["shroud"]
+    assert np.isin(patch.nodes_a, masters).all() and np.isin(patch.nodes_b, masters).all()
+
+
+@pytest.mark.slow
+def test_reduced_model_matches_the_sector(shroud):
+    """Craig-Bampton of the shrouded sector at ND 3 (both interlock faces masters, every
+    fixed-interface mode below the cut-off): the first ten frequencies of the sector model
+    within 0.1 %."""
+    spec = _spec()
+    body = fem.assemble(shroud, "blisk", spec.material)
+    sector = cyclic.sector_model(body, shroud.node_sets["blisk/bore"], shroud.cyclic["blisk"], 3)
+    lam = spl.eigsh(sector.stiffness.tocsc(), k=10, M=sector.mass.tocsc(), sigma=0,
+                    return_eigenvectors=False)
+    full = np.sqrt(np.sort(lam.real)) / (2 * np.pi)
+    reduced = reduction.reduce_body(shroud, spec, (3,), None, None, lambda *a: None)[3]
+    np.testing.assert_allclose(reduced.frequencies(10), full, rtol=1e-3)
