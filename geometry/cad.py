@@ -153,50 +153,48 @@ def _periodic_faces(sector: SectorSpec, scale: float) -> list[tuple[int, int]]:
 
 def _read_back(owner: dict[int, str], periodic: list[tuple[int, int]], meshio):
     """The meshed model as a meshio.Mesh: each body's tetrahedra on its own nodes."""
-    tags, xyz, _ = gmsh.model.mesh.getNodes()
-    xyz = np.asarray(xyz).reshape(-1, 3)
-    index = {int(t): i for i, t in enumerate(tags)}
-    points = [xyz]
-    blocks, cell_sets, copies = [], {}, {}  # copies: body -> {node: its copy}
-    used: dict[int, str] = {}  # node -> the first body that took it
+    r = g.MeshReader()  # the tetrahedra's nodes, 0-based, and each volume's tets
+    points = [r.points]
+    n = len(r.points)
+    blocks, cell_sets, point_sets = [], {}, {}
+    taken = np.full(n, -1)  # node -> the first body (index) that took it
+    copy_of: dict[str, np.ndarray] = {}  # body -> (n,) its own index of each node
     bodies = sorted(set(owner.values()))
-    for name in bodies:
-        tets = [np.asarray(gmsh.model.mesh.getElements(3, v)[2][0], dtype=np.int64)
-                for v in owner if owner[v] == name]
-        t = np.vectorize(index.__getitem__, otypes=[np.int64])(np.concatenate(tets))
-        mine = {}
-        for node in np.unique(t).tolist():
-            if node in used:  # on an interface: this body gets its own copy
-                mine[node] = sum(len(p) for p in points)
-                points.append(xyz[node][None])
-            else:
-                used[node] = name
-        copies[name] = mine
-        t = np.vectorize(lambda n, m=mine: m.get(n, n), otypes=[np.int64])(t).reshape(-1, 4)
+    for k, name in enumerate(bodies):
+        t = r.tets([v for v in owner if owner[v] == name])
+        mine = np.arange(n)
+        nodes = np.unique(t)
+        shared = nodes[taken[nodes] >= 0]  # on an interface: this body gets its own copies
+        mine[shared] = n + np.arange(len(shared))
+        n += len(shared)
+        points.append(r.points[shared])
+        for other in np.unique(taken[shared]):  # each interface's two sides, node for node
+            side = shared[taken[shared] == other]
+            point_sets[f"interface/{bodies[other]}/{name}"] = side
+            point_sets[f"interface/{name}/{bodies[other]}"] = mine[side]
+        taken[nodes[taken[nodes] < 0]] = k
+        copy_of[name] = mine
         cell_sets[name] = [np.arange(len(t)) if b == name else np.empty(0, np.int64)
                            for b in bodies]
-        blocks.append(("tetra", t))
-    point_sets = {}
-    for name in bodies:  # each interface's two sides, node for node
-        for node, copy in copies[name].items():
-            other = used[node]
-            point_sets.setdefault(f"interface/{other}/{name}", []).append(node)
-            point_sets.setdefault(f"interface/{name}/{other}", []).append(copy)
+        blocks.append(("tetra", mine[t]))
+    body_of_face = {f: owner[v] for v in owner for f in _faces_of(v)}
+
+    def face_nodes(face: int) -> np.ndarray:
+        """A face's nodes, as its own body numbers them."""
+        return copy_of[body_of_face[face]][r.surface_nodes([face])]
+
     for left, right in periodic:
-        body = next(owner[v] for v in owner if left in _faces_of(v))
         for side, face in (("left", left), ("right", right)):
-            nodes = gmsh.model.mesh.getNodes(2, face, includeBoundary=True)[0]
-            point_sets.setdefault(f"cyclic/{body}/{side}", []).extend(
-                copies[body].get(index[int(n)], index[int(n)]) for n in nodes)
-    for dim, tag in gmsh.model.getEntities(2):  # faces the CAD names, on their body's nodes
+            key = f"cyclic/{body_of_face[left]}/{side}"
+            point_sets[key] = np.union1d(point_sets.get(key, []), face_nodes(face))
+    for dim, tag in gmsh.model.getEntities(2):  # faces the CAD names
         label = gmsh.model.getEntityName(dim, tag).split("/")[-1].strip()
         if label:
-            body = next(owner[v] for v in owner if tag in _faces_of(v))
-            nodes = gmsh.model.mesh.getNodes(2, tag, includeBoundary=True)[0]
-            point_sets.setdefault(_NAME.sub("_", label), []).extend(
-                copies[body].get(index[int(n)], index[int(n)]) for n in nodes)
+            key = _NAME.sub("_", label)
+            point_sets[key] = np.union1d(point_sets.get(key, []), face_nodes(tag))
     return meshio.Mesh(np.vstack(points), blocks,
-                       point_sets={k: np.unique(v) for k, v in point_sets.items()},
+                       point_sets={k: np.asarray(v, dtype=np.int64)
+                                   for k, v in point_sets.items()},
                        cell_sets=cell_sets)
 
 

@@ -21,6 +21,19 @@ import numpy as np
 #: shape name -> corner count, in the order a mesh stores its elements
 SHAPES = {"tetra": 4, "hexahedron": 8, "wedge": 6}
 
+#: shape -> its edges (corner pairs), in VTK's (and Abaqus') order of the quadratic
+#: elements' mid-edge nodes
+EDGES = {
+    "tetra": [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)],
+    "hexahedron": [(0, 1), (1, 2), (2, 3), (0, 3), (4, 5), (5, 6), (6, 7), (4, 7), (0, 4),
+                   (1, 5), (2, 6), (3, 7)],
+    "wedge": [(0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5), (0, 3), (1, 4), (2, 5)],
+}
+#: shape -> the corner order of the element's mirror image (the same element, opposite
+#: orientation; for the wedge also VTK's corner order)
+MIRROR = {"tetra": [0, 2, 1, 3], "hexahedron": [0, 3, 2, 1, 4, 7, 6, 5],
+          "wedge": [0, 2, 1, 3, 5, 4]}
+
 # Faces with their normals pointing out of the element (corner indices; quads counter-
 # clockwise seen from outside).
 _TRIANGLES = {

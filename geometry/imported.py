@@ -45,16 +45,6 @@ SOLID_TYPES = {
 }
 #: meshio cell types that are not solids: their nodes form node sets, nothing else
 _FACE_TYPES = ("vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9")
-# The corners an element's mirror image takes: the same element, opposite orientation.
-_MIRROR = {"tetra": [0, 2, 1, 3], "hexahedron": [0, 3, 2, 1, 4, 7, 6, 5],
-           "wedge": [0, 2, 1, 3, 5, 4]}
-# Edges of the corner elements (corner pairs), where a quadratic element's mid nodes sit.
-_EDGES = {
-    "tetra": [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)],
-    "hexahedron": [(0, 1), (1, 2), (2, 3), (0, 3), (4, 5), (5, 6), (6, 7), (4, 7), (0, 4),
-                   (1, 5), (2, 6), (3, 7)],
-    "wedge": [(0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5), (0, 3), (1, 4), (2, 5)],
-}
 _NAME = re.compile(r"^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$")
 
 
@@ -288,8 +278,7 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
         if not node_sets[name].size:
             raise MeshImportError(f"geometry.sets.{name}: selects no surface node (widen "
                                   "the region or its tolerance)")
-    mesh = mesh_of(mesh.points)
-    if sector is not None:
+    if sector is not None:  # (the mesh in the sector's frame holds the chosen sets too)
         rotation, origin = sector_frame(sector.axis, sector.origin)
         mesh = mesh_of((mesh.points - origin) @ rotation.T)
         try:
@@ -305,6 +294,8 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
         parameters["frame"] = {"rotation": (centre @ rotation).tolist(),
                                "origin": origin.tolist(), "sectors": sector.sectors}
         mesh = mesh_of(xyz @ centre.T, boundaries)
+    elif sets:
+        mesh = mesh_of(mesh.points)  # with the chosen sets
     count = {b.type: 0 for _, b in solids}
     for _, b in solids:
         count[b.type] += len(b.data)
@@ -349,9 +340,10 @@ def _ansys_archive(path: Path):
     cells, cell_ids, cell_mats = [], [], []
     for vtk in sorted(set(kinds.tolist())):
         rows = np.flatnonzero(kinds == vtk)
-        data = np.stack([conn[offsets[r]:offsets[r + 1]] for r in rows])
+        width = offsets[rows[0] + 1] - offsets[rows[0]]  # (one type, one node count)
+        data = conn[offsets[rows][:, None] + np.arange(width)]
         if vtk == 13:  # VTK's wedge mirrors ours (and Abaqus', Gmsh's)
-            data = data[:, [0, 2, 1, 3, 5, 4]]
+            data = data[:, elements.MIRROR["wedge"]]
         cells.append((_VTK_SOLIDS[vtk], data))
         cell_ids.append(elems[rows])
         cell_mats.append(mats[rows])
@@ -452,7 +444,7 @@ def _corners(points: np.ndarray, raw, solids, path) -> tuple[dict[int, np.ndarra
         positive = (jac > 0).all(axis=1)
         negative = (jac < 0).all(axis=1)
         if negative.sum() > positive.sum():  # this reader's convention mirrors ours
-            c, positive = c[:, _MIRROR[shape]], negative
+            c, positive = c[:, elements.MIRROR[shape]], negative
         bad = np.flatnonzero(~positive)
         if bad.size:
             raise MeshImportError(
@@ -465,7 +457,7 @@ def _corners(points: np.ndarray, raw, solids, path) -> tuple[dict[int, np.ndarra
 def _midnode_offset(points, shape, corners, extra) -> float:
     """max over elements and mid nodes of min over the element's edges of |node - edge
     midpoint| / edge length (order-free: readers order mid nodes differently)."""
-    edges = np.asarray(_EDGES[shape])
+    edges = np.asarray(elements.EDGES[shape])
     a, b = points[corners[:, edges[:, 0]]], points[corners[:, edges[:, 1]]]  # (m, e, 3)
     mid, length = 0.5 * (a + b), np.linalg.norm(b - a, axis=2)
     extra = extra[:, : len(edges)]  # a hexahedron27's face and centre nodes are not on edges

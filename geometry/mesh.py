@@ -100,6 +100,12 @@ class CyclicBoundary:
         """Sector angle phi = 2 pi / Ns (rad)."""
         return 2.0 * np.pi / self.sectors
 
+    @property
+    def slave_is_right(self) -> bool:
+        """Whether the right face follows the left (the rule of matching faces, and of
+        non-matching ones where the right face is the finer), else the left the right."""
+        return len(self.right) >= len(self.left)
+
 
 @dataclass(frozen=True)
 class ContactPatch:
@@ -477,7 +483,7 @@ class Mesh:
 def _vtk_order(shape: str, corners: np.ndarray) -> np.ndarray:
     """Corners in VTK's order: its wedge has the bottom triangle's normal pointing away from
     the top one (ours, Abaqus' and Gmsh's point to it)."""
-    return corners[:, [0, 2, 1, 3, 5, 4]] if shape == "wedge" else corners
+    return corners[:, elements.MIRROR["wedge"]] if shape == "wedge" else corners
 
 
 def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:

@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from .mesh import Mesh
-from .surfaces import Surface, project, quad_map, quad_shapes, surface_of, triangle_shapes
+from .surfaces import Surface, interpolation, project, quad_map, quad_shapes, surface_of
 
 
 @dataclass(frozen=True)
@@ -116,17 +116,8 @@ def pair_surfaces(mesh: Mesh, body_a: str, set_a: np.ndarray, body_b: str | None
         return SurfacePairing(nodes_a, nodes_b, weights, normals, areas, np.zeros(k),
                               np.zeros(k), True)
     where = project(xa, xyz_b, surface_b)
-    rows, cols, vals = [], [], []
-    for quad, facets in ((False, surface_b.triangles), (True, surface_b.quads)):
-        sel = np.flatnonzero(where.quad == quad)
-        if not sel.size:
-            continue
-        corners = facets[where.facet[sel]]
-        shape, _ = (quad_shapes if quad else triangle_shapes)(where.local[sel], 1)
-        rows.append(np.repeat(sel, corners.shape[1]))
-        cols.append(np.searchsorted(nodes_b, corners.ravel()))
-        vals.append(shape.ravel())
-    weights = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+    (rows, nodes, values), _ = interpolation(surface_b, where)
+    weights = sp.csr_matrix((values, (rows, np.searchsorted(nodes_b, nodes))),
                             shape=(k, len(nodes_b)))
     partner = weights @ xyz_b[nodes_b]
     gaps = np.einsum("ij,ij->i", partner - xa, normals)

@@ -123,16 +123,16 @@ def tied(mesh: Mesh, body: str, left: np.ndarray, right: np.ndarray, angle: floa
     """Faces that do not match node for node, tied by interpolation (``fe.cyclic``): the
     finer face's nodes, turned onto the other, must lie on it within ``tol`` (SectorError
     naming ``face`` and the worst distance otherwise)."""
-    slave_is_right = len(right) >= len(left)
-    slave, master = (right, left) if slave_is_right else (left, right)
-    turn = rotation_z(-angle if slave_is_right else angle)
+    boundary = CyclicBoundary(left, right, round(2 * np.pi / angle), matching=False)
+    slave, master = (right, left) if boundary.slave_is_right else (left, right)
+    turn = rotation_z(-angle if boundary.slave_is_right else angle)
     on = project(mesh.points[slave] @ turn.T, mesh.points,
                  surface_of(mesh.body_cells(body), master))
     worst = float(on.gap.max(initial=0.0))
     if worst > tol:
         raise SectorError(f"{face}: the right face is not the left one rotated by 2 pi / Ns "
                           f"(worst distance {worst:.3e} m, tolerance {tol:.3e} m)")
-    return CyclicBoundary(left, right, round(2 * np.pi / angle), matching=False)
+    return boundary
 
 
 def _boundary(mesh: Mesh, points: np.ndarray, body: str, faces, spec: SectorSpec,

@@ -80,6 +80,37 @@ def quad_shapes(local: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray |
     return corner, mid
 
 
+def interpolation(surface: Surface, where: Projection, order: int = 1
+                  ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray],
+                             tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """How a field on the surface is interpolated at projected points: ((rows, nodes,
+    weights) of the facets' corner functions, (rows, edges (m, 2), weights) of their
+    mid-edge functions, empty for order 1). Point i's value is the sum of weight x the value
+    at the node, or at the midpoint of the edge, of the same row."""
+    corner, middle = ([], [], []), ([], [], [])
+    for quad, facets in ((False, surface.triangles), (True, surface.quads)):
+        sel = np.flatnonzero(where.quad == quad)
+        if not sel.size:
+            continue
+        corners = facets[where.facet[sel]]  # (n, c)
+        n_corner, n_mid = (quad_shapes if quad else triangle_shapes)(where.local[sel], order)
+        rows = np.repeat(sel, corners.shape[1])
+        for out, keys, values in ((corner, corners.ravel(), n_corner),
+                                  (middle, np.stack([corners, np.roll(corners, -1, axis=1)],
+                                                    axis=2).reshape(-1, 2), n_mid)):
+            if values is not None:
+                out[0].append(rows)
+                out[1].append(keys)
+                out[2].append(values.ravel())
+
+    def joined(parts, width):
+        if not parts[0]:
+            return (np.empty(0, np.int64), np.empty((0, *width), np.int64), np.empty(0))
+        return tuple(np.concatenate(x) for x in parts)
+
+    return joined(corner, ()), joined(middle, (2,))
+
+
 def surface_of(cells: dict[str, np.ndarray], nodes: np.ndarray) -> Surface:
     """The boundary faces of a body (``cells``: shape -> corners) lying in ``nodes``."""
     tri, quad = elements.boundary_faces(cells)

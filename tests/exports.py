@@ -11,15 +11,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from microslip.geometry import Mesh
+from microslip.geometry import Mesh, elements
 
-# meshio's corner-edge order of each quadratic type (VTK's): where its mid nodes sit
-EDGES = {
-    "tetra": [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)],
-    "hexahedron": [(0, 1), (1, 2), (2, 3), (0, 3), (4, 5), (5, 6), (6, 7), (4, 7), (0, 4),
-                   (1, 5), (2, 6), (3, 7)],
-    "wedge": [(0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5), (0, 3), (1, 4), (2, 5)],
-}
 QUADRATIC = {"tetra": "tetra10", "hexahedron": "hexahedron20", "wedge": "wedge15"}
 FORMATS = {".inp": "abaqus", ".bdf": "nastran", ".msh": "gmsh22"}
 
@@ -36,8 +29,8 @@ def write(mesh: Mesh, path: Path, *, scale: float = 1.0, rotation=None, origin=(
             if not quadratic:
                 blocks.append((shape, body, corners))
                 continue
-            mids = np.empty((len(corners), len(EDGES[shape])), dtype=np.int64)
-            for e, (a, b) in enumerate(EDGES[shape]):
+            mids = np.empty((len(corners), len(elements.EDGES[shape])), dtype=np.int64)
+            for e, (a, b) in enumerate(elements.EDGES[shape]):
                 for i, pair in enumerate(np.sort(corners[:, [a, b]], axis=1)):
                     mids[i, e] = extra.setdefault(tuple(pair), len(points) + len(extra))
             blocks.append((QUADRATIC[shape], body, np.hstack([corners, mids])))
@@ -93,7 +86,7 @@ def _ansys_archive(path, points, blocks, names, node_sets) -> Path:
     for kind, body, c in blocks:
         c = c.copy()
         if kind.startswith("wedge"):  # VTK's wedge: the bottom triangle the other way round
-            c[:, :6] = c[:, [0, 2, 1, 3, 5, 4]]
+            c[:, :6] = c[:, elements.MIRROR["wedge"]]
             if kind == "wedge15":
                 c[:, 6:] = c[:, [8, 7, 6, 11, 10, 9, 12, 14, 13]]
         cells.append(np.hstack([np.full((len(c), 1), c.shape[1]), c]).ravel())

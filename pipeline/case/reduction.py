@@ -49,7 +49,6 @@ from microslip.pipeline.fe.reduction import BodySpec
 
 from .checks import is_int, is_number, unknown_keys
 from .geometry import GeometryTable
-from .geometry import check as check_geometry
 
 STEEL = Material(2.0e11, 0.3, 7850.0)
 FROM_FILE = "file"  # material = "file": each body's from the imported deck's cards
@@ -66,15 +65,17 @@ _RECOVERY_SETS = ("response", "tip", "blade_tip")
 
 
 
-def check(red: Any, data: Mapping[str, Any], out: list[str]) -> None:
-    """Append one line per fault of a case's [reduction] table to ``out``."""
+def check(red: Any, data: Mapping[str, Any], out: list[str],
+          geometry: GeometryTable | None = None) -> None:
+    """Append one line per fault of a case's [reduction] table to ``out``; ``geometry``:
+    the case's [geometry] as checked (None: invalid or missing, reported there)."""
     if not isinstance(red, dict):
         out.append(f"reduction: expected a table, got {red!r}")
         return
     unknown_keys("reduction.", red, KEYS, out)
     if "geometry" not in data:
         out.append("reduction: needs a [geometry] table (the mesh to reduce)")
-    sectors = _sectors(data.get("geometry"))
+    sectors = geometry.sectors if geometry is not None else None
     if sectors is None:
         for k in ("nodal_diameters", "engine_order", "harmonics"):
             if k in red:
@@ -154,14 +155,6 @@ def names_faults(mesh: Any, red: Any, out: list[str]) -> None:
                            f"interface node sets; node sets: {sorted(mesh.node_sets)}")
     except ValueError as exc:
         out.append(f"reduction: {exc}")
-
-
-def _sectors(geo: Any) -> int | None:
-    """Sectors of a [geometry] table's model (given or the model's default); None for a model
-    without cyclic symmetry or an invalid table (reported elsewhere)."""
-    valid = isinstance(geo, dict) and check_geometry(geo, ".", []) is not None
-    return GeometryTable.of(geo).sectors if valid else None
-
 
 
 def _table_of(red: Mapping[str, Any], key: str, out: list[str]) -> dict:

@@ -39,7 +39,7 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
         table = check_geometry(data["geometry"], ".", out)
     if "reduction" in data:
         before = len(out)
-        check_reduction(data["reduction"], data, out)
+        check_reduction(data["reduction"], data, out, table)
         if table is not None and table.imported and len(out) == before:
             reduction_names(table.build(), data["reduction"], out)  # read once, kept
     if "assembly" in data:

@@ -141,7 +141,7 @@ def face_tie(body: BodyModel, boundary: Any) -> FaceTie:
     left = np.asarray(boundary.left, dtype=np.int64)
     right = np.asarray(boundary.right, dtype=np.int64)
     if not boundary.matching:
-        return _interpolated_tie(body, left, right, 2.0 * np.pi / boundary.sectors)
+        return _interpolated_tie(body, boundary)
     right_dofs = [body.dofs_of_nodes(right, "cyclic boundary right")]
     left_dofs = [body.dofs_of_nodes(left, "cyclic boundary left")]
     if body.order == 2:
@@ -161,11 +161,13 @@ def face_tie(body: BodyModel, boundary: Any) -> FaceTie:
     return FaceTie(slave, master, sp.identity(len(slave), format="csr"), True)
 
 
-def _interpolated_tie(body: BodyModel, left: IntArray, right: IntArray, phi: float) -> FaceTie:
+def _interpolated_tie(body: BodyModel, boundary: Any) -> FaceTie:
     """The finer face's vertices (and edge midpoints, order 2) interpolated on the other."""
-    slave_is_right = len(right) >= len(left)
+    left = np.asarray(boundary.left, dtype=np.int64)
+    right = np.asarray(boundary.right, dtype=np.int64)
+    slave_is_right = boundary.slave_is_right
     slave, master = (right, left) if slave_is_right else (left, right)
-    back = rotation_z(-phi if slave_is_right else phi)  # slave position -> master face
+    back = rotation_z(-boundary.angle if slave_is_right else boundary.angle)  # -> master
     xyz = np.zeros((int(body.nodes[-1]) + 1, 3))
     xyz[body.nodes] = body.points
     surface = surfaces.surface_of(body.cells, master)
@@ -190,30 +192,15 @@ def _interpolated_tie(body: BodyModel, left: IntArray, right: IntArray, phi: flo
 
 def _facet_weights(body: BodyModel, surface: Any, where: Any
                    ) -> tuple[IntArray, IntArray, NDArray]:
-    """(row, key, weight) triplets: point i's value is sum of weight x the DOF keyed (a
-    vertex as -(node + 1), an edge by its index) over its facet's shape functions."""
-    order = body.order
-    rows, keys, values = [], [], []
-    for quad, facets in ((False, surface.triangles), (True, surface.quads)):
-        sel = np.flatnonzero(where.quad == quad)
-        if not sel.size:
-            continue
-        corners = facets[where.facet[sel]]  # (n, c)
-        shape = surfaces.quad_shapes if quad else surfaces.triangle_shapes
-        n_corner, n_mid = shape(where.local[sel], order)
-        c = corners.shape[1]
-        rows.append(np.repeat(sel, c))
-        keys.append(-(corners.ravel() + 1))
-        values.append(n_corner.ravel())
-        if n_mid is not None:
-            pairs = np.stack([corners, np.roll(corners, -1, axis=1)], axis=2).reshape(-1, 2)
-            rows.append(np.repeat(sel, c))
-            edges = body.edge_index(pairs)
-            if np.any(edges < 0):  # (-1 would read as vertex 0's key)
-                raise ValueError("cyclic face: a facet edge is not an edge of the body")
-            keys.append(edges)
-            values.append(n_mid.ravel())
-    return np.concatenate(rows), np.concatenate(keys), np.concatenate(values)
+    """(row, key, weight) triplets of the facets' shape functions of the body's order: a
+    vertex keyed -(node + 1), an edge by its index."""
+    (rows, nodes, w_corner), (rows_mid, pairs, w_mid) = surfaces.interpolation(
+        surface, where, body.order)
+    edges = body.edge_index(pairs)
+    if np.any(edges < 0):  # (-1 would read as vertex 0's key)
+        raise ValueError("cyclic face: a facet edge is not an edge of the body")
+    return (np.concatenate([rows, rows_mid]), np.concatenate([-(nodes + 1), edges]),
+            np.concatenate([w_corner, w_mid]))
 
 
 @dataclass(frozen=True, eq=False)
