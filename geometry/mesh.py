@@ -176,6 +176,51 @@ class ContactPatch:
 
 
 @dataclass(frozen=True)
+class SurfaceContact:
+    """A contact between two named surfaces of any meshes (``geometry.pairing`` pairs them
+    node to surface when it is needed), or between one surface and the ground.
+
+    name:    contact name
+    body_a:  body owning the surface ``set_a`` (side a: the finer of the two; its nodes
+             are the contact points)
+    set_a:   node-set name; the body's boundary faces whose nodes all lie in it
+    body_b:  body owning ``set_b``; None: the ground (rigid, fixed)
+    set_b:   node-set name of side b (None with the ground)
+    b_sector_offset:
+             k: side b is the image of ``set_b`` in the sector k sectors on (a
+             neighbouring sector's face, as for :class:`ContactPatch`); 0: none
+    tolerance:
+             [m] how far outside side b a node of side a may project and still be
+             paired (nodes farther out touch nothing and are left out)
+    """
+
+    name: str
+    body_a: str
+    set_a: str
+    body_b: str | None = None
+    set_b: str | None = None
+    b_sector_offset: int = 0
+    tolerance: float = 0.0
+
+    def __post_init__(self) -> None:
+        if (self.body_b is None) != (self.set_b is None):
+            raise MeshValidationError(f"SurfaceContact {self.name!r}: body_b and set_b go "
+                                      "together (both None: the ground)")
+        if self.body_b is None and self.b_sector_offset:
+            raise MeshValidationError(f"SurfaceContact {self.name!r}: the ground has no "
+                                      "neighbouring sector")
+        if self.body_a == self.body_b and not self.b_sector_offset:
+            raise MeshValidationError(
+                f"SurfaceContact {self.name!r}: body_a == body_b (a body touches itself only "
+                "in a neighbouring sector: b_sector_offset)")
+        if not float(self.tolerance) >= 0.0:
+            raise MeshValidationError(f"SurfaceContact {self.name!r}: tolerance "
+                                      f"{self.tolerance} < 0")
+        object.__setattr__(self, "b_sector_offset", int(self.b_sector_offset))
+        object.__setattr__(self, "tolerance", float(self.tolerance))
+
+
+@dataclass(frozen=True)
 class Mesh:
     """Solid mesh of one model with bodies, named sets, cyclic faces, contacts.
 
@@ -188,7 +233,8 @@ class Mesh:
                 the elements and share no node
     node_sets:  name -> sorted unique int64 node indices
     cyclic:     body name -> its :class:`CyclicBoundary` (sector bodies only)
-    contacts:   patch name -> :class:`ContactPatch`
+    contacts:   contact name -> :class:`ContactPatch` (a structured grid, node for node)
+                or :class:`SurfaceContact` (named surfaces, paired by ``geometry.pairing``)
     parameters: JSON-serialisable parameters that built the mesh (plus derived values
                 under "derived", e.g. CAD volumes and the damper's nominal mass)
     hexahedra:  (n_hex, 8) int64 corner node indices, wedges: (n_wedge, 6): the other
@@ -201,7 +247,7 @@ class Mesh:
     bodies: dict[str, np.ndarray]
     node_sets: dict[str, np.ndarray] = field(default_factory=dict)
     cyclic: dict[str, CyclicBoundary] = field(default_factory=dict)
-    contacts: dict[str, ContactPatch] = field(default_factory=dict)
+    contacts: dict[str, ContactPatch | SurfaceContact] = field(default_factory=dict)
     parameters: dict = field(default_factory=dict)
     hexahedra: np.ndarray = field(default_factory=lambda: elements.empty("hexahedron"))
     wedges: np.ndarray = field(default_factory=lambda: elements.empty("wedge"))
@@ -292,6 +338,9 @@ class Mesh:
 
     def _check_contacts(self) -> None:
         for name, patch in self.contacts.items():
+            if isinstance(patch, SurfaceContact):
+                self._check_surface_contact(name, patch)
+                continue
             for body, nodes in ((patch.body_a, patch.nodes_a), (patch.body_b, patch.nodes_b)):
                 if body not in self.bodies:
                     raise MeshValidationError(f"contacts[{name!r}]: unknown body {body!r}")
@@ -306,6 +355,18 @@ class Mesh:
                 raise MeshValidationError(
                     f"contacts[{name!r}]: grids do not coincide, max error {err:.3e} m"
                 )
+
+    def _check_surface_contact(self, name: str, c: SurfaceContact) -> None:
+        for body, nodes in ((c.body_a, c.set_a), (c.body_b, c.set_b)):
+            if body is None:
+                continue
+            if body not in self.bodies:
+                raise MeshValidationError(f"contacts[{name!r}]: unknown body {body!r}")
+            if nodes not in self.node_sets:
+                raise MeshValidationError(f"contacts[{name!r}]: no node set {nodes!r}")
+        if c.b_sector_offset and c.body_b not in self.cyclic:
+            raise MeshValidationError(
+                f"contacts[{name!r}]: b_sector_offset needs a cyclic body_b")
 
     # ----------------------------------------------------------------- queries
     @property
@@ -409,6 +470,10 @@ class Mesh:
                 put("right", cyc.right)
         for name in sorted(self.contacts):
             p = self.contacts[name]
+            if isinstance(p, SurfaceContact):
+                put(f"surface-contact/{name}/{p.body_a}/{p.set_a}/{p.body_b}/{p.set_b}/"
+                    f"{p.b_sector_offset}/{p.tolerance!r}")
+                continue
             put(f"contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/{p.area!r}")
             put("a", p.nodes_a)
             put("b", p.nodes_b)

@@ -4,34 +4,18 @@ exactly, tributary areas that sum to the contact area, normals from body a into 
 
 import numpy as np
 import pytest
+from blocks import two_blocks
 
 from microslip.geometry import Mesh
 from microslip.geometry.mesh import rotation_z
-from microslip.geometry.pairing import pair_surfaces
-from microslip.geometry.structured import grid, split_cells
+from microslip.geometry.pairing import normal_frames, pair_surfaces
 
 
 def _two_blocks(shape: str, lower_cells, upper_cells, shift=(0.0, 0.0)) -> Mesh:
-    """A 0.1 x 0.05 x 0.02 m block under a 0.06 x 0.03 x 0.01 m one standing on it (its
-    footprint inside the lower top face, moved by ``shift``), meshed independently; sets
-    "lower/top" and "upper/bottom"."""
-    P1, h1 = grid((0.1, 0.05, 0.02), lower_cells)
-    P2, h2 = grid((0.06, 0.03, 0.01), upper_cells)
-    P2 = P2 + np.array([0.02 + shift[0], 0.01 + shift[1], 0.02])
-    t1, x1, w1 = split_cells(shape, h1)
-    t2, x2, w2 = split_cells(shape, h2 + len(P1))
-    cells = [np.vstack([a, b]) for a, b in ((t1, t2), (x1, x2), (w1, w2))]
-    counts = [len(c) for c in cells]
-    lower = np.concatenate([np.arange(len(t1)), counts[0] + np.arange(len(x1)),
-                            counts[0] + counts[1] + np.arange(len(w1))])
-    upper = np.concatenate([len(t1) + np.arange(len(t2)),
-                            counts[0] + len(x1) + np.arange(len(x2)),
-                            counts[0] + counts[1] + len(w1) + np.arange(len(w2))])
-    points = np.vstack([P1, P2])
-    sets = {"lower/top": np.flatnonzero(np.abs(P1[:, 2] - 0.02) < 1e-12),
-            "upper/bottom": len(P1) + np.flatnonzero(np.abs(P2[:, 2] - 0.02) < 1e-12)}
-    return Mesh("blocks", points, cells[0], {"lower": lower, "upper": upper}, sets,
-                hexahedra=cells[1], wedges=cells[2])
+    """A 0.06 x 0.03 x 0.01 m block standing on a 0.1 x 0.05 x 0.02 m one (its footprint
+    inside the lower top face, moved by ``shift``), both in ``shape``."""
+    return two_blocks((shape, lower_cells), (shape, upper_cells),
+                      offset=(0.02 + shift[0], 0.01 + shift[1]))
 
 
 @pytest.mark.parametrize("shape", ["hexahedron", "wedge", "tetra"])
@@ -102,7 +86,7 @@ def test_stiffness_shared_by_area_and_frames_per_normal():
     assert k.total_normal == pytest.approx(kn, rel=1e-12)
     assert k.total_tangential == pytest.approx(kt, rel=1e-12)
     np.testing.assert_allclose(k.normal / kn, p.areas / p.area, rtol=1e-12)
-    F = cs.normal_frames(p.normals)
+    F = normal_frames(p.normals)
     np.testing.assert_allclose(F @ np.transpose(F, (0, 2, 1)), np.tile(np.eye(3), (len(F), 1, 1)),
                                atol=1e-12)
     np.testing.assert_allclose(np.linalg.det(F), 1.0, atol=1e-12)

@@ -15,6 +15,10 @@ harmonic n (the cyclic wave of the engine order; the same phase whether the ND's
 conjugated or not, since they describe the true amplitudes of the fundamental sector), so
 the kinematics is complex per order. The forces act on the DOFs as ``B^H f`` (virtual work),
 which the harmonic balance's real layout gives.
+
+Named surfaces (``geometry.pairing``) pair node to surface: ``u_b'`` is then side b's
+displacement interpolated at the pair with the facet's shape functions, each pair has its
+own frame and share of the stiffness; against the ground there is no ``u_b'``.
 """
 
 from __future__ import annotations
@@ -22,9 +26,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+import scipy.sparse as sp
 
 from microslip.geometry.mesh import Mesh, rotation_z
-from microslip.pipeline.fe import contact_stiffness, cyclic
+from microslip.geometry.pairing import nodal_areas_and_normals, paired_contact, surface_body
+from microslip.geometry.surfaces import surface_of
+from microslip.pipeline.fe import cyclic
 from microslip.pipeline.fe.contact_stiffness import PatchStiffness
 from microslip.pipeline.fe.reduction import ReducedModel
 from microslip.pipeline.friction.harmonics import Harmonics
@@ -76,7 +83,7 @@ def _check(mesh, models, stiffness, spec: AssemblySpec, harmonics: Harmonics) ->
             raise ValueError(f"contacts.{pc.patch}: no contact stiffness for this patch")
         p = mesh.contacts[pc.patch]
         for body in (p.body_a, p.body_b):
-            if body not in models:
+            if body is not None and body not in models:
                 raise ValueError(f"contacts.{pc.patch}: body {body!r} has no reduced model")
     for body in (*spec.centrifugal, *spec.mass_bodies):
         if body not in models:
@@ -174,30 +181,34 @@ def static_anchor(contacts: list[Contact], n_dof: int, ratio: float) -> np.ndarr
 def _patch_contacts(mesh: Mesh, pc: PatchFriction, stiffness: PatchStiffness,
                     node_dof: dict[int, int], n_dof: int, engine_order: int,
                     harmonics: Harmonics) -> list[tuple[Contact, ContactPoints]]:
-    """The contact(s) of one patch: one law-D element per node pair, or two law-B ones."""
-    patch = mesh.contacts[pc.patch]
-    frames = contact_stiffness.contact_frames(patch, mesh.points).reshape(-1, 3, 3)
-    gaps = contact_stiffness.initial_gaps(patch, mesh.patch_points(pc.patch, "a"),
-                                          mesh.patch_points(pc.patch, "b")).ravel()
+    """The contact(s) of one patch: one law-D element per node pair, or two law-B ones.
+
+    A pair's partner displacement is side b's interpolated at the pair (``weights``; one
+    node for node), turned and phased when side b is a neighbouring sector's; against the
+    ground there is none."""
+    try:
+        c = paired_contact(mesh, pc.patch)
+    except ValueError as err:
+        raise ValueError(str(err)) from None
+    p = c.pairing
+    frames = c.frames
     kn, kt = stiffness.normal.ravel(), stiffness.tangential.ravel()
-    nodes_a = np.asarray(patch.nodes_a).ravel()
-    nodes_b = np.asarray(patch.nodes_b).ravel()
-    for name, nodes in ((patch.body_a, nodes_a), (patch.body_b, nodes_b)):
+    for name, nodes in ((c.body_a, p.nodes_a), (c.body_b, p.nodes_b)):
         missing = [int(x) for x in nodes if int(x) not in node_dof]
         if missing:
             raise ValueError(f"contacts.{pc.patch}: nodes {missing[:5]} of body {name!r} are "
                              "not masters of its reduced model")
-    k = patch.b_sector_offset
-    if k and patch.body_b not in mesh.cyclic:
+    k = c.b_sector_offset
+    if k and c.body_b not in mesh.cyclic:
         raise ValueError(f"contacts.{pc.patch}: a neighbouring-sector patch needs a cyclic "
-                         f"body b, {patch.body_b!r} is not")
-    phi = mesh.cyclic[patch.body_b].angle if k else 0.0
+                         f"body b, {c.body_b!r} is not")
+    phi = mesh.cyclic[c.body_b].angle if k else 0.0
     rot = rotation_z(k * phi)
-    da = np.array([node_dof[int(x)] for x in nodes_a])
-    db = np.array([node_dof[int(x)] for x in nodes_b])
-    interference = pc.interference - gaps
-    points = ContactPoints(pc.patch, patch.body_a, patch.body_b, nodes_a, nodes_b,
-                           np.asarray(patch.nodes_a).shape, frames, gaps)
+    da = np.array([node_dof[int(x)] for x in p.nodes_a])
+    db = np.array([node_dof[int(x)] for x in p.nodes_b], dtype=np.int64)
+    interference = pc.interference - p.gaps
+    points = ContactPoints(pc.patch, c.body_a, c.body_b, p.nodes_a, p.nodes_b,
+                           c.grid or (len(p.nodes_a),), frames, p.gaps)
     if pc.elements == "2D":
         rows = [(0, 1, 2)]
         elements = [ContactElements.create("D", kt=kt, kn=kn, mu=pc.mu,
@@ -213,23 +224,28 @@ def _patch_contacts(mesh: Mesh, pc: PatchFriction, stiffness: PatchStiffness,
         B = {}
         for o in harmonics.orders:
             phase = np.exp(1j * o * engine_order * k * phi) if k else 1.0
-            B[o] = _kinematics(frames[:, comps, :], da, db, phase * rot, n_dof)
+            B[o] = _kinematics(frames[:, comps, :], da, db, p.weights, phase * rot, n_dof)
         out.append((Contact(name, el, B), points))
     return out
 
 
 def _kinematics(frames: np.ndarray, dof_a: np.ndarray, dof_b: np.ndarray,
-                transfer: np.ndarray, n_dof: int) -> np.ndarray:
-    """(P c, n_dof) complex: rows (pair, component) = F (u_a - transfer u_b).
+                weights: sp.csr_matrix, transfer: np.ndarray, n_dof: int) -> np.ndarray:
+    """(P c, n_dof) complex: rows (pair, component) = F (u_a - transfer sum_j w_j u_b(j)).
 
-    frames: (P, c, 3) rows of each pair's frame; transfer: (3, 3) complex, the neighbouring
-    sector's phase and rotation (identity for a plain pair)."""
+    frames: (P, c, 3) rows of each pair's frame; dof_a (P,), dof_b (m,): first DOF of each
+    node of side a and side b; weights: (P, m) side b's interpolation at each pair (no
+    column: the ground); transfer: (3, 3) complex, the neighbouring sector's phase and
+    rotation (identity for a plain pair)."""
     P, c, _ = frames.shape
     B = np.zeros((P, c, n_dof), dtype=complex)
     rows = np.arange(P)
+    w = weights.tocoo()
+    turned = frames @ transfer  # (P, c, 3): the pair's frame acting on side b's displacement
     for j in range(3):
         B[rows, :, dof_a + j] += frames[:, :, j]
-        B[rows, :, dof_b + j] -= frames @ transfer[:, j]
+        for r in range(c):
+            np.add.at(B[:, r, :], (w.row, dof_b[w.col] + j), -w.data * turned[w.row, r, j])
     return B.reshape(P * c, n_dof)
 
 
@@ -253,18 +269,36 @@ def _unit(mesh: Mesh, node: int, direction) -> np.ndarray:
 
 
 def _row(mesh: Mesh, node_dof: dict[int, int], n_dof: int, node_set: str,
-         direction) -> np.ndarray:
-    """(n_dof,) mean displacement of a node set's nodes along a direction."""
+         direction, spread: str = "nodes") -> np.ndarray:
+    """(n_dof,) mean displacement of a node set's nodes along a direction (``spread``
+    "area": weighted by the nodes' tributary areas on the surface the set is a face of)."""
     nodes = np.asarray(mesh.node_sets[node_set]).ravel()
     missing = [int(x) for x in nodes if int(x) not in node_dof]
     if missing:
         raise ValueError(f"node set {node_set!r}: nodes {missing[:5]} are not masters of any "
                          "reduced body (add the set to the body's masters)")
+    weights = np.full(len(nodes), 1.0 / len(nodes))
+    if spread == "area":
+        weights = _area_shares(mesh, node_set, nodes)
     row = np.zeros(n_dof)
-    for node in nodes:
+    for node, w in zip(nodes, weights):
         d = node_dof[int(node)]
-        row[d: d + 3] += _unit(mesh, int(node), direction) / len(nodes)
+        row[d: d + 3] += w * _unit(mesh, int(node), direction)
     return row
+
+
+def _area_shares(mesh: Mesh, node_set: str, nodes: np.ndarray) -> np.ndarray:
+    """(len(nodes),) each node's share of the tributary area of the surface ``node_set``
+    is a face of (nodes off that surface: 0)."""
+    owners = surface_body(mesh, node_set)
+    if len(owners) != 1:
+        raise ValueError(f"loads.{node_set}.spread = 'area': the set must be a face of one "
+                         f"body, it is a face of {owners or 'none'}")
+    faces = surface_of(mesh.body_cells(owners[0]), nodes)
+    on, areas, _ = nodal_areas_and_normals(mesh.points, faces)
+    shares = np.zeros(len(nodes))
+    shares[np.searchsorted(nodes, on)] = areas / areas.sum()
+    return shares
 
 
 def _excitation(mesh: Mesh, layout: list[BodyLayout], node_dof: dict[int, int], n_dof: int,
@@ -273,7 +307,7 @@ def _excitation(mesh: Mesh, layout: list[BodyLayout], node_dof: dict[int, int], 
     reduced load vector of each body, masters and modes)."""
     forces: dict[int, np.ndarray] = {}
     for load in spec.loads:
-        row = _row(mesh, node_dof, n_dof, load.node_set, load.direction)
+        row = _row(mesh, node_dof, n_dof, load.node_set, load.direction, load.spread)
         f = forces.setdefault(load.harmonic, np.zeros(n_dof, dtype=complex))
         f += load.amplitude * np.exp(1j * load.phase) * row  # total force over the set
     rotating = part = None

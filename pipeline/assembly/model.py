@@ -54,16 +54,19 @@ def body_positions(layout: tuple[BodyLayout, ...] | list[BodyLayout], k: int,
 
 @dataclass(frozen=True, eq=False)
 class ContactPoints:
-    """The node pairs behind one contact of the model (grid order, row-major (n1, n2)).
+    """The node pairs behind one contact of the model: a structured patch's in grid order
+    (row-major ``grid`` (n1, n2)); named surfaces' in side a's node order (``grid`` (P,)).
 
+    nodes_a: (P,) the pairs' nodes on body a; nodes_b: side b's nodes (a patch's (P,) node
+    for node; a surface's, those its interpolation uses; none on the ground, body_b None);
     frames: (P, 3, 3) rows t1, t2, n; gaps: (P,) initial normal gap [m] (positive open)."""
 
     patch: str
     body_a: str
-    body_b: str
+    body_b: str | None
     nodes_a: np.ndarray
     nodes_b: np.ndarray
-    grid: tuple[int, int]
+    grid: tuple[int, ...]
     frames: np.ndarray
     gaps: np.ndarray
 

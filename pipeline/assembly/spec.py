@@ -19,6 +19,8 @@ ELEMENTS = ("2D", "1D+1D")
 #: Named directions of loads and outputs at a node of the fundamental sector (x, y, z global;
 #: radial, tangential, axial in the cylindrical frame of the node about the disk axis +z).
 DIRECTIONS = ("x", "y", "z", "radial", "tangential", "axial")
+#: How a load's total force is shared among its node set's nodes (NodalLoad.spread).
+SPREADS = ("nodes", "area")
 #: What the static anchor may be: a ratio of each pair's tangential stiffness (0: none).
 STATIC_ANCHOR_RULE = "a ratio 0 <= r < 1 of the tangential contact stiffness (0: no anchor)"
 
@@ -78,15 +80,21 @@ class NodalLoad:
     """``amplitude cos(harmonic w t + phase)`` [N] on a node set of the fundamental sector,
     spread evenly over its nodes, along ``direction``. On a cyclic body it travels with the
     engine order (sector s carries the phase ``harmonic EO s phi``): that is the cyclic model.
-    Harmonic 0 is a static load."""
+    Harmonic 0 is a static load. spread: "nodes", the same force on every node of the set;
+    "area", in proportion to each node's tributary area on the surface the set is a face
+    of (a uniform traction: the consistent nodal forces of linear faces)."""
 
     node_set: str
     direction: str | tuple[float, float, float]
     amplitude: float
     harmonic: int = 1
     phase: float = 0.0  # [rad]
+    spread: str = "nodes"
 
     def __post_init__(self):
+        if self.spread not in SPREADS:
+            raise ValueError(f"loads.{self.node_set}.spread = {self.spread!r}: expected one of "
+                             f"{list(SPREADS)}")
         object.__setattr__(self, "direction",
                            _direction(f"loads.{self.node_set}.direction", self.direction))
         _finite(f"loads.{self.node_set}.amplitude", self.amplitude)

@@ -43,6 +43,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from microslip.geometry.mesh import ContactPatch
+from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
 from microslip.pipeline.fe.fem import Damping, Material
 from microslip.pipeline.fe.reduction import BodySpec
@@ -377,6 +379,12 @@ def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec],
                          f"this mesh; it has {sorted(mesh.contacts)}")
     out = {}
     for name, patch in sorted(mesh.contacts.items()):
-        out[name] = contact_stiffness.patch_stiffness(
-            patch, materials[patch.body_a], materials[patch.body_b], given.get(name))
+        b = None if patch.body_b is None else materials[patch.body_b]  # None: the ground
+        if isinstance(patch, ContactPatch):  # a structured patch: equal shares on its grid
+            out[name] = contact_stiffness.patch_stiffness(patch, materials[patch.body_a], b,
+                                                          given.get(name))
+        else:
+            out[name] = contact_stiffness.pairing_stiffness(
+                name, paired_contact(mesh, name).pairing.areas, materials[patch.body_a], b,
+                given.get(name))
     return out

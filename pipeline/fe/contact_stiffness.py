@@ -14,9 +14,9 @@ a into body b). The relative displacement of a pair is ``frames @ (u_a - u_b)``:
 component is positive when the bodies approach (the README's conventions).
 
 Surfaces paired node by node (``geometry.pairing``) carry a tributary area and a normal per
-pair: the patch's flat-punch stiffness is shared in proportion to the areas
-(:func:`pairing_stiffness`), and each pair's frame follows its own normal
-(:func:`normal_frames`).
+pair: the contact's flat-punch stiffness is shared in proportion to the areas
+(:func:`pairing_stiffness`; against the rigid ground, body b's compliance terms vanish), and
+each pair's frame follows its own normal (``geometry.pairing.normal_frames``).
 """
 
 from __future__ import annotations
@@ -38,23 +38,28 @@ def equivalent_radius(area: float) -> float:
     return math.sqrt(area / math.pi)
 
 
-def effective_modulus(a: Material, b: Material) -> float:
-    """E* [Pa] with 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2."""
+def effective_modulus(a: Material, b: Material | None) -> float:
+    """E* [Pa] with 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2 (b None: rigid, no term)."""
+    rigid = b is None
     return 1.0 / (
         (1.0 - a.poisson_ratio**2) / a.youngs_modulus
-        + (1.0 - b.poisson_ratio**2) / b.youngs_modulus
+        + (0.0 if rigid else (1.0 - b.poisson_ratio**2) / b.youngs_modulus)
     )
 
 
-def effective_shear_modulus(a: Material, b: Material) -> float:
-    """G* [Pa] with 1/G* = (2 - nu1)/G1 + (2 - nu2)/G2."""
+def effective_shear_modulus(a: Material, b: Material | None) -> float:
+    """G* [Pa] with 1/G* = (2 - nu1)/G1 + (2 - nu2)/G2 (b None: rigid, no term)."""
+    rigid = b is None
     return 1.0 / (
-        (2.0 - a.poisson_ratio) / a.shear_modulus + (2.0 - b.poisson_ratio) / b.shear_modulus
+        (2.0 - a.poisson_ratio) / a.shear_modulus
+        + (0.0 if rigid else (2.0 - b.poisson_ratio) / b.shear_modulus)
     )
 
 
-def flat_punch_stiffness(area: float, a: Material, b: Material) -> tuple[float, float]:
-    """(kn, kt) [N/m] of a whole patch of area [m^2] between materials a and b."""
+def flat_punch_stiffness(area: float, a: Material, b: Material | None
+                         ) -> tuple[float, float]:
+    """(kn, kt) [N/m] of a whole patch of area [m^2] between materials a and b (b None:
+    the rigid ground)."""
     radius = equivalent_radius(area)
     return 2.0 * radius * effective_modulus(a, b), 8.0 * radius * effective_shear_modulus(a, b)
 
@@ -142,12 +147,13 @@ def initial_gaps(patch: Any, points_a: NDArray, points_b: NDArray) -> NDArray[np
 
 
 def pairing_stiffness(name: str, areas: NDArray[np.float64], material_a: Material,
-                      material_b: Material, per_area: tuple[float, float] | None = None
+                      material_b: Material | None, per_area: tuple[float, float] | None = None
                       ) -> PatchStiffness:
     """Per-pair (kn, kt) [N/m] of surfaces paired node by node: the flat punch of the whole
     contact area (the sum of the tributary ``areas`` (k,) [m^2]), shared in proportion to
-    each pair's area; ``per_area`` (kn, kt) [N/m^3] instead of the flat punch. The pairs of a
-    uniform grid get equal shares, as :func:`patch_stiffness` gives them."""
+    each pair's area; ``per_area`` (kn, kt) [N/m^3] instead of the flat punch; material_b
+    None: the rigid ground. The pairs of a uniform grid get equal shares, as
+    :func:`patch_stiffness` gives them."""
     areas = np.asarray(areas, dtype=np.float64)
     if areas.ndim != 1 or not len(areas) or not np.all(areas > 0):
         raise ValueError(f"contact {name!r}: tributary areas must be positive, one per pair")
@@ -159,22 +165,3 @@ def pairing_stiffness(name: str, areas: NDArray[np.float64], material_a: Materia
     share = areas / total
     return PatchStiffness(patch=name, normal=kn * share, tangential=kt * share)
 
-
-def normal_frames(normals: NDArray[np.float64], reference: NDArray[np.float64] | None = None
-                  ) -> NDArray[np.float64]:
-    """(k, 3, 3) frames, rows (t1, t2, n), right-handed and orthonormal, of k unit normals
-    (k, 3): t1 is ``reference`` (default: the axis +z, or +x where the normal is nearly
-    axial) projected onto each tangent plane; t2 = n x t1."""
-    n = np.asarray(normals, dtype=np.float64)
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    if reference is None:
-        axial = np.abs(n[:, 2]) > 0.9
-        ref = np.where(axial[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-    else:
-        ref = np.broadcast_to(np.asarray(reference, dtype=np.float64), n.shape)
-    t1 = ref - np.einsum("ij,ij->i", ref, n)[:, None] * n
-    length = np.linalg.norm(t1, axis=1)
-    if np.any(length < 1e-6):
-        raise ValueError("normal_frames: the reference direction is along a normal")
-    t1 /= length[:, None]
-    return np.stack([t1, np.cross(n, t1), n], axis=1)

@@ -47,6 +47,9 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from microslip.geometry.mesh import SurfaceContact
+from microslip.geometry.pairing import paired_contact
+
 from . import cyclic, fem, linalg
 from .fem import Damping, IntArray, Material, MeshLike
 
@@ -646,11 +649,17 @@ class BodySpec:
 
 def patch_nodes(mesh: MeshLike, name: str, body: str) -> IntArray:
     """Nodes of contact patch ``name`` that belong to ``body`` (either side, grid order;
-    both sides, a's then b's, when the body touches its neighbouring sector)."""
+    both sides, a's then b's, when the body touches its neighbouring sector; sorted, for
+    named surfaces)."""
     if name not in mesh.contacts:
         raise ValueError(f"contact patch {name!r} does not exist; available: "
                          f"{sorted(mesh.contacts)}")
     patch = mesh.contacts[name]
+    if isinstance(patch, SurfaceContact):  # named surfaces: the nodes their pairs use
+        if body not in (patch.body_a, patch.body_b):
+            raise ValueError(f"contact {name!r} joins {patch.body_a!r} and "
+                             f"{patch.body_b!r}, not body {body!r}")
+        return paired_contact(mesh, name).nodes_of(body)
     if patch.body_a == body == patch.body_b:
         return np.concatenate([np.asarray(patch.nodes_a, dtype=np.int64).ravel(),
                                np.asarray(patch.nodes_b, dtype=np.int64).ravel()])
