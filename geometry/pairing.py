@@ -302,6 +302,18 @@ class PairedContact:
         """(k, 3, 3) rows t1, t2, n of each pair (:func:`normal_frames`)."""
         return normal_frames(self.pairing.normals, self.reference)
 
+    def faces(self) -> np.ndarray:
+        """(F, 4) side a's facets as indices into the pairs (a triangle's 4th corner -1),
+        those whose every corner is a pair (a map's cells)."""
+        parts = [np.column_stack([self.facets.triangles, np.full(len(self.facets.triangles),
+                                                                  -1)]), self.facets.quads]
+        faces = np.vstack([f for f in parts if len(f)] or [np.empty((0, 4), np.int64)])
+        nodes = self.pairing.nodes_a
+        order = np.argsort(nodes)
+        faces = faces[np.isin(faces, np.append(nodes, -1)).all(axis=1)]
+        index = order[np.searchsorted(nodes, faces, sorter=order)]
+        return np.where(faces < 0, -1, index)
+
     def nodes_of(self, body: str) -> np.ndarray:
         """Sorted nodes of ``body`` the contact involves (both sides of a body touching
         its own neighbouring sector)."""

@@ -47,7 +47,7 @@ def test_the_shipped_case_is_valid():
 
 @pytest.mark.parametrize("mutate, expected", [
     (lambda d: d["assembly"]["contacts"][0].update(patch="flank"),
-     "patch = 'flank': not a patch of the geometry"),
+     "patch = 'flank': not a contact of the geometry"),
     (lambda d: d["assembly"]["contacts"][0].pop("mu"), "mu: missing"),
     (lambda d: d["assembly"]["contacts"][0].update(mu=-1), "mu = -1: must be >= 0"),
     (lambda d: d["assembly"]["contacts"][0].update(elements="3D"), "elements = '3D'"),

@@ -1,5 +1,5 @@
-"""The linear limits drawn with an assembly's FRF or peak curve: the free blisk (no damper, no
-contact) and the fully stuck system (every contact its stick springs), solved directly
+"""The linear limits drawn with an assembly's FRF or peak curve: the free blisk (no damper, or
+no contact) and the fully stuck system (every contact its stick springs), solved directly
 order by order over the FRF's range or at the peak of a window."""
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def linear_limits(models: AssemblyModels, case: Case, spec: Frf, writer: Results
     for b in cm0.layout:
         cyclic[b.offset: b.offset + b.n_masters] = b.cyclic
     free = all(not np.any(cm0.outputs[n][~cyclic]) for n in names)
-    runs = [("free", "free (no damper)", masses[0], schema.LINEAR_FREE)] if free else []
+    runs = [("free", free_label(cm0), masses[0], schema.LINEAR_FREE)] if free else []
     for k, m in enumerate(masses):
         runs.append(("stuck", "fully stuck" + (f", mass x {m:g}" if len(masses) > 1 else ""),
                      m, schema.linear_stuck(k, len(masses))))
@@ -62,6 +62,12 @@ def linear_limits(models: AssemblyModels, case: Case, spec: Frf, writer: Results
                        "directly", "mass_multiplier": m})
         store.save(stored, group[key])
     progress(f"[{spec.name}] linear limits ({len(runs)} curves) in {time.perf_counter() - t:.1f} s")
+
+
+def free_label(cm) -> str:
+    """What the free limit is: the cyclic bodies without the damper (a body of their own),
+    or without their contacts (a shroud, a blade root)."""
+    return "free (no damper)" if any(not b.cyclic for b in cm.layout) else "free (no contact)"
 
 
 def linear_curve(cm, base: OperatingPoint, springs: str, names: list[str], measure: str,
@@ -116,7 +122,8 @@ def peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_n
         writer.write_group(group, level, {
             "parameter": pars, "omega": np.array([p[0] for p in peaks]),
             "amplitude": np.array([p[1] for p in peaks])},
-            {"label": springs, "status": "complete", "message": "linear, solved directly"})
+            {"label": free_label(cm) if springs == "free" else "fully stuck",
+             "status": "complete", "message": "linear, solved directly"})
     progress(f"[{name}] free and fully stuck peak levels in {time.perf_counter() - t:.1f} s")
 
 

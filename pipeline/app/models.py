@@ -65,7 +65,8 @@ class AssemblyModels:
                 self._built.pop(next(iter(self._built)))
             self._built[key] = join(
                 self.mesh, self.structure.models, self.structure.patch_stiffness,
-                assembly.spec(case.data, tuple(self.mesh.cyclic)), harmonics(case),
+                assembly.spec(case.data, tuple(sorted(self.mesh.bodies)),
+                              tuple(self.mesh.cyclic)), harmonics(case),
                 sub_sample=case.solver_table.sub_sample)
         return self._built[key]
 

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 import h5py
 import numpy as np
 
+from microslip.geometry.mesh import SurfaceContact
+from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.case import (
     Case,
     GeometryTable,
@@ -154,6 +156,12 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
     progress(f"[geometry] {source}: {m.points.shape[0]} nodes, {m.element_summary()}, "
              f"bodies {sorted(m.bodies)}, cyclic {sorted(m.cyclic)}, contacts "
              f"{sorted(m.contacts)} in {elapsed:.2f} s; hash {m.content_hash[:12]}")
+    for name, c in sorted(m.contacts.items()):
+        dropped = paired_contact(m, name).dropped if isinstance(c, SurfaceContact) else (0,)
+        if dropped[0]:
+            progress(f"[geometry] note: contact {name}: {dropped[0]} node(s) of {c.set_a} lie "
+                     f"beyond {c.set_b} (up to {dropped[1]:.3g} m) and touch nothing (trim the "
+                     "set, or raise the contact's tolerance if they should touch)")
     report = table.read().report if table.imported else None
     if report is not None and report.skipped:
         progress("[geometry] note: not solids, so not part of the model (their nodes are node "
@@ -218,11 +226,11 @@ def write_contact_grids(writer: ResultsWriter, mesh) -> None:
         grid = PatchGrid.from_mesh(mesh, name)
         patch = mesh.contacts[name]
         writer.write_group(writer.file.require_group(schema.CONTACT_GRIDS), name,
-                           grid.datasets() | {"points_b": mesh.points[patch.nodes_b]},
+                           grid.datasets() | {"points_b": mesh.points[grid.nodes_b]},
                            {"body_a": grid.body_a, "body_b": grid.body_b,
                             "high_edge": grid.high_edge,
-                            "high_edge_name": EDGES[grid.high_edge],
-                            "b_sector_offset": int(patch.b_sector_offset)})
+                            "high_edge_name": EDGES[grid.high_edge] if grid.structured
+                            else "", "b_sector_offset": int(patch.b_sector_offset)})
 
 
 def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,

@@ -10,7 +10,7 @@ mass_multiplier = 1.0        # their mass as a multiple of the meshed one (analy
 excitation = 1.0             # multiplier of every load (a family over it: excitation levels)
 static_anchor = 1e-3         # order-0 spring on each pair's mean tangential slip, x kt (0: none)
 [[assembly.contacts]]        # one per patch: a contact element per node pair
-patch = "damper_left"
+patch = "damper_left"        # a model's patch, or a contact of [geometry.contacts]
 mu = 0.5
 interference = 0.0           # [m] design interference (negative: gap); default 0
 elements = "2D"              # "2D" (law D) or "1D+1D" (two law-B elements); default "2D"
@@ -20,6 +20,8 @@ direction = "tangential"     # x y z radial tangential axial, or [dx, dy, dz]
 amplitude = 1.0
 harmonic = 1                 # default 1; 0: static
 phase = 0.0                  # [deg], default 0
+spread = "nodes"             # the force shared equally by the nodes, or "area": by their
+                             #   tributary areas (a uniform traction over a face)
 [[assembly.outputs]]         # what the analyses' outputs name: a node set's mean
 name = "tip"                 #   displacement along a direction [m]
 node_set = "blisk/response"
@@ -27,7 +29,8 @@ direction = "tangential"
 ```
 
 Names (patches, bodies, node sets) are checked against ``geometry.NAMES`` of the case's
-geometry model, before anything is meshed.
+geometry model (and its declared contacts) before anything is meshed, or against an imported
+mesh's own.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ from microslip import geometry
 from microslip.pipeline.assembly.spec import (
     DIRECTIONS,
     ELEMENTS,
+    SPREADS,
     STATIC_ANCHOR_RULE,
     AssemblySpec,
     NodalLoad,
@@ -53,7 +57,7 @@ from .checks import is_int, is_number, number, unknown_keys
 KEYS = {"engine_order", "speed", "centrifugal", "mass_bodies", "mass_multiplier", "contacts",
         "loads", "outputs", "static_anchor", "excitation"}
 CONTACT_KEYS = {"patch", "mu", "interference", "elements"}
-LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase"}
+LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase", "spread"}
 OUTPUT_KEYS = {"name", "node_set", "direction"}
 #: Parameters an assembly case's analyses may sweep.
 PARAMETERS = ("frequency", "excitation", "mass")
@@ -67,8 +71,12 @@ def output_names(data: Mapping[str, Any]) -> list[str]:
     return [o.get("name") for o in outs if isinstance(o, dict)]
 
 
-def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
-    """Append one line per fault of a case's [assembly] table to ``out``."""
+def check(table: Any, data: Mapping[str, Any], out: list[str],
+          names: Mapping[str, Any] | None = None) -> None:
+    """Append one line per fault of a case's [assembly] table to ``out``. ``names``: the
+    geometry's patches, bodies and node sets when the case's [geometry] gives them (a
+    parametric model's ``geometry.NAMES`` and its declared contacts, an imported mesh's
+    own); None: not checked here."""
     if not isinstance(table, dict):
         out.append(f"assembly: expected a table, got {table!r}")
         return
@@ -79,14 +87,11 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
         out.append("model: an assembly case takes its bodies from [geometry] and [reduction]; "
                    "remove [model] (or [assembly])")
     geo = data.get("geometry", {})
-    names = geometry.NAMES.get(geo.get("model")) if isinstance(geo, dict) else None
-    if isinstance(geo, dict) and geo.get("model") == "import":
-        out.append("assembly: the contacts of an imported mesh are not declared yet (they "
-                   "come with [geometry] contacts between named surfaces); an imported mesh "
-                   "runs [geometry] and [reduction] only")
-    elif isinstance(geo, dict) and geo.get("model") in geometry.MODELS and names is None:
+    if (isinstance(geo, dict) and geo.get("model") in geometry.MODELS
+            and geo.get("model") not in geometry.NAMES and not geo.get("contacts")):
         out.append(f"assembly: geometry model {geo.get('model')!r} has no contact patches; "
-                   f"assembly models: {sorted(geometry.NAMES)}")
+                   f"assembly models: {sorted(geometry.NAMES)}, or declare contacts in "
+                   "[geometry.contacts.<name>]")
     red = data.get("reduction", {})
     eo = table.get("engine_order", red.get("engine_order") if isinstance(red, dict) else None)
     if eo is None:
@@ -123,7 +128,7 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
         unknown_keys(pre + ".", c, CONTACT_KEYS, out)
         patch = c.get("patch")
         if names is not None and patch not in names["patches"]:
-            out.append(f"{pre}.patch = {patch!r}: not a patch of the geometry; patches: "
+            out.append(f"{pre}.patch = {patch!r}: not a contact of the geometry; contacts: "
                        f"{list(names['patches'])}")
         if patch in seen:
             out.append(f"{pre}: patch {patch!r} given twice")
@@ -147,6 +152,8 @@ def check(table: Any, data: Mapping[str, Any], out: list[str]) -> None:
             out.append(f"{pre}.harmonic = {ld['harmonic']!r}: expected an integer >= 0")
         if "phase" in ld:
             number(f"{pre}.phase", ld["phase"], out)
+        if ld.get("spread", NodalLoad.spread) not in SPREADS:
+            out.append(f"{pre}.spread = {ld.get('spread')!r}: expected one of {list(SPREADS)}")
     outputs = _tables(table, "outputs", out, required=True)
     seen = set()
     for i, o in enumerate(outputs):
@@ -189,13 +196,19 @@ def _direction(pre: str, t: dict, out: list[str]) -> None:
                    "non-zero [dx, dy, dz]")
 
 
-def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> AssemblySpec:
-    """The AssemblySpec of a validated case (``cyclic_bodies``: the mesh's, whose complement
-    the mass multiplier scales by default)."""
+def names_of(mesh: Any) -> dict[str, tuple[str, ...]]:
+    """A mesh's contacts, bodies and node sets, as ``geometry.NAMES`` gives a model's."""
+    return {"patches": tuple(sorted(mesh.contacts)), "bodies": tuple(sorted(mesh.bodies)),
+            "node_sets": tuple(sorted(mesh.node_sets))}
+
+
+def spec(data: Mapping[str, Any], bodies: tuple[str, ...], cyclic_bodies: tuple[str, ...] = ()
+         ) -> AssemblySpec:
+    """The AssemblySpec of a validated case (``bodies``: the mesh's; ``cyclic_bodies``: its
+    cyclic ones, whose complement the mass multiplier scales by default)."""
     table = data["assembly"]
     eo = int(table.get("engine_order", data.get("reduction", {}).get("engine_order", 1)))
     speed = table.get("speed")
-    bodies = geometry.NAMES[data["geometry"]["model"]]["bodies"]
     return AssemblySpec(
         contacts=tuple(PatchFriction(c["patch"], float(c["mu"]),
                                     float(c.get("interference", PatchFriction.interference)),
@@ -203,7 +216,8 @@ def spec(data: Mapping[str, Any], cyclic_bodies: tuple[str, ...] = ()) -> Assemb
                        for c in table["contacts"]),
         engine_order=eo,
         loads=tuple(NodalLoad(ld["node_set"], _dir(ld["direction"]), float(ld["amplitude"]),
-                              int(ld.get("harmonic", 1)), math.radians(ld.get("phase", 0.0)))
+                              int(ld.get("harmonic", 1)), math.radians(ld.get("phase", 0.0)),
+                              ld.get("spread", NodalLoad.spread))
                     for ld in table.get("loads", [])),
         outputs=tuple(Output(o["name"], o["node_set"], _dir(o["direction"]))
                       for o in table["outputs"]),

@@ -127,27 +127,45 @@ def _lumped_contacts(data: dict) -> tuple[int, list[ContactShape]]:
 
 
 def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
-    """(contact DOFs, shapes) of an assembly case from its contact grids, known before meshing:
-    a patch has n_axial x n_flank node pairs, each pair a node of each body (3 DOFs each)."""
+    """(contact DOFs, shapes) of an assembly case from its contacts, known before meshing: a
+    model's patch has n_axial x n_flank node pairs, each pair a node of each body (3 DOFs
+    each); an imported mesh's contacts are counted on the mesh (read at the check, kept); a
+    parametric model's declared contacts are not known before meshing (left out: a lower
+    bound)."""
     from microslip import geometry
+    from microslip.geometry.pairing import paired_contact
+
+    from .geometry import IMPORT, GeometryTable
 
     geo = data["geometry"]
-    given = geo.get("parameters", {})
-    fields = {f.name: f.default for f in dataclasses.fields(geometry.PARAMETERS[geo["model"]])}
+    counts: dict[str, tuple[int, int, int]] = {}  # contact -> (pairs, DOFs, DOFs per pair)
+    if geo["model"] == IMPORT:
+        mesh = GeometryTable.of(geo).build()
+        for name in mesh.contacts:
+            p = paired_contact(mesh, name).pairing
+            per_pair = 3 * (1 + int(np.diff(p.weights.indptr).max(initial=0)))
+            counts[name] = (len(p.nodes_a), 3 * (len(p.nodes_a) + len(p.nodes_b)), per_pair)
+    else:
+        given = geo.get("parameters", {})
+        fields = {f.name: f.default for f in dataclasses.fields(geometry.PARAMETERS[geo["model"]])}
 
-    def count(key: str) -> int:
-        v = given.get(key, fields[key])
-        return v if is_int(v) and v > 0 else fields[key]  # a bad value is refused at meshing
+        def count(key: str) -> int:
+            v = given.get(key, fields[key])
+            return v if is_int(v) and v > 0 else fields[key]  # a bad value is refused at meshing
 
-    # a patch's grid: the model's contact_n_* counts (axial x flank, radial x along, ...)
-    pairs = math.prod(count(k) for k in fields if k.startswith("contact_n_"))
-    shapes = []
+        # a patch's grid: the model's contact_n_* counts (axial x flank, radial x along, ...)
+        pairs = math.prod(count(k) for k in fields if k.startswith("contact_n_"))
+        counts = {name: (pairs, 6 * pairs, 6) for name in geometry.NAMES.get(
+            geo["model"], {}).get("patches", ())}
+    shapes, dofs = [], 0
     for c in data["assembly"]["contacts"]:
+        pairs, n, per_pair = counts.get(c.get("patch"), (0, 0, 6))
+        dofs += n
         if c.get("elements", PatchFriction.elements) == "2D":
-            shapes.append(ContactShape(pairs, 3, 2, 6))
+            shapes.append(ContactShape(pairs, 3, 2, per_pair))
         else:  # two law-B elements (t1 or t2, and n)
-            shapes += [ContactShape(pairs, 2, 1, 6)] * 2
-    return 6 * pairs * len(data["assembly"]["contacts"]), shapes
+            shapes += [ContactShape(pairs, 2, 1, per_pair)] * 2
+    return dofs, shapes
 
 
 def notes(data: dict) -> list[str]:

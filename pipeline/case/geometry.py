@@ -25,6 +25,18 @@
     tolerance = 1e-5                 # the axis (radius), a plane (plane = {point, normal})
     body = "disk"                    # or in a box (box = [[x0, y0, z0], [x1, y1, z1]])
 
+    [geometry.contacts.firtree_left] # optional, any model: a contact between named surfaces
+    surfaces = ["blade/flank_l", "disk/slot_l"]  # two node sets (one, with ground = true)
+    bodies = ["blade", "disk"]       # optional: their bodies (default: the body each is a
+                                     # face of)
+    ground = false                   # true: the one surface against the rigid ground
+    neighbour = false                # true: the second surface is the neighbouring
+                                     # sector's (a shroud interlock, a damper's far flank)
+    tolerance = 1e-5                 # [m] optional: how far beyond the other surface a
+                                     # point may project and still touch it
+
+Each contact is then named like a model's patch in [[assembly.contacts]] (``patch``).
+
 Every number of a case is SI; only the mesh file is in its own units. ``check`` reads the
 file (it is quick beside a reduction) so that a missing set or an unmatched face is one line
 before any heavy work; the mesh read is kept for the run (keyed by the file's path, size and
@@ -36,7 +48,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -48,15 +60,59 @@ from microslip.geometry.imported import (
     Selection,
     import_mesh,
 )
+from microslip.geometry.mesh import SurfaceContact
+from microslip.geometry.pairing import declare_contact, paired_contact
 from microslip.geometry.sector import SectorSpec
 
 from .checks import is_int, is_number, unknown_keys
 
 IMPORT = "import"
-PARAMETRIC_KEYS = {"model", "parameters"}
-IMPORT_KEYS = {"model", "file", "units", "bodies", "sector", "sets", "size"}
+PARAMETRIC_KEYS = {"model", "parameters", "contacts"}
+IMPORT_KEYS = {"model", "file", "units", "bodies", "sector", "sets", "size", "contacts"}
+CONTACT_KEYS = {"surfaces", "bodies", "ground", "neighbour", "tolerance"}
 SECTOR_KEYS = {"sectors", "axis", "origin", "tolerance", "faces"}
 SELECTION_KEYS = {"box", "plane", "radius", "tolerance", "body"}
+
+
+@dataclass(frozen=True)
+class ContactDeclaration:
+    """[geometry.contacts.<name>] (see the module): what ``geometry.pairing.declare_contact``
+    resolves on the mesh."""
+
+    name: str
+    surfaces: tuple[str, ...]
+    bodies: tuple[str, ...] | None = None
+    ground: bool = False
+    neighbour: bool = False
+    tolerance: float = 0.0  # [m] (0: the pairing's default)
+
+    def declare(self, mesh: geometry.Mesh) -> SurfaceContact:
+        """The contact on ``mesh`` (ValueError naming the key and the fault)."""
+        try:
+            return declare_contact(mesh, self.name, self.surfaces, self.bodies, self.ground,
+                                   self.neighbour, self.tolerance)
+        except ValueError as err:
+            raise ValueError(f"geometry.{err}") from None
+
+
+def with_contacts(mesh: geometry.Mesh, contacts: tuple[ContactDeclaration, ...]
+                  ) -> geometry.Mesh:
+    """``mesh`` with the declared contacts added to its own (ValueError naming a fault)."""
+    if not contacts:
+        return mesh
+    added = {}
+    for c in contacts:
+        if c.name in mesh.contacts:
+            raise ValueError(f"geometry.contacts.{c.name}: the model has a contact patch of "
+                             "that name already; choose another")
+        added[c.name] = c.declare(mesh)
+    out = replace(mesh, contacts={**mesh.contacts, **added})
+    for name in added:  # the pairing: the surfaces face each other, or a line says why
+        try:
+            paired_contact(out, name)
+        except ValueError as err:
+            raise ValueError(f"geometry.{err}") from None
+    return out
 
 
 @dataclass(frozen=True)
@@ -73,12 +129,18 @@ class GeometryTable:
     sets: tuple[tuple[str, Selection], ...] = ()
     size: float | None = None  # [m] a CAD file's element size (None: a tenth of its extent)
     base: Path = Path(".")
+    contacts: tuple[ContactDeclaration, ...] = ()
 
     @classmethod
     def of(cls, table: Mapping[str, Any], base: str | Path = ".") -> GeometryTable:
         """The spec of a validated [geometry] table."""
+        contacts = tuple(ContactDeclaration(
+            name, tuple(t["surfaces"]), tuple(t["bodies"]) if "bodies" in t else None,
+            bool(t.get("ground", False)), bool(t.get("neighbour", False)),
+            float(t.get("tolerance", 0.0))) for name, t in table.get("contacts", {}).items())
         if table["model"] != IMPORT:
-            return cls(table["model"], dict(table.get("parameters", {})), base=Path(base))
+            return cls(table["model"], dict(table.get("parameters", {})), base=Path(base),
+                       contacts=contacts)
         bodies = table.get("bodies")
         if isinstance(bodies, list):
             bodies = tuple((b, b) for b in bodies)
@@ -94,7 +156,7 @@ class GeometryTable:
         sets = tuple((name, _selection(t)) for name, t in table.get("sets", {}).items())
         size = float(table["size"]) if "size" in table else None
         return cls(IMPORT, {}, table["file"], table.get("units", cls.units), bodies, sector,
-                   sets, size, Path(base))
+                   sets, size, Path(base), contacts)
 
     @property
     def imported(self) -> bool:
@@ -106,10 +168,11 @@ class GeometryTable:
         return (self.base / self.file).resolve()
 
     def build(self) -> geometry.Mesh:
-        """The mesh (Gmsh for a parametric model; read for an import): the heavy step."""
+        """The mesh (Gmsh for a parametric model; read for an import) with the declared
+        contacts: the heavy step."""
         if self.imported:
-            return self.read().mesh
-        return geometry.MODELS[self.model](**self.parameters)
+            return with_contacts(self.read().mesh, self.contacts)
+        return with_contacts(geometry.MODELS[self.model](**self.parameters), self.contacts)
 
     def read(self) -> ImportedMesh:
         """The imported mesh and what reading it found (kept while the file is unchanged)."""
@@ -159,7 +222,9 @@ def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
         if not isinstance(geo.get("parameters", {}), dict):
             out.append("geometry.parameters: expected a table")
             return None
-        return GeometryTable.of(geo, base)
+        before = len(out)
+        _check_contacts(geo.get("contacts", {}), out)
+        return GeometryTable.of(geo, base) if len(out) == before else None
     before = len(out)
     unknown_keys("geometry.", geo, IMPORT_KEYS, out)
     if not isinstance(geo.get("file"), str) or not geo.get("file"):
@@ -189,15 +254,49 @@ def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
     else:
         for name, t in sets.items():
             _check_selection(f"geometry.sets.{name}", t, out)
+    _check_contacts(geo.get("contacts", {}), out)
     if len(out) > before:
         return None
     table = GeometryTable.of(geo, base)
     try:
-        table.read()
+        with_contacts(table.read().mesh, table.contacts)
     except MeshImportError as exc:
         out.append(f"geometry.file: {exc}")  # (the message names the file)
         return None
+    except ValueError as exc:  # a declared contact (the message names it)
+        out.append(str(exc))
+        return None
     return table
+
+
+def _check_contacts(contacts: Any, out: list[str]) -> None:
+    """The declarations' form (what they name is checked on the mesh)."""
+    if not isinstance(contacts, dict) or not all(isinstance(t, dict)
+                                                 for t in contacts.values()):
+        out.append("geometry.contacts: expected tables [geometry.contacts.<name>]")
+        return
+    for name, t in contacts.items():
+        pre = f"geometry.contacts.{name}"
+        unknown_keys(f"{pre}.", t, CONTACT_KEYS, out)
+        for key in ("ground", "neighbour"):
+            if not isinstance(t.get(key, False), bool):
+                out.append(f"{pre}.{key} = {t[key]!r}: expected true or false")
+        want = 1 if t.get("ground") is True else 2
+        surfaces = t.get("surfaces")
+        if not (isinstance(surfaces, list) and len(surfaces) == want
+                and all(isinstance(x, str) for x in surfaces)):
+            out.append(f"{pre}.surfaces = {surfaces!r}: expected {want} node-set name"
+                       + ("s" if want > 1 else " (ground = true)"))
+        bodies = t.get("bodies", [""] * want)
+        if not (isinstance(bodies, list) and len(bodies) == want
+                and all(isinstance(x, str) for x in bodies)):
+            out.append(f"{pre}.bodies = {bodies!r}: expected {want} body name"
+                       + ("s, one per surface" if want > 1 else ""))
+        if t.get("ground") is True and t.get("neighbour") is True:
+            out.append(f"{pre}: ground and neighbour exclude each other")
+        tol = t.get("tolerance", 1.0)
+        if not (is_number(tol) and tol > 0):
+            out.append(f"{pre}.tolerance = {tol!r}: expected a distance > 0 [m]")
 
 
 def _vector(v: Any) -> bool:

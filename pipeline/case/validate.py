@@ -8,6 +8,7 @@ import dataclasses
 
 import numpy as np
 
+from microslip import geometry
 from microslip.pipeline.friction.laws import FORMS, LAWS, FrictionLaw
 from microslip.pipeline.solve.hbm import PARAMETERS
 
@@ -43,7 +44,7 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
         if table is not None and table.imported and len(out) == before:
             reduction_names(table.build(), data["reduction"], out)  # read once, kept
     if "assembly" in data:
-        _check_assembly(data, out, analyses)
+        _check_assembly(data, out, analyses, _names(table))
         return
     if "geometry" in data and "model" not in data and "analysis" not in data:
         _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
@@ -95,9 +96,22 @@ def _analysis_tables(data: dict, kinds: tuple[str, ...], out: list[str]) -> list
     return list(enumerate(items))
 
 
-def _check_assembly(data: dict, out: list[str], analyses: bool) -> None:
+def _names(table) -> dict | None:
+    """The contacts, bodies and node sets a valid [geometry] gives before any meshing (an
+    import's mesh, read at the check; a parametric model's names and declared contacts)."""
+    if table is None:
+        return None
+    if table.imported:
+        return assembly.names_of(table.build())
+    names = geometry.NAMES.get(table.model)
+    if names is None:
+        return None
+    return {**names, "patches": (*names["patches"], *(c.name for c in table.contacts))}
+
+
+def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | None) -> None:
     """A case of reduced FE bodies joined by friction patches ([assembly])."""
-    assembly.check(data["assembly"], data, out)
+    assembly.check(data["assembly"], data, out, names)
     for key in ("contacts", "loads"):
         if key in data:
             out.append(f"{key}: an assembly case gives its contacts and loads in [assembly]")

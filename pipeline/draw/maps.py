@@ -2,7 +2,8 @@
 
 Each node pair of a patch's structured grid is drawn as the cell of its own tributary area
 (the dual grid: corners halfway between neighbouring nodes, the outer ones extrapolated), so
-a map shows one solid colour per node and never blends two states. The patch is drawn flat
+a map shows one solid colour per node and never blends two states; a contact between named
+surfaces likewise, each facet of side a cut into one cell per corner. The patch is drawn flat
 in its own plane, seen from body b onto body a's face, turned so that the direction of
 growing radius (at the patch centre, projected onto the plane) points up; the edge at the
 highest radius is also drawn thick and labelled, so the orientation reads without the text.
@@ -41,12 +42,16 @@ HIGH_RADIUS = "#d62728"  # the high-radius edge
 
 @dataclass(frozen=True, eq=False)
 class PatchGrid:
-    """Where a patch's node pairs sit, and how its map is drawn.
+    """Where a contact's node pairs sit, and how its map is drawn.
 
-    name: patch name; points: (n1, n2, 3) coordinates of side a [m]; frame: (3, 3) rows
-    t1, t2, n (n from body a into body b); axes: (2, 3) the map's right and up directions
+    name: contact name; points: side a's coordinates [m], (n1, n2, 3) for a structured
+    patch, (P, 3) for named surfaces; frame: (3, 3) rows t1, t2, n (n from body a into body
+    b; named surfaces: their mean normal's); axes: (2, 3) the map's right and up directions
     in space (up: growing radius; right x up = n); high_edge: index into EDGES of the grid
-    edge at the highest mean radius; nodes_a, nodes_b: (n1, n2) mesh nodes of the pairs."""
+    edge at the highest mean radius (-1: named surfaces); nodes_a: mesh nodes of the pairs
+    (grid-shaped, or (P,)); nodes_b: side b's (none on the ground, body_b "ground"); faces:
+    None for a grid, else (F, 4) side a's facets as indices into the pairs (a triangle's
+    4th corner -1)."""
 
     name: str
     body_a: str
@@ -57,21 +62,29 @@ class PatchGrid:
     high_edge: int
     nodes_a: np.ndarray
     nodes_b: np.ndarray
+    faces: np.ndarray | None = None
 
     @property
-    def shape(self) -> tuple[int, int]:
-        return self.points.shape[:2]
+    def structured(self) -> bool:
+        return self.faces is None
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """(n1, n2) of a grid, (P,) of named surfaces."""
+        return self.points.shape[:-1]
 
     @property
     def plane(self) -> np.ndarray:
-        """(n1, n2, 2) map coordinates [m] of the nodes (right, up) about the patch centre."""
+        """(..., 2) map coordinates [m] of the nodes (right, up) about the patch centre."""
         centred = self.points - self.points.reshape(-1, 3).mean(axis=0)
         return centred @ self.axes.T
 
     @property
     def connectivity(self) -> np.ndarray:
-        """((n1 - 1)(n2 - 1), 4) quads of the node grid, node indices row-major (i n2 + j),
-        counter-clockwise in (i, j)."""
+        """(F, 4) quads of the node grid, node indices row-major (i n2 + j),
+        counter-clockwise in (i, j); named surfaces: their facets."""
+        if not self.structured:
+            return self.faces
         n1, n2 = self.shape
         idx = np.arange(n1 * n2).reshape(n1, n2)
         return np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]],
@@ -79,14 +92,21 @@ class PatchGrid:
 
     @classmethod
     def from_mesh(cls, mesh, name: str) -> PatchGrid:
-        from microslip.pipeline.fe.contact_stiffness import contact_frames
+        from microslip.geometry.pairing import normal_frames, paired_contact
 
-        patch = mesh.contacts[name]
-        points = mesh.patch_points(name, "a")
-        frame = contact_frames(patch, mesh.points)[0, 0]
-        return cls(name, patch.body_a, patch.body_b, points, frame, map_axes(points, frame),
-                   high_radius_edge(points), np.asarray(patch.nodes_a),
-                   np.asarray(patch.nodes_b))
+        c = paired_contact(mesh, name)
+        p = c.pairing
+        body_b = c.body_b if c.body_b is not None else "ground"
+        if c.grid is not None:
+            points = mesh.points[p.nodes_a].reshape(*c.grid, 3)
+            frame = c.frames[0]
+            return cls(name, c.body_a, body_b, points, frame, map_axes(points, frame),
+                       high_radius_edge(points), p.nodes_a.reshape(c.grid),
+                       p.nodes_b.reshape(c.grid))
+        points = mesh.points[p.nodes_a]
+        frame = normal_frames(p.normals.mean(axis=0)[None])[0]
+        return cls(name, c.body_a, body_b, points, frame, map_axes(points, frame), -1,
+                   p.nodes_a, p.nodes_b, c.faces())
 
     def datasets(self) -> dict[str, np.ndarray]:
         """What results.h5 keeps under /contact_grids/<patch> (attrs: body_a, body_b,
@@ -98,9 +118,11 @@ class PatchGrid:
     @classmethod
     def from_group(cls, name: str, g) -> PatchGrid:
         """A PatchGrid read back from its results.h5 group (h5py)."""
-        return cls(name, str(g.attrs["body_a"]), str(g.attrs["body_b"]), g["points"][()],
+        points = g["points"][()]
+        return cls(name, str(g.attrs["body_a"]), str(g.attrs["body_b"]), points,
                    g["frame"][()], g["map_axes"][()], int(g.attrs["high_edge"]),
-                   g["nodes_a"][()], g["nodes_b"][()])
+                   g["nodes_a"][()], g["nodes_b"][()],
+                   None if points.ndim == 3 else g["connectivity"][()])
 
 
 def map_axes(points: np.ndarray, frame: np.ndarray) -> np.ndarray:
@@ -145,10 +167,14 @@ def state_rgb(states: np.ndarray, colours: Mapping[int, str] = STATE_COLOURS) ->
 
 
 def cells(grid: PatchGrid, values: np.ndarray, name: str):
-    """pyvista StructuredGrid of the grid's tributary cells in map coordinates [mm] with
-    ``values`` (P,) or (P, k) per node (grid order) as cell data ``name``."""
+    """pyvista grid of the nodes' tributary cells in map coordinates [mm] with ``values``
+    (P,) or (P, k) per node (grid order) as cell data ``name``: a structured patch's dual
+    grid, or for named surfaces each facet cut into one quad per corner (the corner, its
+    edges' midpoints and the facet's centroid)."""
     import pyvista as pv
 
+    if not grid.structured:
+        return _dual_cells(grid, values, name)
     corners = 1e3 * cell_corners(grid.plane)
     x, y = corners[..., 0], corners[..., 1]
     sg = pv.StructuredGrid(x, y, np.zeros_like(x))
@@ -157,6 +183,39 @@ def cells(grid: PatchGrid, values: np.ndarray, name: str):
     # VTK orders the cells of a structured grid with the first index fastest
     sg.cell_data[name] = v.transpose(1, 0, 2).reshape(n1 * n2, -1).squeeze()
     return sg
+
+
+def _dual_cells(grid: PatchGrid, values: np.ndarray, name: str):
+    import pyvista as pv
+
+    xy = 1e3 * grid.plane
+    pts, quads, owner = [], [], []
+    for face in grid.faces:
+        corners = face[face >= 0]
+        c = xy[corners]
+        centre = c.mean(axis=0)
+        mids = 0.5 * (c + np.roll(c, -1, axis=0))  # mid of edge (k, k + 1)
+        for k, node in enumerate(corners):
+            start = len(pts)
+            pts += [c[k], mids[k], centre, mids[k - 1]]
+            quads.append([4, start, start + 1, start + 2, start + 3])
+            owner.append(node)
+    xyz = np.column_stack([np.array(pts), np.zeros(len(pts))])
+    mesh = pv.PolyData(xyz, faces=np.array(quads).ravel())
+    v = np.asarray(values).reshape(len(grid.points), -1)
+    mesh.cell_data[name] = v[np.array(owner)].squeeze()
+    return mesh
+
+
+def boundary_edges(faces: np.ndarray) -> np.ndarray:
+    """(e, 2) edges of the facets (F, 4; a triangle's 4th corner -1) that belong to one
+    facet only: the outline."""
+    edges = []
+    for face in faces:
+        corners = face[face >= 0]
+        edges += [tuple(sorted(e)) for e in zip(corners, np.roll(corners, -1))]
+    found, counts = np.unique(np.array(edges), axis=0, return_counts=True)
+    return found[counts == 1]
 
 
 @dataclass(frozen=True)
@@ -185,22 +244,48 @@ def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
 
 
 def _outline(pl, grid: PatchGrid) -> None:
-    """The patch outline (black) and its high-radius edge (thick, labelled)."""
+    """The patch outline (black) and its high-radius edge (thick, labelled): a grid's
+    outer row or column at the highest radius; named surfaces' outline edges within a
+    twentieth of the radius range of the highest."""
     import pyvista as pv
 
-    c = 1e3 * cell_corners(grid.plane)
-    ring = np.concatenate([c[:, 0], c[-1, 1:], c[-2::-1, -1], c[0, -2::-1]])
-    pts = np.column_stack([ring, np.full(len(ring), 0.01)])
-    pl.add_mesh(pv.lines_from_points(pts, close=True), color="black", line_width=2)
-    edge = (c[0], c[-1], c[:, 0], c[:, -1])[grid.high_edge]
-    e = np.column_stack([edge, np.full(len(edge), 0.02)])
-    pl.add_mesh(pv.lines_from_points(e), color=HIGH_RADIUS, line_width=6)
-    size = np.ptp(c.reshape(-1, 2), axis=0).max()
-    out = edge.mean(axis=0) - c.reshape(-1, 2).mean(axis=0)
-    at = edge.mean(axis=0) + 0.08 * size * out / max(np.linalg.norm(out), 1e-300)
+    if grid.structured:
+        c = 1e3 * cell_corners(grid.plane)
+        ring = np.concatenate([c[:, 0], c[-1, 1:], c[-2::-1, -1], c[0, -2::-1]])
+        pts = np.column_stack([ring, np.full(len(ring), 0.01)])
+        pl.add_mesh(pv.lines_from_points(pts, close=True), color="black", line_width=2)
+        edges = [(c[0], c[-1], c[:, 0], c[:, -1])[grid.high_edge]]
+        flat = c.reshape(-1, 2)
+    else:
+        xy = 1e3 * grid.plane
+        outline = boundary_edges(grid.faces)
+        pl.add_mesh(_segments(xy, outline, 0.01), color="black", line_width=2)
+        r = np.hypot(grid.points[:, 0], grid.points[:, 1])
+        top = r.max() - 0.05 * max(np.ptp(r), 1e-300)
+        high = outline[(r[outline] >= top).all(axis=1)]
+        edges = [xy[e] for e in high]
+        flat = xy
+    for edge in edges:
+        e = np.column_stack([edge, np.full(len(edge), 0.02)])
+        pl.add_mesh(pv.lines_from_points(e), color=HIGH_RADIUS, line_width=6)
+    if not edges:
+        return
+    size = np.ptp(flat, axis=0).max()
+    mid = np.vstack(edges).mean(axis=0)
+    out = mid - flat.mean(axis=0)
+    at = mid + 0.08 * size * out / max(np.linalg.norm(out), 1e-300)
     pl.add_point_labels([[*at, 0.03]], ["high radius"], show_points=False, shape=None,
                         text_color=HIGH_RADIUS, font_size=12, always_visible=True,
                         justification_horizontal="center")
+
+
+def _segments(xy: np.ndarray, edges: np.ndarray, z: float):
+    """pyvista line segments (e, 2) between map points xy [mm] at height z."""
+    import pyvista as pv
+
+    pts = np.column_stack([xy, np.full(len(xy), z)])
+    lines = np.column_stack([np.full(len(edges), 2), edges]).ravel()
+    return pv.PolyData(pts, lines=lines)
 
 
 FILL = 0.55  # share of a panel's height (or width) the patch fills
@@ -215,7 +300,7 @@ def _view(pl, caption: str, grid: PatchGrid, aspect: float) -> None:
     pl.view_xy()
     pl.enable_parallel_projection()
     pl.reset_camera()
-    c = 1e3 * cell_corners(grid.plane).reshape(-1, 2)
+    c = 1e3 * (cell_corners(grid.plane) if grid.structured else grid.plane).reshape(-1, 2)
     w, h = np.ptp(c, axis=0)
     scale = 0.5 * max(h, w / aspect) / FILL  # half the panel's height in mm
     centre = c.min(axis=0) + 0.5 * np.array([w, h]) + np.array([0.0, 2 * LOWER * scale])

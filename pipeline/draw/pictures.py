@@ -369,9 +369,10 @@ def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> l
     for key, label, style in ((schema.LEVEL_FREE, "free (no damper)", ":"),
                               (schema.LEVEL_STUCK, "fully stuck", "-.")):
         if key in g:
+            stored = attr_text(g[key].attrs.get("label", ""))  # (before 0.24: "free")
             series.append({"x": g[key]["parameter"][()], "y": g[key]["amplitude"][()],
-                           "label": label, "ls": style, "color": "0.45", "lw": 1.0,
-                           "optimum": False})
+                           "label": stored if stored.startswith(("free (", "fully")) else label,
+                           "ls": style, "color": "0.45", "lw": 1.0, "optimum": False})
     path = out / f"{name}.png"
     what = MEASURE_LABEL[spec.measure].format(output)
     plots.curves(path, f"{name}: peak response of {output}", plots.LABELS[par], series,

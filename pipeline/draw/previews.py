@@ -16,6 +16,7 @@ import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkObject
 
 from microslip.geometry.mesh import Mesh, rotation_z
+from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.results import schema
 from microslip.pipeline.results.file import ATTRS, attr_text
 
@@ -54,8 +55,9 @@ class CyclicView:
 
 @dataclass(frozen=True)
 class PatchView:
-    """A contact patch: side a's node grid (n1, n2, 3) [m], side b's own (fundamental
-    sector) nodes (n1, n2, 3) [m] and its sector offset (a neighbour's patch: +-1)."""
+    """A contact: side a's node grid (n1, n2, 3) [m] (named surfaces: (P, 3) and their
+    ``faces`` (F, 4), a triangle's 4th corner -1), side b's own (fundamental sector) nodes
+    (..., 3) [m] (none on the ground) and its sector offset (a neighbour's patch: +-1)."""
 
     name: str
     body_a: str
@@ -63,6 +65,21 @@ class PatchView:
     points_a: np.ndarray
     points_b: np.ndarray
     b_sector_offset: int
+    faces: np.ndarray | None = None
+
+    def surface(self) -> pv.DataSet:
+        """Side a as a surface: the grid's quads, or the facets."""
+        if self.faces is None:
+            return patch_surface(self.points_a)
+        cells = [[int((f >= 0).sum()), *f[f >= 0]] for f in self.faces]
+        return pv.PolyData(self.points_a, faces=np.concatenate(cells))
+
+    @property
+    def size(self) -> str:
+        """"6x4" of a grid, "57 nodes" of named surfaces."""
+        if self.faces is None:
+            return f"{self.points_a.shape[0]}x{self.points_a.shape[1]}"
+        return f"{len(self.points_a)} nodes"
 
 
 @dataclass(frozen=True)
@@ -86,9 +103,7 @@ class MeshView:
                                    np.searchsorted(nodes, triangles), body in mesh.cyclic))
         cyclic = tuple(CyclicView(b, mesh.points[c.left], mesh.points[c.right], c.sectors)
                        for b, c in sorted(mesh.cyclic.items()))
-        patches = tuple(PatchView(name, p.body_a, p.body_b, mesh.patch_points(name, "a"),
-                                  mesh.points[p.nodes_b], int(p.b_sector_offset))
-                        for name, p in sorted(mesh.contacts.items()))
+        patches = tuple(_patch_view(mesh, name) for name in sorted(mesh.contacts))
         return cls(mesh.model, len(mesh.points), mesh.element_summary(), tuple(bodies), cyclic,
                    patches)
 
@@ -103,7 +118,8 @@ class MeshView:
                        for name, g in sorted(geo.get(schema.CYCLIC, {}).items()))
         patches = tuple(PatchView(name, attr_text(g.attrs["body_a"]), attr_text(g.attrs["body_b"]),
                                   g["points"][()], g["points_b"][()],
-                                  int(g.attrs["b_sector_offset"]))
+                                  int(g.attrs["b_sector_offset"]),
+                                  None if g["points"].ndim == 3 else g["connectivity"][()])
                         for name, g in sorted(f.get(schema.CONTACT_GRIDS, {}).items()))
         elements = (attr_text(geo.attrs["elements"]) if "elements" in geo.attrs
                     else f"{int(geo.attrs['tetrahedra'])} tetrahedra")  # (before 0.24)
@@ -120,6 +136,16 @@ class MeshView:
         the maps' grids)."""
         return {c.body: {"left": c.left, "right": c.right, ATTRS: {"sectors": c.sectors}}
                 for c in self.cyclic}
+
+
+def _patch_view(mesh: Mesh, name: str) -> PatchView:
+    c = paired_contact(mesh, name)
+    p = c.pairing
+    points = mesh.points[p.nodes_a]
+    return PatchView(name, c.body_a, c.body_b or "ground",
+                     points if c.grid is None else points.reshape(*c.grid, 3),
+                     mesh.points[p.nodes_b], c.b_sector_offset,
+                     None if c.grid is not None else c.faces())
 
 
 def patch_surface(points: np.ndarray) -> pv.StructuredGrid:
@@ -220,14 +246,15 @@ def render_contacts(mesh: MeshView, path: Path) -> Path:
     for i, patch in enumerate(mesh.patches):
         colour = PATCH_COLOURS[i % len(PATCH_COLOURS)]
         a, b_own = patch.points_a, patch.points_b
-        pl.add_mesh(patch_surface(a), color=colour, show_edges=True, edge_color="black",
-                    label=f"{patch.name} {a.shape[0]}x{a.shape[1]}: {patch.body_a} face")
-        pl.add_points(b_own.reshape(-1, 3), color=colour, point_size=8,
-                      render_points_as_spheres=True,
-                      label=f"{patch.name}: {patch.body_b} nodes, offset "
-                            f"{patch.b_sector_offset}")
+        pl.add_mesh(patch.surface(), color=colour, show_edges=True, edge_color="black",
+                    label=f"{patch.name} {patch.size}: {patch.body_a} face")
         centres.append(a.reshape(-1, 3).mean(axis=0))
-        centres.append(b_own.reshape(-1, 3).mean(axis=0))
+        if len(b_own):  # (the ground has none)
+            pl.add_points(b_own.reshape(-1, 3), color=colour, point_size=8,
+                          render_points_as_spheres=True,
+                          label=f"{patch.name}: {patch.body_b} nodes, offset "
+                                f"{patch.b_sector_offset}")
+            centres.append(b_own.reshape(-1, 3).mean(axis=0))
     _legend(pl, 0.42, 2 * len(mesh.patches))  # a corner away from the centred patches
     pl.add_axes()
     if centres:
