@@ -192,6 +192,9 @@ class SurfaceContact:
     tolerance:
              [m] how far outside side b a node of side a may project and still be
              paired (nodes farther out touch nothing and are left out)
+    spread:  how the contact's stiffness is shared among its pairs: "area", by their
+             tributary areas; "nodes", equally (Firrone & Zucca's choice, which a
+             structured patch makes)
     """
 
     name: str
@@ -201,8 +204,12 @@ class SurfaceContact:
     set_b: str | None = None
     b_sector_offset: int = 0
     tolerance: float = 0.0
+    spread: str = "area"
 
     def __post_init__(self) -> None:
+        if self.spread not in ("area", "nodes"):
+            raise MeshValidationError(f"SurfaceContact {self.name!r}: spread = "
+                                      f"{self.spread!r}, expected 'area' or 'nodes'")
         if (self.body_b is None) != (self.set_b is None):
             raise MeshValidationError(f"SurfaceContact {self.name!r}: body_b and set_b go "
                                       "together (both None: the ground)")
@@ -472,7 +479,7 @@ class Mesh:
             p = self.contacts[name]
             if isinstance(p, SurfaceContact):
                 put(f"surface-contact/{name}/{p.body_a}/{p.set_a}/{p.body_b}/{p.set_b}/"
-                    f"{p.b_sector_offset}/{p.tolerance!r}")
+                    f"{p.b_sector_offset}/{p.tolerance!r}/{p.spread}")
                 continue
             put(f"contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/{p.area!r}")
             put("a", p.nodes_a)

@@ -424,12 +424,14 @@ def surface_body(mesh: Mesh, set_name: str) -> list[str]:
 
 def declare_contact(mesh: Mesh, name: str, surfaces: tuple[str, ...],
                     bodies: tuple[str, ...] | None = None, ground: bool = False,
-                    neighbour: bool = False, tolerance: float = 0.0) -> SurfaceContact:
+                    neighbour: bool = False, tolerance: float = 0.0, spread: str = "area"
+                    ) -> SurfaceContact:
     """The :class:`SurfaceContact` of what a case declares: ``surfaces`` two node-set names
     (or one with ``ground``); ``bodies`` their bodies (default: the one body with faces in
     each set); ``neighbour``: the second surface is the neighbouring sector's, on whichever
     side (+1 or -1 sector) brings it onto the first. Side a is made the finer surface.
-    ValueError naming the contact and what is wrong."""
+    ``tolerance``, ``spread``: as :class:`~.mesh.SurfaceContact`'s. ValueError naming the
+    contact and what is wrong."""
     pre = f"contacts.{name}"
     want = 1 if ground else 2
     if len(surfaces) != want:
@@ -454,7 +456,7 @@ def declare_contact(mesh: Mesh, name: str, surfaces: tuple[str, ...],
         raise ValueError(f"{pre}.bodies = {list(bodies)}: expected one body per surface, "
                          f"from {sorted(mesh.bodies)}")
     if ground:
-        return SurfaceContact(name, bodies[0], surfaces[0], tolerance=tolerance)
+        return SurfaceContact(name, bodies[0], surfaces[0], tolerance=tolerance, spread=spread)
     (a, b), (sa, sb) = bodies, surfaces
     k = 0
     if neighbour:
@@ -467,7 +469,7 @@ def declare_contact(mesh: Mesh, name: str, surfaces: tuple[str, ...],
                          "in the neighbouring sector (neighbour = true)")
     if len(mesh.node_sets[sb]) > len(mesh.node_sets[sa]):  # the finer side's nodes pair
         a, b, sa, sb, k = b, a, sb, sa, -k
-    return SurfaceContact(name, a, sa, b, sb, k, tolerance)
+    return SurfaceContact(name, a, sa, b, sb, k, tolerance, spread)
 
 
 def _neighbour_side(mesh: Mesh, set_a: str, set_b: str, phi: float) -> int:

@@ -146,6 +146,7 @@ def _report_run(path: Path, out: Path, start: float) -> tuple[str, str]:
 def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
     from microslip.pipeline.app.run import run_case
+    from microslip.pipeline.case import InputError
 
     parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML)")
@@ -177,6 +178,9 @@ def run(argv: list[str]) -> int:
             path = run_case(c, out, progress=lambda msg: print(msg, flush=True),
                             cache=not args.no_cache)
             status, message = _report_run(path, out, t)
+        except InputError as err:  # found once the mesh exists: before any heavy work
+            print(f"microslip run: {args.case}: {err}", file=sys.stderr)
+            return 2
         except KeyboardInterrupt:  # Terminated too
             why = "terminated (SIGTERM)" if received else "interrupted"
             print(f"microslip run: {why}; the results file keeps what finished, marked "

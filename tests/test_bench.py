@@ -16,9 +16,9 @@ def test_bench_core_prints_time_per_point_and_contact_cost(capsys):
 
 
 def test_bench_teaching_finds_and_runs_the_shipped_cases(capsys):
-    assert main(["bench", "teaching", "--skip-frf", "--cases", "sdof_wall"]) == 0
+    assert main(["bench", "teaching", "--skip-frf", "--cases", "hysteresis_loops"]) == 0
     out = capsys.readouterr().out
-    row = next(line for line in out.splitlines() if "sdof_wall.toml" in line)
+    row = next(line for line in out.splitlines() if "hysteresis_loops.toml" in line)
     assert row.split()[-1] == "complete", out
 
 

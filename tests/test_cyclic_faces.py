@@ -115,6 +115,7 @@ def _frequencies(mesh: Mesh, nd: int, n: int = 6) -> np.ndarray:
     return np.sqrt(np.sort(lam.real)) / (2 * np.pi)
 
 
+@pytest.mark.slow  # ~6 s: two Gmsh rings and their spectra (the figures of the README)
 def test_matching_and_non_matching_faces_give_the_same_frequencies(tmp_path):
     """One sector meshed by Gmsh with periodic (matching) faces and freely (the left face
     finer, so the left face is the one tied): at each ND the first six frequencies differ by

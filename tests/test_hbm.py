@@ -24,6 +24,9 @@ def jenkins_frf():
     return sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5))
 
 
+# ~9 s (ten converged time integrations); the fast suite keeps HBM against time integration on
+# the blade-damper (test_blade_damper) and the loops (test_dti)
+@pytest.mark.slow
 def test_jenkins_peak_matches_time_integration(jenkins_frf):
     r = jenkins_frf
     assert r.branch.complete

@@ -377,3 +377,66 @@ def test_deck_rules(tmp_path):
     assert read.report.dropped_sets == ("MIDDLE",)
     with pytest.raises(ValueError, match="holds mid-side nodes only"):
         fem.node_set(read.mesh, "MIDDLE")
+
+
+COARSE = dict(sectors=6, size=0.03, blade_size=0.012, contact_n_axial=3, contact_n_flank=2)
+
+
+# (.bdf: Nastran has no node sets to name the contacts' surfaces; its matrices and reduced
+# frequencies are checked above)
+@pytest.mark.parametrize(("suffix", "quadratic", "bodies", "tol"), [
+    FORMATS[0], *(pytest.param(*f, marks=pytest.mark.slow) for f in FORMATS[1:]
+                  if f[0] != ".bdf")])
+def test_round_trip_gives_the_native_frf(tmp_path, suffix, quadratic, bodies, tol):
+    """The coarse blisk + damper written in another frame and unit, read back with its
+    damper contacts declared between the files' node sets (the flank on the next blade's
+    platform by neighbour = true, the stiffness shared equally as the model's patches do),
+    reduced and joined: the same FRF points as the native model (nonlinear: stick, slip and
+    lift-off along the damper flanks) to 1e-9."""
+    import dataclasses
+
+    from microslip.geometry.pairing import declare_contact
+    from microslip.pipeline.app import structure
+    from microslip.pipeline.assembly.join import join
+    from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
+    from microslip.pipeline.friction.harmonics import Harmonics
+    from microslip.pipeline.solve.hbm import OperatingPoint
+    from microslip.pipeline.solve.response import solve_point
+
+    native = geometry.blisk_sector(**COARSE)
+    path = _moved(native, tmp_path / f"blisk{suffix}", quadratic=quadratic)
+    read = import_mesh(path, "mm-t-s", bodies, _sector(native)).mesh
+    named = {".cdb": lambda n: n.replace("/", "_").upper()}.get(suffix, lambda n: n)
+    contacts = {p: declare_contact(read, p, (named(f"contact/{p}/damper"),
+                                             named(f"contact/{p}/blisk")),
+                                   neighbour=p == "damper_right", spread="nodes")
+                for p in ("damper_left", "damper_right")}
+    assert {p: (c.body_a, c.b_sector_offset) for p, c in contacts.items()} == {
+        p: (native.contacts[p].body_a, native.contacts[p].b_sector_offset) for p in contacts}
+    read = dataclasses.replace(read, contacts=contacts)
+    frf = {}
+    for name, mesh, nm in (("native", native, lambda n: n), ("read", read, named)):
+        red = {"modes": "auto", "f_max": 1500.0, "order": 1, "nodal_diameters": [0, 1],
+               "damping": {"modal_ratios": 0.005},
+               "bodies": {"blisk": {"clamped": [nm("blisk/bore")],
+                                    "masters": [nm("blisk/excitation"), nm("blisk/response")]}}}
+        st = structure.reduce_structure(mesh, red, None, progress=lambda s: None)
+        spec = AssemblySpec(
+            contacts=tuple(PatchFriction(p, 0.5) for p in ("damper_left", "damper_right")),
+            engine_order=1, speed=1000.0, centrifugal=("damper",), mass_bodies=("damper",),
+            loads=(NodalLoad(nm("blisk/excitation"), "tangential", 200.0),),
+            outputs=(Output("tip", nm("blisk/response"), "tangential"),))
+        cm = join(mesh, st.models, st.patch_stiffness, spec, Harmonics.up_to(1, 64))
+        w1 = 2 * np.pi * st.frequencies["blisk", 1][0]
+        out = []
+        for w in w1 * np.array([0.97, 1.0, 1.03]):
+            r = solve_point(cm.hb, OperatingPoint(w))
+            assert r.converged, r.reason
+            out.append(cm.output_coefficients(r.x, OperatingPoint(w))[0])
+            states = {int(s) for c in cm.hb.contact_response(r.x, OperatingPoint(w))
+                      for s in c.state}
+        frf[name] = np.array(out)
+    assert len(states) >= 2, states  # not a linear limit
+    # Newton stops at 1e-9 of the force scale (quadratically converged, far below it)
+    np.testing.assert_allclose(frf["read"], frf["native"], rtol=0,
+                               atol=1e-9 * np.abs(frf["native"]).max())

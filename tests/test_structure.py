@@ -211,7 +211,7 @@ def test_a_failed_eigen_solve_names_body_and_nd(tmp_path, monkeypatch, capsys):
     path = tmp_path / "coarse.toml"
     path.write_text(
         '[geometry]\nmodel = "blisk_sector"\n'
-        "[geometry.parameters]\nsectors = 24\nsize = 0.016\nblade_size = 0.008\n"
+        "[geometry.parameters]\nsectors = 24\nsize = 0.03\nblade_size = 0.015\n"
         "[reduction]\nnodal_diameters = [5]\nmodes = 6\n")
     monkeypatch.setattr(reduction, "EIGEN_TOL", 1e-18)  # below any round-off floor
     monkeypatch.setattr(linalg, "MAX_RESTARTS", 3)  # it fails the same way, sooner
@@ -224,3 +224,23 @@ def test_a_failed_eigen_solve_names_body_and_nd(tmp_path, monkeypatch, capsys):
     with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
         assert f.attrs["status"] == "failed"
         assert "reduction of body 'blisk' at ND 5" in f.attrs["message"]
+
+
+@pytest.mark.parametrize("bodies, expected", [
+    ("", "body 'disk' has no master nodes"),
+    ('[reduction.bodies.disk]\nmasters = ["disk/rim"]\n',
+     "are on the cyclic face that follows the other"),
+    ('[reduction.bodies.disk]\nmasters = ["disk/bore"]\n', "are clamped"),
+])
+def test_masters_a_model_names_only_once_meshed_are_one_line(tmp_path, capsys, bodies,
+                                                            expected):
+    """What a parametric model's names resolve to is known once it is meshed: a body without
+    masters, or masters without DOFs of their own, end the run there, one line, exit 2."""
+    from microslip.pipeline import cli
+
+    path = tmp_path / "disk.toml"
+    path.write_text('[geometry]\nmodel = "annular_sector"\n[reduction]\nnodal_diameters = '
+                    f"[1]\n{bodies}")
+    assert cli.main(["run", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and err.count("\n") == 1 and "Traceback" not in err

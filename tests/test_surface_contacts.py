@@ -205,3 +205,22 @@ def test_a_surface_contact_must_name_sets_and_bodies_of_the_mesh():
         dataclasses.replace(mesh, contacts={"i": SurfaceContact("i", "upper", "nowhere")})
     with pytest.raises(MeshValidationError, match="body_b and set_b go together"):
         SurfaceContact("i", "upper", "upper/bottom", "lower")
+
+
+def test_a_neighbour_contact_pairs_the_shroud_interlock_as_its_patch_does():
+    """The shrouded blisk's interlock declared between its two named faces with neighbour =
+    true: the next sector is found (+1), and the pairs, normals and area are the model's
+    own patch's (a structured grid, paired node for node under the sector rotation)."""
+    from microslip import geometry
+
+    mesh = geometry.shrouded_blisk()
+    c = declare_contact(mesh, "lock", ("contact/shroud/a", "contact/shroud/b"), neighbour=True)
+    assert (c.body_a, c.body_b, c.b_sector_offset) == ("blisk", "blisk", 1)
+    mesh = dataclasses.replace(mesh, contacts={**mesh.contacts, "lock": c})
+    lock, patch = paired_contact(mesh, "lock").pairing, paired_contact(mesh, "shroud").pairing
+    assert lock.matching
+    partner = lock.nodes_b[lock.weights.indices]  # one partner per pair, node for node
+    assert sorted(zip(lock.nodes_a, partner)) == sorted(zip(patch.nodes_a, patch.nodes_b))
+    np.testing.assert_allclose(lock.normals, patch.normals, atol=1e-9)
+    assert lock.area == pytest.approx(patch.area, rel=1e-9)
+    np.testing.assert_allclose(lock.gaps, 0.0, atol=1e-12)

@@ -21,6 +21,7 @@ from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.case import (
     Case,
     GeometryTable,
+    InputError,
     contact_elements,
     curve_variants,
     harmonics,
@@ -148,7 +149,10 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
     """Build (or read) the [geometry] of a case; write mesh.msh, mesh.vtu and (``pictures``)
     the previews (``microslip mesh``: no results file; a run draws them from results.h5)."""
     t = time.perf_counter()
-    m = table.build()
+    try:
+        m = table.build()
+    except ValueError as err:  # a declared contact on a model known only once meshed
+        raise InputError(str(err)) from None
     elapsed = time.perf_counter() - t
     m.write_msh(out / "mesh.msh")
     m.write(out / "mesh.vtu")

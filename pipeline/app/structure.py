@@ -16,6 +16,7 @@ from typing import Any
 
 from numpy.typing import NDArray
 
+from microslip.pipeline.case import InputError
 from microslip.pipeline.case.reduction import (
     ReductionTable,
     body_specs,
@@ -77,7 +78,10 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
     else:
         nds = needed_nodal_diameters(red, max(sectors), case_orders)
     for spec in specs:  # names and node sets, before any heavy work
-        reduction.spec_nodes(mesh, spec)
+        try:
+            reduction.spec_nodes(mesh, spec)
+        except ValueError as err:
+            raise InputError(str(err)) from None
     patch_stiffness = patch_stiffnesses(mesh, specs, red)
     backend = None if red.backend == "auto" else red.backend
     result = StructureResult({}, patch_stiffness, nds, red.f_max)

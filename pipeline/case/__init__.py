@@ -19,8 +19,8 @@ from .build import (
 from .estimate import Size, notes, sizes
 from .file import check, load
 from .geometry import GeometryTable
-from .validated import Case, CaseError
+from .validated import Case, CaseError, InputError
 
-__all__ = ["Case", "CaseError", "GeometryTable", "Size", "check", "contact_elements",
+__all__ = ["Case", "CaseError", "GeometryTable", "InputError", "Size", "check", "contact_elements",
            "curve_variants", "harmonics", "load", "lumped_model", "notes", "operating_point",
            "settings", "sizes"]

@@ -34,6 +34,8 @@
                                      # sector's (a shroud interlock, a damper's far flank)
     tolerance = 1e-5                 # [m] optional: how far beyond the other surface a
                                      # point may project and still touch it
+    spread = "area"                  # the stiffness shared by tributary area, or "nodes":
+                                     # equally (what a model's structured patch does)
 
 Each contact is then named like a model's patch in [[assembly.contacts]] (``patch``).
 
@@ -69,7 +71,7 @@ from .checks import is_int, is_number, unknown_keys
 IMPORT = "import"
 PARAMETRIC_KEYS = {"model", "parameters", "contacts"}
 IMPORT_KEYS = {"model", "file", "units", "bodies", "sector", "sets", "size", "contacts"}
-CONTACT_KEYS = {"surfaces", "bodies", "ground", "neighbour", "tolerance"}
+CONTACT_KEYS = {"surfaces", "bodies", "ground", "neighbour", "tolerance", "spread"}
 SECTOR_KEYS = {"sectors", "axis", "origin", "tolerance", "faces"}
 SELECTION_KEYS = {"box", "plane", "radius", "tolerance", "body"}
 
@@ -85,12 +87,13 @@ class ContactDeclaration:
     ground: bool = False
     neighbour: bool = False
     tolerance: float = 0.0  # [m] (0: the pairing's default)
+    spread: str = "area"  # the stiffness shared by tributary area, or equally ("nodes")
 
     def declare(self, mesh: geometry.Mesh) -> SurfaceContact:
         """The contact on ``mesh`` (ValueError naming the key and the fault)."""
         try:
             return declare_contact(mesh, self.name, self.surfaces, self.bodies, self.ground,
-                                   self.neighbour, self.tolerance)
+                                   self.neighbour, self.tolerance, self.spread)
         except ValueError as err:
             raise ValueError(f"geometry.{err}") from None
 
@@ -137,7 +140,8 @@ class GeometryTable:
         contacts = tuple(ContactDeclaration(
             name, tuple(t["surfaces"]), tuple(t["bodies"]) if "bodies" in t else None,
             bool(t.get("ground", False)), bool(t.get("neighbour", False)),
-            float(t.get("tolerance", 0.0))) for name, t in table.get("contacts", {}).items())
+            float(t.get("tolerance", 0.0)), t.get("spread", ContactDeclaration.spread))
+            for name, t in table.get("contacts", {}).items())
         if table["model"] != IMPORT:
             return cls(table["model"], dict(table.get("parameters", {})), base=Path(base),
                        contacts=contacts)
@@ -297,6 +301,9 @@ def _check_contacts(contacts: Any, out: list[str]) -> None:
         tol = t.get("tolerance", 1.0)
         if not (is_number(tol) and tol > 0):
             out.append(f"{pre}.tolerance = {tol!r}: expected a distance > 0 [m]")
+        if t.get("spread", "area") not in ("area", "nodes"):
+            out.append(f"{pre}.spread = {t['spread']!r}: expected \"area\" (the stiffness "
+                       "by tributary area) or \"nodes\" (equal shares)")
 
 
 def _vector(v: Any) -> bool:

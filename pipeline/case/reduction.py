@@ -43,6 +43,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from microslip.geometry.mesh import ContactPatch
 from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
@@ -383,8 +385,10 @@ def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec],
         if isinstance(patch, ContactPatch):  # a structured patch: equal shares on its grid
             out[name] = contact_stiffness.patch_stiffness(patch, materials[patch.body_a], b,
                                                           given.get(name))
-        else:
+        else:  # named surfaces: by tributary area, or equally ("nodes")
+            areas = paired_contact(mesh, name).pairing.areas
+            if patch.spread == "nodes":
+                areas = np.full(len(areas), areas.sum() / len(areas))
             out[name] = contact_stiffness.pairing_stiffness(
-                name, paired_contact(mesh, name).pairing.areas, materials[patch.body_a], b,
-                given.get(name))
+                name, areas, materials[patch.body_a], b, given.get(name))
     return out

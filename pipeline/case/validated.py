@@ -27,6 +27,11 @@ class CaseError(ValueError):
             f"  - {f}" for f in faults))
 
 
+class InputError(ValueError):
+    """A fault of a case found only once its mesh exists (what a parametric model's names
+    resolve to, a declared contact's surfaces, a body's masters): one line, exit 2."""
+
+
 @dataclass(frozen=True)
 class Case:
     """A validated case: the raw table (as run) plus its content hash; ``renamed``: a note

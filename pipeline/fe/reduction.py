@@ -673,7 +673,8 @@ def patch_nodes(mesh: MeshLike, name: str, body: str) -> IntArray:
 
 def spec_nodes(mesh: MeshLike, spec: BodySpec) -> tuple[IntArray, dict, IntArray, IntArray]:
     """(masters, patch name -> nodes, recovery nodes, clamped nodes) of a BodySpec; ValueError
-    naming any node set or patch the mesh does not have."""
+    naming any node set or patch the mesh does not have, a body without masters, or masters
+    without DOFs of their own (clamped, or on the cyclic face that follows the other)."""
     patches = {name: patch_nodes(mesh, name, spec.body) for name in spec.patches}
     masters = [*patches.values(), fem.node_sets_union(mesh, list(spec.master_sets))]
     master_nodes = np.unique(np.concatenate(masters)).astype(np.int64)
@@ -681,6 +682,18 @@ def spec_nodes(mesh: MeshLike, spec: BodySpec) -> tuple[IntArray, dict, IntArray
     if spec.recovery_surface:
         recovery = np.union1d(recovery, mesh.surface(spec.body))
     clamped = fem.node_sets_union(mesh, list(spec.clamped_sets))
+    where = f"[reduction.bodies.{spec.body}] masters"
+    if not len(master_nodes):
+        raise ValueError(f"{where}: body {spec.body!r} has no master nodes (no contact of "
+                         "its own, no node set named): name its interface nodes")
+    cyc = mesh.cyclic.get(spec.body)
+    follow = () if cyc is None else (cyc.right if cyc.slave_is_right else cyc.left)
+    for what, nodes in (("clamped", clamped), ("on the cyclic face that follows the other",
+                                               follow)):
+        bad = np.intersect1d(master_nodes, nodes)
+        if len(bad):
+            raise ValueError(f"{where}: {len(bad)} node(s) of body {spec.body!r} are {what} "
+                             f"(first {bad[:5].tolist()}): masters need DOFs of their own")
     return master_nodes, patches, recovery, clamped
 
 
