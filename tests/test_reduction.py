@@ -380,6 +380,10 @@ def test_bad_input_before_factorization(disk, monkeypatch):
     with pytest.raises(ValueError, match="node set 'disk/nope' does not exist"):
         reduction.reduce_body(mesh, spec, [0])
     spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/rim",))
+    with pytest.raises(ValueError, match="on the cyclic face that follows the other"):
+        reduction.reduce_body(mesh, spec, [0])
+    mesh = dataclasses.replace(mesh, node_sets={**mesh.node_sets, "disk/m": masters})
+    spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/m",))
     with pytest.raises(ValueError, match="nodal_diameter"):
         reduction.reduce_body(mesh, spec, [NS // 2 + 1])
 
