@@ -159,10 +159,12 @@ class ContactPatch:
             )
         if not float(self.area) > 0.0:
             raise MeshValidationError(f"ContactPatch {self.name!r}: area {self.area} <= 0")
-        if self.body_a == self.body_b and not self.b_sector_offset:
+        if (self.body_a == self.body_b and not self.b_sector_offset
+                and np.intersect1d(nodes_a, nodes_b).size):
             raise MeshValidationError(
-                f"ContactPatch {self.name!r}: body_a == body_b (a body touches itself only "
-                "in a neighbouring sector: b_sector_offset)")
+                f"ContactPatch {self.name!r}: body_a == body_b on shared nodes (a body "
+                "touches itself in a neighbouring sector, b_sector_offset, or elsewhere on "
+                "nodes of its own: a full disk's interlocks)")
         object.__setattr__(self, "nodes_a", nodes_a)
         object.__setattr__(self, "nodes_b", nodes_b)
         object.__setattr__(self, "normal", _frozen(normal))

@@ -379,23 +379,52 @@ def test_deck_rules(tmp_path):
         fem.node_set(read.mesh, "MIDDLE")
 
 
-COARSE = dict(sectors=6, size=0.03, blade_size=0.012, contact_n_axial=3, contact_n_flank=2)
+# The shipped models with contacts, coarse: (parameters, the spec's loads / output / extras
+# by body, the interference); the ND 1 family's first frequency is where the FRF points sit.
+MODELS = {
+    "blisk_sector": (dict(sectors=6, size=0.03, blade_size=0.012, contact_n_axial=3,
+                          contact_n_flank=2),
+                     ("blisk", 200.0, dict(speed=1000.0, centrifugal=("damper",),
+                                           mass_bodies=("damper",))), 0.0),
+    "root_joint": (dict(size=0.02, blade_size=0.008, contact_n_axial=3, contact_n_flank=2),
+                   ("blade", 20.0, dict(speed=1000.0, centrifugal=("blade",))), 0.0),
+    "shrouded_blisk": (dict(sectors=24, size=0.02, blade_size=0.008),
+                       ("blisk", 30.0, {}), 2e-5),
+}
+
+
+def _declared(native, read, named):
+    """The native patches as contacts between the file's node sets: each patch's two sets
+    (side a the one holding nodes_a), the neighbour's where the patch has an offset, the
+    stiffness shared equally as a structured patch shares it."""
+    from microslip.geometry.pairing import declare_contact
+
+    out = {}
+    for name, p in native.contacts.items():
+        sets = [s for s in native.node_sets if s.startswith(f"contact/{name}/")]
+        sets.sort(key=lambda s: not np.array_equal(np.sort(native.node_sets[s]),
+                                                   np.sort(p.nodes_a.ravel())))
+        out[name] = declare_contact(read, name, tuple(named(s) for s in sets),
+                                    neighbour=bool(p.b_sector_offset), spread="nodes")
+        assert (out[name].body_a, out[name].b_sector_offset) == (p.body_a, p.b_sector_offset)
+    return out
 
 
 # (.bdf: Nastran has no node sets to name the contacts' surfaces; its matrices and reduced
 # frequencies are checked above)
+@pytest.mark.parametrize("model", [pytest.param(m, marks=() if m == "blisk_sector" else
+                                                pytest.mark.slow) for m in MODELS])
 @pytest.mark.parametrize(("suffix", "quadratic", "bodies", "tol"), [
     FORMATS[0], *(pytest.param(*f, marks=pytest.mark.slow) for f in FORMATS[1:]
                   if f[0] != ".bdf")])
-def test_round_trip_gives_the_native_frf(tmp_path, suffix, quadratic, bodies, tol):
-    """The coarse blisk + damper written in another frame and unit, read back with its
-    damper contacts declared between the files' node sets (the flank on the next blade's
-    platform by neighbour = true, the stiffness shared equally as the model's patches do),
-    reduced and joined: the same FRF points as the native model (nonlinear: stick, slip and
-    lift-off along the damper flanks) to 1e-9."""
+def test_round_trip_gives_the_native_frf(tmp_path, model, suffix, quadratic, bodies, tol):
+    """Each model with contacts written in another frame and unit, read back with its
+    contacts declared between the file's node sets (a neighbour's face by neighbour = true,
+    the stiffness shared equally as the model's patches do), reduced and joined: the same
+    FRF points as the native model (on the blisk with stick, slip and lift-off along the
+    damper flanks), to what the reduction's eigen-solves leave (below)."""
     import dataclasses
 
-    from microslip.geometry.pairing import declare_contact
     from microslip.pipeline.app import structure
     from microslip.pipeline.assembly.join import join
     from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
@@ -403,40 +432,43 @@ def test_round_trip_gives_the_native_frf(tmp_path, suffix, quadratic, bodies, to
     from microslip.pipeline.solve.hbm import OperatingPoint
     from microslip.pipeline.solve.response import solve_point
 
-    native = geometry.blisk_sector(**COARSE)
-    path = _moved(native, tmp_path / f"blisk{suffix}", quadratic=quadratic)
-    read = import_mesh(path, "mm-t-s", bodies, _sector(native)).mesh
+    parameters, (loaded, force, extras), interference = MODELS[model]
+    native = geometry.MODELS[model](**parameters)
+    (cyclic_body,) = native.cyclic
+    path = _moved(native, tmp_path / f"{model}{suffix}", quadratic=quadratic)
+    sector = SectorSpec(native.cyclic[cyclic_body].sectors, tuple(AXIS), tuple(ORIGIN))
+    groups = None if bodies is None else {b: f"mat{k + 1}" for k, b in enumerate(native.bodies)}
+    read = import_mesh(path, "mm-t-s", groups, sector).mesh
     named = {".cdb": lambda n: n.replace("/", "_").upper()}.get(suffix, lambda n: n)
-    contacts = {p: declare_contact(read, p, (named(f"contact/{p}/damper"),
-                                             named(f"contact/{p}/blisk")),
-                                   neighbour=p == "damper_right", spread="nodes")
-                for p in ("damper_left", "damper_right")}
-    assert {p: (c.body_a, c.b_sector_offset) for p, c in contacts.items()} == {
-        p: (native.contacts[p].body_a, native.contacts[p].b_sector_offset) for p in contacts}
-    read = dataclasses.replace(read, contacts=contacts)
+    read = dataclasses.replace(read, contacts=_declared(native, read, named))
     frf = {}
     for name, mesh, nm in (("native", native, lambda n: n), ("read", read, named)):
+        clamp = next(s for s in native.node_sets if s.endswith("/bore"))
+        tables = {clamp.split("/")[0]: {"clamped": [nm(clamp)]}}
+        tables.setdefault(loaded, {})["masters"] = [nm(f"{loaded}/excitation"),
+                                                    nm(f"{loaded}/response")]
         red = {"modes": "auto", "f_max": 1500.0, "order": 1, "nodal_diameters": [0, 1],
-               "damping": {"modal_ratios": 0.005},
-               "bodies": {"blisk": {"clamped": [nm("blisk/bore")],
-                                    "masters": [nm("blisk/excitation"), nm("blisk/response")]}}}
+               "damping": {"modal_ratios": 0.005}, "bodies": tables}
         st = structure.reduce_structure(mesh, red, None, progress=lambda s: None)
         spec = AssemblySpec(
-            contacts=tuple(PatchFriction(p, 0.5) for p in ("damper_left", "damper_right")),
-            engine_order=1, speed=1000.0, centrifugal=("damper",), mass_bodies=("damper",),
-            loads=(NodalLoad(nm("blisk/excitation"), "tangential", 200.0),),
-            outputs=(Output("tip", nm("blisk/response"), "tangential"),))
+            contacts=tuple(PatchFriction(p, 0.5, interference) for p in sorted(mesh.contacts)),
+            engine_order=1, loads=(NodalLoad(nm(f"{loaded}/excitation"), "tangential", force),),
+            outputs=(Output("tip", nm(f"{loaded}/response"), "tangential"),), **extras)
         cm = join(mesh, st.models, st.patch_stiffness, spec, Harmonics.up_to(1, 64))
-        w1 = 2 * np.pi * st.frequencies["blisk", 1][0]
-        out = []
+        w1 = 2 * np.pi * st.frequencies[cyclic_body, 1][0]
+        out, states = [], set()
         for w in w1 * np.array([0.97, 1.0, 1.03]):
             r = solve_point(cm.hb, OperatingPoint(w))
             assert r.converged, r.reason
             out.append(cm.output_coefficients(r.x, OperatingPoint(w))[0])
-            states = {int(s) for c in cm.hb.contact_response(r.x, OperatingPoint(w))
-                      for s in c.state}
+            states |= {int(s) for c in cm.hb.contact_response(r.x, OperatingPoint(w))
+                       for s in c.state}
         frf[name] = np.array(out)
-    assert len(states) >= 2, states  # not a linear limit
-    # Newton stops at 1e-9 of the force scale (quadratically converged, far below it)
-    np.testing.assert_allclose(frf["read"], frf["native"], rtol=0,
-                               atol=1e-9 * np.abs(frf["native"]).max())
+    if model == "blisk_sector":
+        assert len(states) >= 2, states  # not a linear limit
+    # The reduced models agree to the eigen-solver's tolerance (1e-10 in frequency), which
+    # the resonance amplifies by its quality factor, 1 / (2 zeta) = 100, and Newton stops at
+    # 1e-9 of the forces: measured 3-6e-10 (blisk), 2e-9 to 1.3e-8 (root joint), 6-7e-11
+    # (shroud) of the largest coefficient
+    error = np.abs(frf["read"] - frf["native"]).max() / np.abs(frf["native"]).max()
+    assert error < 1e-7

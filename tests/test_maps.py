@@ -91,7 +91,8 @@ def test_an_off_screen_status_map_is_a_png_of_the_asked_size(tmp_path):
                             [[maps.Panel(grid, states, "test")]], panel=panel)
     image = np.asarray(Image.open(path).convert("RGB"))
     strip = max(1, round(panel[1] / 7))
-    assert image.shape == (panel[1] + 2 * strip, panel[0], 3)
+    # one column is drawn two panels wide (its title and the legend need the room)
+    assert image.shape == (panel[1] + 2 * strip, 2 * panel[0], 3)
     assert image.std() > 10  # not blank
     open_rgb = np.round(255 * np.array(to_rgb(maps.STATE_COLOURS[OPEN])))
     hits = np.all(np.abs(image[strip: strip + panel[1]] - open_rgb) < 3, axis=-1)

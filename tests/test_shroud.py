@@ -78,3 +78,62 @@ def test_reduced_model_matches_the_sector(shroud):
     full = np.sqrt(np.sort(lam.real)) / (2 * np.pi)
     reduced = reduction.reduce_body(shroud, spec, (3,), None, None, lambda *a: None)[3]
     np.testing.assert_allclose(reduced.frequencies(10), full, rtol=1e-3)
+
+
+@pytest.mark.slow  # ~3 min: the full disk's harmonic balance has 24 x 18 interlock pairs
+def test_the_shroud_sector_equals_the_full_disk():
+    """The interlock through the cyclic phase (a body touching its own next sector) against
+    24 rotated copies of the sector joined node for node, their interlocks plain contacts of
+    the one blisk body, loaded with the engine order's phase: first-harmonic tip amplitudes at
+    the stuck resonance, stuck (measured 8e-9) and with stick-slip and partial lift-off at
+    30 N (measured 1.3e-4: Newton stops at 1e-9 of the forces, and the interlock's forces
+    are ~1e4 x the excitation there)."""
+    from microslip.pipeline.app import structure
+    from microslip.pipeline.assembly.join import join
+    from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
+    from microslip.pipeline.friction.harmonics import Harmonics
+    from microslip.pipeline.solve.hbm import OperatingPoint
+    from microslip.pipeline.solve.response import solve_point
+
+    ns = 24  # (the model's blade and shroud part below ~20 blades)
+    sector = geometry.shrouded_blisk(sectors=ns, size=0.02, blade_size=0.008)
+    full = geometry.full_disk(sector)
+    red = {"modes": "auto", "f_max": 3000.0, "order": 1, "damping": {"modal_ratios": 0.005}}
+    sets = {s: [f"blisk/{s}#{k}" for k in range(ns)] for s in ("bore", "excitation",
+                                                                "response")}
+    st = structure.reduce_structure(sector, {**red, "nodal_diameters": [0, 1]}, None,
+                                    progress=lambda s: None)
+    st_full = structure.reduce_structure(full, {**red, "nodal_diameters": [0], "bodies": {
+        "blisk": {"clamped": sets["bore"], "masters": sets["excitation"] + sets["response"],
+                  "recovery": []}}}, None, progress=lambda s: None)
+    h, phi = Harmonics.up_to(1, 64), 2 * np.pi / ns
+
+    def models(mu, amplitude):
+        out = Output("tip", "blisk/response", "tangential")
+        cyc = join(sector, st.models, st.patch_stiffness, AssemblySpec(
+            contacts=(PatchFriction("shroud", mu, 2e-5),), engine_order=1,
+            loads=(NodalLoad("blisk/excitation", "tangential", amplitude),), outputs=(out,)),
+            h)
+        disk = join(full, st_full.models, st_full.patch_stiffness, AssemblySpec(
+            contacts=tuple(PatchFriction(p, mu, 2e-5) for p in sorted(full.contacts)),
+            engine_order=1, outputs=(Output("tip", "blisk/response#0", "tangential"),),
+            loads=tuple(NodalLoad(f"blisk/excitation#{k}", "tangential", amplitude, 1,
+                                  k * phi) for k in range(ns))), h)
+        return cyc, disk
+
+    def amplitude(cm, w):
+        r = solve_point(cm.hb, OperatingPoint(w))
+        assert r.converged, r.reason
+        states = {int(s) for c in cm.hb.contact_response(r.x, OperatingPoint(w))
+                  for s in c.state}
+        return np.hypot(*cm.output_coefficients(r.x, OperatingPoint(w))[0, 1:3]), states
+
+    cyc, disk = models(1e4, 1.0)
+    ws = np.linspace(2000.0, 12000.0, 201)
+    w0 = ws[np.argmax([np.hypot(*cyc.linear_outputs(OperatingPoint(w), "stuck")[0, 1:3])
+                       for w in ws])]
+    for (mu, force), tol in (((1e4, 1.0), 1e-7), ((0.5, 30.0), 1e-3)):
+        cyc, disk = models(mu, force)
+        (a, states), (b, _) = amplitude(cyc, w0), amplitude(disk, w0)
+        assert abs(a / b - 1) < tol, (mu, force, a / b - 1)
+    assert len(states) >= 2, states  # the second is not a linear limit

@@ -33,7 +33,8 @@ from microslip.pipeline.friction.states import (
 #: Colour of each state over the period (matplotlib/VTK colour names or #rrggbb).
 STATE_COLOURS: dict[int, str] = {STICK: "white", STICK_SLIP: "#a0a0a0", GROSS_SLIP: "#e6550d",
                                  PARTIAL_LIFTOFF: "black", OPEN: "#3182bd"}
-#: Pixels of one map panel (width, height); a grid of panels multiplies them.
+#: Pixels of one map panel (width, height); a grid of panels multiplies them (a single
+#: column is drawn two panels wide: its title and the legend need the room).
 PANEL = (520, 420)
 EDGES = ("first row (i = 0)", "last row (i = n1 - 1)", "first column (j = 0)",
          "last column (j = n2 - 1)")
@@ -228,11 +229,12 @@ class Panel:
 
 
 def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
-    """Off-screen plotter: a title strip, rows x cols panels, a legend strip."""
+    """Off-screen plotter: a title strip, rows x cols panels (one column as wide as two:
+    the title and the legend need the room), a legend strip."""
     import pyvista as pv
 
     strip = max(1, round(panel[1] / 7))
-    size = [panel[0] * cols, panel[1] * rows + 2 * strip]
+    size = [_panel_width(cols, panel) * cols, panel[1] * rows + 2 * strip]
     from microslip.pipeline.draw.previews import title_strip, vtk_warnings_off
 
     with vtk_warnings_off():
@@ -241,6 +243,11 @@ def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
                         groups=[(0, np.s_[:]), (rows + 1, np.s_[:])], border=False)
     title_strip(pl, title, 11)
     return pl
+
+
+def _panel_width(cols: int, panel: tuple[int, int]) -> int:
+    """Pixels of one panel's width: the panel's, twice it in a single column."""
+    return panel[0] * (2 if cols == 1 else 1)
 
 
 def _outline(pl, grid: PatchGrid) -> None:
@@ -354,7 +361,7 @@ def status_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]],
             pl.add_mesh(cells(p.grid, state_rgb(p.values, colours), "rgb"), scalars="rgb",
                         rgb=True, show_edges=True, edge_color="#c8c8c8", lighting=False)
             _outline(pl, p.grid)
-            _view(pl, p.caption, p.grid, panel[0] / panel[1])
+            _view(pl, p.caption, p.grid, _panel_width(cols, panel) / panel[1])
     pl.subplot(rows + 1, 0)
     _legend(pl, [(STATE_NAMES[s], colours[s]) for s in range(len(STATE_NAMES))])
     return save(pl, path)
@@ -378,7 +385,7 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
                         clim=clim, show_edges=True, edge_color="#c8c8c8", lighting=False,
                         show_scalar_bar=False)
             _outline(pl, p.grid)
-            _view(pl, p.caption, p.grid, panel[0] / panel[1])
+            _view(pl, p.caption, p.grid, _panel_width(cols, panel) / panel[1])
     pl.subplot(rows + 1, 0)
     import pyvista as pv
 
