@@ -97,6 +97,9 @@ def full_disk(sector: Mesh) -> Mesh:
     }
     contacts = {}
     for name, p in sector.contacts.items():
+        if not isinstance(p, ContactPatch):
+            raise ValueError(f"full_disk: contact {name!r} is between named surfaces; only "
+                             "structured patches are copied round the disk")
         for k in range(ns):
             kb = k + p.b_sector_offset
             contacts[f"{name}#{k}"] = ContactPatch(

@@ -193,7 +193,8 @@ class SurfaceContact:
              neighbouring sector's face, as for :class:`ContactPatch`); 0: none
     tolerance:
              [m] how far outside side b a node of side a may project and still be
-             paired (nodes farther out touch nothing and are left out)
+             paired (nodes farther out, with less than half their area over side b,
+             touch nothing and are left out)
     spread:  how the contact's stiffness is shared among its pairs: "area", by their
              tributary areas; "nodes", equally (Firrone & Zucca's choice, which a
              structured patch makes)

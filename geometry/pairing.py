@@ -382,16 +382,19 @@ def _surface_pairs(mesh: Mesh, c: SurfaceContact) -> PairedContact:
     facets = surface_of(mesh.body_cells(c.body_a), mesh.node_sets[c.set_a])
     if c.body_b is None:
         return PairedContact(c.name, c.body_a, None, 0, p, facets)
-    touching = p.areas > 0
+    xyz_b = mesh.points[p.nodes_b] @ (np.eye(3) if rotation is None else rotation).T
+    size = float(np.linalg.norm(np.ptp(xyz_b, axis=0)))
+    # a node touches side b where some of its tributary area does, and either its own
+    # projection lies on side b (within the tolerance) or at least half its area does
+    _, whole, _ = nodal_areas_and_normals(mesh.points, facets)
+    touching = (p.areas > 0) & ((p.outside <= (c.tolerance or OUTSIDE * size))
+                                | (p.areas >= 0.5 * whole))
     if not touching.any():
         raise ValueError(f"contacts.{c.name}: no part of {c.set_a} lies on {c.set_b} "
                          f"(nearest node {p.outside.min():.3g} m beyond its edge): the "
                          "surfaces do not touch")
     dropped = (int((~touching).sum()), float(p.outside[~touching].max(initial=0.0)))
-    if dropped[0]:
-        p = _kept(p, touching)
-    xyz_b = mesh.points[p.nodes_b] @ (np.eye(3) if rotation is None else rotation).T
-    size = float(np.linalg.norm(np.ptp(xyz_b, axis=0)))
+    p = _kept(p, touching)  # (side b cut to the nodes the pairs use: its masters)
     worst = int(np.argmax(np.abs(p.gaps)))
     if abs(p.gaps[worst]) > FACING * size:
         raise ValueError(f"contacts.{c.name}: {c.set_a} and {c.set_b} do not face each "
@@ -409,6 +412,11 @@ def _kept(p: SurfacePairing, keep: np.ndarray) -> SurfacePairing:
     return SurfacePairing(p.nodes_a[keep], p.nodes_b[used], w[:, used].tocsr(),
                           p.normals[keep], p.areas[keep], p.gaps[keep], p.outside[keep],
                           p.matching)
+
+
+def surface_body_nodes(mesh: Mesh, body: str, set_name: str) -> np.ndarray:
+    """The nodes of ``body``'s faces in node set ``set_name`` (the surface's own nodes)."""
+    return surface_of(mesh.body_cells(body), mesh.node_sets[set_name]).nodes
 
 
 def surface_body(mesh: Mesh, set_name: str) -> list[str]:
@@ -429,7 +437,8 @@ def declare_contact(mesh: Mesh, name: str, surfaces: tuple[str, ...],
     """The :class:`SurfaceContact` of what a case declares: ``surfaces`` two node-set names
     (or one with ``ground``); ``bodies`` their bodies (default: the one body with faces in
     each set); ``neighbour``: the second surface is the neighbouring sector's, on whichever
-    side (+1 or -1 sector) brings it onto the first. Side a is made the finer surface.
+    side (+1 or -1 sector) brings it onto the first. Side a is made the finer surface (by
+    its faces' nodes; a neighbour contact keeps the cyclic body on side b).
     ``tolerance``, ``spread``: as :class:`~.mesh.SurfaceContact`'s. ValueError naming the
     contact and what is wrong."""
     pre = f"contacts.{name}"
@@ -467,8 +476,9 @@ def declare_contact(mesh: Mesh, name: str, surfaces: tuple[str, ...],
     elif a == b:
         raise ValueError(f"{pre}.surfaces: both on body {a!r}; a body touches itself only "
                          "in the neighbouring sector (neighbour = true)")
-    if len(mesh.node_sets[sb]) > len(mesh.node_sets[sa]):  # the finer side's nodes pair
-        a, b, sa, sb, k = b, a, sb, sa, -k
+    finer_b = len(surface_body_nodes(mesh, b, sb)) > len(surface_body_nodes(mesh, a, sa))
+    if finer_b and (not k or a in mesh.cyclic):  # the finer side's nodes pair (side b of a
+        a, b, sa, sb, k = b, a, sb, sa, -k     # neighbour contact must stay the cyclic one)
     return SurfaceContact(name, a, sa, b, sb, k, tolerance, spread)
 
 

@@ -44,8 +44,8 @@ class Projection:
     quad: (n,) bool, the facet is a quad (else a triangle); facet: (n,) its index among the
     surface's triangles or quads; local: (n, 2) (xi, eta); distance: (n,) [m] from the
     point to its projection; outside: (n,) [-] how far outside the facet the projection
-    fell, in local units (0 inside); gap: (n,) [m] the distance plus the outside part times
-    the facet's size (how far the point is from the surface itself).
+    fell, in local units (0 inside); gap: (n,) [m] the distance plus how far the foot lies
+    beyond the facet (how far the point is from the surface itself).
     """
 
     quad: np.ndarray
@@ -165,6 +165,20 @@ def _outside(local: np.ndarray, quad: bool) -> np.ndarray:
     return np.maximum.reduce([-xi, -eta, xi + eta - 1.0, np.zeros_like(xi)])
 
 
+def _beyond(local: np.ndarray, p: np.ndarray, quad: bool) -> np.ndarray:
+    """(n,) [m] from the foot at ``local`` (n, 2) on facets p (n, c, 3) to the facet: to the
+    nearest point of the quad's clipped coordinates, or of the triangle's clipped and
+    renormalised barycentric ones (0 inside)."""
+    if quad:
+        foot, _ = quad_map(p, local)
+        inside, _ = quad_map(p, np.clip(local, -1.0, 1.0))
+        return np.linalg.norm(foot - inside, axis=1)
+    bary, _ = triangle_shapes(local, 1)
+    clipped = np.clip(bary, 0.0, None)
+    clipped /= clipped.sum(axis=1, keepdims=True)
+    return np.linalg.norm(np.einsum("nc,nci->ni", bary - clipped, p), axis=1)
+
+
 def _fields(p: Projection) -> tuple[np.ndarray, ...]:
     return (p.quad, p.facet, p.local, p.distance, p.outside, p.gap)
 
@@ -186,10 +200,9 @@ def project(points: np.ndarray, xyz: np.ndarray, surface: Surface, candidates: i
             p = xyz[facets[near[:, j]]]
             local, dist = (_on_quads if quad else _on_triangles)(points, p)
             out = _outside(local, quad)
-            # rank by the gap: outside the facet counts as distance (in the facet's size)
-            size = np.linalg.norm(p.max(axis=1) - p.min(axis=1), axis=1)
+            # rank by the gap: how far the foot lies beyond the facet counts as distance
             trial = Projection(np.full(len(points), quad), near[:, j], local, dist, out,
-                               dist + out * size)
+                               dist + _beyond(local, p, quad))
             if best is None:
                 best = trial
                 continue

@@ -224,3 +224,24 @@ def test_a_neighbour_contact_pairs_the_shroud_interlock_as_its_patch_does():
     np.testing.assert_allclose(lock.normals, patch.normals, atol=1e-9)
     assert lock.area == pytest.approx(patch.area, rel=1e-9)
     np.testing.assert_allclose(lock.gaps, 0.0, atol=1e-12)
+
+
+def test_the_part_of_a_surface_beyond_the_other_touches_nothing():
+    """The upper block half over the lower one's edge: its bottom's nodes beyond that edge
+    (by more than the tolerance, with less than half their area over it) are left out and
+    counted, with how far the farthest lies; the others keep the part of their area over
+    the lower block, so the contact's area is the overlap but for one row of nodes at the
+    edge; side b keeps only the nodes the pairs use (its masters)."""
+    mesh = two_blocks(("hexahedron", (4, 4, 1)), ("tetra", (7, 5, 1)), (L, L, H), (L, L, H),
+                      (0.5 * L, 0.0))
+    c = declare_contact(mesh, "half", ("upper/bottom", "lower/top"))
+    p = paired_contact(dataclasses.replace(mesh, contacts={"half": c}), "half")
+    x = mesh.points[mesh.node_sets["upper/bottom"], 0]
+    beyond = x > L + 1e-12
+    assert 0 < p.dropped[0] <= beyond.sum()
+    assert p.dropped[1] == pytest.approx(x.max() - L, rel=1e-9)  # a distance in metres
+    spacing = L / 7
+    assert 0.5 * L * L - spacing * L <= p.pairing.area <= 0.5 * L * L * (1 + 1e-12)
+    used = np.unique(p.pairing.weights.indices)
+    assert len(used) == len(p.pairing.nodes_b)
+    assert mesh.points[p.pairing.nodes_b, 0].min() >= 0.5 * L - L / 4 - 1e-12

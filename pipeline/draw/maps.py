@@ -105,7 +105,12 @@ class PatchGrid:
                        high_radius_edge(points), p.nodes_a.reshape(c.grid),
                        p.nodes_b.reshape(c.grid))
         points = mesh.points[p.nodes_a]
-        frame = normal_frames(p.normals.mean(axis=0)[None])[0]
+        mean = (p.areas[:, None] * p.normals).sum(axis=0)
+        # the area-weighted mean normal, or where the normals nearly cancel (a ring) the
+        # largest pair's
+        n = mean if np.linalg.norm(mean) > 0.5 * p.areas.sum() else p.normals[
+            np.argmax(p.areas)]
+        frame = normal_frames(n[None])[0]
         return cls(name, c.body_a, body_b, points, frame, map_axes(points, frame), -1,
                    p.nodes_a, p.nodes_b, c.faces())
 
