@@ -114,7 +114,11 @@ def _accepted() -> set[str]:
     def under(prefix, names):
         return {f"{prefix}.{k}" for k in names}
 
-    tables = {"model": validate.MODEL_KEYS, "contacts": validate.CONTACT_KEYS | {"coef", "lag"},
+    from microslip.pipeline.friction.registry import LAWS
+
+    springs = {k for law in LAWS.values() for k in (*law.parameters, *getattr(law, "keys", ()))}
+    tables = {"model": validate.MODEL_KEYS,
+              "contacts": validate.CONTACT_KEYS | springs | {"coef", "lag"},
               "loads": validate.LOAD_KEYS, "harmonics": validate.HARMONIC_KEYS,
               "solver": validate.SOLVER_KEYS, "geometry": {"model", "parameters"},
               "analysis.family": validate.FAMILY_KEYS,

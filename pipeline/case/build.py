@@ -11,7 +11,7 @@ import numpy as np
 
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.law import ContactSet
-from microslip.pipeline.friction.laws import LAWS
+from microslip.pipeline.friction.registry import LAWS
 from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.hbm import (
     Contact,

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from microslip.pipeline.assembly.spec import PatchFriction
-from microslip.pipeline.friction.laws import LAWS, FrictionLaw
+from microslip.pipeline.friction.laws import FrictionLaw
+from microslip.pipeline.friction.registry import LAWS
 from microslip.pipeline.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
 from microslip.pipeline.solve.memory import (
     ContactShape,
@@ -91,7 +92,7 @@ def _size(name: str, data: dict, a: dict) -> Size:
     if kind == "loops":  # one law at orders 0, 1 under a prescribed motion, per amplitude
         c = next(c for c in data["contacts"] if c.get("name") == a["contact"])
         law = LAWS[c["law"]]
-        shape = ContactShape(len(a["amplitudes"]), len(law.motions), law.dim, 0)
+        shape = ContactShape(len(a["amplitudes"]), len(law.motions), getattr(law, "dim", 0), 0)
         samples = specs.analysis(a).samples
         nbytes = balance_bytes(0, 0, 2, 3, samples, [shape], 1, CACHE_LIMIT)
         return Size(name, 0, nbytes, "prescribed motion")

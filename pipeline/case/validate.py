@@ -9,7 +9,8 @@ import dataclasses
 import numpy as np
 
 from microslip import geometry
-from microslip.pipeline.friction.laws import FORMS, LAWS, FrictionLaw
+from microslip.pipeline.friction.laws import FORMS, FrictionLaw
+from microslip.pipeline.friction.registry import LAWS
 from microslip.pipeline.solve.hbm import PARAMETERS
 
 from . import assembly, specs
@@ -202,10 +203,12 @@ def _contact(i: int, c, dofs: set[str], seen: set[str], out: list[str]) -> None:
     seen.add(name)
     law = LAWS.get(c.get("law")) if isinstance(c.get("law"), str) else None
     if not isinstance(law, FrictionLaw) and law is not None:  # a law of the registry
-        unknown_keys(pre + ".", c, {"name", "law", "enabled", *law.motions, *law.parameters},
-                     out)
+        unknown_keys(pre + ".", c, {"name", "law", "enabled", *law.motions, *law.parameters,
+                                    *getattr(law, "keys", ())}, out)
         for key in law.parameters:
             number(f"{pre}.{key}", c.get(key), out)
+        if hasattr(law, "check"):  # the law's own rules (structured keys, ranges)
+            law.check(pre, c, out)
         for key in law.motions:
             if key not in c:
                 out.append(f"{pre}.{key}: missing (relative displacement as "
@@ -455,6 +458,12 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if has_lag(data):
             out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
                        "with 'lag'); use harmonic balance")
+    if kind in ("dti", "transient"):
+        springs = sorted({c.get("law") for c in data.get("contacts", []) if isinstance(c, dict)
+                          and not isinstance(LAWS.get(c.get("law")), (FrictionLaw, type(None)))})
+        if springs:
+            out.append(f"{pre}: time integration takes the friction laws A-D only; the case "
+                       f"has {springs} (use harmonic balance)")
     if kind == "dti":
         f = a.get("frequencies")
         if not (isinstance(f, list) and f and all(

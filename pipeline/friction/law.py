@@ -8,9 +8,10 @@ of given relative-motion coefficients and their exact Jacobian (:meth:`ContactSe
 the stiffness of the stuck contact (the linear guess and the linear limits), the response
 to the ``preload`` parameter, and a force scale.
 
-Every law is in one registry, ``laws.LAWS`` (name -> law): the case reader validates and
-builds through it, so a new law is a new entry there; laws A-D are one entry each, sharing
-the fused compiled kernel of :mod:`.returnmap`.
+Every law is in one registry, ``registry.LAWS`` (name -> law): the case reader validates
+and builds through it, so a new law is a new entry there; laws A-D are one entry each,
+sharing the fused compiled kernel of :mod:`.returnmap`; the springs of :mod:`.springs`
+(polynomial, unilateral) evaluate by AFT.
 """
 
 from __future__ import annotations
@@ -66,7 +67,9 @@ class ContactSet(Protocol):
 
 class ContactLaw(Protocol):
     """A contact law in the registry: its name, the relative motions it takes (case keys,
-    in the order of a contact set's components) and how a case's table becomes points."""
+    in the order of a contact set's components) and how a case's table becomes points.
+    A law with keys that are not numbers also has ``keys`` (their names) and ``check(pre,
+    table, out)``, which appends a line per fault of them (the case reader calls it)."""
 
     @property
     def name(self) -> str: ...

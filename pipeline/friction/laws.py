@@ -83,9 +83,9 @@ class FrictionLaw:
 FORMS = ("uncoupled", "coupled")
 
 
-#: Every contact law, by the name a case gives (``law = "A"``): the one registry the case
-#: reader and the harmonic balance find laws in (:mod:`.law`).
-LAWS: dict[str, FrictionLaw] = {law.name: law for law in (
+#: The friction laws of the reference text, by the name a case gives (``law = "A"``); every
+#: contact law, these and the springs, is in ``registry.LAWS``.
+FRICTION_LAWS: dict[str, FrictionLaw] = {law.name: law for law in (
     FrictionLaw("A", 1, False, "Griffin 1980"),
     FrictionLaw("B", 1, True, "Yang et al. 1998; Petrov & Ewins 2003"),
     FrictionLaw("C", 2, False, "Sanliturk & Ewins 1996; Menq & Yang 1998"),
@@ -201,9 +201,9 @@ class ContactElements:
         Give ``n0`` (N) for the uncoupled form, ``interference`` (m, negative
         for a gap) for the coupled form of the variable laws, or ``n0`` for the
         coupled form of the constant-load laws A and C."""
-        if law not in LAWS:
-            raise ValueError(f"contact: 'law' = {law!r} is not one of {sorted(LAWS)}")
-        d, variable = LAWS[law].dim, LAWS[law].variable_normal
+        if law not in FRICTION_LAWS:
+            raise ValueError(f"contact: 'law' = {law!r} is not one of {sorted(FRICTION_LAWS)}")
+        d, variable = FRICTION_LAWS[law].dim, FRICTION_LAWS[law].variable_normal
         if n_points is None:
             sizes = [np.size(x) for x in (mu, n0, kn, interference) if x is not None]
             sizes.append(np.size(kt) // d if np.ndim(kt) == 2 else np.size(kt))
@@ -245,11 +245,11 @@ class ContactElements:
     @property
     def dim(self) -> int:
         """Tangential dimension d."""
-        return LAWS[self.law].dim
+        return FRICTION_LAWS[self.law].dim
 
     @property
     def variable_normal(self) -> bool:
-        return LAWS[self.law].variable_normal
+        return FRICTION_LAWS[self.law].variable_normal
 
     @property
     def n_components(self) -> int:

@@ -1,0 +1,12 @@
+"""Every contact law by the name a case gives (``law = "A"``, ``"polynomial"``): the one
+registry the case reader and the harmonic balance find laws in (:mod:`.law`); a new law is a
+new entry here."""
+
+from __future__ import annotations
+
+from .law import ContactLaw
+from .laws import FRICTION_LAWS
+from .springs import PolynomialLaw, UnilateralLaw
+
+LAWS: dict[str, ContactLaw] = {**FRICTION_LAWS, **{law.name: law for law in (
+    PolynomialLaw(), UnilateralLaw())}}
