@@ -14,7 +14,7 @@ from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.registry import LAWS
 from microslip.pipeline.friction.states import OPEN, PARTIAL_LIFTOFF, STICK
 from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import sweep
+from microslip.pipeline.solve.response import solve_point, sweep
 
 ZETA, GAMMA, FORCE = 0.05, 0.1, 0.1
 DUFFING = {
@@ -138,3 +138,32 @@ def test_the_duffing_balance_of_seven_harmonics_is_the_time_integration():
     t = 59 * period + hb.harmonics.theta / w
     measured = hb.harmonics.analysis @ sol.sol(t)[0]
     np.testing.assert_allclose(measured, coef, atol=1e-6 * np.abs(coef).max())
+
+
+def test_a_spring_beside_a_friction_contact():
+    """A unilateral stop beside law A in one lumped case: far away (gap 10 m) it changes
+    nothing (the friction case's points to round-off); touching (gap 0.1 m, inside the
+    motion) it stiffens the peak up in frequency and down in amplitude."""
+    base = {"title": "t", "model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0],
+                                    "damping": [0.02]},
+            "contacts": [{"name": "wall", "law": "A", "kt": 3.0, "mu": 1.0, "n0": 0.05,
+                          "u": {"x": 1.0}}],
+            "loads": [{"dof": "x", "amplitude": 0.1}], "harmonics": {"max": 3},
+            "analysis": [{"name": "frf", "type": "frf", "start": 0.5, "stop": 2.5}]}
+    peaks = {}
+    for gap in (None, 10.0, 0.1):
+        data = copy.deepcopy(base)
+        if gap is not None:
+            data["contacts"].append({"name": "stop", "law": "unilateral", "kn": 5.0,
+                                     "gap": gap, "u": {"x": 1.0}})
+        hb = cases.lumped_model(cases.Case(data, "t.toml"))
+        points = [solve_point(hb, OperatingPoint(w)) for w in (0.9, 1.0, 1.1)]
+        assert all(p.converged for p in points)
+        peaks[gap] = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5)).peak(0)
+        if gap == 10.0:
+            np.testing.assert_allclose(np.array([p.x for p in points])[:, :7],
+                                       np.array([p.x for p in base_points]), atol=1e-12)
+        if gap is None:
+            base_points = points
+    assert peaks[10.0] == pytest.approx(peaks[None], rel=1e-12)
+    assert peaks[0.1][0] > 1.05 * peaks[None][0] and peaks[0.1][1] < peaks[None][1]
