@@ -1,0 +1,92 @@
+"""Stability by Hill's method (solve.stability): the exponents of a linear oscillator are
+its own (closed form), the Duffing oscillator's change stability exactly at the folds of its
+response curve (the middle branch unstable), and the Floquet multipliers equal the monodromy
+matrix's from SciPy's integration of the variational equations (an independent path)."""
+
+import copy
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from microslip.pipeline import case as cases
+from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import solve_point, sweep
+from microslip.pipeline.solve.stability import floquet_multipliers, hill_stability
+
+ZETA, GAMMA = 0.05, 0.1
+
+
+def duffing(force, H, gamma=GAMMA):
+    data = {"title": "Duffing", "model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0],
+                                          "damping": [2 * ZETA]},
+            "contacts": [{"name": "cubic", "law": "polynomial",
+                          "coefficients": [0.0, 0.0, gamma], "u": {"x": 1.0}}],
+            "loads": [{"dof": "x", "amplitude": force}],
+            "harmonics": {"max": H, "samples": max(64, 16 * (H + 1))},
+            "analysis": [{"name": "frf", "type": "frf", "start": 0.5, "stop": 2.0}]}
+    return cases.lumped_model(cases.Case(copy.deepcopy(data), "duffing.toml"))
+
+
+@pytest.mark.parametrize("w", [0.6, 1.0, 1.7])
+def test_a_linear_oscillators_exponents_are_its_eigenvalues(w):
+    """gamma = 0: the exponents are -zeta +- i sqrt(1 - zeta^2), shifted by i k w into the
+    strip |Im| <= w / 2: real parts -zeta exactly, whatever the forcing frequency."""
+    hb = duffing(0.1, 3, gamma=0.0)
+    p = OperatingPoint(w)
+    s = hill_stability(hb, solve_point(hb, p).x, p)
+    assert s.stable and len(s.exponents) == 2
+    np.testing.assert_allclose(s.exponents.real, -ZETA, atol=1e-10)
+    wd = np.sqrt(1 - ZETA**2)
+    shifted = np.abs(np.abs(s.exponents.imag) - np.abs(wd - w * np.round(wd / w)))
+    assert shifted.max() < 1e-9
+
+
+def test_the_duffing_middle_branch_is_unstable_between_the_folds():
+    """Along a hardening sweep that folds (P = 0.3): stable up to the first turning point,
+    unstable between the two, stable after; the exponent through zero at each fold."""
+    hb = duffing(0.3, 3)
+    r = sweep(hb, "frequency", 0.5, 2.0, OperatingPoint(0.5))
+    assert r.branch.status == "complete"
+    folds = sorted(r.branch.turning_points)
+    assert len(folds) == 2, folds
+    stable = np.array([hill_stability(hb, x, OperatingPoint(w)).stable
+                       for x, w in zip(r.branch.x, r.omega, strict=True)])
+    i, j = folds
+    # the turning points are the last stable and first unstable points, within one step
+    assert stable[: i - 1].all() and not stable[i + 1: j - 1].any() and stable[j + 1:].all()
+
+
+@pytest.mark.parametrize("where", ["lower", "middle", "upper"])
+def test_multipliers_are_the_monodromy_matrix(where):
+    """At w = 1.2, P = 0.3, H = 7 (three solutions): the Floquet multipliers from the Hill
+    exponents against the eigenvalues of the monodromy matrix, the variational equations
+    integrated over one period along the balance's orbit; to 1e-3 (the issue's bound; the
+    truncation at seven harmonics and the integrator's tolerance)."""
+    hb = duffing(0.3, 7)
+    w = 1.2
+    r = sweep(hb, "frequency", 0.5, 2.0, OperatingPoint(0.5))
+    crossings = [k for k in range(len(r) - 1)
+                 if (r.omega[k] - w) * (r.omega[k + 1] - w) <= 0]
+    assert len(crossings) == 3, crossings
+    k = crossings[("lower", "middle", "upper").index(where)]
+    x = solve_point(hb, OperatingPoint(w), x0=r.branch.x[k]).x
+    s = hill_stability(hb, x, OperatingPoint(w))
+    coef = hb.recover(x, OperatingPoint(w))[0]
+    h = hb.harmonics
+
+    def rhs(t, y):
+        u = h.synthesis_at(np.array([w * t]))[0] @ coef
+        Phi = y.reshape(2, 2)
+        A = np.array([[0.0, 1.0], [-(1.0 + 3 * GAMMA * u * u), -2 * ZETA]])
+        return (A @ Phi).ravel()
+
+    sol = solve_ivp(rhs, (0.0, 2 * np.pi / w), np.eye(2).ravel(), rtol=1e-11, atol=1e-13)
+    def ordered(z):  # (a conjugate pair's equal real parts differ in round-off)
+        return z[np.lexsort((z.imag, np.round(z.real, 6)))]
+
+    mono = ordered(np.linalg.eigvals(sol.y[:, -1].reshape(2, 2)))
+    hill = ordered(floquet_multipliers(s, w))
+    np.testing.assert_allclose(hill, mono, atol=1e-3 * max(1.0, np.abs(mono).max()))
+    assert s.stable == (where != "middle")
+    assert (np.abs(mono).max() < 1.0) == s.stable
