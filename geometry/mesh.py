@@ -451,6 +451,13 @@ class Mesh:
                          for shape, c in self.body_cells(body).items()))
 
     @cached_property
+    def derived(self) -> dict:
+        """What is computed from the mesh alone and asked for by several stages (the
+        contacts' pairings, ``geometry.pairing.paired_contact``): kept with the mesh, which
+        never changes, so each is computed once."""
+        return {}
+
+    @cached_property
     def content_hash(self) -> str:
         """sha256 hex digest over arrays, names and parameters (stable across runs)."""
         h = hashlib.sha256()

@@ -344,11 +344,14 @@ def normal_frames(normals: np.ndarray, reference: np.ndarray | None = None) -> n
 
 def paired_contact(mesh: Mesh, name: str) -> PairedContact:
     """Contact ``name`` of ``mesh`` as its pairs (ValueError naming it when its surfaces
-    do not face each other)."""
-    c = mesh.contacts[name]
-    if isinstance(c, ContactPatch):
-        return _patch_pairs(mesh, name, c)
-    return _surface_pairs(mesh, c)
+    do not face each other), computed once per mesh (the reduction's masters, the
+    stiffness, the assembly, the maps and the estimate all ask)."""
+    key = ("paired", name)
+    if key not in mesh.derived:
+        c = mesh.contacts[name]
+        mesh.derived[key] = (_patch_pairs(mesh, name, c) if isinstance(c, ContactPatch)
+                             else _surface_pairs(mesh, c))
+    return mesh.derived[key]
 
 
 def _patch_pairs(mesh: Mesh, name: str, patch: ContactPatch) -> PairedContact:

@@ -186,10 +186,7 @@ def _patch_contacts(mesh: Mesh, pc: PatchFriction, stiffness: PatchStiffness,
     A pair's partner displacement is side b's interpolated at the pair (``weights``; one
     node for node), turned and phased when side b is a neighbouring sector's; against the
     ground there is none."""
-    try:
-        c = paired_contact(mesh, pc.patch)
-    except ValueError as err:
-        raise ValueError(str(err)) from None
+    c = paired_contact(mesh, pc.patch)
     p = c.pairing
     frames = c.frames
     kn, kt = stiffness.normal.ravel(), stiffness.tangential.ravel()

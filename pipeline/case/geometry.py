@@ -174,15 +174,20 @@ class GeometryTable:
     def build(self) -> geometry.Mesh:
         """The mesh (Gmsh for a parametric model; read for an import) with the declared
         contacts: the heavy step."""
-        if self.imported:
-            return with_contacts(self.read().mesh, self.contacts)
+        if self.imported:  # (check, the estimate, the plan and the run each ask)
+            return _imported(self._key, self.units, self.bodies, self.sector, self.sets,
+                             self.size, self.contacts)
         return with_contacts(geometry.MODELS[self.model](**self.parameters), self.contacts)
 
     def read(self) -> ImportedMesh:
         """The imported mesh and what reading it found (kept while the file is unchanged)."""
+        return _read(self._key, self.units, self.bodies, self.sector, self.sets, self.size)
+
+    @property
+    def _key(self) -> tuple:
+        """The file's identity for the caches: path, modification time and size."""
         stat = self.path.stat() if self.path.is_file() else None
-        key = (str(self.path), stat.st_mtime_ns if stat else 0, stat.st_size if stat else 0)
-        return _read(key, self.units, self.bodies, self.sector, self.sets, self.size)
+        return (str(self.path), stat.st_mtime_ns if stat else 0, stat.st_size if stat else 0)
 
     @property
     def sectors(self) -> int | None:
@@ -211,6 +216,13 @@ def _selection(t: Mapping[str, Any]) -> Selection:
 def _read(key: tuple, units: str, bodies, sector, sets, size) -> ImportedMesh:
     return import_mesh(key[0], units, dict(bodies) if bodies is not None else None, sector,
                        dict(sets), size)
+
+
+@functools.lru_cache(maxsize=4)
+def _imported(key: tuple, units: str, bodies, sector, sets, size,
+              contacts: tuple[ContactDeclaration, ...]) -> geometry.Mesh:
+    """The imported mesh with its declared contacts (a fault raises, and is not kept)."""
+    return with_contacts(_read(key, units, bodies, sector, sets, size).mesh, contacts)
 
 
 def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
@@ -263,7 +275,7 @@ def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
         return None
     table = GeometryTable.of(geo, base)
     try:
-        with_contacts(table.read().mesh, table.contacts)
+        table.build()
     except MeshImportError as exc:
         out.append(f"geometry.file: {exc}")  # (the message names the file)
         return None

@@ -86,14 +86,11 @@ class SpringSet:
         state = np.where(closed.all(axis=1), STICK,
                          np.where(closed.any(axis=1), PARTIAL_LIFTOFF, OPEN)).astype(np.int8)
         zero = np.zeros(P)
-        out = ContactResponse(forces, J, np.zeros_like(forces) if jacobian else None, state,
-                              zero, zero, zero, np.ones(P, dtype=np.int64),
-                              np.zeros(P, dtype=np.int64))
-        if histories:
-            out = ContactResponse(*(getattr(out, k) for k in (
-                "forces", "jacobian", "d_n0", "state", "slip_fraction", "dissipation",
-                "normal_work", "periods", "undersampled")), T=f[:, None, :], u=u[:, None, :])
-        return out
+        return ContactResponse(forces, J, np.zeros_like(forces) if jacobian else None, state,
+                               zero, zero, zero, np.ones(P, dtype=np.int64),
+                               np.zeros(P, dtype=np.int64),
+                               T=f[:, None, :] if histories else None,
+                               u=u[:, None, :] if histories else None)
 
     def stuck_stiffness(self) -> np.ndarray:
         """(P, 1) the tangent at rest: c_1, or kn where the gap is closed at rest."""
