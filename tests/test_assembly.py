@@ -5,6 +5,7 @@ against the full-disk model (the test of the neighbour-sector phase and rotation
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
 from derivatives import fd_residual_jacobian
 
 from microslip import geometry
@@ -252,3 +253,95 @@ def test_a_damper_nothing_holds_is_reported_not_solved(sector):
     assert np.all(np.isfinite(r.x))
     assert "static (order-0) problem is singular" in r.reason
     assert "centrifugal load" in r.reason
+
+
+def _full_hill(hb, x, p):
+    """(J, Delta_1, Delta_2): the Hill problem of the reduced model assembled explicitly on
+    every DOF of every order (real and imaginary parts of each order's amplitudes side by
+    side; order 0 real), the contact forces' Jacobian taken from the balance's as J minus
+    its condensed linear part. The reference of the condensed shift-and-invert."""
+    h, lin = hb.harmonics, hb.linear
+    _, Jc, _ = hb.residual(x, p)
+    Jc = Jc - h.real_matrix(hb.condensed(p).S)
+    blocks, starts, at = [], [], 0
+    for o, D, M, C in zip(h.orders, lin.dynamic_stiffness(p), lin.mass(p), lin.C):
+        mats = [D, C + 2j * o * p.omega * M, M]
+        # a complex operator on z = u + i v as a real one on [u, v]
+        blocks.append([A.real if o == 0 else np.block([[A.real, -A.imag], [A.imag, A.real]])
+                       for A in mats])
+        starts.append(at)
+        at += blocks[-1][0].shape[0]
+    J, d1, d2 = (np.zeros((at, at)) for _ in range(3))
+    for s, b in zip(starts, blocks):
+        n = b[0].shape[0]
+        for out, A in zip((J, d1, d2), b):
+            out[s:s + n, s:s + n] = A
+    # contact unknown (dof, coefficient) -> its place: X_n = a_n - i b_n
+    place, sign = np.zeros(Jc.shape[0], dtype=int), np.ones(Jc.shape[0])
+    nc = h.n_coeffs
+    for k, o in enumerate(h.orders):
+        n = lin.sizes[k]
+        for d_i, d in enumerate(hb.dofs):
+            if o == 0:
+                place[d_i * nc] = starts[k] + d
+                continue
+            j = h.dynamic_orders.index(o)
+            place[d_i * nc + h.cos_index[j]] = starts[k] + d
+            place[d_i * nc + h.sin_index[j]] = starts[k] + n + d
+            sign[d_i * nc + h.sin_index[j]] = -1.0
+    J[np.ix_(place, place)] += sign[:, None] * Jc * sign[None, :]
+    return J, d1, d2
+
+
+@pytest.mark.parametrize("mu, factor", [(1e4, 1.0), (0.3, 1.0), (0.3, 1.01)])
+def test_hill_exponents_of_the_reduced_model(sector, mu, factor, monkeypatch):
+    """The condensed shift-and-invert (dense, and ARPACK) against the quadratic eigenvalues
+    of the Hill problem assembled on every DOF of every order; stuck (mu = 1e4), against
+    the eigenvalues of the linear stuck system per order, shifted by -i n w (the closed
+    form of a linear system's exponents). Within the disc |lambda| < 0.45 w (the edge of
+    the strip is where the truncated copies differ); to 1e-8 w (ARPACK's 1e-10 relative
+    tolerance on 1 / lambda, and the dense eigensolver's round-off on ~500 unknowns)."""
+    from microslip.pipeline.solve import stability as st
+
+    cm = model(sector, mu, amplitude=20.0)
+    w = factor * first_bending(sector)
+    x, p = solved(cm, w)
+    hb = cm.hb
+    J, d1, d2 = _full_hill(hb, x, p)
+    n = J.shape[0]
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-J, -d1]])
+    B = np.block([[np.eye(n), np.zeros((n, n))], [np.zeros((n, n)), d2]])
+    ref = sla.eigvals(A, B)
+    ref = ref[np.isfinite(ref)]
+
+    def disc(lam):
+        lam = lam[(np.abs(lam) < 0.45 * w) & (np.abs(lam.imag) <= 0.5 * w)]
+        return lam[np.lexsort((lam.imag, lam.real))]
+
+    expected = disc(ref)
+    assert expected.size >= 2
+    for dense in (True, False):
+        monkeypatch.setattr(st, "DENSE", 10**6 if dense else 0)
+        got = disc(st.hill_stability(hb, x, p).exponents)
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-8 * w)
+    if mu == 1e4:  # stuck: the linear system's own eigenvalues s = lambda + i n w, per order
+        lin, count = hb.linear, 0
+        for o, K, M, C in zip(hb.harmonics.orders, lin.K, lin.mass(p), lin.C):
+            Ks = K.copy()
+            Ks[:lin.n_dof, :lin.n_dof] += hb.stick_stiffness(o)
+            s0, k = 1j * o * w, K.shape[0]
+            # the pencil expanded about s = i n w; its QZ eigenvalues (accurate to some
+            # 1e-6 w: K ~ 1e9 N/m against M ~ 1 kg) count the exponents in the disc
+            lam = sla.eigvals(
+                np.block([[np.zeros((k, k)), np.eye(k)], [-(Ks + s0 * C + s0**2 * M),
+                                                          -(C + 2 * s0 * M)]]),
+                np.block([[np.eye(k), np.zeros((k, k))], [np.zeros((k, k)), M]]))
+            near = disc(np.concatenate([lam, np.conj(lam)]) if o else lam)
+            count += near.size
+            for e in near:  # each has a Hill exponent whose stiffness is singular
+                got = expected[np.argmin(np.abs(expected - e))]
+                assert abs(got - e) < 1e-5 * w
+                dyn = [Ks + (s0 + z) * C + (s0 + z) ** 2 * M for z in (got, np.conj(got))]
+                sv = [np.linalg.svd(d, compute_uv=False) for d in dyn]
+                assert min(v[-1] / v[0] for v in sv) < 1e-12  # round-off of ~1e9 entries
+        assert count == expected.size

@@ -24,6 +24,9 @@ def test_arclength_follows_both_folds_of_an_s_curve():
     # the folds at lam = -+2 / (3 sqrt 3), located to the local step size
     fold = 2 / (3 * np.sqrt(3))
     assert len(b.turning_points) == 2
+    # a turning point is where the parameter reverses between points, and only there
+    d = np.sign(np.diff(b.values))
+    assert b.turning_points == [j for j in range(1, len(d)) if d[j - 1] * d[j] < 0]
     assert b.values[b.turning_points[0]] == pytest.approx(fold, abs=0.02)
     assert b.values[b.turning_points[1]] == pytest.approx(-fold, abs=0.02)
     # three solutions at lam = 0: -1, 0, +1

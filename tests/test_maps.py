@@ -167,18 +167,6 @@ def test_the_refined_peaks_are_the_maximum_of_a_fine_grid_of_direct_solves():
     assert a >= np.max(amp) - 1e-15  # never below the computed points
 
 
-def test_only_turning_points_where_the_parameter_turns_back_are_drawn_as_folds():
-    from microslip.pipeline.draw.pictures import folds
-
-    # a fold: the parameter goes 0, 1, 2, then back to 1.5, then on: turns at 2 and 3
-    x = np.array([0.0, 1.0, 2.0, 1.5, 1.8, 3.0])
-    assert folds(x, [2, 3]).tolist() == [2, 3]
-    assert folds(x, [4]).tolist() == [4]  # flagged one point late: its neighbour turns
-    # a near-vertical rise flagged in pairs, the parameter never going back: no fold drawn
-    rise = np.array([0.0, 1.0, 1.001, 1.002, 1.003, 2.0])
-    assert folds(rise, [2, 3]).size == 0
-
-
 @pytest.mark.parametrize("share", [0.5, 0.99])
 def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
     # Firrone & Zucca Fig. 24 (the hardening curve of cases/normal_load.toml): a fine

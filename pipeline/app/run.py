@@ -44,17 +44,19 @@ from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.results import schema
 from microslip.pipeline.results.file import ATTRS, ResultsWriter, sampling_warning
+from microslip.pipeline.solve.bifurcation import find_bifurcations
 from microslip.pipeline.solve.response import (
     Response,
     peak_curve,
     response_measure,
     sweep,
 )
+from microslip.pipeline.solve.stability import hill_stability
 
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import AssemblyModels, LumpedModels
 from .progress import time_left
-from .solutions import map_groups, map_solutions, sampling_change
+from .solutions import map_groups, map_solutions, response_at, sampling_change
 from .store import CurveStore, PictureStamps
 
 if TYPE_CHECKING:
@@ -462,6 +464,12 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
         shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
     contacts = _contact_data(r, per_point)
+    try:
+        stability = _stability_data(r, spec, settings(c), idx, progress, which)
+    except KeyboardInterrupt:  # the branch is kept, without its stability
+        stability = {}
+        b.status, b.message = "interrupted", (
+            "interrupted by the user during the stability analysis")
     change, shift = _sampling_changes(r, contacts, idx, measure, b.status)
     jumps = np.array(b.jumps, dtype=np.int64).reshape(-1, 2)
     data = {
@@ -473,6 +481,7 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
         "jumps": jumps, "jump_parameter": b.values[jumps],
         "unknowns": b.x, "unknown_dofs": hb.dofs,
         schema.CONTACTS: contacts, "sampling_change": change, "sampling_shift": shift,
+        **stability,
     }
     if isinstance(models, AssemblyModels):  # each unknown's mesh node and x/y/z
         from microslip.pipeline.assembly.model import patch_states
@@ -505,6 +514,44 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
     run.writer.write_group(group, curve, data, attrs)
     progress(f"{which}: {len(r)} points, {b.status} ({elapsed:.2f} s) {b.message}".rstrip())
     return b.status, b.message
+
+
+def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, which: str
+                    ) -> dict:
+    """Hill's stability at every point of a branch and its bifurcations, as results.h5
+    datasets (none for a linear model or with ``stability = false``), each bifurcation's
+    response measured like the curve's (``rows``: the outputs); the terminal lists them."""
+    if not (spec.stability and len(r) and r.model.n_unknowns):
+        return {}
+    t = time.perf_counter()
+    hb, par = r.model, r.parameter
+    points = [hill_stability(hb, x, r.point(i)) for i, x in enumerate(r.branch.x)]
+    found = find_bifurcations(r, points, solver)
+    floquet = np.full((len(r), schema.FLOQUET), np.nan + 0j)
+    for i, s in enumerate(points):
+        k = min(s.exponents.size, schema.FLOQUET)
+        floquet[i, :k] = s.exponents[:k]
+    stable = np.array([s.stable for s in points])
+    shown = np.zeros((len(found), len(rows)))
+    for k, f in enumerate(found):
+        p = r.base.set(par, f.parameter)
+        shown[k] = response_at(hb, f.x, p, rows, spec.measure) / (
+            p.excitation if spec.normalise else 1.0)
+    progress(f"{which}: stability of {len(r)} points ({time.perf_counter() - t:.2f} s): "
+             f"{np.count_nonzero(~stable)} unstable, {len(found)} bifurcation"
+             f"{'s' if len(found) != 1 else ''}")
+    for f in found:
+        progress(f"{which}:   {f.kind} at {par} {f.parameter:.8g} (after point {f.index}), "
+                 f"exponent {f.exponent.real:.3g}{f.exponent.imag:+.3g}i 1/s"
+                 + ("" if f.located else ", not located"))
+    return {"stable": stable, "floquet": floquet, schema.BIFURCATIONS: {
+        "kind": np.array([f.kind for f in found], dtype="S"),
+        "index": np.array([f.index for f in found], dtype=np.int64),
+        "parameter": np.array([f.parameter for f in found]),
+        "omega": np.array([f.omega for f in found]),
+        "response": shown,
+        "exponent": np.array([f.exponent for f in found], dtype=complex),
+        "located": np.array([f.located for f in found], dtype=bool)}}
 
 
 def _attr_list(values: list[str]) -> str:

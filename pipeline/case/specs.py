@@ -79,7 +79,8 @@ class Frf(Analysis):
     """A response curve: ``parameter`` from ``start`` to ``stop`` by each of ``method``
     (one curve each), at the fixed ``frequency`` (rad/s) when the parameter is not the
     frequency; ``outputs``: DOF or output names (None: every output); ``maps``: where a
-    assembly case draws contact maps ("peak" or parameter values), ``map_types`` which."""
+    assembly case draws contact maps ("peak" or parameter values), ``map_types`` which;
+    ``stability``: Hill's stability at every point and the bifurcations between them."""
 
     type: ClassVar[str] = "frf"
     start: float
@@ -93,6 +94,7 @@ class Frf(Analysis):
     family: Family | None = None
     maps: tuple[str | float, ...] = ()
     map_types: tuple[str, ...] = ("status",)
+    stability: bool = True
 
     @property
     def omega(self) -> float:

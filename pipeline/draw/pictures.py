@@ -71,15 +71,13 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
         outs = [attr_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
         style = STYLE.get(attr_text(c.attrs.get("method", "")), "-")
         label = attr_text(c.attrs.get("label", "")) or None
-        x, y, at = _with_peak(c)
-        tp = c["turning_points"][()] if "turning_points" in c else np.zeros(0, int)
-        tp = folds(c["parameter"][()], tp)
-        tp = tp + (tp >= at)
+        line = branch_line(c)
         jumps = c["jumps"][()] if "jumps" in c else np.zeros((0, 2), int)
         for k, n in enumerate(outs):
-            series.setdefault(n, []).append({"x": x, "y": y[:, k], "label": label,
-                                             "turning_points": tp, "ls": style,
-                                             "jumps": jumps + (jumps >= at)})
+            series.setdefault(n, []).append({**line, "y": line["y"][:, k], "label": label,
+                                             "ls": style, "bifurcations": [
+                                                 (kind, xb, yb[k]) for kind, xb, yb in
+                                                 line["bifurcations"]]})
         for contact, cd in c.get(schema.CONTACTS, {}).items():
             for what, y in static_lines(cd["static_force"][()],
                                         [attr_text(x) for x in cd["columns"][()]]):
@@ -101,16 +99,36 @@ def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, lis
     return par, series, static
 
 
-def folds(x: np.ndarray, turning_points) -> np.ndarray:
-    """The turning points (indices into the branch's parameter values ``x``) where the branch
-    does turn back: the parameter's direction reverses at the point or a neighbour. The
-    continuation flags one wherever its tangent's parameter component changes sign; at a
-    near-vertical rise that flips in pairs while the parameter never goes back (one solution
-    at every value), and a circle there would claim a fold that is not."""
-    tp = np.asarray(turning_points, dtype=int).ravel()
-    d = np.sign(np.diff(np.asarray(x, dtype=float)))
-    turns = {j for j in range(1, len(d)) if d[j - 1] * d[j] < 0}
-    return np.array([i for i in tp if turns & {i - 1, i, i + 1}], dtype=int)
+def branch_line(c: h5py.Group) -> dict:
+    """A curve's line: x (m,), y (m, outputs), its computed points with the refined peak
+    (a map point) and the located bifurcations drawn in, in branch order; stable (m,) or
+    None (no stability: 1 stable, 0 unstable, -1 a bifurcation, where both meet);
+    turning_points and jumps (point indices into the line), bifurcations [(kind, x,
+    (outputs,) y)]."""
+    x, y = c["parameter"][()], c["response"][()]
+    key = np.arange(len(x), dtype=float)  # where each drawn point sits along the branch
+    stable = c["stable"][()].astype(int) if "stable" in c else None
+    marks = []
+    xp, yp, at = _with_peak(c)
+    if len(xp) > len(x):  # the refined peak, between points at - 1 and at
+        x, y, key = xp, yp, np.insert(key, at, at - 0.5)
+        if stable is not None:
+            stable = np.insert(stable, at, min(stable[max(at - 1, 0)],
+                                               stable[min(at, len(stable) - 1)]))
+    b = c.get(schema.BIFURCATIONS)
+    if b is not None and stable is not None and len(b["parameter"]):
+        where = b["index"][()] + 0.5 + 1e-3 * np.arange(len(b["parameter"])) / len(
+            b["parameter"])
+        k = np.searchsorted(key, where)
+        x, y = np.insert(x, k, b["parameter"][()]), np.insert(y, k, b["response"][()], axis=0)
+        key, stable = np.insert(key, k, where), np.insert(stable, k, -1)
+        marks = [(attr_text(kind), xb, yb) for kind, xb, yb in
+                 zip(b["kind"][()], b["parameter"][()], b["response"][()])]
+    index = np.flatnonzero(key == np.round(key))  # the computed points' new places
+    tp = c["turning_points"][()] if "turning_points" in c else np.zeros(0, int)
+    jumps = c["jumps"][()] if "jumps" in c else np.zeros((0, 2), int)
+    return {"x": x, "y": y, "stable": stable, "turning_points": index[tp],
+            "jumps": index[jumps].reshape(-1, 2), "bifurcations": marks}
 
 
 def _with_peak(c: h5py.Group) -> tuple[np.ndarray, np.ndarray, int]:

@@ -60,24 +60,46 @@ def number(value: float, scale: float = 0.0, digits: int = 3) -> str:
     return f"{value:.{digits}g}"
 
 
+#: Markers of the bifurcations by kind (pictures draw each kind once in the legend).
+BIFURCATION_MARKERS = {"fold": "o", "branch point": "s", "period doubling": "D",
+                       "Neimark-Sacker": "^"}
+
+
 def _line(ax: Axes, s: dict) -> Line2D | None:
-    """One computed curve: markers on its points when they are sparse, turning points
-    circled, jumps at folds (``jumps``: (from, to) point indices) drawn as thin dashed
-    arrows between the branches rather than as part of the line; a curve with no finite
-    point is left out (and out of the legend)."""
+    """One computed curve: markers on its points when they are sparse, its unstable parts
+    dashed (``stable``: per point 1, 0, or -1 at a bifurcation, where both parts meet),
+    its bifurcations marked by kind, or else (no stability) its turning points circled;
+    jumps at folds (``jumps``: (from, to) point indices) drawn as thin dashed arrows
+    between the branches rather than as part of the line; a curve with no finite point is
+    left out (and out of the legend)."""
     x, y = np.asarray(s["x"], dtype=float), np.asarray(s["y"], dtype=float)
     finite = np.isfinite(y)
     if not finite.any():
         return None
     jumps = np.asarray(s.get("jumps", np.zeros((0, 2), int)), dtype=int).reshape(-1, 2)
-    xs, ys = x, y
+    stable = s.get("stable")
+    stable = np.ones(len(x), int) if stable is None else np.asarray(stable, int)
+    xs, ys, st = x, y, stable
     if len(jumps):  # a NaN between the two points of a jump breaks the line there
         xs, ys = np.insert(x, jumps[:, 1], np.nan), np.insert(y, jumps[:, 1], np.nan)
+        st = np.insert(stable, jumps[:, 1], 1)
     marker = "o" if finite.sum() < SPARSE else None
-    (line,) = ax.plot(xs, ys, label=s.get("label"), lw=s.get("lw", 1.4), ls=s.get("ls", "-"),
-                      color=s.get("color"), marker=marker, ms=3)
+    # the stable parts solid, between points not unstable; the unstable ones dashed,
+    # between points not stable (a bifurcation belongs to both)
+    (line,) = ax.plot(xs, np.where(st != 0, ys, np.nan), label=s.get("label"),
+                      lw=s.get("lw", 1.4), ls=s.get("ls", "-"), color=s.get("color"),
+                      marker=marker, ms=3)
+    if np.any(stable == 0):
+        ax.plot(xs, np.where(st != 1, ys, np.nan), lw=s.get("lw", 1.4), ls=(0, (3, 2)),
+                color=line.get_color(), marker=marker, ms=3, mfc="none")
+    named = {m.get_label() for m in ax.get_lines()}
+    for kind, xb, yb in s.get("bifurcations", ()):
+        label = f"{kind} (dashed: unstable)"
+        ax.plot([xb], [yb], BIFURCATION_MARKERS.get(kind, "x"), mfc="none", ms=7, mew=1.2,
+                color=line.get_color(), ls="none", label=None if label in named else label)
+        named.add(label)
     tp = s.get("turning_points", [])
-    if len(tp):
+    if len(tp) and s.get("stable") is None:
         ax.plot(x[tp], y[tp], "o", mfc="none", color=line.get_color(), ms=7)
     for i, j in jumps:
         if not np.isfinite([x[i], y[i], x[j], y[j]]).all():

@@ -29,6 +29,9 @@ CYCLIC = "cyclic"
 CONTACTS = "contacts"
 PATCHES = "patches"
 MAPS = "maps"
+BIFURCATIONS = "bifurcations"
+#: Floquet exponents kept per point of an frf curve (the largest real parts)
+FLOQUET = 6
 SHAPES = "shapes"
 LEVEL_FREE = "level_free"
 LEVEL_STUCK = "level_stuck"
@@ -148,6 +151,17 @@ FRF_CURVE = group(
     data("turning_points", "(k,) point indices where the parameter turns back"),
     data("jumps", "(k, 2) from, to point of each jump of a natural sweep at a fold"),
     data("jump_parameter", "(k, 2) their parameter values"),
+    data("stable", "(n,) Hill's stability of each point (stability = true)"),
+    data("floquet", f"(n, {FLOQUET}) 1/s complex, the Floquet exponents with the largest "
+         "real parts (NaN: fewer)"),
+    group(BIFURCATIONS, "(stability) between the points, in branch order", (),
+          data("kind", "(b,) fold | branch point | period doubling | Neimark-Sacker"),
+          data("index", "(b,) the point before it"),
+          data("parameter", "(b,) where it was located"),
+          data("omega", "(b,) rad/s"),
+          data("response", "(b, outputs) m, the analysis' measure there"),
+          data("exponent", "(b,) 1/s complex, the critical Floquet exponent there"),
+          data("located", "(b,) to 1e-4 of the step (false: the bracket's midpoint)")),
     data("unknowns", "(n, u) the balance unknowns"),
     data("unknown_dofs", "(u / nc,) model DOF of each unknown block"),
     data("unknown_nodes", "(u / nc,) mesh node of each unknown block (assembly)"),

@@ -12,7 +12,8 @@ the arclength metric mean the same for a 1 N blade and a 30 kN disk.
   the sweep jumps to the other branch, as a slow physical sweep does (Firrone & Zucca Fig. 24).
 * :func:`arclength` - pseudo-arclength continuation (Firrone & Zucca 7.2, eqs. 55-56):
   tangent predictor, corrector on the hyperplane orthogonal to the tangent,
-  adaptive step, turning points followed and reported.
+  adaptive step, turning points (the parameter reversing between points) followed and
+  reported.
 
 Neither raises on non-convergence: the branch computed so far is returned with
 ``status`` and a ``message`` saying where and why it stopped.
@@ -49,7 +50,7 @@ class Branch:
     x: np.ndarray  # (n_points, n_unknowns)
     residuals: np.ndarray  # (n_points,) scaled residual norm
     iterations: np.ndarray  # (n_points,) Newton iterations
-    turning_points: list[int] = field(default_factory=list)  # indices into the points
+    turning_points: list[int] = field(default_factory=list)  # where the parameter reverses
     status: str = "complete"  # "complete", "stopped" or "interrupted"
     message: str = ""
     steps: int = 0  # predictor-corrector attempts, including rejected ones
@@ -559,8 +560,6 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
         out.add(lam_new, NewtonResult(x_new, True, its, res))
         if progress:
             progress(len(out), lam_new, its)
-        if np.sign(t_new[-1]) != np.sign(tangent[-1]) and tangent[-1] != 0:
-            out.turning_points.append(len(out) - 1)
         stall = _stalled(out, lam_scale)
         if stall:
             return out.finish("stopped", f"stalled at {parameter} = {lam_new:.6g}: {stall}")
@@ -823,6 +822,27 @@ def solutions_at(
                                      _Segment(middle, seg.b, seg.depth + 1)]
 
 
+def on_chord(fun: Problem, a: tuple[float, np.ndarray], b: tuple[float, np.ndarray],
+             fraction: float, *, x_scale: float | np.ndarray, lam_scale: float,
+             f_scale: float, settings: Settings = DEFAULT
+             ) -> tuple[float, NewtonResult] | None:
+    """The branch's point between two of its points ``a``, ``b`` = (lam, x): the
+    pseudo-arclength corrector on the plane normal to their chord through the point at
+    ``fraction`` (0..1) of it, in the metric of :func:`arclength` (unknowns by ``x_scale``
+    rms, the parameter by ``lam_scale``). (lam, NewtonResult) or None if it fails."""
+    xs = np.broadcast_to(np.asarray(x_scale, float), np.shape(a[1])) * _rms(a[1])
+    ya, yb = (np.append(x / xs, lam / lam_scale) for lam, x in (a, b))
+    chord = yb - ya
+    length = float(np.linalg.norm(chord))
+    if length == 0.0:
+        return None
+    ok, y, its, res, _ = _correct(fun, ya + fraction * chord, chord / length, xs, lam_scale,
+                                  f_scale, settings)
+    if not ok:
+        return None
+    return float(y[-1] * lam_scale), NewtonResult(y[:-1] * xs, True, its, res)
+
+
 #: Two converged solutions nearer than this share of the unknowns' scale are one (Newton
 #: stops at a residual of 1e-9 of the force scale by default: its solutions differ less)
 SAME_SOLUTION = 1e-6
@@ -849,6 +869,13 @@ class _Collector:
         return len(self.values)
 
     def add(self, lam: float, r: NewtonResult) -> None:
+        """Keep a converged point; the one before it is a turning point where the
+        parameter's direction reverses there (not where the tangent's parameter component
+        changes sign: at a near-vertical rise that flips in pairs while the parameter never
+        goes back)."""
+        v = self.values
+        if len(v) >= 2 and (lam - v[-1]) * (v[-1] - v[-2]) < 0:
+            self.turning_points.append(len(v) - 1)
         self.values.append(float(lam))
         self.xs.append(np.array(r.x))
         self.res.append(r.residual)

@@ -1,23 +1,39 @@
-"""Stability of a periodic solution by Hill's method (issue 25, section 1; first part:
-models whose every DOF is an unknown of the balance, the lumped oscillators).
+"""Stability of a periodic solution by Hill's method (Firrone & Zucca's balance, issue 25).
 
 A perturbation ``y(t) = exp(lambda t) p(t)`` of the periodic solution, ``p`` periodic and in
 the balance's harmonics, satisfies the linearised equations when
 
-    [J + lambda (C + 2 M w D) + lambda^2 M] p = 0,
+    H(lambda) p = [J + lambda Delta_1 + lambda^2 Delta_2] p = 0,
 
-with J the balance's Jacobian at the solution (``K + C w D + M (w D)^2`` plus the contact
-forces' Jacobian: the one Newton uses), D the derivative d/dtheta in coefficient space and
-M, C on every coefficient (Kronecker products in the DOF-major real layout). The quadratic
-eigenvalue problem has 2 n nc exponents for n DOFs and nc coefficients; each Floquet
-exponent appears in copies shifted by i k w. The 2 n exponents with the smallest imaginary
-parts (|Im lambda| <= w / 2, the fundamental strip) are the meaningful ones (the sorting
-criterion of Moore 2005 and Peletan et al. 2013; it needs harmonics enough for the copies at
-the strip's edge to be resolved). The solution is stable when every selected exponent has a
-negative real part; the Floquet multipliers are exp(lambda T), T = 2 pi / w.
+on every DOF of every order (the contact DOFs and the ones the balance condenses away: the
+masters no contact touches, the reduced bodies' modal coordinates), with, per harmonic order
+n (complex blocks, ``s = lambda + i n w``):
 
-At stick/slip transitions the friction force's Jacobian is that of the sampled return map
-(Newton's): Hill's method then describes the sampled, piecewise-smooth law, approximately.
+    J        the balance's Jacobian: K_n + i n w C_n - (n w)^2 M_n, plus the contact forces'
+             Jacobian on the contact DOFs (the one Newton uses);
+    Delta_1  C_n + 2 i n w M_n;     Delta_2  M_n      (M at the point's mass multiplier).
+
+Why the full coordinates and not the condensed ones: condensed, the problem would be
+non-linear in lambda (the Schur complement of K + s C + s^2 M); in full coordinates it is
+quadratic, linearised to [[0, I], [-J, -Delta_1]] = lambda [[I, 0], [0, Delta_2]]. The
+condensation is still what makes it cheap: the exponents nearest zero come from
+shift-and-invert at lambda = 0, whose every solve with J is Newton's condensed Jacobian (one
+LU) plus one LU of each order's condensed block D_ii. A stability check thus costs about
+one Newton iteration of the point.
+
+Which exponents: each Floquet exponent appears in copies shifted by i k w. Kept are the
+eigenvalues in the fundamental strip |Im lambda| <= w / 2 (Moore 2005; Peletan et al.
+2013) nearest to zero: all of them when the Hill problem is small enough for a dense
+eigensolver (``DENSE``), else those within the disc |lambda| <= w / 2 (ARPACK, its count
+doubled until the disc is covered, at most ``MOST``). The disc holds every exponent that
+can change the stability along a branch: an exponent crosses the imaginary axis inside the
+strip, so within the disc. The solution is unstable when an exponent has a real part above
+``NEUTRAL`` w (exponents within that band are neutral: the free static slip of a fully
+slipping contact); the Floquet multipliers are exp(lambda T), T = 2 pi / w.
+
+At stick/slip and contact/separation transitions the contact forces' Jacobian is that of
+the sampled return map (Newton's): Hill's method then describes the sampled,
+piecewise-smooth law, approximately (see the README, "Stability").
 """
 
 from __future__ import annotations
@@ -26,17 +42,28 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse.linalg as spla
 
 from .hbm import HarmonicBalance, OperatingPoint
+
+#: Hill problems of at most this many real unknowns (2 x the full DOFs x coefficients, the
+#: linearised size) go to the dense eigensolver: every eigenvalue, ~0.1 s at the limit.
+DENSE = 600
+#: ARPACK's first count of exponents, and its most after doubling.
+FIRST, MOST = 6, 96
+#: Exponents with real parts within NEUTRAL x w of zero are neutral, not unstable.
+NEUTRAL = 1e-7
 
 
 @dataclass(frozen=True)
 class Stability:
-    """exponents: (2 n,) the selected Floquet exponents [1/s], by decreasing real part;
-    stable: every real part below -tol (tol: round-off relative to w)."""
+    """exponents: (k,) the selected Floquet exponents [1/s], by decreasing real part;
+    stable: no exponent's real part above NEUTRAL w; complete: every exponent of the strip
+    (dense), else those of the disc |lambda| <= w / 2 (False: the count reached MOST first)."""
 
     exponents: np.ndarray
     stable: bool
+    complete: bool = True
 
 
 def floquet_multipliers(stability: Stability, omega: float) -> np.ndarray:
@@ -45,30 +72,128 @@ def floquet_multipliers(stability: Stability, omega: float) -> np.ndarray:
 
 
 def hill_stability(hb: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> Stability:
-    """The Floquet exponents of the solution ``x`` at ``point`` (see the module).
-
-    ValueError for a model whose balance condenses DOFs away (their dynamics is not in
-    the unknowns: not yet supported)."""
-    lin, h = hb.linear, hb.harmonics
-    n = lin.n_dof
-    if hb.dofs.size != n or any(k.shape[0] != n for k in lin.K):
-        raise ValueError("hill_stability: the balance condenses DOFs away (a DOF no contact "
-                         "touches, or modal coordinates); only models whose every DOF is an "
-                         "unknown are supported yet")
+    """The Floquet exponents of the solution ``x`` (the balance's unknowns) at ``point``
+    (see the module)."""
+    hill = _Hill(hb, x, point)
     w = point.omega
-    _, J, _ = hb.residual(x, point)
-    nc = h.n_coeffs
-    # a lumped model's matrices are the same at every order (real)
-    M = np.real(lin.M[0] + (point.mass_multiplier - 1.0) * lin.M_part[0])
-    C = np.real(lin.C[0])
-    eye = np.eye(nc)
-    D1 = np.kron(C, eye) + 2.0 * w * np.kron(M, h.derivative)
-    D2 = np.kron(M, eye)
-    size = n * nc
-    A = np.block([[np.zeros((size, size)), np.eye(size)], [-J, -D1]])
-    B = np.block([[np.eye(size), np.zeros((size, size))], [np.zeros((size, size)), D2]])
-    lam = sla.eig(A, B, right=False)
-    lam = lam[np.isfinite(lam)]
-    chosen = lam[np.argsort(np.abs(lam.imag), kind="stable")[: 2 * n]]
-    chosen = chosen[np.argsort(-chosen.real, kind="stable")]
-    return Stability(chosen, bool(np.all(chosen.real < -1e-9 * w)))
+    if 2 * hill.size <= DENSE:
+        lam, complete = hill.all_exponents(), True
+    else:
+        lam, complete = hill.exponents_near_zero(w)
+    lam = lam[np.abs(lam.imag) <= 0.5 * w * (1.0 + 1e-9)]
+    lam = lam[np.argsort(-lam.real, kind="stable")]
+    return Stability(lam, bool(lam.size == 0 or lam[0].real <= NEUTRAL * w), complete)
+
+
+class _Hill:
+    """The shifted-and-inverted linearised Hill problem at lambda = 0 on the full real
+    coordinates ``[contact unknowns (the balance's layout); per order its condensed DOFs
+    (order 0: real; others: real and imaginary parts)]``."""
+
+    def __init__(self, hb: HarmonicBalance, x: np.ndarray, point: OperatingPoint):
+        self.h, w = hb.harmonics, point.omega
+        self.nc = hb.dofs.size
+        _, J, _ = hb.residual(x, point)
+        self.newton = sla.lu_factor(J, check_finite=False)
+        lin = hb._reordered().linear  # contact DOFs first in every order
+        nc = self.nc
+        self.Dci, self.Dic, self.Dii, self.delta = [], [], [], []
+        for o, D, M, C in zip(lin.orders, lin.dynamic_stiffness(point), lin.mass(point), lin.C):
+            self.Dci.append(np.ascontiguousarray(D[:nc, nc:]))
+            self.Dic.append(np.ascontiguousarray(D[nc:, :nc]))
+            self.Dii.append(sla.lu_factor(D[nc:, nc:], check_finite=False)
+                            if D.shape[0] > nc else None)
+            # [Delta_1, Delta_2] side by side: one product per order and operator application
+            delta = np.concatenate([C + 2j * o * w * M, M], axis=1)
+            self.delta.append(delta if np.any(delta.imag) else np.ascontiguousarray(delta.real))
+        self.internal = [B.shape[1] for B in self.Dci]
+        self.widths = [n if o == 0 else 2 * n for o, n in zip(lin.orders, self.internal)]
+        self.n_contact = J.shape[0]
+        self.size = self.n_contact + sum(self.widths)
+
+    # ---------------------------------------------------------------- layout
+    def _split(self, v: np.ndarray) -> list[np.ndarray]:
+        """Real vectors (size, m) -> per order the complex full vectors (n_k, m)."""
+        h, m = self.h, v.shape[1]
+        c = v[: self.n_contact].reshape(self.nc, h.n_coeffs, m)
+        out, at, k0 = [], self.n_contact, int(h.has_static)
+        for k, (n, width) in enumerate(zip(self.internal, self.widths)):
+            part = v[at: at + width]
+            at += width
+            if k < k0:
+                xc, zi = c[:, 0], part
+            else:
+                ia, ib = h.cos_index[k - k0], h.sin_index[k - k0]
+                xc, zi = c[:, ia] - 1j * c[:, ib], part[:n] + 1j * part[n:]
+            out.append(np.concatenate([xc, zi]))
+        return out
+
+    def _join(self, V: list[np.ndarray]) -> np.ndarray:
+        """Per order complex full vectors (n_k, m) -> the real vectors (size, m), the
+        inverse of :meth:`_split`."""
+        h, nc, m = self.h, self.nc, V[0].shape[1]
+        c = np.empty((nc, h.n_coeffs, m))
+        parts, k0 = [c.reshape(-1, m)], int(h.has_static)
+        for k, Vk in enumerate(V):
+            zi = Vk[nc:]
+            if k < k0:
+                c[:, 0] = Vk[:nc].real
+                parts.append(zi.real)
+            else:
+                c[:, h.cos_index[k - k0]] = Vk[:nc].real
+                c[:, h.sin_index[k - k0]] = -Vk[:nc].imag
+                parts.append(np.concatenate([zi.real, zi.imag]))
+        return np.concatenate(parts)
+
+    # ------------------------------------------------------------- operators
+    def _solve_j(self, r: np.ndarray) -> np.ndarray:
+        """H(0)^-1 r (size, m) by the condensation: per order the internal DOFs from D_ii,
+        the contact unknowns from Newton's Jacobian."""
+        nc = self.nc
+        R = self._split(r)
+        t = [sla.lu_solve(lu, Rk[nc:], check_finite=False) if lu else Rk[nc:]
+             for lu, Rk in zip(self.Dii, R)]
+        g = self._join([np.concatenate([B @ tk, np.zeros_like(tk)]) for B, tk in
+                        zip(self.Dci, t)])[: self.n_contact]
+        zc = sla.lu_solve(self.newton, r[: self.n_contact] - g, check_finite=False)
+        Xc = self._split(np.concatenate([zc, np.zeros((self.size - self.n_contact,
+                                                       zc.shape[1]))]))
+        out = []
+        for lu, B, tk, X in zip(self.Dii, self.Dic, t, Xc):
+            zi = tk - (sla.lu_solve(lu, B @ X[:nc], check_finite=False) if lu else 0.0)
+            out.append(np.concatenate([X[:nc], zi]))
+        return self._join(out)
+
+    def inverted(self, v: np.ndarray) -> np.ndarray:
+        """The linearised problem shifted and inverted at 0: [p; q] -> [u; p] with
+        u = -H(0)^-1 (Delta_1 p + Delta_2 q), on vectors (2 size,) or (2 size, m); its
+        eigenvalues are 1 / lambda."""
+        v2 = v.reshape(2 * self.size, -1)
+        p = v2[: self.size]
+        pq = [np.concatenate([a, b]) for a, b in zip(self._split(p), self._split(v2[self.size:]))]
+        u = -self._solve_j(self._join([A @ x for A, x in zip(self.delta, pq)]))
+        return np.concatenate([u, p]).reshape(v.shape)
+
+    # ------------------------------------------------------------ exponents
+    def all_exponents(self) -> np.ndarray:
+        """Every eigenvalue (dense: the inverted operator applied to the identity)."""
+        mu = sla.eigvals(self.inverted(np.eye(2 * self.size)), check_finite=False)
+        return 1.0 / mu[mu != 0]
+
+    def exponents_near_zero(self, w: float) -> tuple[np.ndarray, bool]:
+        """(the eigenvalues nearest zero covering the disc |lambda| <= w / 2, whether it
+        is covered) by ARPACK on the inverted operator."""
+        n = 2 * self.size
+        op = spla.LinearOperator((n, n), matvec=self.inverted, dtype=float)
+        k = min(FIRST, n - 2)
+        while True:
+            try:
+                mu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False,
+                               ncv=min(n, max(2 * k + 1, 20)), tol=1e-10)
+            except spla.ArpackNoConvergence as err:
+                mu = err.eigenvalues
+            lam = 1.0 / mu[mu != 0]
+            covered = lam.size and np.abs(lam).max() > 0.5 * w
+            if covered or k >= min(MOST, n - 2):
+                return lam, bool(covered)
+            k = min(2 * k, MOST, n - 2)

@@ -1,0 +1,172 @@
+"""Bifurcations along a branch: detected from the stability of its points, located between
+them and named (issue 25, section 2).
+
+Each point's unstable Floquet exponents (:mod:`.stability`) fall in three classes by where
+their multiplier exp(lambda T) leaves the unit circle:
+
+    real       |Im lambda| ~ 0        through +1: a fold (the parameter turns back there)
+                                      or a branch point (it does not)
+    flip       |Im lambda| ~ w / 2    through -1: period doubling
+    complex    otherwise              a complex pair: Neimark-Sacker (quasi-periodic motion)
+
+Where the count of a class changes between consecutive points, the test function (the
+largest real part among the class's exponents) is followed along the branch between them:
+points on the chord's normal planes (the arclength corrector) by regula falsi (Illinois),
+bisection where the class is empty at one end, until the bracket is below LOCATED of the
+step or the real part within ``stability.NEUTRAL`` w of zero.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import continuation as cont
+from .response import Response, problem, scales
+from .stability import NEUTRAL, Stability, hill_stability
+
+KINDS = ("fold", "branch point", "period doubling", "Neimark-Sacker")
+CLASSES = ("real", "flip", "complex")
+#: An exponent is real when |Im| <= REAL w, a flip one when |Im| >= (1 - EDGE) w / 2 (the
+#: truncated Hill problem puts the pair of a multiplier on the negative axis near, not at,
+#: the strip's edge).
+REAL, EDGE = 1e-6, 1e-2
+#: The bracket's share of the step at which a bifurcation counts as located.
+LOCATED = 1e-4
+#: Trials per bifurcation, and bifurcations located per branch (a branch through a
+#: non-smooth region can change stability at many points: the rest are reported at the
+#: midpoint of their bracket, unlocated).
+TRIALS, MOST = 30, 25
+
+
+@dataclass(frozen=True)
+class Bifurcation:
+    """kind: one of KINDS; index: the point before it (between ``index`` and ``index + 1``);
+    parameter, omega [rad/s]: where; exponent: the critical Floquet exponent there [1/s];
+    x: the solution there (the balance's unknowns); located: found to LOCATED of the step
+    (False: the midpoint of the bracket)."""
+
+    kind: str
+    index: int
+    parameter: float
+    omega: float
+    exponent: complex
+    x: np.ndarray
+    located: bool = True
+
+
+def exponent_classes(exponents: np.ndarray, omega: float) -> np.ndarray:
+    """(k,) index into CLASSES of each exponent."""
+    im = np.abs(np.asarray(exponents).imag)
+    return np.where(im <= REAL * omega, 0, np.where(im >= (1 - EDGE) * 0.5 * omega, 1, 2))
+
+
+def unstable_counts(s: Stability, omega: float) -> tuple[int, int, int]:
+    """Unstable exponents per class of CLASSES."""
+    cls = exponent_classes(s.exponents, omega)[s.exponents.real > NEUTRAL * omega]
+    return tuple(int(np.count_nonzero(cls == k)) for k in range(3))
+
+
+def critical(s: Stability, omega: float, cls: int) -> complex | None:
+    """The exponent of class ``cls`` with the largest real part (None: none of it)."""
+    lam = s.exponents[exponent_classes(s.exponents, omega) == cls]
+    return complex(lam[np.argmax(lam.real)]) if lam.size else None
+
+
+def find_bifurcations(r: Response, stabilities: list[Stability],
+                      settings: cont.Settings = cont.DEFAULT) -> list[Bifurcation]:
+    """Every bifurcation between consecutive points of ``r`` (``stabilities``: one per
+    point), located and named, in branch order; a natural sweep's jumps are no part of it."""
+    n = len(r)
+    if n < 2:
+        return []
+    jumps = {i for i, _ in r.branch.jumps}
+    values = r.values
+    fun = problem(r.model, r.base, r.parameter)
+    xs, fs = scales(r.model, r.point(0))
+    xs = max(xs, float(np.max(np.abs(r.branch.x)))) if r.branch.x.size else xs
+    lam_scale = float(np.ptp(values)) or 1.0
+    turning = set(r.branch.turning_points)
+    counts = [unstable_counts(s, r.point(i).omega) for i, s in enumerate(stabilities)]
+    out: list[Bifurcation] = []
+    for i in range(n - 1):
+        if i in jumps:
+            continue
+        for cls in range(3):
+            if counts[i][cls] == counts[i + 1][cls]:
+                continue
+            kind = ("fold" if turning & {i, i + 1} else "branch point",
+                    "period doubling", "Neimark-Sacker")[cls]
+
+            def at(lam: float, x: np.ndarray) -> Stability:
+                return hill_stability(r.model, x, r.base.set(r.parameter, lam))
+
+            def solve(fraction: float, i=i):
+                return cont.on_chord(fun, (values[i], r.branch.x[i]),
+                                     (values[i + 1], r.branch.x[i + 1]), fraction,
+                                     x_scale=xs, lam_scale=lam_scale, f_scale=fs,
+                                     settings=settings)
+
+            found = _locate(solve, at, r, cls, counts[i][cls], stabilities[i],
+                            stabilities[i + 1], i) if len(out) < MOST else None
+            if found is None:  # unlocated: at the bracket's midpoint, the far end's exponent
+                exp = critical(stabilities[i + 1], r.point(i + 1).omega, cls)
+                found = (0.5 * (values[i] + values[i + 1]),
+                         0.5 * (r.branch.x[i] + r.branch.x[i + 1]),
+                         complex(np.nan) if exp is None else exp, False)
+            lam, x, exponent, located = found
+            out.append(Bifurcation(kind, i, float(lam), r.base.set(r.parameter, lam).omega,
+                                   complex(exponent), x, located))
+    return out
+
+
+def _locate(solve: Callable, at: Callable, r: Response, cls: int, count0: int,
+            s0: Stability, s1: Stability, i: int):
+    """(parameter, x, critical exponent, located) where the count of unstable exponents of
+    class ``cls`` changes between points i and i + 1 (located: to LOCATED of the step or
+    the test function to the neutral band; False: the trials ran out), or None where the
+    branch between them cannot be followed."""
+    w0, w1 = r.point(i).omega, r.point(i + 1).omega
+    g0, g1 = (_test(s, w, cls) for s, w in ((s0, w0), (s1, w1)))
+    a, b = 0.0, 1.0
+    side = 0  # Illinois: which end was kept last
+    best = None
+    for _ in range(TRIALS):
+        if g0 is not None and g1 is not None and g0 * g1 < 0:
+            t = a + (b - a) * g0 / (g0 - g1)
+            t = min(max(t, a + 0.01 * (b - a)), b - 0.01 * (b - a))
+        else:
+            t = 0.5 * (a + b)
+        hit = solve(t)
+        if hit is None:
+            return None if best is None else (*best, False)
+        lam, res = hit
+        s = at(lam, res.x)
+        w = r.base.set(r.parameter, lam).omega
+        exp = critical(s, w, cls)
+        g = _test(s, w, cls)
+        best = (lam, res.x, complex(np.nan) if exp is None else exp)
+        if g is not None and abs(g) <= NEUTRAL * w:
+            return (*best, True)
+        if unstable_counts(s, w)[cls] == count0:
+            a, g0 = t, g
+            if side == -1 and g1 is not None:
+                g1 *= 0.5
+            side = -1
+        else:
+            b, g1 = t, g
+            if side == 1 and g0 is not None:
+                g0 *= 0.5
+            side = 1
+        if b - a <= LOCATED:
+            return (*best, True)
+    return (*best, False)
+
+
+def _test(s: Stability, omega: float, cls: int) -> float | None:
+    """The test function of class ``cls``: its largest real part, shifted by the neutral
+    band so that it changes sign where the count of unstable exponents does."""
+    e = critical(s, omega, cls)
+    return None if e is None else e.real - NEUTRAL * omega
