@@ -90,3 +90,48 @@ def test_multipliers_are_the_monodromy_matrix(where):
     np.testing.assert_allclose(hill, mono, atol=1e-3 * max(1.0, np.abs(mono).max()))
     assert s.stable == (where != "middle")
     assert (np.abs(mono).max() < 1.0) == s.stable
+
+
+def _fold_of_one_harmonic(branch: str) -> float:
+    """w at a fold of the one-harmonic Duffing balance (closed form of its amplitude
+    equation a^2 [(1 - w^2 + 3/4 gamma a^2)^2 + (2 zeta w)^2] = P^2, P = 0.3): where
+    d w / d a = 0, solved by SciPy from either side."""
+    from scipy.optimize import fsolve
+
+    def equations(v):
+        a, w = v
+        q = 1 - w**2 + 0.75 * GAMMA * a**2
+        f = q**2 + (2 * ZETA * w) ** 2
+        return [a**2 * f - 0.3**2, 2 * a * f + a**2 * 2 * q * 1.5 * GAMMA * a]
+
+    guess = (2.5, 1.21) if branch == "upper" else (1.3, 1.15)
+    return float(fsolve(equations, guess, xtol=1e-14)[1])
+
+
+def test_the_folds_are_located_where_the_closed_form_puts_them(tmp_path):
+    """One harmonic (the closed form's own truncation): the run's located folds against
+    the amplitude equation's, to 1e-9 (the test function, the real exponent, is within
+    NEUTRAL w of zero there, and the branch's w is quadratic in the distance to the fold);
+    the stability datasets say unstable exactly between them, and the terminal lists them."""
+    import h5py
+
+    from microslip.pipeline.app.run import run_case
+
+    data = cases.load("cases/duffing.toml").data
+    data["harmonics"] = {"max": 1, "samples": 64}
+    data["analysis"][0]["family"]["values"] = [0.3]
+    said = []
+    run_case(cases.Case(data, "duffing.toml"), tmp_path, progress=said.append, cache=False)
+    with h5py.File(tmp_path / "results.h5") as f:
+        c = f["frf/curve_000"]
+        b = c["bifurcations"]
+        assert [k.decode() for k in b["kind"][()]] == ["fold", "fold"]
+        assert b["located"][()].all()
+        np.testing.assert_allclose(sorted(b["omega"][()]),
+                                   sorted(_fold_of_one_harmonic(s) for s in ("upper", "lower")),
+                                   rtol=1e-9)
+        stable, index = c["stable"][()], np.sort(b["index"][()])
+        assert stable[: index[0] + 1].all() and stable[index[1] + 1:].all()
+        assert not stable[index[0] + 1: index[1] + 1].any()
+        assert np.isnan(c["floquet"][:, 2:]).all()  # one DOF: two exponents per point
+    assert sum("fold at frequency" in line for line in said) == 2

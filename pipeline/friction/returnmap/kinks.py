@@ -44,12 +44,8 @@ def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, w
     so the correction varies continuously as a kink crosses a sample.
     g: (P, c, nc) input coefficients."""
     d, ns = u.shape[1], u.shape[2]
-    nc = E.shape[1]
     m = J_out.shape[3] + 1
-    vcol = d * nc
-    h = 2.0 * np.pi / ns
     rows = d + 1
-    last = rows if has_normal else d
     jump = np.zeros(rows)
     djump = np.zeros((rows, m))
     ds = np.zeros(m)
@@ -63,136 +59,160 @@ def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, w
     for k in range(ns):
         kprev = k - 1 if k > 0 else ns - 1
         s0, s1 = state_out[p, kprev], state_out[p, k]
-        kind = 0
+        first, kinds = 0, 1
         if s0 == SAMPLE_STICK and s1 == SAMPLE_SLIP:
-            kind = 1
+            first = 1
         elif has_normal and s0 != SAMPLE_OPEN and s1 == SAMPLE_OPEN:
-            kind = 2
+            # a stuck sample before an opening one: the force reaches the shrinking cone
+            # and slides before the contact opens (two kinks); with the stick -> slip one
+            # left out, the correction jumped as that kink crossed the sample
+            first, kinds = (1, 2) if s0 == SAMPLE_STICK else (2, 1)
         elif has_normal and s0 == SAMPLE_OPEN and s1 != SAMPLE_OPEN:
-            kind = 3
-        if kind == 0:
+            first = 3
+        if first == 0:
             continue
-        if want_jac:
-            djump[:, :] = 0.0
-            ds[:] = 0.0
-            da[:, :] = 0.0
-            dn[:, :] = 0.0
-        for j in range(d):
-            a[j] = kt[p, j] * (u[p, j, k] - u[p, j, kprev])  # stick slope per unit s
-            if want_jac:
-                for c in range(nc):
-                    da[j, j * nc + c] = kt[p, j] * (E[k, c] - E[kprev, c])
-        if kind == 1:
-            s = _crossing(p, k, kprev, a, da, kn, mu, E, has_normal, want_jac, T_out, N_out,
-                          G, ds, nvec, dn)
-        else:
-            nu0 = n0[p] + kn[p] * v[p, kprev]
-            nu1 = n0[p] + kn[p] * v[p, k]
-            den = nu0 - nu1  # > 0 opening, < 0 closing
-            s = nu0 / den
-            if want_jac:
-                for c in range(nc):
-                    ds[vcol + c] = kn[p] * (-nu1 * E[kprev, c] + nu0 * E[k, c]) / (den * den)
-                ds[m - 1] = 1.0 / den
-        theta = ((kprev if k > 0 else -1) + s) * h
-        # exact slopes of the inputs at the kink, and their derivatives
-        vp, vpp = 0.0, 0.0
-        for j in range(d):
-            up[j] = 0.0
-        upp = np.zeros(d)
-        for c in range(nc):
-            d1, d2 = _slopes(c, theta, corder, ckind)
-            for j in range(d):
-                up[j] += g[p, j, c] * d1
-                upp[j] += g[p, j, c] * d2
-            if has_normal:
-                vp += g[p, d, c] * d1
-                vpp += g[p, d, c] * d2
-        if want_jac:
-            for col in range(m):
-                for j in range(d):
-                    dup[j, col] = upp[j] * h * ds[col]
-                dvp[col] = vpp * h * ds[col]
-            for c in range(nc):
-                d1, _ = _slopes(c, theta, corder, ckind)
-                for j in range(d):
-                    dup[j, j * nc + c] += d1
-                if has_normal:
-                    dvp[vcol + c] += d1
-        for r in range(rows):
-            jump[r] = 0.0
-        if kind == 1:
-            # stick slope kt u'; slip slope mu N' n + (I - n n^T) kt u' (slip flow)
-            # -> J = n (mu N' - n . kt u')
-            bp = mu[p] * kn[p] * vp if has_normal else 0.0
-            na = 0.0
-            for j in range(d):
-                na += nvec[j] * kt[p, j] * up[j]
-            for j in range(d):
-                jump[j] = nvec[j] * (bp - na)
-            if want_jac:
-                for col in range(m):
-                    dbp = mu[p] * kn[p] * dvp[col] if has_normal else 0.0
-                    dna = 0.0
-                    for j in range(d):
-                        dna += dn[j, col] * kt[p, j] * up[j] + nvec[j] * kt[p, j] * dup[j, col]
-                    for j in range(d):
-                        djump[j, col] = dn[j, col] * (bp - na) + nvec[j] * (dbp - dna)
-        else:
-            ref = kprev if kind == 2 else k
-            sgn = -1.0 if kind == 2 else 1.0  # N loses / gains its slope kn v'
-            jump[d] = sgn * kn[p] * vp
-            tn = 0.0
-            for j in range(d):
-                tn += T_out[p, j, ref] * T_out[p, j, ref]
-            tn = np.sqrt(tn)
-            for j in range(d):
-                nvec[j] = T_out[p, j, ref] / tn if tn > 0.0 else 0.0
-            stick_after = kind == 3 and state_out[p, k] == SAMPLE_STICK
-            for j in range(d):
-                # T slides on mu N into an opening; sticks (kt u') or slides out of a closing
-                jump[j] = kt[p, j] * up[j] if stick_after else sgn * mu[p] * kn[p] * vp * nvec[j]
-            if want_jac:
-                for col in range(m):
-                    djump[d, col] = sgn * kn[p] * dvp[col]
-                    proj = 0.0
-                    for j in range(d):
-                        proj += nvec[j] * G[ref, j * m + col]
-                    for j in range(d):
-                        if stick_after:
-                            djump[j, col] = kt[p, j] * dup[j, col]
-                        else:
-                            dnj = (G[ref, j * m + col] - nvec[j] * proj) / tn if tn > 0.0 else 0.0
-                            djump[j, col] = sgn * mu[p] * kn[p] * (dvp[col] * nvec[j] + vp * dnj)
-        # integral correction h^2 J (1/6 - s (1 - s)) / 2 -> coefficients a_c(theta) / h times it
-        wk = h * (1.0 / 6.0 - s * (1.0 - s)) / 2.0
-        for c in range(nc):
-            wc, dwc = _coeff_weight(c, theta, ns, corder, ckind)
-            for j in range(last):
-                F_out[p, j, c] += wc * wk * jump[j]
-                if want_jac:
-                    for col in range(m):
-                        dwk = h * (2.0 * s - 1.0) / 2.0 * ds[col]
-                        val = (wc * (wk * djump[j, col] + dwk * jump[j])
-                               + dwc * h * ds[col] * wk * jump[j])
-                        if col == m - 1:
-                            D_out[p, j, c] += val
-                        else:
-                            J_out[p, j, c, col] += val
+        for q in range(kinds):
+            kind = first + q
+            _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal,
+                  want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out,
+                  jump, djump, ds, a, da, nvec, dn, up, dup, dvp)
 
 
 @njit(cache=True)
-def _crossing(p, k, kprev, a, da, kn, mu, E, has_normal, want_jac, T_out, N_out,
+def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal,
+          want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out,
+          jump, djump, ds, a, da, nvec, dn, up, dup, dvp):  # pragma: no cover
+    """One kink of ``kind`` (1 stick -> slip, 2 opening, 3 closing) in the interval
+    (kprev, k) of point p: its correction added to F_out (and J_out, D_out); the work
+    arrays are the caller's."""
+    d, ns, nc = u.shape[1], u.shape[2], E.shape[1]
+    m = J_out.shape[3] + 1
+    vcol, rows, h = d * nc, d + 1, 2.0 * np.pi / ns
+    last = rows if has_normal else d
+    if want_jac:
+        djump[:, :] = 0.0
+        ds[:] = 0.0
+        da[:, :] = 0.0
+        dn[:, :] = 0.0
+    for j in range(d):
+        a[j] = kt[p, j] * (u[p, j, k] - u[p, j, kprev])  # stick slope per unit s
+        if want_jac:
+            for c in range(nc):
+                da[j, j * nc + c] = kt[p, j] * (E[k, c] - E[kprev, c])
+    if kind == 1:
+        s = _crossing(p, k, kprev, a, da, kn, mu, n0, v, E, has_normal, want_jac, T_out, N_out,
+                      G, ds, nvec, dn)
+    else:
+        nu0 = n0[p] + kn[p] * v[p, kprev]
+        nu1 = n0[p] + kn[p] * v[p, k]
+        den = nu0 - nu1  # > 0 opening, < 0 closing
+        s = nu0 / den
+        if want_jac:
+            for c in range(nc):
+                ds[vcol + c] = kn[p] * (-nu1 * E[kprev, c] + nu0 * E[k, c]) / (den * den)
+            ds[m - 1] = 1.0 / den
+    theta = ((kprev if k > 0 else -1) + s) * h
+    # exact slopes of the inputs at the kink, and their derivatives
+    vp, vpp = 0.0, 0.0
+    for j in range(d):
+        up[j] = 0.0
+    upp = np.zeros(d)
+    for c in range(nc):
+        d1, d2 = _slopes(c, theta, corder, ckind)
+        for j in range(d):
+            up[j] += g[p, j, c] * d1
+            upp[j] += g[p, j, c] * d2
+        if has_normal:
+            vp += g[p, d, c] * d1
+            vpp += g[p, d, c] * d2
+    if want_jac:
+        for col in range(m):
+            for j in range(d):
+                dup[j, col] = upp[j] * h * ds[col]
+            dvp[col] = vpp * h * ds[col]
+        for c in range(nc):
+            d1, _ = _slopes(c, theta, corder, ckind)
+            for j in range(d):
+                dup[j, j * nc + c] += d1
+            if has_normal:
+                dvp[vcol + c] += d1
+    for r in range(rows):
+        jump[r] = 0.0
+    if kind == 1:
+        # stick slope kt u'; slip slope mu N' n + (I - n n^T) kt u' (slip flow)
+        # -> J = n (mu N' - n . kt u')
+        bp = mu[p] * kn[p] * vp if has_normal else 0.0
+        na = 0.0
+        for j in range(d):
+            na += nvec[j] * kt[p, j] * up[j]
+        for j in range(d):
+            jump[j] = nvec[j] * (bp - na)
+        if want_jac:
+            for col in range(m):
+                dbp = mu[p] * kn[p] * dvp[col] if has_normal else 0.0
+                dna = 0.0
+                for j in range(d):
+                    dna += dn[j, col] * kt[p, j] * up[j] + nvec[j] * kt[p, j] * dup[j, col]
+                for j in range(d):
+                    djump[j, col] = dn[j, col] * (bp - na) + nvec[j] * (dbp - dna)
+    else:
+        ref = kprev if kind == 2 else k
+        sgn = -1.0 if kind == 2 else 1.0  # N loses / gains its slope kn v'
+        jump[d] = sgn * kn[p] * vp
+        tn = 0.0
+        for j in range(d):
+            tn += T_out[p, j, ref] * T_out[p, j, ref]
+        tn = np.sqrt(tn)
+        for j in range(d):
+            nvec[j] = T_out[p, j, ref] / tn if tn > 0.0 else 0.0
+        stick_after = kind == 3 and state_out[p, k] == SAMPLE_STICK
+        for j in range(d):
+            # T slides on mu N into an opening; sticks (kt u') or slides out of a closing
+            jump[j] = kt[p, j] * up[j] if stick_after else sgn * mu[p] * kn[p] * vp * nvec[j]
+        if want_jac:
+            for col in range(m):
+                djump[d, col] = sgn * kn[p] * dvp[col]
+                proj = 0.0
+                for j in range(d):
+                    proj += nvec[j] * G[ref, j * m + col]
+                for j in range(d):
+                    if stick_after:
+                        djump[j, col] = kt[p, j] * dup[j, col]
+                    else:
+                        dnj = (G[ref, j * m + col] - nvec[j] * proj) / tn if tn > 0.0 else 0.0
+                        djump[j, col] = sgn * mu[p] * kn[p] * (dvp[col] * nvec[j] + vp * dnj)
+    # integral correction h^2 J (1/6 - s (1 - s)) / 2 -> coefficients a_c(theta) / h times it
+    wk = h * (1.0 / 6.0 - s * (1.0 - s)) / 2.0
+    for c in range(nc):
+        wc, dwc = _coeff_weight(c, theta, ns, corder, ckind)
+        for j in range(last):
+            F_out[p, j, c] += wc * wk * jump[j]
+            if want_jac:
+                for col in range(m):
+                    dwk = h * (2.0 * s - 1.0) / 2.0 * ds[col]
+                    val = (wc * (wk * djump[j, col] + dwk * jump[j])
+                           + dwc * h * ds[col] * wk * jump[j])
+                    if col == m - 1:
+                        D_out[p, j, c] += val
+                    else:
+                        J_out[p, j, c, col] += val
+
+
+@njit(cache=True)
+def _crossing(p, k, kprev, a, da, kn, mu, n0, v, E, has_normal, want_jac, T_out, N_out,
               G, ds, nvec, dn):  # pragma: no cover
     """Fraction s of (kprev, k) where the linear predictor ``T_prev + s a``
     from a stuck sample reaches the limit ``L0 + s b`` (b = mu (N_k - N_prev));
-    fills ds, the direction n = T_c / L_c there and dn."""
+    fills ds, the direction n = T_c / L_c there and dn. Into an opening sample (N_k = 0)
+    the limit is that of the unclipped normal force n0 + kn v_k < 0, which reaches zero
+    where the contact opens: the force slides down the shrinking cone before then."""
     d = a.size
     nc = E.shape[1]
     m = ds.size
     vcol = d * nc
+    opening = has_normal and N_out[p, k] <= 0.0
     L0 = mu[p] * N_out[p, kprev]
-    b = mu[p] * N_out[p, k] - L0
+    b = mu[p] * (n0[p] + kn[p] * v[p, k] if opening else N_out[p, k]) - L0
     qa, qb, qc = -b * b, -L0 * b, -L0 * L0
     for j in range(d):
         t0 = T_out[p, j, kprev]
@@ -216,7 +236,7 @@ def _crossing(p, k, kprev, a, da, kn, mu, E, has_normal, want_jac, T_out, N_out,
         dl1 = 0.0
         if col == m - 1:
             dl0 = mu[p] if N_out[p, kprev] > 0.0 else 0.0
-            dl1 = mu[p] if N_out[p, k] > 0.0 else 0.0
+            dl1 = mu[p] if (N_out[p, k] > 0.0 or opening) else 0.0
         elif has_normal and vcol <= col < vcol + nc:
             c = col - vcol
             dl0 = mu[p] * kn[p] * E[kprev, c]
