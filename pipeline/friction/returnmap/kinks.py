@@ -223,6 +223,22 @@ def _crossing(p, k, kprev, a, da, kn, mu, n0, v, E, has_normal, want_jac, T_out,
     # one root in (0, 1], in a cancellation-free form
     den = qb + np.sqrt(max(qb * qb - qa * qc, 0.0))
     s = min(max(-qc / den, 0.0), 1.0) if den > 0.0 else 1.0
+    if opening and L0 > 0.0:
+        # into an opening the root lies in (0, s*], s* where the cone closes (L0 + s* b = 0);
+        # next to s* (a contact stuck since it closed, grazing: T and the cone vanish
+        # together) the form above loses s to cancellation, and n = T_c / L_c with it:
+        # solved instead for sg = s* - s in |T* - sg a| = -sg b, T* = T_prev + s* a
+        # (f(sg = 0) = |T*|^2 >= 0 > f(sg = s*), one root between, cancellation-free)
+        sst = min(L0 / -b, 1.0) if b < 0.0 else 1.0
+        ra, rb, rc = -b * b, 0.0, 0.0
+        for j in range(d):
+            ts = T_out[p, j, kprev] + sst * a[j]
+            ra += a[j] * a[j]
+            rb += ts * a[j]
+            rc += ts * ts
+        den = rb + np.sqrt(max(rb * rb - ra * rc, 0.0))
+        sg = min(max(rc / den, 0.0), sst) if den > 0.0 else 0.0
+        s = min(sst - sg, 1.0)
     lc = L0 + s * b
     dfs = -lc * b
     for j in range(d):
