@@ -49,6 +49,7 @@ from microslip.pipeline.solve.response import (
     Response,
     peak_curve,
     response_measure,
+    stability_at,
     sweep,
 )
 from microslip.pipeline.solve.stability import hill_stability
@@ -527,10 +528,7 @@ def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, wh
     hb, par = r.model, r.parameter
     points = [hill_stability(hb, x, r.point(i)) for i, x in enumerate(r.branch.x)]
     found = find_bifurcations(r, points, solver)
-    floquet = np.full((len(r), schema.FLOQUET), np.nan + 0j)
-    for i, s in enumerate(points):
-        k = min(s.exponents.size, schema.FLOQUET)
-        floquet[i, :k] = s.exponents[:k]
+    floquet = _floquet(points)
     stable = np.array([s.stable for s in points])
     shown = np.zeros((len(found), len(rows)))
     for k, f in enumerate(found):
@@ -552,6 +550,17 @@ def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, wh
         "response": shown,
         "exponent": np.array([f.exponent for f in found], dtype=complex),
         "located": np.array([f.located for f in found], dtype=bool)}}
+
+
+def _floquet(points: list) -> np.ndarray:
+    """(n, schema.FLOQUET) the leading exponents of each point's Stability (NaN: fewer, or
+    no stability there)."""
+    out = np.full((len(points), schema.FLOQUET), np.nan + 0j)
+    for i, s in enumerate(points):
+        if s is not None:
+            k = min(s.exponents.size, schema.FLOQUET)
+            out[i, :k] = s.exponents[:k]
+    return out
 
 
 def _attr_list(values: list[str]) -> str:
@@ -624,21 +633,26 @@ def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve
     if spec.tracking == "continuation":
         try:
             pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=settings(c),
-                            progress=tick, vibration=vibration)
+                            progress=tick, vibration=vibration, stability=spec.stability)
         except KeyboardInterrupt:
             return "interrupted", "interrupted by the user"
         omega, amp, how = list(pc.omega), list(pc.amplitude), pc.how
+        stability = list(pc.stability or [])
         done = [bool(np.isfinite(x)) for x in amp]
         statuses.append(("complete", "") if all(done) else
                         ("stopped", "no solution at some values"))
     else:
-        omega, amp, done, how = [], [], [], []
+        omega, amp, done, how, stability = [], [], [], [], []
         for i, v in enumerate(values):
             r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=settings(c))
             if r.branch.status == "interrupted":
                 statuses.append(("interrupted", r.branch.message))
                 break
             wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
+            if spec.stability:
+                stability.append(stability_at(
+                    hb, base.set(par, v).set("frequency", wk),
+                    list(zip(r.omega, r.branch.x))) if np.isfinite(wk) else None)
             omega.append(wk)
             amp.append(ak)
             done.append(r.branch.complete)
@@ -648,6 +662,9 @@ def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve
     n = len(amp)
     data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
             "complete": np.array(done), "how": np.array(how)}
+    if stability:
+        data |= {"stable": np.array([s is not None and s.stable for s in stability]),
+                 "floquet": _floquet(stability)}
     status, message = _worst(statuses)
     run.writer.write_group(group, curve, data, {
         "label": label or f"peak of {spec.output}", "family_value": value or "",

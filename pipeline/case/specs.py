@@ -112,7 +112,8 @@ class Peak(Analysis):
     """The largest ``measure`` of ``output`` over the frequency ``window`` (rad/s) at
     ``points`` values of ``parameter`` from ``start`` to ``stop`` (``spacing`` linear or
     log), each found by ``tracking`` (continuation from the last peak, or a sweep per
-    value); ``levels``: the free and fully stuck peaks too (an assembly case)."""
+    value); ``levels``: the free and fully stuck peaks too (an assembly case);
+    ``stability``: Hill's stability of each peak's solution."""
 
     type: ClassVar[str] = "peak"
     parameter: str
@@ -126,6 +127,7 @@ class Peak(Analysis):
     measure: str = "peak"
     levels: bool = False
     family: Family | None = None
+    stability: bool = True
 
     def values(self) -> np.ndarray:
         """(points,) the parameter values of each curve."""

@@ -406,7 +406,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
             _family(pre, fam, data, out)
         if kind == "frf" and ("maps" in given or "map_types" in given):
             _maps(pre, a, data, out)
-        if kind == "frf" and not isinstance(a["stability"], bool):
+        if kind in ("frf", "peak") and not isinstance(a["stability"], bool):
             out.append(f"{pre}.stability = {a['stability']!r}: expected true or false "
                        "(Hill's stability at every point, and the bifurcations)")
         if kind == "frf" and not isinstance(a["normalise"], bool):

@@ -90,7 +90,12 @@ def _line(ax: Axes, s: dict) -> Line2D | None:
                       lw=s.get("lw", 1.4), ls=s.get("ls", "-"), color=s.get("color"),
                       marker=marker, ms=3)
     if np.any(stable == 0):
-        ax.plot(xs, np.where(st != 1, ys, np.nan), lw=s.get("lw", 1.4), ls=(0, (3, 2)),
+        # a segment from a stable point to an unstable one (no bifurcation point between,
+        # e.g. on a peak curve) is drawn dashed
+        unstable = st == 0
+        near = unstable | np.append(unstable[1:], False) | np.insert(unstable[:-1], 0, False)
+        ax.plot(xs, np.where(near | (st == -1), ys, np.nan), lw=s.get("lw", 1.4),
+                ls=(0, (3, 2)),
                 color=line.get_color(), marker=marker, ms=3, mfc="none")
     named = {m.get_label() for m in ax.get_lines()}
     for kind, xb, yb in s.get("bifurcations", ()):

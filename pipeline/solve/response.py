@@ -21,6 +21,7 @@ from microslip.pipeline.friction.laws import ContactResponse
 
 from . import continuation as cont
 from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
+from .stability import Stability, hill_stability
 
 METHODS = ("arclength", "natural")
 LINEAR_SAMPLES = 801  # parameter samples of a sweep with no contact DOF
@@ -551,6 +552,8 @@ class PeakCurve:
     amplitude: np.ndarray
     how: list[str]
     solves: int
+    #: per point Hill's stability at the peak (``stability``), else None
+    stability: list[Stability | None] | None = None
 
 
 def peak_curve(
@@ -564,6 +567,7 @@ def peak_curve(
     settings: cont.Settings = cont.DEFAULT,
     progress: Callable[[int, float, float, float, str], None] | None = None,
     vibration: bool = False,
+    stability: bool = False,
 ) -> PeakCurve:
     """Optimization / performance curves: the peak traced by natural continuation
     in ``parameter`` (Firrone & Zucca Fig. 6).
@@ -576,13 +580,15 @@ def peak_curve(
     falls back to a full FRF. Far fewer solves than one FRF per value. It follows
     one peak: where the FRF has several maxima of similar height (e.g. a stuck
     and a slipping resonance) it may stay on a lower one; use full sweeps there.
-    ``vibration``: the peak of max|x(t) - x0| (the static part left out)."""
+    ``vibration``: the peak of max|x(t) - x0| (the static part left out); ``stability``:
+    Hill's stability of each peak's solution (:func:`stability_at`)."""
     lo, hi = window
     if not (0 < lo < hi):
         raise ValueError(f"peak_curve: 'window' = {window} must satisfy 0 < low < high (rad/s)")
     base = base or OperatingPoint(lo)
     vals = np.asarray(values, dtype=float)
     omega, amp, how = [], [], []
+    stable: list[Stability | None] = []
     memo: list[tuple[float, np.ndarray]] = []
     solves = 0
 
@@ -634,6 +640,22 @@ def peak_curve(
             how.append("tracked")
         omega.append(w)
         amp.append(a)
+        if stability:
+            stable.append(stability_at(model, point.set("frequency", w), memo, settings)
+                          if np.isfinite(w) else None)
         if progress:
             progress(i, float(v), w, a, how[-1])
-    return PeakCurve(vals, np.array(omega), np.array(amp), how, solves)
+    return PeakCurve(vals, np.array(omega), np.array(amp), how, solves,
+                     stable if stability else None)
+
+
+def stability_at(model: HarmonicBalance, point: OperatingPoint,
+                 near: Sequence[tuple[float, np.ndarray]],
+                 settings: cont.Settings = cont.DEFAULT) -> Stability | None:
+    """Hill's stability of the solution at ``point`` found by Newton from the nearest in
+    frequency of ``near`` ((w, x) pairs); None where there is none or Newton fails."""
+    if not near or model.n_unknowns == 0:
+        return None
+    x0 = min(near, key=lambda m: abs(m[0] - point.omega))[1]
+    r = solve_point(model, point, settings=settings, x0=x0)
+    return hill_stability(model, r.x, point) if r.converged else None
