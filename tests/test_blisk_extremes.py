@@ -12,6 +12,7 @@ import pytest
 
 from microslip.pipeline import case as cases
 from microslip.pipeline.app.run import run_case
+from microslip.pipeline.results.file import attr_text
 
 
 def quick(mu: float, amplitude: float) -> cases.Case:
@@ -45,3 +46,49 @@ def test_the_stuck_blisk_goes_over_its_lift_off_peak(tmp_path, amplitude):
         else:
             assert 0.9 * top_stuck < top < 0.97 * top_stuck
             assert w_stuck - 1.0 < w < w_stuck
+
+
+@pytest.mark.slow
+def test_the_light_dampers_fold_has_an_unstable_middle(tmp_path):
+    """Firrone & Zucca Fig. 23 right (cases/blisk_damper.toml's low_mass: the 5 x damper at
+    mu = 1, partial lift-off): two folds located around 3141.55 rad/s, the points between
+    them unstable and the rest stable; of the three solutions at 3141.546 rad/s (the map
+    points) the middle amplitude is the unstable one by Hill's method (3 min)."""
+    from microslip.pipeline.app.models import AssemblyModels
+    from microslip.pipeline.app.run import mesh_geometry
+    from microslip.pipeline.app.structure import reduce_structure
+    from microslip.pipeline.case import curve_variants
+    from microslip.pipeline.solve.stability import hill_stability
+
+    data = copy.deepcopy(cases.load("cases/blisk_damper.toml").data)
+    data["analysis"] = [a for a in data["analysis"] if a["name"] == "low_mass"]
+    data["analysis"][0]["map_types"] = ["status"]
+    case = cases.Case(data, "blisk_damper.toml")
+    run_case(case, tmp_path, progress=lambda s: None, cache=False)
+    with h5py.File(tmp_path / "results.h5") as f:
+        c = f["low_mass/curve_000"]
+        assert c.attrs["status"] == "complete"
+        kinds = [k.decode() for k in c["bifurcations/kind"][()]]
+        assert kinds == ["fold", "fold"]
+        i, j = np.sort(c["bifurcations/index"][()])
+        stable = c["stable"][()]
+        assert stable[: i + 1].all() and not stable[i + 1: j + 1].any()
+        assert stable[j + 1:].all()
+        lo, hi = sorted(c["bifurcations/omega"][()])
+        assert lo < 3141.546 < hi and hi - lo < 0.1
+        solutions = [c["maps"][p] for p in sorted(c["maps"]) if
+                     attr_text(c["maps"][p].attrs["what"]) != "peak"]
+        assert len(solutions) == 3
+        xs = [p["unknowns"][()] for p in solutions]
+        amplitude = [float(p["response"][0]) for p in solutions]
+    # the same model, the three solutions' stability
+    mesh = mesh_geometry(case.geometry_table, tmp_path, progress=lambda s: None,
+                         pictures=False)
+    variant = next(iter(curve_variants(case, case.analysis_specs[0])))[0]
+    result = reduce_structure(mesh, variant.data["reduction"], None,
+                              cases.harmonics(variant).orders, progress=lambda s: None)
+    hb = AssemblyModels(mesh, result).model(variant)
+    point = cases.operating_point(variant, 3141.546)
+    verdicts = [hill_stability(hb, x, point).stable for x in xs]
+    middle = int(np.argsort(amplitude)[1])
+    assert not verdicts[middle] and sum(verdicts) == 2

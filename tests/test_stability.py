@@ -135,3 +135,51 @@ def test_the_folds_are_located_where_the_closed_form_puts_them(tmp_path):
         assert not stable[index[0] + 1: index[1] + 1].any()
         assert np.isnan(c["floquet"][:, 2:]).all()  # one DOF: two exponents per point
     assert sum("fold at frequency" in line for line in said) == 2
+
+
+def quadratic_cubic(H: int, force: float = 0.5, beta: float = 1.0, gamma: float = 1.0):
+    """x'' + 2 zeta x' + x + beta x^2 + gamma x^3 = P cos(w t), zeta = 0.01."""
+    data = {"title": "quadratic-cubic", "model": {"dofs": ["x"], "mass": [1.0],
+                                                  "stiffness": [1.0], "damping": [0.02]},
+            "contacts": [{"name": "spring", "law": "polynomial",
+                          "coefficients": [0.0, beta, gamma], "u": {"x": 1.0}}],
+            "loads": [{"dof": "x", "amplitude": force}],
+            "harmonics": {"max": H, "samples": 16 * (H + 1)},
+            "analysis": [{"name": "frf", "type": "frf", "start": 1.6, "stop": 2.4}]}
+    return cases.lumped_model(cases.Case(copy.deepcopy(data), "qc.toml"))
+
+
+def test_period_doubling_at_the_half_subharmonic_resonance():
+    """Forced near twice its natural frequency, the quadratic spring modulates the
+    stiffness at w (2 beta x): a Mathieu first tongue, where the T-periodic response loses
+    stability through a multiplier -1. Hill's method finds two period doublings (an
+    exponent pair through Im = w / 2), the same to 1e-5 at H = 4 and 6, and at each the
+    monodromy matrix of SciPy's integration of the variational equations has a multiplier
+    at -1 (to 1e-3: the location to 1e-4 of the step and the truncation)."""
+    from microslip.pipeline.solve.bifurcation import find_bifurcations
+
+    found = {}
+    for H in (4, 6):
+        hb = quadratic_cubic(H)
+        r = sweep(hb, "frequency", 1.6, 2.4, OperatingPoint(1.6))
+        points = [hill_stability(hb, x, r.point(i)) for i, x in enumerate(r.branch.x)]
+        found[H] = (hb, find_bifurcations(r, points))
+        assert [b.kind for b in found[H][1]] == ["period doubling"] * 2
+    np.testing.assert_allclose([b.omega for b in found[4][1]],
+                               [b.omega for b in found[6][1]], rtol=1e-5)
+    hb, bifurcations = found[6]
+    h = hb.harmonics
+    for b in bifurcations:
+        assert b.located and abs(abs(b.exponent.imag) - b.omega / 2) < 1e-6 * b.omega
+        w = b.omega
+        coef = hb.recover(b.x, OperatingPoint(w))[0]
+
+        def rhs(t, y, w=w, coef=coef):
+            u = h.synthesis_at(np.array([w * t]))[0] @ coef
+            A = np.array([[0.0, 1.0], [-(1.0 + 2 * u + 3 * u * u), -0.02]])
+            return (A @ y.reshape(2, 2)).ravel()
+
+        sol = solve_ivp(rhs, (0.0, 2 * np.pi / w), np.eye(2).ravel(), rtol=1e-11,
+                        atol=1e-13)
+        mono = np.linalg.eigvals(sol.y[:, -1].reshape(2, 2))
+        assert np.min(np.abs(mono + 1.0)) < 1e-3

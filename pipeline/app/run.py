@@ -527,6 +527,7 @@ def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, wh
     t = time.perf_counter()
     hb, par = r.model, r.parameter
     points = [hill_stability(hb, x, r.point(i)) for i, x in enumerate(r.branch.x)]
+    t_points = time.perf_counter() - t
     found = find_bifurcations(r, points, solver)
     floquet = _floquet(points)
     stable = np.array([s.stable for s in points])
@@ -535,9 +536,10 @@ def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, wh
         p = r.base.set(par, f.parameter)
         shown[k] = response_at(hb, f.x, p, rows, spec.measure) / (
             p.excitation if spec.normalise else 1.0)
-    progress(f"{which}: stability of {len(r)} points ({time.perf_counter() - t:.2f} s): "
+    progress(f"{which}: stability of {len(r)} points ({t_points:.2f} s): "
              f"{np.count_nonzero(~stable)} unstable, {len(found)} bifurcation"
-             f"{'s' if len(found) != 1 else ''}")
+             f"{'s' if len(found) != 1 else ''}"
+             + (f" (located in {time.perf_counter() - t - t_points:.2f} s)" if found else ""))
     for f in found:
         progress(f"{which}:   {f.kind} at {par} {f.parameter:.8g} (after point {f.index}), "
                  f"exponent {f.exponent.real:.3g}{f.exponent.imag:+.3g}i 1/s"

@@ -4,8 +4,9 @@ them and named (issue 25, section 2).
 Each point's unstable Floquet exponents (:mod:`.stability`) fall in three classes by where
 their multiplier exp(lambda T) leaves the unit circle:
 
-    real       |Im lambda| ~ 0        through +1: a fold (the parameter turns back there)
-                                      or a branch point (it does not)
+    real       |Im lambda| ~ 0        through +1: a fold (the parameter turns back there:
+                                      at a point, or past both points' values) or a
+                                      branch point (it does not)
     flip       |Im lambda| ~ w / 2    through -1: period doubling
     complex    otherwise              a complex pair: Neimark-Sacker (quasi-periodic motion)
 
@@ -97,8 +98,7 @@ def find_bifurcations(r: Response, stabilities: list[Stability],
         for cls in range(3):
             if counts[i][cls] == counts[i + 1][cls]:
                 continue
-            kind = ("fold" if turning & {i, i + 1} else "branch point",
-                    "period doubling", "Neimark-Sacker")[cls]
+            kind = ("", "period doubling", "Neimark-Sacker")[cls]
 
             def at(lam: float, x: np.ndarray) -> Stability:
                 return hill_stability(r.model, x, r.base.set(r.parameter, lam))
@@ -117,6 +117,11 @@ def find_bifurcations(r: Response, stabilities: list[Stability],
                          0.5 * (r.branch.x[i] + r.branch.x[i + 1]),
                          complex(np.nan) if exp is None else exp, False)
             lam, x, exponent, located = found
+            if not kind:  # the parameter turns back: at a point, or between two (a natural
+                # sweep's last point before its jump lies past the fold)
+                beyond = not min(values[i], values[i + 1]) <= lam <= max(values[i],
+                                                                          values[i + 1])
+                kind = "fold" if (turning & {i, i + 1} or beyond) else "branch point"
             out.append(Bifurcation(kind, i, float(lam), r.base.set(r.parameter, lam).omega,
                                    complex(exponent), x, located))
     return out
