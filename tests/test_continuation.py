@@ -108,6 +108,14 @@ def test_fig24_natural_sweeps_jump_at_both_folds():
     # to the upper fold, then falls onto the lower one
     i, j = up.branch.jumps[0]
     assert up.amplitude([0])[j, 0] < 0.5 * up.amplitude([0])[i, 0]
+    # the middle branch, between the turning points, is the unstable one (Hill's method;
+    # points next to a fold may go either way: its exponent is nearly zero there)
+    from microslip.pipeline.solve.stability import hill_stability
+
+    stable = np.array([hill_stability(hb, x, arc.point(k)).stable
+                       for k, x in enumerate(arc.branch.x)])
+    a, b = arc.branch.turning_points
+    assert stable[:a].all() and not stable[a + 1:b].any() and stable[b + 1:].all()
 
 
 def _natural_sweeps_jump_at_the_folds(hb, arc, start, stop):

@@ -183,3 +183,19 @@ def test_period_doubling_at_the_half_subharmonic_resonance():
                         atol=1e-13)
         mono = np.linalg.eigvals(sol.y[:, -1].reshape(2, 2))
         assert np.min(np.abs(mono + 1.0)) < 1e-3
+
+
+def test_a_branch_circling_a_kink_makes_no_bifurcation():
+    """Stability flipping back and forth at consecutive points a hair apart (a branch
+    circling a stick/slip kink) is one cluster: none when it ends as it began, its first
+    change when it does not; changes far apart, or across a natural sweep's jump, stay."""
+    from microslip.pipeline.solve.bifurcation import _changes
+
+    values = np.array([0.0, 1.0, 2.0, 2.0 + 1e-9, 2.0 - 1e-9, 2.0 + 2e-9, 3.0, 4.0])
+    counts = [(k, 0, 0) for k in (0, 0, 0, 1, 0, 1, 1, 0)]
+    # 2 -> 5: 0, 1, 0, 1 (net +1: the first change, at 2); 6 -> 7 a change on its own
+    assert _changes(values, counts, set()) == [(2, 0), (6, 0)]
+    counts[5] = (0, 0, 0)  # the cluster ends as it began: nothing there
+    counts[6] = (0, 0, 0)
+    assert _changes(values, counts, set()) == []
+    assert _changes(values, [(0, 0, 0)] * 7 + [(0, 1, 0)], {6}) == []  # across a jump

@@ -12,9 +12,9 @@ their multiplier exp(lambda T) leaves the unit circle:
 
 Where the count of a class changes between consecutive points, the test function (the
 largest real part among the class's exponents) is followed along the branch between them:
-points on the chord's normal planes (the arclength corrector) by regula falsi (Illinois),
-bisection where the class is empty at one end, until the bracket is below LOCATED of the
-step or the real part within ``stability.NEUTRAL`` w of zero.
+points on the chord's normal planes (the arclength corrector) by regula falsi (Illinois)
+to its zero, bisection on the count where the class is empty at one end, until the
+bracket is below LOCATED of the step or the real part within ZERO w of zero.
 """
 
 from __future__ import annotations
@@ -34,8 +34,9 @@ CLASSES = ("real", "flip", "complex")
 #: truncated Hill problem puts the pair of a multiplier on the negative axis near, not at,
 #: the strip's edge).
 REAL, EDGE = 1e-6, 1e-2
-#: The bracket's share of the step at which a bifurcation counts as located.
-LOCATED = 1e-4
+#: The bracket's share of the step at which a bifurcation counts as located, and the real
+#: part (x w) that counts as zero there.
+LOCATED, ZERO = 1e-4, 1e-9
 #: Trials per bifurcation, and bifurcations located per branch (a branch through a
 #: non-smooth region can change stability at many points: the rest are reported at the
 #: midpoint of their bracket, unlocated).
@@ -92,54 +93,80 @@ def find_bifurcations(r: Response, stabilities: list[Stability],
     turning = set(r.branch.turning_points)
     counts = [unstable_counts(s, r.point(i).omega) for i, s in enumerate(stabilities)]
     out: list[Bifurcation] = []
-    for i in range(n - 1):
-        if i in jumps:
-            continue
-        for cls in range(3):
-            if counts[i][cls] == counts[i + 1][cls]:
-                continue
-            kind = ("", "period doubling", "Neimark-Sacker")[cls]
+    for i, cls in _changes(values, counts, jumps):
+        kind = ("", "period doubling", "Neimark-Sacker")[cls]
 
-            def at(lam: float, x: np.ndarray) -> Stability:
-                return hill_stability(r.model, x, r.base.set(r.parameter, lam))
+        def at(lam: float, x: np.ndarray) -> Stability:
+            return hill_stability(r.model, x, r.base.set(r.parameter, lam))
 
-            def solve(fraction: float, i=i):
-                return cont.on_chord(fun, (values[i], r.branch.x[i]),
-                                     (values[i + 1], r.branch.x[i + 1]), fraction,
-                                     x_scale=xs, lam_scale=lam_scale, f_scale=fs,
-                                     settings=settings)
+        def solve(fraction: float, i=i):
+            return cont.on_chord(fun, (values[i], r.branch.x[i]),
+                                 (values[i + 1], r.branch.x[i + 1]), fraction,
+                                 x_scale=xs, lam_scale=lam_scale, f_scale=fs,
+                                 settings=settings)
 
-            found = _locate(solve, at, r, cls, counts[i][cls], stabilities[i],
-                            stabilities[i + 1], i) if len(out) < MOST else None
-            if found is None:  # unlocated: at the bracket's midpoint, the far end's exponent
-                exp = critical(stabilities[i + 1], r.point(i + 1).omega, cls)
-                found = (0.5 * (values[i] + values[i + 1]),
-                         0.5 * (r.branch.x[i] + r.branch.x[i + 1]),
-                         complex(np.nan) if exp is None else exp, False)
-            lam, x, exponent, located = found
-            if not kind:  # the parameter turns back: at a point, or between two (a natural
-                # sweep's last point before its jump lies past the fold)
-                beyond = not min(values[i], values[i + 1]) <= lam <= max(values[i],
-                                                                          values[i + 1])
-                kind = "fold" if (turning & {i, i + 1} or beyond) else "branch point"
-            out.append(Bifurcation(kind, i, float(lam), r.base.set(r.parameter, lam).omega,
-                                   complex(exponent), x, located))
+        found = _locate(solve, at, r, cls, counts[i][cls], stabilities[i],
+                        stabilities[i + 1], i) if len(out) < MOST else None
+        if found is None:  # unlocated: at the bracket's midpoint, the far end's exponent
+            exp = critical(stabilities[i + 1], r.point(i + 1).omega, cls)
+            found = (0.5 * (values[i] + values[i + 1]),
+                     0.5 * (r.branch.x[i] + r.branch.x[i + 1]),
+                     complex(np.nan) if exp is None else exp, False)
+        lam, x, exponent, located = found
+        if not kind:  # the parameter turns back: at a point, or between two (a natural
+            # sweep's last point before its jump lies past the fold)
+            lo, hi = sorted((values[i], values[i + 1]))
+            slack = 1e-12 * max(abs(lo), abs(hi))  # the chord's rounding
+            beyond = not lo - slack <= lam <= hi + slack
+            kind = "fold" if (turning & {i, i + 1} or beyond) else "branch point"
+        out.append(Bifurcation(kind, i, float(lam), r.base.set(r.parameter, lam).omega,
+                               complex(exponent), x, located))
     return out
+
+
+#: Changes of stability within a parameter span below CLUSTER of the branch's range, at
+#: consecutive points, form one cluster: a branch circling a stick/slip kink (its points
+#: a hair apart, the Jacobian jumping between the kink's sides, and the exponents with it)
+#: changes stability back and forth without any physical meaning.
+CLUSTER = 1e-6
+
+
+def _changes(values: np.ndarray, counts: list[tuple[int, int, int]], jumps: set[int]
+             ) -> list[tuple[int, int]]:
+    """(i, class) where the count of unstable exponents of the class changes between
+    points i and i + 1, in branch order; a cluster (CLUSTER) with no net change counts
+    for none and one with a net change for its first change."""
+    span = CLUSTER * (float(np.ptp(values)) or 1.0)
+    raw = [(i, c) for i in range(len(values) - 1) if i not in jumps for c in range(3)
+           if counts[i][c] != counts[i + 1][c]]
+    out = []
+    for c in range(3):
+        mine = [i for i, k in raw if k == c]
+        while mine:
+            group = [mine.pop(0)]
+            while mine and mine[0] == group[-1] + 1 and np.ptp(
+                    values[group[0]: mine[0] + 2]) < span:
+                group.append(mine.pop(0))
+            if len(group) == 1 or counts[group[0]][c] != counts[group[-1] + 1][c]:
+                out.append((group[0], c))
+    return sorted(out)
 
 
 def _locate(solve: Callable, at: Callable, r: Response, cls: int, count0: int,
             s0: Stability, s1: Stability, i: int):
-    """(parameter, x, critical exponent, located) where the count of unstable exponents of
-    class ``cls`` changes between points i and i + 1 (located: to LOCATED of the step or
-    the test function to the neutral band; False: the trials ran out), or None where the
-    branch between them cannot be followed."""
+    """(parameter, x, critical exponent, located) where the class ``cls``'s largest real
+    part crosses zero between points i and i + 1 (the count of unstable exponents then
+    changes; by that count where the class is empty at an end). located: to LOCATED of
+    the step or the real part within ZERO w of zero; False: the trials ran out. None where
+    the branch between the points cannot be followed."""
     w0, w1 = r.point(i).omega, r.point(i + 1).omega
     g0, g1 = (_test(s, w, cls) for s, w in ((s0, w0), (s1, w1)))
+    sign0 = None if g0 is None or g1 is None or g0 * g1 >= 0 else np.sign(g0)
     a, b = 0.0, 1.0
     side = 0  # Illinois: which end was kept last
     best = None
     for _ in range(TRIALS):
-        if g0 is not None and g1 is not None and g0 * g1 < 0:
+        if sign0 is not None:
             t = a + (b - a) * g0 / (g0 - g1)
             t = min(max(t, a + 0.01 * (b - a)), b - 0.01 * (b - a))
         else:
@@ -153,9 +180,13 @@ def _locate(solve: Callable, at: Callable, r: Response, cls: int, count0: int,
         exp = critical(s, w, cls)
         g = _test(s, w, cls)
         best = (lam, res.x, complex(np.nan) if exp is None else exp)
-        if g is not None and abs(g) <= NEUTRAL * w:
+        if g is not None and abs(g) <= ZERO * w:
             return (*best, True)
-        if unstable_counts(s, w)[cls] == count0:
+        if sign0 is not None and g is not None:
+            low = np.sign(g) == sign0
+        else:
+            low = unstable_counts(s, w)[cls] == count0
+        if low:
             a, g0 = t, g
             if side == -1 and g1 is not None:
                 g1 *= 0.5
@@ -171,7 +202,7 @@ def _locate(solve: Callable, at: Callable, r: Response, cls: int, count0: int,
 
 
 def _test(s: Stability, omega: float, cls: int) -> float | None:
-    """The test function of class ``cls``: its largest real part, shifted by the neutral
-    band so that it changes sign where the count of unstable exponents does."""
+    """The test function of class ``cls``: its largest real part (None: no exponent of
+    the class)."""
     e = critical(s, omega, cls)
-    return None if e is None else e.real - NEUTRAL * omega
+    return None if e is None else e.real
