@@ -165,3 +165,30 @@ def test_previews_without_a_display_are_quiet_and_drawn(tmp_path):
         img = mpimg.imread(p)[..., :3]
         model = img[img.shape[0] // 10:]  # below the title strip
         assert np.mean(np.any(model < 0.95, axis=-1)) > 0.03, p
+
+
+def test_a_branch_line_puts_the_bifurcations_between_their_points(tmp_path):
+    """The drawn line of a curve: each located bifurcation inserted after its point (its
+    stability -1: where the solid and the dashed parts meet), the turning points and the
+    jumps moved to the computed points' new places."""
+
+    from microslip.pipeline.draw.pictures import branch_line
+
+    with h5py.File(tmp_path / "c.h5", "w") as f:
+        c = f.create_group("curve_000")
+        c["parameter"] = np.array([0.0, 1.0, 2.0, 1.5, 2.5, 3.0])
+        c["response"] = np.arange(6.0)[:, None]
+        c["stable"] = np.array([True, True, False, False, True, True])
+        c["turning_points"] = np.array([2])
+        c["jumps"] = np.array([[4, 5]])
+        b = c.create_group("bifurcations")
+        b["index"] = np.array([1, 3])
+        b["parameter"] = np.array([1.9, 2.2])
+        b["response"] = np.array([[1.5], [3.5]])
+        b["kind"] = np.array([b"fold", b"fold"])
+        line = branch_line(c)
+    np.testing.assert_array_equal(line["x"], [0.0, 1.0, 1.9, 2.0, 1.5, 2.2, 2.5, 3.0])
+    np.testing.assert_array_equal(line["stable"], [1, 1, -1, 0, 0, -1, 1, 1])
+    assert line["turning_points"].tolist() == [3]  # point 2 is now the fourth
+    assert line["jumps"].tolist() == [[6, 7]]
+    assert [k for k, _, _ in line["bifurcations"]] == ["fold", "fold"]

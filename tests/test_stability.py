@@ -17,14 +17,18 @@ from microslip.pipeline.solve.stability import floquet_multipliers, hill_stabili
 ZETA, GAMMA = 0.05, 0.1
 
 
-def duffing(force, H, gamma=GAMMA):
-    data = {"title": "Duffing", "model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0],
+def _duffing_data(force, gamma=GAMMA):
+    return {"title": "Duffing", "model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0],
                                           "damping": [2 * ZETA]},
             "contacts": [{"name": "cubic", "law": "polynomial",
                           "coefficients": [0.0, 0.0, gamma], "u": {"x": 1.0}}],
             "loads": [{"dof": "x", "amplitude": force}],
-            "harmonics": {"max": H, "samples": max(64, 16 * (H + 1))},
             "analysis": [{"name": "frf", "type": "frf", "start": 0.5, "stop": 2.0}]}
+
+
+def duffing(force, H, gamma=GAMMA):
+    data = {**_duffing_data(force, gamma),
+            "harmonics": {"max": H, "samples": max(64, 16 * (H + 1))}}
     return cases.lumped_model(cases.Case(copy.deepcopy(data), "duffing.toml"))
 
 
@@ -111,7 +115,8 @@ def _fold_of_one_harmonic(branch: str) -> float:
 def test_the_folds_are_located_where_the_closed_form_puts_them(tmp_path):
     """One harmonic (the closed form's own truncation): the run's located folds against
     the amplitude equation's, to 1e-9 (the test function, the real exponent, is within
-    NEUTRAL w of zero there, and the branch's w is quadratic in the distance to the fold);
+    1e-9 w of zero or bracketed to 1e-4 of the step, and the branch's w is quadratic in the
+    distance to the fold);
     the stability datasets say unstable exactly between them, and the terminal lists them."""
     import h5py
 
@@ -199,3 +204,21 @@ def test_a_branch_circling_a_kink_makes_no_bifurcation():
     counts[6] = (0, 0, 0)
     assert _changes(values, counts, set()) == []
     assert _changes(values, [(0, 0, 0)] * 7 + [(0, 1, 0)], {6}) == []  # across a jump
+
+
+def test_odd_harmonics_are_analysed_on_every_order():
+    """A balance kept on the odd orders (the Duffing's solution has no even harmonic) gets
+    its stability from every order up to its highest: the same exponents as the balance on
+    orders 0..7 at the same solution, to 1e-8 (Newton's tolerance on the solution)."""
+    full = duffing(0.3, 7)
+    data = {"orders": [1, 3, 5, 7], "samples": 128}
+    odd = cases.lumped_model(cases.Case({**_duffing_data(0.3), "harmonics": data}, "o.toml"))
+    p = OperatingPoint(1.2)
+    r = sweep(odd, "frequency", 0.5, 2.0, OperatingPoint(0.5))
+    k = [i for i in range(len(r) - 1) if (r.omega[i] - 1.2) * (r.omega[i + 1] - 1.2) <= 0][1]
+    x = solve_point(odd, p, x0=r.branch.x[k]).x
+    got = hill_stability(odd, x, p)
+    want = hill_stability(full, solve_point(full, p, x0=odd.embed(x, full)).x, p)
+    assert not got.stable and not want.stable  # the middle branch
+    np.testing.assert_allclose(np.sort_complex(got.exponents), np.sort_complex(want.exponents),
+                               atol=1e-8)

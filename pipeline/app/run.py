@@ -6,6 +6,7 @@ saving the branch computed so far; the results file is then marked partial.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from collections.abc import Callable
@@ -52,7 +53,7 @@ from microslip.pipeline.solve.response import (
     stability_at,
     sweep,
 )
-from microslip.pipeline.solve.stability import hill_stability
+from microslip.pipeline.solve.stability import hill_stability, undefined
 
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import AssemblyModels, LumpedModels
@@ -526,6 +527,10 @@ def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, wh
         return {}
     t = time.perf_counter()
     hb, par = r.model, r.parameter
+    why = undefined(hb)
+    if why:
+        progress(f"{which}: no stability: {why}")
+        return {}
     points = [hill_stability(hb, x, r.point(i)) for i, x in enumerate(r.branch.x)]
     t_points = time.perf_counter() - t
     found = find_bifurcations(r, points, solver)
@@ -539,7 +544,8 @@ def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, wh
     progress(f"{which}: stability of {len(r)} points ({t_points:.2f} s): "
              f"{np.count_nonzero(~stable)} unstable, {len(found)} bifurcation"
              f"{'s' if len(found) != 1 else ''}"
-             + (f" (located in {time.perf_counter() - t - t_points:.2f} s)" if found else ""))
+             + (f" (located in {time.perf_counter() - t - t_points:.2f} s)" if found else "")
+             + _incomplete(points))
     for f in found:
         progress(f"{which}:   {f.kind} at {par} {f.parameter:.8g} (after point {f.index}), "
                  f"exponent {f.exponent.real:.3g}{f.exponent.imag:+.3g}i 1/s"
@@ -552,6 +558,13 @@ def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, wh
         "response": shown,
         "exponent": np.array([f.exponent for f in found], dtype=complex),
         "located": np.array([f.located for f in found], dtype=bool)}}
+
+
+def _incomplete(points: list) -> str:
+    """A note of the points whose exponents near zero ARPACK did not all find (their
+    verdict rests on those it found), or ""."""
+    k = sum(1 for s in points if s is not None and not s.complete)
+    return f"; {k} points' exponents incomplete (ARPACK)" if k else ""
 
 
 def _floquet(points: list) -> np.ndarray:
@@ -632,6 +645,10 @@ def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve
     t = time.perf_counter()
     tick = _peak_ticker(run.progress, spec.name, label, par)
     statuses = []
+    why = undefined(hb) if spec.stability and hb.n_unknowns else ""
+    if why:
+        run.progress(f"[{spec.name}] {label}: no stability: {why}".replace("] :", "]:"))
+    spec = dataclasses.replace(spec, stability=spec.stability and not why)
     if spec.tracking == "continuation":
         try:
             pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=settings(c),
@@ -651,10 +668,15 @@ def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve
                 statuses.append(("interrupted", r.branch.message))
                 break
             wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
-            if spec.stability:
+            if spec.stability and np.isfinite(wk):  # from the points around the top
+                top = int(np.argmax(r.amplitude([k] if np.ndim(k) == 0 else k[None],
+                                                vibration=vibration)[:, 0]))
+                near = range(max(top - 1, 0), min(top + 2, len(r)))
                 stability.append(stability_at(
                     hb, base.set(par, v).set("frequency", wk),
-                    list(zip(r.omega, r.branch.x))) if np.isfinite(wk) else None)
+                    [(r.omega[j], r.branch.x[j]) for j in near], settings(c)))
+            elif spec.stability:
+                stability.append(None)
             omega.append(wk)
             amp.append(ak)
             done.append(r.branch.complete)
@@ -664,8 +686,9 @@ def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve
     n = len(amp)
     data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
             "complete": np.array(done), "how": np.array(how)}
-    if stability:
-        data |= {"stable": np.array([s is not None and s.stable for s in stability]),
+    if any(s is not None for s in stability):
+        data |= {"stable": np.array([-1 if s is None else int(s.stable) for s in stability],
+                                    dtype=np.int8),
                  "floquet": _floquet(stability)}
     status, message = _worst(statuses)
     run.writer.write_group(group, curve, data, {

@@ -383,7 +383,8 @@ def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> l
     spec = analysis_spec(g)
     par, output, (lo, hi) = spec.parameter, spec.output, spec.window
     series = [{"x": c["parameter"][()], "y": c["amplitude"][()],
-               "stable": c["stable"][()].astype(int) if "stable" in c else None,
+               # unknown (-1: not solved there) drawn as stable: nothing to say
+               "stable": np.abs(c["stable"][()].astype(int)) if "stable" in c else None,
                "label": attr_text(c.attrs.get("label", "")) or None} for _, c in curves(g)]
     for key, label, style in ((schema.LEVEL_FREE, "free (no damper)", ":"),
                               (schema.LEVEL_STUCK, "fully stuck", "-.")):

@@ -161,7 +161,7 @@ FRF_CURVE = group(
           data("omega", "(b,) rad/s"),
           data("response", "(b, outputs) m, the analysis' measure there"),
           data("exponent", "(b,) 1/s complex, the critical Floquet exponent there"),
-          data("located", "(b,) to 1e-4 of the step (false: the bracket's midpoint)")),
+          data("located", "(b,) to 1e-4 of the step (false: the last trial)")),
     data("unknowns", "(n, u) the balance unknowns"),
     data("unknown_dofs", "(u / nc,) model DOF of each unknown block"),
     data("unknown_nodes", "(u / nc,) mesh node of each unknown block (assembly)"),
@@ -254,7 +254,8 @@ LAYOUT = group(
                 data("amplitude", "(n,) m, the peak"),
                 data("complete", "(n,) found"),
                 data("how", "(n,) tracked | swept"),
-                data("stable", "(n,) Hill's stability of the peak's solution (stability)"),
+                data("stable", "(n,) Hill's stability of the peak's solution (stability): 1 "
+                     "stable, 0 unstable, -1 unknown (not solved there)"),
                 data("floquet", f"(n, {FLOQUET}) 1/s complex, as an frf's")),
           group(LEVEL_FREE, "(peak, levels) the free bodies' peak", ("label", *_RUN),
                 *LEVEL_DATA),

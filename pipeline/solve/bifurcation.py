@@ -48,7 +48,7 @@ class Bifurcation:
     """kind: one of KINDS; index: the point before it (between ``index`` and ``index + 1``);
     parameter, omega [rad/s]: where; exponent: the critical Floquet exponent there [1/s];
     x: the solution there (the balance's unknowns); located: found to LOCATED of the step
-    (False: the midpoint of the bracket)."""
+    (False: the last trial point, or the bracket's midpoint where none converged)."""
 
     kind: str
     index: int
@@ -163,7 +163,7 @@ def _locate(solve: Callable, at: Callable, r: Response, cls: int, count0: int,
     g0, g1 = (_test(s, w, cls) for s, w in ((s0, w0), (s1, w1)))
     sign0 = None if g0 is None or g1 is None or g0 * g1 >= 0 else np.sign(g0)
     a, b = 0.0, 1.0
-    side = 0  # Illinois: which end was kept last
+    side = 0  # Illinois: which end was replaced last (-1: a, 1: b)
     best = None
     for _ in range(TRIALS):
         if sign0 is not None:
@@ -182,7 +182,9 @@ def _locate(solve: Callable, at: Callable, r: Response, cls: int, count0: int,
         best = (lam, res.x, complex(np.nan) if exp is None else exp)
         if g is not None and abs(g) <= ZERO * w:
             return (*best, True)
-        if sign0 is not None and g is not None:
+        if g is None:  # the class emptied here: its real part is no guide any more
+            sign0 = None
+        if sign0 is not None:
             low = np.sign(g) == sign0
         else:
             low = unstable_counts(s, w)[cls] == count0

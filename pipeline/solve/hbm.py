@@ -364,6 +364,39 @@ class HarmonicBalance:
             self._by_samples[n_samples] = out
         return self._by_samples[n_samples]
 
+    def consecutive(self) -> HarmonicBalance:
+        """The same model on every order from 0 to the highest kept (the Hill problem of
+        stability needs them: a perturbation is not restricted to the solution's
+        harmonics, e.g. the even ones of a period doubling beside odd ones). Only for
+        models whose linear part is the same at every order (lumped ones); ValueError
+        otherwise. Made once."""
+        h = self.harmonics
+        if h.orders == tuple(range(h.orders[0], h.orders[-1] + 1)) and h.orders[0] <= 1:
+            return self
+        key = ("consecutive",)
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        lin = self.linear
+        if any(k.shape != lin.K[0].shape or np.any(k != lin.K[0]) for k in lin.K):
+            raise ValueError(f"hbm: harmonic orders {list(h.orders)} are not consecutive "
+                             "and the linear part differs per order (cyclic symmetry): no "
+                             "stability (keep every order from 0 or 1 to the highest)")
+        full = Harmonics(range(h.orders[-1] + 1), h.n_samples)
+        out = HarmonicBalance(
+            LinearDynamics.create(lin.K[0], lin.M[0], lin.C[0], harmonics=full,
+                                  mass_part=lin.M_part[0]),
+            self.contacts, self.excitation, full, sub_sample=self.sub_sample)
+        self._cache.put(key, out, 0, pinned=True)
+        return out
+
+    def embed(self, x: np.ndarray, other: HarmonicBalance) -> np.ndarray:
+        """The unknowns ``x`` of this model in the layout of ``other`` (the same contact
+        DOFs, other orders: those missing here are zero)."""
+        h = self.harmonics
+        X = h.to_complex(x.reshape(self.dofs.size, h.n_coeffs))
+        return other.harmonics.from_complex(X, (self.dofs.size,)).ravel()
+
     @property
     def F_ext(self) -> np.ndarray:
         """(n_orders, n_dof) complex external forces on the shared DOFs at unit multipliers

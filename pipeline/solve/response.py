@@ -21,7 +21,7 @@ from microslip.pipeline.friction.laws import ContactResponse
 
 from . import continuation as cont
 from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
-from .stability import Stability, hill_stability
+from .stability import Stability, hill_stability, undefined
 
 METHODS = ("arclength", "natural")
 LINEAR_SAMPLES = 801  # parameter samples of a sweep with no contact DOF
@@ -655,6 +655,8 @@ def stability_at(model: HarmonicBalance, point: OperatingPoint,
     """Hill's stability of the solution at ``point`` found by Newton from the nearest in
     frequency of ``near`` ((w, x) pairs); None where there is none or Newton fails."""
     if not near or model.n_unknowns == 0:
+        return None
+    if undefined(model):
         return None
     x0 = min(near, key=lambda m: abs(m[0] - point.omega))[1]
     r = solve_point(model, point, settings=settings, x0=x0)

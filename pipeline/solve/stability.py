@@ -18,8 +18,9 @@ non-linear in lambda (the Schur complement of K + s C + s^2 M); in full coordina
 quadratic, linearised to [[0, I], [-J, -Delta_1]] = lambda [[I, 0], [0, Delta_2]]. The
 condensation is still what makes it cheap: the exponents nearest zero come from
 shift-and-invert at lambda = 0, whose every solve with J is Newton's condensed Jacobian (one
-LU) plus one LU of each order's condensed block D_ii. A stability check thus costs about
-one Newton iteration of the point.
+LU) plus one LU of each order's condensed block D_ii. A stability check at full scale thus
+costs about one Newton iteration of the point (small problems go to a dense eigensolver
+instead, the inverted operator formed on the identity).
 
 Which exponents: each Floquet exponent appears in copies shifted by i k w. Kept are the
 eigenvalues in the fundamental strip |Im lambda| <= w / 2 (Moore 2005; Peletan et al.
@@ -38,6 +39,7 @@ piecewise-smooth law, approximately (see the README, "Stability").
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,16 +76,44 @@ def floquet_multipliers(stability: Stability, omega: float) -> np.ndarray:
     return np.exp(stability.exponents * 2.0 * np.pi / omega)
 
 
+def undefined(hb: HarmonicBalance) -> str:
+    """Why Hill's method does not apply to ``hb`` ("" where it does): a lumped contact whose
+    motion lags (``lag``: a time delay, whose perturbation carries exp(-lambda lag) that
+    the balance's Jacobian cannot), or orders that are not consecutive on a cyclic model."""
+    lin = hb.linear
+    lumped = all(k.shape == lin.K[0].shape and np.all(k == lin.K[0]) for k in lin.K)
+    lagged = [c.name for c in hb.contacts if isinstance(c.kinematics, Mapping)]
+    if lumped and lagged:
+        return (f"contact {lagged[0]!r} moves with a time lag: a delay, which Hill's method "
+                "does not cover")
+    try:
+        hb.consecutive()
+    except ValueError as err:
+        return str(err)
+    return ""
+
+
 def hill_stability(hb: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> Stability:
     """The Floquet exponents of the solution ``x`` (the balance's unknowns) at ``point``
-    (see the module)."""
+    (see the module). A lumped model kept on some orders only (e.g. the odd ones) is
+    analysed on every order up to its highest (:meth:`HarmonicBalance.consecutive`);
+    ValueError where the method does not apply (:func:`undefined`)."""
+    why = undefined(hb)
+    if why:
+        raise ValueError(f"hill_stability: {why}")
+    full = hb.consecutive()
+    if full is not hb:
+        hb, x = full, hb.embed(x, full)
     hill = _Hill(hb, x, point)
     w = point.omega
     if 2 * hill.size <= DENSE:
         lam, complete = hill.all_exponents(), True
     else:
         lam, complete = hill.exponents_near_zero(w)
-    lam = lam[np.abs(lam.imag) <= 0.5 * w * (1.0 + 1e-9)]
+    # the strip -w/2 < Im <= w/2, with a margin for the truncation at its edge; there a
+    # multiplier on the negative axis shows as a conjugate pair, a +- i w/2: one is kept
+    edge = np.abs(lam.imag) >= (1.0 - 1e-2) * 0.5 * w
+    lam = lam[(np.abs(lam.imag) <= 0.5 * w * (1.0 + 1e-2)) & ~(edge & (lam.imag < 0))]
     lam = lam[np.argsort(-lam.real, kind="stable")]
     return Stability(lam, bool(lam.size == 0 or lam[0].real <= NEUTRAL * w), complete)
 
@@ -190,13 +220,16 @@ class _Hill:
         op = spla.LinearOperator((n, n), matvec=self.inverted, dtype=float)
         k = min(FIRST, n - 2)
         while True:
+            converged = True
             try:
                 mu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False,
                                ncv=min(n, max(2 * k + 1, 20)), tol=1e-10)
-            except spla.ArpackNoConvergence as err:
-                mu = err.eigenvalues
+            except spla.ArpackNoConvergence as err:  # the converged ones: not surely the
+                mu, converged = err.eigenvalues, False  # nearest zero, so not complete
             lam = 1.0 / mu[mu != 0]
-            covered = lam.size and np.abs(lam).max() > 0.5 * w
+            covered = converged and lam.size and np.abs(lam).max() > 0.5 * w
+            if not converged:
+                return lam, False
             if covered or k >= min(MOST, n - 2):
                 return lam, bool(covered)
             k = min(2 * k, MOST, n - 2)
