@@ -191,8 +191,8 @@ def test_period_doubling_at_the_half_subharmonic_resonance():
 
 
 def test_a_branch_circling_a_kink_makes_no_bifurcation():
-    """Stability flipping back and forth at consecutive points a hair apart (a branch
-    circling a stick/slip kink) is one cluster: none when it ends as it began, its first
+    """Stability flipping back and forth at points a hair apart (a branch circling a
+    stick/slip kink) is one cluster: none when it ends as it began, its first
     change when it does not; changes far apart, or across a natural sweep's jump, stay."""
     from microslip.pipeline.solve.bifurcation import _changes
 

@@ -124,10 +124,10 @@ def find_bifurcations(r: Response, stabilities: list[Stability],
     return out
 
 
-#: Changes of stability within a parameter span below CLUSTER of the branch's range, at
-#: consecutive points, form one cluster: a branch circling a stick/slip kink (its points
-#: a hair apart, the Jacobian jumping between the kink's sides, and the exponents with it)
-#: changes stability back and forth without any physical meaning.
+#: Changes of stability whose points (and every point between) lie within a parameter span
+#: below CLUSTER of the branch's range form one cluster: a branch circling a stick/slip
+#: kink (its points a hair apart, the Jacobian jumping between the kink's sides, and the
+#: exponents with it) changes stability back and forth without any physical meaning.
 CLUSTER = 1e-6
 
 
@@ -144,8 +144,7 @@ def _changes(values: np.ndarray, counts: list[tuple[int, int, int]], jumps: set[
         mine = [i for i, k in raw if k == c]
         while mine:
             group = [mine.pop(0)]
-            while mine and mine[0] == group[-1] + 1 and np.ptp(
-                    values[group[0]: mine[0] + 2]) < span:
+            while mine and np.ptp(values[group[0]: mine[0] + 2]) < span:
                 group.append(mine.pop(0))
             if len(group) == 1 or counts[group[0]][c] != counts[group[-1] + 1][c]:
                 out.append((group[0], c))
