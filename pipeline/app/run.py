@@ -470,8 +470,9 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
         stability = _stability_data(r, spec, settings(c), idx, progress, which)
     except KeyboardInterrupt:  # the branch is kept, without its stability
         stability = {}
-        b.status, b.message = "interrupted", (
-            "interrupted by the user during the stability analysis")
+        b.message = "; ".join(m for m in (b.message, "interrupted by the user during the "
+                                          "stability analysis") if m)
+        b.status = "interrupted"
     change, shift = _sampling_changes(r, contacts, idx, measure, b.status)
     jumps = np.array(b.jumps, dtype=np.int64).reshape(-1, 2)
     data = {

@@ -106,29 +106,46 @@ def branch_line(c: h5py.Group) -> dict:
     turning_points and jumps (point indices into the line), bifurcations [(kind, x,
     (outputs,) y)]."""
     x, y = c["parameter"][()], c["response"][()]
+    values = x
     key = np.arange(len(x), dtype=float)  # where each drawn point sits along the branch
     stable = c["stable"][()].astype(int) if "stable" in c else None
-    marks = []
+    marks, peak = [], None
     xp, yp, at = _with_peak(c)
     if len(xp) > len(x):  # the refined peak, between points at - 1 and at
-        x, y, key = xp, yp, np.insert(key, at, at - 0.5)
+        peak = _along(values, at - 1, xp[at])
+        x, y, key = xp, yp, np.insert(key, at, peak)
         if stable is not None:
-            stable = np.insert(stable, at, min(stable[max(at - 1, 0)],
-                                               stable[min(at, len(stable) - 1)]))
+            stable = np.insert(stable, at, stable[at - 1 if peak < at - 0.5 else at])
     b = c.get(schema.BIFURCATIONS)
     if b is not None and stable is not None and len(b["parameter"]):
-        where = b["index"][()] + 0.5 + 1e-3 * np.arange(len(b["parameter"])) / len(
-            b["parameter"])
-        k = np.searchsorted(key, where)
-        x, y = np.insert(x, k, b["parameter"][()]), np.insert(y, k, b["response"][()], axis=0)
-        key, stable = np.insert(key, k, where), np.insert(stable, k, -1)
+        where = np.array([_along(values, i, v) for i, v in zip(b["index"][()],
+                                                                b["parameter"][()])])
+        where += 1e-6 * np.arange(where.size)  # two in one interval keep their order
+        order = np.argsort(where, kind="stable")
+        k = np.searchsorted(key, where[order])
+        x = np.insert(x, k, b["parameter"][()][order])
+        y = np.insert(y, k, b["response"][()][order], axis=0)
+        key, stable = np.insert(key, k, where[order]), np.insert(stable, k, -1)
         marks = [(attr_text(kind), xb, yb) for kind, xb, yb in
                  zip(b["kind"][()], b["parameter"][()], b["response"][()])]
+        if peak is not None:  # the peak takes the side of the bifurcation it lies on
+            j = int(np.flatnonzero(key == peak)[0])
+            left, right = stable[j - 1] if j else 1, stable[j + 1] if j + 1 < len(key) else 1
+            stable[j] = right if left == -1 else left if right == -1 else stable[j]
     index = np.flatnonzero(key == np.round(key))  # the computed points' new places
     tp = c["turning_points"][()] if "turning_points" in c else np.zeros(0, int)
     jumps = c["jumps"][()] if "jumps" in c else np.zeros((0, 2), int)
     return {"x": x, "y": y, "stable": stable, "turning_points": index[tp],
             "jumps": index[jumps].reshape(-1, 2), "bifurcations": marks}
+
+
+def _along(values: np.ndarray, i: int, value: float) -> float:
+    """Where ``value`` of the parameter sits between points i and i + 1 of a branch: i plus
+    its fraction of the way, within (0.01, 0.99) (a fold lies beyond both points' values:
+    at the nearer end)."""
+    if i + 1 >= len(values) or values[i + 1] == values[i]:
+        return i + 0.5
+    return i + float(np.clip((value - values[i]) / (values[i + 1] - values[i]), 0.01, 0.99))
 
 
 def _with_peak(c: h5py.Group) -> tuple[np.ndarray, np.ndarray, int]:
