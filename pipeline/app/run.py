@@ -6,7 +6,6 @@ saving the branch computed so far; the results file is then marked partial.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import time
 from collections.abc import Callable
@@ -649,11 +648,11 @@ def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve
     why = undefined(hb) if spec.stability and hb.n_unknowns else ""
     if why:
         run.progress(f"[{spec.name}] {label}: no stability: {why}".replace("] :", "]:"))
-    spec = dataclasses.replace(spec, stability=spec.stability and not why)
+    wanted = spec.stability and not why
     if spec.tracking == "continuation":
         try:
             pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=settings(c),
-                            progress=tick, vibration=vibration, stability=spec.stability)
+                            progress=tick, vibration=vibration, stability=wanted)
         except KeyboardInterrupt:
             return "interrupted", "interrupted by the user"
         omega, amp, how = list(pc.omega), list(pc.amplitude), pc.how
@@ -669,14 +668,13 @@ def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve
                 statuses.append(("interrupted", r.branch.message))
                 break
             wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
-            if spec.stability and np.isfinite(wk):  # from the points around the top
-                top = int(np.argmax(r.amplitude([k] if np.ndim(k) == 0 else k[None],
-                                                vibration=vibration)[:, 0]))
+            if wanted and np.isfinite(wk):  # from the points around the top
+                top = r.top(k, vibration=vibration)[0]
                 near = range(max(top - 1, 0), min(top + 2, len(r)))
                 stability.append(stability_at(
                     hb, base.set(par, v).set("frequency", wk),
                     [(r.omega[j], r.branch.x[j]) for j in near], settings(c)))
-            elif spec.stability:
+            elif wanted:
                 stability.append(None)
             omega.append(wk)
             amp.append(ak)

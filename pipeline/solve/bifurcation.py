@@ -94,7 +94,7 @@ def find_bifurcations(r: Response, stabilities: list[Stability],
     counts = [unstable_counts(s, r.point(i).omega) for i, s in enumerate(stabilities)]
     out: list[Bifurcation] = []
     for i, cls in _changes(values, counts, jumps):
-        kind = ("", "period doubling", "Neimark-Sacker")[cls]
+        kind = ("", KINDS[2], KINDS[3])[cls]  # a real one: a fold or a branch point, below
 
         def at(lam: float, x: np.ndarray) -> Stability:
             return hill_stability(r.model, x, r.base.set(r.parameter, lam))
@@ -118,7 +118,7 @@ def find_bifurcations(r: Response, stabilities: list[Stability],
             lo, hi = sorted((values[i], values[i + 1]))
             slack = 1e-12 * max(abs(lo), abs(hi))  # the chord's rounding
             beyond = not lo - slack <= lam <= hi + slack
-            kind = "fold" if (turning & {i, i + 1} or beyond) else "branch point"
+            kind = KINDS[0] if (turning & {i, i + 1} or beyond) else KINDS[1]
         out.append(Bifurcation(kind, i, float(lam), r.base.set(r.parameter, lam).omega,
                                complex(exponent), x, located))
     return out

@@ -364,6 +364,13 @@ class HarmonicBalance:
             self._by_samples[n_samples] = out
         return self._by_samples[n_samples]
 
+    @cached_property
+    def lumped(self) -> bool:
+        """Whether the linear part is the same at every order (a lumped model; a cyclic
+        one's differs by nodal diameter)."""
+        K = self.linear.K
+        return all(k.shape == K[0].shape and np.array_equal(k, K[0]) for k in K)
+
     def consecutive(self) -> HarmonicBalance:
         """The same model on every order from 0 to the highest kept (the Hill problem of
         stability needs them: a perturbation is not restricted to the solution's
@@ -378,7 +385,7 @@ class HarmonicBalance:
         if hit is not None:
             return hit
         lin = self.linear
-        if any(k.shape != lin.K[0].shape or np.any(k != lin.K[0]) for k in lin.K):
+        if not self.lumped:
             raise ValueError(f"hbm: harmonic orders {list(h.orders)} are not consecutive "
                              "and the linear part differs per order (cyclic symmetry): no "
                              "stability (keep every order from 0 or 1 to the highest)")

@@ -76,6 +76,13 @@ class Response:
         return response_measure(self.model.harmonics, self.coefficients(dofs),
                                 _measure(vibration), oversample)
 
+    def top(self, dof: int | np.ndarray, *, vibration: bool = False
+            ) -> tuple[int, np.ndarray]:
+        """(the point of the largest response of one DOF or output row, the (n_points,)
+        responses: max|x(t)|, or max|x(t) - x0| with ``vibration``)."""
+        amp = self.amplitude(_one(dof), vibration=vibration)[:, 0]
+        return int(np.argmax(amp)), amp
+
     def peak(self, dof: int | np.ndarray, *, xtol: float = 1e-9,
              vibration: bool = False) -> tuple[float, float]:
         """(parameter value, max|x(t)|) at the largest response of one DOF (``vibration``:
@@ -86,8 +93,7 @@ class Response:
         point); ``xtol`` is relative to that bracket. Where the maximum sits on a fold
         (the branch turns back around it) or next to a jump of a natural sweep the sampled
         maximum is returned unrefined."""
-        amp = self.amplitude(_one(dof), vibration=vibration)[:, 0]
-        i = int(np.argmax(amp))
+        i, amp = self.top(dof, vibration=vibration)
         lam = self.values
         jumps = {k for jump in self.branch.jumps for k in jump}  # no bracket across a jump
         if i == 0 or i == len(self) - 1 or (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) <= 0 \

@@ -80,10 +80,8 @@ def undefined(hb: HarmonicBalance) -> str:
     """Why Hill's method does not apply to ``hb`` ("" where it does): a lumped contact whose
     motion lags (``lag``: a time delay, whose perturbation carries exp(-lambda lag) that
     the balance's Jacobian cannot), or orders that are not consecutive on a cyclic model."""
-    lin = hb.linear
-    lumped = all(k.shape == lin.K[0].shape and np.all(k == lin.K[0]) for k in lin.K)
     lagged = [c.name for c in hb.contacts if isinstance(c.kinematics, Mapping)]
-    if lumped and lagged:
+    if hb.lumped and lagged:
         return (f"contact {lagged[0]!r} moves with a time lag: a delay, which Hill's method "
                 "does not cover")
     try:
