@@ -158,9 +158,22 @@ def run(argv: list[str]) -> int:
     parser.add_argument("--dry-run", action="store_true",
                         help="list the stages the run would compute and those it would read "
                         "from the caches, with rough time and memory; compute nothing")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="independent curves (family members, swept peaks, uncertainty "
+                        "samples) on a local Dask cluster of this many worker processes, "
+                        "started when an analysis has two or more to compute (default: the "
+                        "machine's cores); 0: in this process, one after another")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run the independent curves on the Dask cluster whose scheduler "
+                        "is at ADDRESS (e.g. tcp://host:8786; its workers need microslip "
+                        "installed as here)")
     args = parser.parse_args(argv)
     c = _load_case("run", args.case)
     if c is None:
+        return 2
+    fault = _workers_fault(args.workers, args.scheduler)
+    if fault:
+        print(f"microslip run: {fault}", file=sys.stderr)
         return 2
     out = args.out or Path("out") / args.case.stem
     if args.dry_run:
@@ -172,11 +185,15 @@ def run(argv: list[str]) -> int:
         return 0
     if not _output_folder("run", out, args.out is not None):
         return 2
+    executor, fault = _executor(args.workers, args.scheduler)
+    if fault:  # an unreachable scheduler, workers without microslip
+        print(f"microslip run: {fault}", file=sys.stderr)
+        return 2
     t = time.perf_counter()
-    with _sigterm_as_interrupt() as received:
+    with _sigterm_as_interrupt() as received, contextlib.closing(executor):
         try:
             path = run_case(c, out, progress=lambda msg: print(msg, flush=True),
-                            cache=not args.no_cache)
+                            cache=not args.no_cache, executor=executor)
             status, message = _report_run(path, out, t)
         except InputError as err:  # found once the mesh exists: before any heavy work
             print(f"microslip run: {args.case}: {err}", file=sys.stderr)
@@ -193,6 +210,32 @@ def run(argv: list[str]) -> int:
     if message.startswith("interrupted"):  # a curve caught the interrupt and saved itself
         return TERMINATED if received else INTERRUPTED
     return 1
+
+
+def _workers_fault(workers: int | None, scheduler: str | None) -> str:
+    """"" when --workers and --scheduler are allowed (checked before the case runs), else
+    one line saying why."""
+    from microslip.pipeline.app.tasks import workers_fault
+
+    if workers is not None and scheduler is not None:
+        return (f"--workers {workers} with --scheduler {scheduler}: give one (the workers of "
+                "a scheduler are its own)")
+    if scheduler is not None and not scheduler.strip():
+        return "--scheduler '': expected an address such as tcp://host:8786"
+    return workers_fault(workers) if workers is not None else ""
+
+
+def _executor(workers: int | None, scheduler: str | None):
+    """(where the independent curves run, "") or (None, why not): in this process (0
+    workers), a local cluster started on first need (by default one worker per core), or
+    the cluster at ``scheduler``, connected now."""
+    from microslip.pipeline.app.tasks import Distributed, Serial, connect, machine_cores
+
+    if scheduler is not None:
+        client, fault = connect(scheduler)
+        return Distributed(address=scheduler, client=client), fault
+    n = machine_cores() if workers is None else workers
+    return (Serial() if n == 0 else Distributed(workers=n)), ""
 
 
 def check(argv: list[str]) -> int:

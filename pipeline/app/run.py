@@ -58,7 +58,9 @@ from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import AssemblyModels, LumpedModels
 from .progress import time_left
 from .solutions import map_groups, map_solutions, response_at, sampling_change
-from .store import CurveStore, PictureStamps
+from .store import CurveStore, draw_once
+from .tasks import Distributed, Outcome, Serial, Task
+from .uncertainty import run_uncertainty
 
 if TYPE_CHECKING:
     from microslip.pipeline.assembly.model import PatchState
@@ -78,6 +80,7 @@ class Run:
     progress: Progress
     models: LumpedModels | AssemblyModels
     store: CurveStore
+    executor: Serial | Distributed
 
 
 class StageFailed(RuntimeError):
@@ -86,11 +89,13 @@ class StageFailed(RuntimeError):
 
 
 def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
-             cache: bool = True) -> Path:
+             cache: bool = True, executor: Serial | Distributed | None = None) -> Path:
     """Compute every analysis of ``case`` into ``out_dir``; returns results.h5.
 
     cache: reuse the curves kept in ``out_dir/cache`` whose inputs are unchanged (and keep
-    the new ones); False computes everything afresh (and keeps nothing)."""
+    the new ones); False computes everything afresh (and keeps nothing). executor: where
+    the independent curves run (``tasks``; default: in this process, one after another);
+    the caller closes it."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     store = CurveStore(out / "cache" / "curves" if cache else None)
@@ -112,13 +117,13 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
                 if "assembly" in case.data:
                     models = AssemblyModels(m, result)
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
-        run = Run(writer, out, progress, models, store)
+        run = Run(writer, out, progress, models, store, executor or Serial())
         for spec in case.analysis_specs:
             name = spec.name
             t = time.perf_counter()
             group = writer.analysis(name, spec.record())
             progress(f"[{name}] {spec.type} ...")
-            if spec.type in ("frf", "peak", "loops") and (case.contacts_enabled()
+            if spec.type in ("frf", "peak", "uncertainty", "loops") and (case.contacts_enabled()
                                                           or "assembly" in case.data):
                 warm_up(progress)  # says so when a first run compiles the contact kernels
             status, message = RUNNERS[spec.type](case, spec, group, run)
@@ -371,80 +376,98 @@ def frf_key(store: CurveStore, case: Case, spec: Frf, method: str) -> str:
 
 
 def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, str]:
-    """Every curve of an frf (a family value and a method each), the linear limits of an
-    assembly case's frequency sweep, the pictures; (status, message) of the worst curve."""
+    """Every curve of an frf (a family value and a method each: a task each), the linear
+    limits of an assembly case's frequency sweep, the pictures; (status, message) of the
+    worst curve."""
     name, store, progress = spec.name, run.store, run.progress
     methods = spec.method
-    statuses = []
+    statuses: dict[int, tuple[str, str]] = {}
     keys: list[str] = []
+    whiches: list[str] = []
+    tasks: list[Task] = []
+    targets: list[tuple[int, str, str]] = []
     hits = store.hits
     j = 0
     for variant, label, value in curve_variants(case, spec):
         for method in methods:
             tag = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
             which = f"[{name}] curve {j + 1} {tag}".rstrip()
+            whiches.append(which)
             key = frf_key(store, variant, spec, method)
             keys.append(key)
             curve = schema.curve(j)
-            status, message = _stored_curve(
-                store, key, group, curve, f"{which}: {{}} points", progress,
-                lambda variant=variant, method=method, tag=tag, value=value, which=which,
-                curve=curve: _frf_curve(variant, spec, method, tag, value, which, group,
-                                        curve, run))
-            run.writer.flush()
+            kept = _cached_curve(store, key, group, curve, f"{which}: {{}} points", progress)
+            if kept:
+                statuses[j] = kept
+            else:
+                tasks.append(Task(frf_task, (variant, spec, method, tag, value, which), which))
+                targets.append((j, key, curve))
             j += 1
-            statuses.append((status, message))
-            coarse = sampling_warning(group[curve])
-            if coarse:
-                progress(f"warning: {which}: {coarse}")
-            if status == "interrupted":
-                break
-        if statuses and statuses[-1][0] == "interrupted":
-            break
-    if isinstance(run.models, AssemblyModels) and spec.parameter == "frequency" and statuses \
-            and statuses[-1][0] != "interrupted":
+    statuses |= _computed(run, group, tasks, targets, f"[{name}] ")
+    for k in sorted(statuses):
+        coarse = sampling_warning(group[schema.curve(k)]) if k >= 0 else ""
+        if coarse:
+            progress(f"warning: {whiches[k]}: {coarse}")
+    done = [statuses[k] for k in sorted(statuses)]
+    if isinstance(run.models, AssemblyModels) and spec.parameter == "frequency" and done \
+            and not _interrupted(done):
         linear_limits(run.models, case, spec, run.writer, group, store, progress)
     every = len(keys) + sum(schema.is_linear(k) for k in group)
     _draw(pictures.frf, group, spec, run, keys, store.hits - hits == every)
-    return _worst(statuses)
+    return _worst(done)
+
+
+def _interrupted(statuses: list[tuple[str, str]]) -> bool:
+    return any(s == "interrupted" for s, _ in statuses)
+
+
+def _computed(run: Run, group: h5py.Group, tasks: list[Task],
+              targets: list[tuple[int, str, str]], what: str) -> dict[int, tuple[str, str]]:
+    """Run the curves' ``tasks`` (``targets``: each one's (index, store key, group name)),
+    writing each into ``group`` as it finishes and keeping the finished ones (complete, or
+    stopped for a reason a re-run would meet again) in the store; {index: (status,
+    message)}. An interrupt (an interrupted curve, or Ctrl-C while a cluster works) ends it:
+    then index -1 holds the interruption."""
+    out: dict[int, tuple[str, str]] = {}
+    try:
+        for i, outcome in run.executor.run(tasks, run.models, run.progress, what):
+            j, key, curve = targets[i]
+            run.writer.write_group(group, curve, outcome.data, outcome.attrs)
+            run.writer.flush()
+            out[j] = (outcome.status, outcome.message)
+            if outcome.status in ("complete", "stopped"):
+                run.store.save(key, group[curve])
+            for line in outcome.lines:
+                run.progress(line)
+            if outcome.status == "interrupted":
+                break
+    except KeyboardInterrupt:  # the cluster's outstanding tasks are cancelled
+        out[-1] = ("interrupted", "interrupted by the user")
+    return out
 
 
 def _draw(draw, group: h5py.Group, spec: Analysis, run: Run, keys: list[str] = (),
           cached: bool = False) -> None:
-    """Draw an analysis' pictures, unless every curve came from the store and the pictures
-    drawn from the same keys are all there (PictureStamps)."""
-    stamps = PictureStamps(run.out / "cache" / "pictures")
-    key = stamps.key(list(keys), spec.table())
-    kept = stamps.current(spec.name, key) if cached else None
-    if kept is not None:
-        run.progress(f"[{spec.name}] pictures unchanged ({len(kept)} files)")
-        return
-    stamps.remember(spec.name, key, draw(group, spec.name, run.out))
+    draw_once(draw, group, spec, run.out, run.progress, keys, cached)
 
 
-def _stored_curve(store: CurveStore, key: str, group, curve: str, what: str,
-                  progress: Progress, compute: Callable[[], tuple[str, str]]
-                  ) -> tuple[str, str]:
-    """(status, message) of the curve ``group[curve]``: copied from the store, saying so
-    (``what`` formats its number of points), or computed by ``compute`` and kept there when
-    finished (complete, or stopped for a reason a re-run would meet again)."""
-    if store.load(key, group, curve):
-        g = group[curve]
-        status, message = str(g.attrs["status"]), str(g.attrs["message"])
-        progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
-                 f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
-        return status, message
-    status, message = compute()
-    if status in ("complete", "stopped"):
-        store.save(key, group[curve])
+def _cached_curve(store: CurveStore, key: str, group, curve: str, what: str,
+                  progress: Progress) -> tuple[str, str] | None:
+    """(status, message) of the curve ``group[curve]`` copied from the store, saying so
+    (``what`` formats its number of points); None when the store does not have it."""
+    if not store.load(key, group, curve):
+        return None
+    g = group[curve]
+    status, message = str(g.attrs["status"]), str(g.attrs["message"])
+    progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
+             f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
     return status, message
 
 
-def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
-               group: h5py.Group, curve: str, run: Run) -> tuple[str, str]:
-    """Compute one FRF branch (and its map points) of the case variant ``c`` into
-    ``group[curve]``; (status, message)."""
-    models, progress = run.models, run.progress
+def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: str, tag: str,
+             value, which: str, *, progress: Progress, live: bool = True) -> Outcome:
+    """One FRF branch (and its map points) of the case variant ``c``: a task (``tasks``);
+    ``live`` False leaves out the per-point ticks."""
     par, measure, wanted = spec.parameter, spec.measure, list(spec.maps)
     names, idx = _outputs(c, spec.outputs, models)
     start, stop = spec.start, spec.stop
@@ -455,7 +478,8 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
     base = operating_point(c, spec.omega).set(par, start)
     r = sweep(hb, par, start, stop, base,
               method="natural" if method.startswith("natural") else method,
-              settings=settings(c), progress=_ticker(progress, which, start, stop))
+              settings=settings(c),
+              progress=_ticker(progress, which, start, stop) if live else None)
     elapsed = time.perf_counter() - t
     b = r.branch
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
@@ -513,9 +537,8 @@ def _frf_curve(c: Case, spec: Frf, method: str, tag: str, value, which: str,
              "harmonic_orders": list(hb.harmonics.orders),
              "samples": hb.harmonics.n_samples, "mass_multiplier": base.mass_multiplier,
              "excitation": base.excitation, "normalised": spec.normalise}
-    run.writer.write_group(group, curve, data, attrs)
-    progress(f"{which}: {len(r)} points, {b.status} ({elapsed:.2f} s) {b.message}".rstrip())
-    return b.status, b.message
+    done = f"{which}: {len(r)} points, {b.status} ({elapsed:.2f} s) {b.message}".rstrip()
+    return Outcome(data, attrs, b.status, b.message, (done,))
 
 
 def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, which: str
@@ -594,26 +617,44 @@ def _peak_ticker(progress: Progress, name: str, label: str, par: str):
 
 
 def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, str]:
-    """Every peak curve (one per family value) and, with ``levels`` on an assembly case, the
-    free and fully stuck peak levels; the picture; (status, message) of the worst curve."""
+    """Every peak curve (one per family value: a task each, or with ``tracking = "sweep"``
+    a task per value) and, with ``levels`` on an assembly case, the free and fully stuck
+    peak levels; the picture; (status, message) of the worst curve."""
     name, store, models = spec.name, run.store, run.models
-    statuses = []
+    statuses: list[tuple[str, str]] = []
     keys: list[str] = []
     hits = store.hits
+    n = len(spec.values()) if spec.tracking == "sweep" else 1  # tasks per curve
+    tasks: list[Task] = []
+    curves: list[tuple[str, str, str, object]] = []  # (key, group name, label, value)
     for j, (variant, label, value) in enumerate(curve_variants(case, spec)):
         key = store.key(variant.data, spec.table(), curve="peak")
         keys.append(key)
-        curve = schema.curve(j)
-        status, message = _stored_curve(
-            store, key, group, curve, f"[{name}] {label or 'curve'}: {{}} values",
-            run.progress, lambda variant=variant, label=label, value=value, curve=curve:
-            _peak_curve(variant, spec, label, value, group, curve, run))
+        kept = _cached_curve(store, key, group, schema.curve(j),
+                             f"[{name}] {label or 'curve'}: {{}} values", run.progress)
+        if kept:
+            statuses.append(kept)
+            continue
+        curves.append((key, schema.curve(j), label, value))
+        tasks += [Task(peak_task, (variant, spec, label, i if n > 1 else None),
+                       f"[{name}] {label or 'curve'}") for i in range(n)]
+    rows: dict[int, Outcome] = {}
+    try:
+        for i, outcome in run.executor.run(tasks, models, run.progress, f"[{name}] "):
+            rows[i] = outcome
+            for line in outcome.lines:
+                run.progress(line)
+            if outcome.status == "interrupted":
+                break
+    except KeyboardInterrupt:
+        statuses.append(("interrupted", "interrupted by the user"))
+    for k, (key, curve, label, value) in enumerate(curves):
+        status, message = _write_peak_curve(group, curve, label, value, spec,
+                                            [rows.get(k * n + i) for i in range(n)], run)
         statuses.append((status, message))
-        run.writer.flush()
-        if status == "interrupted":
-            break
-    if spec.levels and isinstance(models, AssemblyModels) and not (
-            statuses and statuses[-1][0] == "interrupted"):
+        if status in ("complete", "stopped"):
+            store.save(key, group[curve])
+    if spec.levels and isinstance(models, AssemblyModels) and not _interrupted(statuses):
         variant = case.with_values(spec.set)
         key = store.key(variant.data, spec.table(), curve="levels", points=LEVEL_POINTS)
         if not (store.load(key + "f", group, schema.LEVEL_FREE)
@@ -631,69 +672,88 @@ def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, 
     return _worst(statuses)
 
 
-def _peak_curve(c: Case, spec: Peak, label: str, value, group: h5py.Group, curve: str,
-                run: Run) -> tuple[str, str]:
-    """One peak curve of the case variant ``c`` (a family value's) into ``group[curve]``;
-    (status, message)."""
+def _write_peak_curve(group: h5py.Group, curve: str, label: str, value, spec: Peak,
+                      parts: list[Outcome | None], run: Run) -> tuple[str, str]:
+    """One peak curve from its tasks' rows (``parts``, in value order; None: not run, after
+    an interrupt): the values up to the first missing one; (status, message)."""
+    done = []
+    for part in parts:
+        if part is None:
+            break
+        done.append(part)
+    statuses = [(p.status, p.message) for p in done]
+    if len(done) < len(parts):
+        statuses.append(("interrupted", "interrupted by the user"))
+    rows = [p.data for p in done if p.data]
+    status, message = _worst(statuses)
+    if not rows:  # interrupted before its first value
+        return status, message
+    data = {k: np.concatenate([r[k] for r in rows]) for k in rows[0]}
+    if "stable" in data and not np.any(data["stable"] >= 0):
+        del data["stable"], data["floquet"]  # no stability anywhere
+    run.writer.write_group(group, curve, data, {
+        "label": label or f"peak of {spec.output}", "family_value": value or "",
+        "status": status, "message": message,
+        "elapsed_s": sum(p.seconds for p in done)})
+    run.writer.flush()
+    return status, message
+
+
+def peak_task(models: LumpedModels | AssemblyModels, c: Case, spec: Peak, label: str,
+              index: int | None, *, progress: Progress, live: bool = True) -> Outcome:
+    """The peak curve of the case variant ``c`` by continuation (``index`` None), or its
+    value ``index`` by a sweep: a task (``tasks``) whose rows (parameter, omega, amplitude,
+    complete, how; stable and floquet with ``stability``) the client joins into the curve."""
     par = spec.parameter
-    values = spec.values()
-    k = _outputs(c, (spec.output,), run.models)[1][0]
+    values = spec.values() if index is None else spec.values()[index:index + 1]
+    k = _outputs(c, (spec.output,), models)[1][0]
     lo, hi = spec.window
     vibration = spec.measure == "vibration"
-    hb = run.models.model(c)
+    hb = models.model(c)
     base = operating_point(c, lo)
-    t = time.perf_counter()
-    tick = _peak_ticker(run.progress, spec.name, label, par)
+    tick = _peak_ticker(progress, spec.name, label, par)
     statuses = []
     why = undefined(hb) if spec.stability and hb.n_unknowns else ""
-    if why:
-        run.progress(f"[{spec.name}] {label}: no stability: {why}".replace("] :", "]:"))
+    if why and index in (None, 0):
+        progress(f"[{spec.name}] {label}: no stability: {why}".replace("] :", "]:"))
     wanted = spec.stability and not why
-    if spec.tracking == "continuation":
+    if index is None:
         try:
             pc = peak_curve(hb, par, values, k, (lo, hi), base, settings=settings(c),
                             progress=tick, vibration=vibration, stability=wanted)
         except KeyboardInterrupt:
-            return "interrupted", "interrupted by the user"
+            return Outcome({}, {}, "interrupted", "interrupted by the user")
         omega, amp, how = list(pc.omega), list(pc.amplitude), pc.how
         stability = list(pc.stability or [])
         done = [bool(np.isfinite(x)) for x in amp]
         statuses.append(("complete", "") if all(done) else
                         ("stopped", "no solution at some values"))
     else:
-        omega, amp, done, how, stability = [], [], [], [], []
-        for i, v in enumerate(values):
-            r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=settings(c))
-            if r.branch.status == "interrupted":
-                statuses.append(("interrupted", r.branch.message))
-                break
-            wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
-            if wanted and np.isfinite(wk):  # from the points around the top
-                top = r.top(k, vibration=vibration)[0]
-                near = range(max(top - 1, 0), min(top + 2, len(r)))
-                stability.append(stability_at(
-                    hb, base.set(par, v).set("frequency", wk),
-                    [(r.omega[j], r.branch.x[j]) for j in near], settings(c)))
-            elif wanted:
-                stability.append(None)
-            omega.append(wk)
-            amp.append(ak)
-            done.append(r.branch.complete)
-            how.append("swept")
-            statuses.append((r.branch.status, r.branch.message))
-            tick(i, v, wk, ak, "swept")
-    n = len(amp)
-    data = {"parameter": values[:n], "omega": np.array(omega), "amplitude": np.array(amp),
+        v = values[0]
+        r = sweep(hb, "frequency", lo, hi, base.set(par, v), settings=settings(c))
+        if r.branch.status == "interrupted":
+            return Outcome({}, {}, "interrupted", r.branch.message)
+        wk, ak = r.peak(k, vibration=vibration) if len(r) else (np.nan, np.nan)
+        stability = []
+        if wanted and np.isfinite(wk):  # from the points around the top
+            top = r.top(k, vibration=vibration)[0]
+            near = range(max(top - 1, 0), min(top + 2, len(r)))
+            stability.append(stability_at(
+                hb, base.set(par, v).set("frequency", wk),
+                [(r.omega[j], r.branch.x[j]) for j in near], settings(c)))
+        elif wanted:
+            stability.append(None)
+        omega, amp, done, how = [wk], [ak], [r.branch.complete], ["swept"]
+        statuses.append((r.branch.status, r.branch.message))
+        tick(index, v, wk, ak, "swept")
+    data = {"parameter": values, "omega": np.array(omega), "amplitude": np.array(amp),
             "complete": np.array(done), "how": np.array(how)}
-    if any(s is not None for s in stability):
+    if wanted:
         data |= {"stable": np.array([-1 if s is None else int(s.stable) for s in stability],
                                     dtype=np.int8),
                  "floquet": _floquet(stability)}
     status, message = _worst(statuses)
-    run.writer.write_group(group, curve, data, {
-        "label": label or f"peak of {spec.output}", "family_value": value or "",
-        "status": status, "message": message, "elapsed_s": time.perf_counter() - t})
-    return status, message
+    return Outcome(data, {}, status, message)
 
 
 def run_loops(case: Case, spec: Loops, group: h5py.Group, run: Run) -> tuple[str, str]:
@@ -840,5 +900,5 @@ def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
 
 #: One runner per analysis type: (case, its spec, its results group, the run's shared
 #: parts) -> (status, message).
-RUNNERS = {"frf": run_frf, "peak": run_peak, "loops": run_loops, "dti": run_dti,
-           "transient": run_transient}
+RUNNERS = {"frf": run_frf, "peak": run_peak, "uncertainty": run_uncertainty,
+           "loops": run_loops, "dti": run_dti, "transient": run_transient}

@@ -111,6 +111,33 @@ class CurveStore:
             group.file.copy(group, f, name="curve")
         os.replace(tmp, self._path(key))
 
+    def load_row(self, key: str) -> dict[str, Any] | None:
+        """A stored row of numbers and texts (:meth:`save_row`), or None."""
+        if self.folder is None or not self._path(key).is_file():
+            self.misses += 1
+            return None
+        try:
+            with h5py.File(self._path(key), "r") as f:
+                row = {k: v.decode() if isinstance(v, bytes) else v
+                       for k, v in f["row"].attrs.items()}
+        except (OSError, KeyError):
+            self.misses += 1
+            return None
+        self.hits += 1
+        return row
+
+    def save_row(self, key: str, row: Mapping[str, Any]) -> None:
+        """Keep a row of numbers and texts (a sample of a study), atomically."""
+        if self.folder is None:
+            return
+        self.folder.mkdir(parents=True, exist_ok=True)
+        tmp = self._path(key).with_suffix(".tmp")
+        with h5py.File(tmp, "w") as f:
+            g = f.create_group("row")
+            for k, v in row.items():
+                g.attrs[k] = v
+        os.replace(tmp, self._path(key))
+
     def has(self, key: str) -> bool:
         return self.folder is not None and self._path(key).is_file()
 
@@ -151,3 +178,17 @@ class PictureStamps:
         self.folder.mkdir(parents=True, exist_ok=True)
         (self.folder / f"{name}.json").write_text(
             json.dumps({"key": key, "files": [Path(p).name for p in paths]}))
+
+
+def draw_once(draw, group: h5py.Group, spec, out: Path, progress, keys: list[str] = (),
+              cached: bool = False) -> None:
+    """Draw an analysis' pictures (``draw``: a ``pictures`` drawer), unless every curve came
+    from the store (``cached``) and the pictures drawn from the same ``keys`` are all there
+    (PictureStamps)."""
+    stamps = PictureStamps(out / "cache" / "pictures")
+    key = stamps.key(list(keys), spec.table())
+    kept = stamps.current(spec.name, key) if cached else None
+    if kept is not None:
+        progress(f"[{spec.name}] pictures unchanged ({len(kept)} files)")
+        return
+    stamps.remember(spec.name, key, draw(group, spec.name, out))

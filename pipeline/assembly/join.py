@@ -189,7 +189,8 @@ def _patch_contacts(mesh: Mesh, pc: PatchFriction, stiffness: PatchStiffness,
     c = paired_contact(mesh, pc.patch)
     p = c.pairing
     frames = c.frames
-    kn, kt = stiffness.normal.ravel(), stiffness.tangential.ravel()
+    kn = pc.stiffness_scale * stiffness.normal.ravel()
+    kt = pc.stiffness_scale * stiffness.tangential.ravel()
     for name, nodes in ((c.body_a, p.nodes_a), (c.body_b, p.nodes_b)):
         missing = [int(x) for x in nodes if int(x) not in node_dof]
         if missing:

@@ -59,17 +59,20 @@ class PatchFriction:
     mu: friction coefficient [-]; interference: design interference [m] (negative: a gap),
     the geometric gap of each pair subtracted (Firrone & Zucca eq. 24:
     ``N = max(kn (Delta + v), 0)``);
-    elements: see ELEMENTS.
+    elements: see ELEMENTS; stiffness_scale: multiplier of the patch's contact stiffness
+    (the flat-punch kn and kt of every pair; its uncertainty, e.g. from roughness).
     """
 
     patch: str
     mu: float
     interference: float = 0.0
     elements: str = "2D"
+    stiffness_scale: float = 1.0
 
     def __post_init__(self):
         _finite(f"contacts.{self.patch}.mu", self.mu, nonneg=True)
         _finite(f"contacts.{self.patch}.interference", self.interference)
+        _finite(f"contacts.{self.patch}.stiffness_scale", self.stiffness_scale, positive=True)
         if self.elements not in ELEMENTS:
             raise ValueError(f"contacts.{self.patch}.elements = {self.elements!r}: expected one "
                              f"of {list(ELEMENTS)}")

@@ -13,6 +13,7 @@ static_anchor = 1e-3         # order-0 spring on each pair's mean tangential sli
 patch = "damper_left"        # a model's patch, or a contact of [geometry.contacts]
 mu = 0.5
 interference = 0.0           # [m] design interference (negative: gap); default 0
+stiffness_scale = 1.0        # multiplier of the patch's flat-punch kn and kt; default 1
 elements = "2D"              # "2D" (law D) or "1D+1D" (two law-B elements); default "2D"
 [[assembly.loads]]           # amplitude cos(harmonic w t + phase) [N] over a node set
 node_set = "blisk/excitation"
@@ -56,12 +57,12 @@ from .checks import is_int, is_number, number, unknown_keys
 
 KEYS = {"engine_order", "speed", "centrifugal", "mass_bodies", "mass_multiplier", "contacts",
         "loads", "outputs", "static_anchor", "excitation"}
-CONTACT_KEYS = {"patch", "mu", "interference", "elements"}
+CONTACT_KEYS = {"patch", "mu", "interference", "stiffness_scale", "elements"}
 LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase", "spread"}
 OUTPUT_KEYS = {"name", "node_set", "direction"}
 #: Parameters an assembly case's analyses may sweep.
 PARAMETERS = ("frequency", "excitation", "mass")
-ANALYSES = ("frf", "peak")
+ANALYSES = ("frf", "peak", "uncertainty")
 
 
 def output_names(data: Mapping[str, Any]) -> list[str]:
@@ -139,6 +140,8 @@ def check(table: Any, data: Mapping[str, Any], out: list[str],
             number(f"{pre}.mu", c["mu"], out, nonneg=True)
         if "interference" in c:
             number(f"{pre}.interference", c["interference"], out)
+        if "stiffness_scale" in c:
+            number(f"{pre}.stiffness_scale", c["stiffness_scale"], out, positive=True)
         if c.get("elements", PatchFriction.elements) not in ELEMENTS:
             out.append(f"{pre}.elements = {c.get('elements')!r}: expected one of "
                        f"{list(ELEMENTS)}")
@@ -212,7 +215,9 @@ def spec(data: Mapping[str, Any], bodies: tuple[str, ...], cyclic_bodies: tuple[
     return AssemblySpec(
         contacts=tuple(PatchFriction(c["patch"], float(c["mu"]),
                                     float(c.get("interference", PatchFriction.interference)),
-                                    c.get("elements", PatchFriction.elements))
+                                    c.get("elements", PatchFriction.elements),
+                                    float(c.get("stiffness_scale",
+                                                PatchFriction.stiffness_scale)))
                        for c in table["contacts"]),
         engine_order=eo,
         loads=tuple(NodalLoad(ld["node_set"], _dir(ld["direction"]), float(ld["amplitude"]),

@@ -22,6 +22,7 @@ from microslip.pipeline.solve.hbm import (
 )
 
 from . import specs
+from .paths import parameter_keys
 from .validate import has_lag
 
 if TYPE_CHECKING:
@@ -119,6 +120,23 @@ def curve_variants(case: Case, spec: specs.Analysis) -> list[tuple[Case, str, An
         return [(case.with_values(s), str(v), v) for v, s in zip(family.values, family.sets)]
     return [(case.with_value(family.key, v), _value_label(family.legend, v), v)
             for v in family.values]
+
+
+def sample_variants(case: Case, spec: specs.Uncertainty) -> tuple[list[str], np.ndarray,
+                                                                  list[dict[str, Any]]]:
+    """(names, (samples, p) values of the uncertain parameters, per sample the case keys
+    it sets: the analysis' ``set``, the fixed parameters, its values)."""
+    names, x = spec.sample_values()
+    common = dict(spec.set)
+    for k, v in spec.fixed().items():
+        common |= dict.fromkeys(parameter_keys(case.data, k), v)
+    out = []
+    for row in x:
+        keys = dict(common)
+        for k, v in zip(names, row):
+            keys |= dict.fromkeys(parameter_keys(case.data, k), float(v))
+        out.append(keys)
+    return names, x, out
 
 
 def _value_label(label: str, v: float) -> str:

@@ -4,6 +4,7 @@ index. ``set`` overrides and family keys are such paths."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 
@@ -39,3 +40,14 @@ def set_path(data: dict, key: str, value: Any, create: bool = False) -> None:
         if last not in node and not create:
             raise KeyError(key)
         node[last] = value
+
+
+def parameter_keys(data: Mapping[str, Any], name: str) -> list[str]:
+    """The case keys an uncertain parameter sets: a dotted name itself, a plain one that key
+    of every contact ([[assembly.contacts]], or [[contacts]] of a lumped case)."""
+    if "." in name:
+        return [name]
+    assembly = "assembly" in data
+    tables = data["assembly"].get("contacts", []) if assembly else data.get("contacts", [])
+    prefix = "assembly.contacts" if assembly else "contacts"
+    return [f"{prefix}.{i}.{name}" for i in range(len(tables))]

@@ -23,6 +23,7 @@ import numpy as np
 from microslip.pipeline.friction.harmonics import Harmonics, default_samples
 from microslip.pipeline.solve.continuation import Settings
 from microslip.pipeline.solve.response import MEASURES  # noqa: F401 (the measures)
+from microslip.pipeline.solve.uncertainty import Distribution, design
 
 #: continuation methods of an frf; ``natural-down`` sweeps from stop to start
 METHODS = ("arclength", "natural", "natural-down")
@@ -133,6 +134,56 @@ class Peak(Analysis):
         """(points,) the parameter values of each curve."""
         space = np.geomspace if self.spacing == "log" else np.linspace
         return space(self.start, self.stop, self.points)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Uncertainty(Analysis):
+    """The spread of a resonance peak under uncertain ``parameters``: per sample, the
+    largest ``measure`` of ``output`` over the frequency ``window`` (rad/s; an arclength
+    sweep, its top refined), its frequency and the share of contact points slipping there.
+
+    ``parameters``: name -> a distribution table (``{uniform = [low, high]}``,
+    ``{normal = {mean, sigma}}``, ``{lognormal = {median, sigma}}``) or a fixed value; a
+    dotted name is a case key, a plain one that key of every contact (``mu``). ``samples``
+    of a seeded ``design`` (``solve.uncertainty.DESIGNS``); ``limit``: the peak whose
+    exceedance probability is reported (m); ``levels``: the free and fully stuck peaks
+    at the case's own values (an assembly case)."""
+
+    type: ClassVar[str] = "uncertainty"
+    window: tuple[float, float]
+    output: str
+    parameters: Mapping[str, Any]
+    samples: int = 64
+    design: str = "sobol"
+    seed: int = 0
+    measure: str = "peak"
+    limit: float | None = None
+    levels: bool = False
+
+    def distributions(self) -> list[tuple[str, Distribution]]:
+        """(name, distribution) of each uncertain parameter, in the case's order."""
+        return [(k, distribution(v)) for k, v in self.parameters.items()
+                if isinstance(v, Mapping)]
+
+    def fixed(self) -> dict[str, float]:
+        """The parameters held at a value."""
+        return {k: v for k, v in self.parameters.items() if not isinstance(v, Mapping)}
+
+    def sample_values(self) -> tuple[list[str], np.ndarray]:
+        """(names, (samples, p) values) of the uncertain parameters."""
+        pairs = self.distributions()
+        x = design([d for _, d in pairs], self.samples, self.design, self.seed)
+        return [k for k, _ in pairs], x
+
+
+def distribution(table: Mapping[str, Any]) -> Distribution:
+    """The Distribution of a validated ``{family = ...}`` table."""
+    (family, v), = table.items()
+    if family == "uniform":
+        return Distribution(family, float(v[0]), float(v[1]))
+    if family == "normal":
+        return Distribution(family, float(v["mean"]), float(v["sigma"]))
+    return Distribution(family, float(v["median"]), float(v["sigma"]))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -259,8 +310,8 @@ class LoadTable:
                       if k in table})
 
 
-ANALYSES: dict[str, type[Analysis]] = {cls.type: cls for cls in (Frf, Peak, Loops, Dti,
-                                                                   Transient)}
+ANALYSES: dict[str, type[Analysis]] = {cls.type: cls for cls in (Frf, Peak, Uncertainty,
+                                                                   Loops, Dti, Transient)}
 
 
 def keys(kind: str) -> set[str]:
@@ -315,7 +366,7 @@ def _typed(key: str, value: Any) -> Any:
                       sets=tuple(dict(s) for s in value.get("sets", ())))
     if key == "method" and isinstance(value, str):
         return (value,)
-    if key == "set":
+    if key in ("set", "parameters"):
         return dict(value)
     if isinstance(value, list):
         return tuple(value)

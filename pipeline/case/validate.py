@@ -16,7 +16,7 @@ from microslip.pipeline.solve.hbm import PARAMETERS
 from . import assembly, specs
 from .checks import is_int, is_number, number, samples_rule, unknown_keys
 from .geometry import check as check_geometry
-from .paths import get_path, set_path
+from .paths import get_path, parameter_keys, set_path
 from .reduction import check as check_reduction
 from .reduction import names_faults as reduction_names
 
@@ -383,11 +383,7 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
                     out.append(f"{pre}.method = {m!r}: expected one of {list(specs.METHODS)} (or a "
                                "list of them: one curve each)")
         if kind == "peak":
-            w = a.get("window")
-            if not (isinstance(w, list) and len(w) == 2 and all(
-                    isinstance(x, (int, float)) and x > 0 for x in w) and w[0] < w[1]):
-                out.append(f"{pre}.window = {w!r}: expected [w_low, w_high] in rad/s, "
-                           "0 < w_low < w_high")
+            _window(pre, a.get("window"), out)
             if a.get("output") not in dofs:
                 out.append(f"{pre}.output = {a.get('output')!r}: unknown DOF; known: "
                            f"{sorted(dofs)}")
@@ -412,9 +408,11 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if kind == "frf" and not isinstance(a["normalise"], bool):
             out.append(f"{pre}.normalise = {a['normalise']!r}: expected true or false (the "
                        "response per unit of the excitation multiplier)")
-    if kind == "peak" and a["measure"] not in ("peak", "vibration"):
+    if kind == "uncertainty":
+        _uncertainty(pre, a, data, dofs, out)
+    if kind in ("peak", "uncertainty") and a["measure"] not in ("peak", "vibration"):
         out.append(f"{pre}.measure = {a.get('measure')!r}: expected 'peak' or 'vibration'")
-    if kind == "peak" and not isinstance(a["levels"], bool):
+    if kind in ("peak", "uncertainty") and not isinstance(a["levels"], bool):
         out.append(f"{pre}.levels = {a['levels']!r}: expected true or false (the free and "
                    "fully stuck peak levels, an assembly case)")
     if kind in ("frf", "dti"):
@@ -488,6 +486,88 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
         if a["compare"] and a["compare"] not in names:  # "": no comparison
             out.append(f"{pre}.compare = {a['compare']!r}: no analysis of that name; known: "
                        f"{names}")
+
+
+#: The largest sample count of an uncertainty study.
+MAX_SAMPLES = 1_000_000
+
+
+def _window(pre: str, w, out: list[str]) -> None:
+    if not (isinstance(w, list) and len(w) == 2 and all(
+            isinstance(x, (int, float)) and x > 0 for x in w) and w[0] < w[1]):
+        out.append(f"{pre}.window = {w!r}: expected [w_low, w_high] in rad/s, "
+                   "0 < w_low < w_high")
+
+
+def _uncertainty(pre: str, a: dict, data: dict, dofs: set[str], out: list[str]) -> None:
+    """An uncertainty study's keys, its distributions, and the case at the smallest and at
+    the largest value each parameter takes over the samples (what a sample could break)."""
+    from microslip.pipeline.solve.uncertainty import DESIGNS, FAMILIES, design
+
+    _window(pre, a.get("window"), out)
+    if a.get("output") not in dofs:
+        out.append(f"{pre}.output = {a.get('output')!r}: unknown output; known: "
+                   f"{sorted(dofs)}")
+    n = a["samples"]
+    if not (is_int(n) and 2 <= n <= MAX_SAMPLES):
+        out.append(f"{pre}.samples = {n!r}: expected an integer from 2 to {MAX_SAMPLES}")
+    if a["design"] not in DESIGNS:
+        out.append(f"{pre}.design = {a['design']!r}: expected one of {list(DESIGNS)}")
+    elif a["design"] == "sobol" and is_int(n) and n & (n - 1):
+        out.append(f"{pre}.samples = {n}: a Sobol' design needs a power of 2 (its balance: "
+                   f"{1 << (n - 1).bit_length() >> 1} or {1 << (n - 1).bit_length()}), or "
+                   "design = 'lhs'")
+    if not (is_int(a["seed"]) and a["seed"] >= 0):
+        out.append(f"{pre}.seed = {a['seed']!r}: expected an integer >= 0")
+    if a.get("limit") is not None:
+        number(f"{pre}.limit", a["limit"], out, positive=True)
+    pars = a.get("parameters")
+    if not (isinstance(pars, dict) and pars):
+        out.append(f"{pre}.parameters = {pars!r}: expected a table of name = distribution "
+                   "or value, e.g. {{ mu = {{ uniform = [0.3, 0.8] }} }}")
+        return
+    before = len(out)
+    dists = {}
+    for name, v in pars.items():
+        where = f"{pre}.parameters.{name}"
+        if "." not in name and not parameter_keys(data, name):
+            out.append(f"{where}: a plain name is that key of every contact, and the case has "
+                       "no contacts; give a dotted case key")
+        elif is_number(v):
+            continue
+        elif not (isinstance(v, dict) and len(v) == 1 and next(iter(v)) in FAMILIES):
+            out.append(f"{where} = {v!r}: expected a value or one of " + ", ".join(
+                f"{{{k} = {rule}}}" for k, rule in FAMILIES.items()))
+        elif _distribution(where, *next(iter(v.items())), out):
+            dists[name] = specs.distribution(v)
+    if len(out) > before or not dists or not (is_int(n) and 2 <= n <= MAX_SAMPLES) \
+            or a["design"] not in DESIGNS or not is_int(a["seed"]):
+        return
+    x = design(list(dists.values()), n, a["design"], a["seed"])
+    fixed = {k: v for k, v in pars.items() if k not in dists}
+    for side, values in (("smallest", x.min(axis=0)), ("largest", x.max(axis=0))):
+        table = dict(a.get("set") or {})
+        for k, v in {**fixed, **dict(zip(dists, values.tolist()))}.items():
+            table |= dict.fromkeys(parameter_keys(data, k), v)
+        found: list[str] = []
+        _overrides(f"{pre}.parameters at their {side} sampled values", data, table, found)
+        out.extend(found[:1])  # one line: the first rule the samples break
+
+
+def _distribution(where: str, family: str, v, out: list[str]) -> bool:
+    """Whether one parameter's ``{family = v}`` is well formed (else one fault)."""
+    if family == "uniform":
+        if not (isinstance(v, list) and len(v) == 2 and all(is_number(x) for x in v)
+                and v[0] < v[1]):
+            out.append(f"{where}.uniform = {v!r}: expected [low, high], low < high")
+            return False
+        return True
+    first = "mean" if family == "normal" else "median"
+    if not (isinstance(v, dict) and set(v) == {first, "sigma"}):
+        out.append(f"{where}.{family} = {v!r}: expected {{{first} = ..., sigma = ...}}")
+        return False
+    ok = number(f"{where}.{family}.{first}", v[first], out, positive=family == "lognormal")
+    return number(f"{where}.{family}.sigma", v["sigma"], out, positive=True) and ok
 
 
 def _maps(pre: str, a: dict, data: dict, out: list[str]) -> None:

@@ -502,9 +502,46 @@ def transient(g: h5py.Group, name: str, out: Path, options: Options = Options()
     return [path]
 
 
+def uncertainty(g: h5py.Group, name: str, out: Path, options: Options = Options()
+                ) -> list[Path]:
+    """An uncertainty study: the histogram of the samples' peaks with the free and fully
+    stuck levels and the limit; the peak against each uncertain parameter, coloured by
+    the share of contact points slipping, each panel with its rank correlations."""
+    spec = analysis_spec(g)
+    s, st = g[schema.SAMPLES], g[schema.STATISTICS]
+    names = json.loads(attr_text(s.attrs["names"]))
+    ok = s["status"][()] == b"complete"
+    peak, x = s["peak"][()][ok], s["parameters"][()][ok]
+    what = MEASURE_LABEL[spec.measure].format(spec.output)
+    levels = []
+    for key, label, ls in (("free_peak", "free", ":"), ("stuck_peak", "fully stuck", "-.")):
+        if key in st.attrs:
+            levels.append({"x": float(st.attrs[key]), "label": label, "ls": ls})
+    if spec.limit is not None:
+        p, e = float(st.attrs["exceedance"]), float(st.attrs["exceedance_error"])
+        levels.append({"x": spec.limit, "label": f"limit: P(exceeded) = {p:.2f} +- {e:.2f}",
+                       "ls": "-", "color": "C3"})
+    lo, hi = spec.window
+    hist = out / f"{name}.png"
+    plots.histogram(hist, f"{name}: peak of {spec.output} over {ok.sum()} samples "
+                    f"(w in {lo:g} to {hi:g} rad/s)", peak, f"resonance peak of {what}",
+                    levels)
+    spread = out / f"{name}_parameters.png"
+    rs, pr = st["spearman"][()], st["prcc"][()]
+    columns = [{"x": x[:, j], "label": names[j],
+                "note": f"rank corr. {rs[j]:+.2f}, partial {pr[j]:+.2f}"}
+               for j in range(len(names))]
+    plots.against_parameters(spread, f"{name}: peak of {spec.output} against each uncertain "
+                             "parameter", columns, peak, f"peak of {what}",
+                             colour=s["slip_share"][()][ok],
+                             colour_label="share of contact points slipping at the peak")
+    return [hist, spread]
+
+
 #: Every analysis type's pictures: ``run`` draws them once an analysis is written, ``render``
 #: again from a finished file. A new analysis type registers its drawer here.
-DRAWERS = {"frf": frf, "peak": peak, "loops": loops, "dti": dti, "transient": transient,
+DRAWERS = {"frf": frf, "peak": peak, "uncertainty": uncertainty, "loops": loops, "dti": dti,
+           "transient": transient,
            "geometry": previews.geometry_previews}
 
 

@@ -224,3 +224,48 @@ def transient(path: Path, title: str, steps: Sequence[dict]) -> Figure:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     return _save(fig, path)
+
+
+def histogram(path: Path, title: str, values: np.ndarray, xlabel: str,
+              levels: Sequence[dict] = ()) -> Figure:
+    """The histogram of sampled ``values`` (as a share of the samples), with vertical
+    reference ``levels`` ``{x, label, ls}`` (free and stuck peaks, a limit)."""
+    fig = _figure((7, 4.5))
+    ax = fig.add_subplot()
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    bins = int(np.clip(np.sqrt(v.size), 5, 40))
+    ax.hist(v, bins=bins, weights=np.full(v.size, 1.0 / max(v.size, 1)), color="C0",
+            alpha=0.75, edgecolor="white", label=f"{v.size} samples")
+    for lv in levels:
+        ax.axvline(lv["x"], color=lv.get("color", "0.3"), ls=lv.get("ls", "--"), lw=1.2,
+                   label=lv["label"])
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("share of the samples [-]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def against_parameters(path: Path, title: str, columns: Sequence[dict], y: np.ndarray,
+                       ylabel: str, colour: np.ndarray | None = None,
+                       colour_label: str = "") -> Figure:
+    """One panel per parameter ``{x, label, note}``: ``y`` against its sampled values (each
+    panel titled with its ``note``, e.g. the rank correlation), points coloured by
+    ``colour`` when given."""
+    k = len(columns)
+    fig = _figure((min(3.6 * k, 14.4), 4.0))
+    axes = fig.subplots(1, k, sharey=True, squeeze=False)[0]
+    for ax, col in zip(axes, columns):
+        dots = ax.scatter(col["x"], y, s=12, c=colour if colour is not None else "C0",
+                          cmap="viridis", vmin=0.0, vmax=1.0)
+        ax.set_xlabel(col["label"])
+        ax.set_title(col.get("note", ""), fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel(ylabel)
+    if colour is not None:
+        fig.colorbar(dots, ax=list(axes), label=colour_label, fraction=0.04, pad=0.02)
+    fig.suptitle(title, fontsize=10)
+    fig.savefig(path, dpi=110)  # no tight_layout: it cannot place the shared colour bar
+    return fig

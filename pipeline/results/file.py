@@ -243,6 +243,9 @@ def _analysis_lines(f: h5py.File) -> list[str]:
             continue
         if ga.get("type") == "geometry":  # its cyclic faces are no curves
             continue
+        if ga.get("type") == "uncertainty":
+            lines.extend(_uncertainty_lines(g))
+            continue
         for curve, c in g.items():
             if not isinstance(c, h5py.Group):
                 continue
@@ -259,6 +262,21 @@ def _analysis_lines(f: h5py.File) -> list[str]:
             if coarse:
                 lines.append(f"    warning: {coarse}")
     return lines
+
+
+def _uncertainty_lines(g: h5py.Group) -> list[str]:
+    """An uncertainty study: its samples and the percentiles of their peaks."""
+    if schema.SAMPLES not in g or schema.STATISTICS not in g:
+        return []
+    s, st = g[schema.SAMPLES], g[schema.STATISTICS]
+    status = s["status"][()]
+    p5, p50, p95 = st["percentiles"][()]
+    line = (f"  {status.size} samples ({np.count_nonzero(status == b'complete')} complete): "
+            f"peak 5 % {p5:.6g}, median {p50:.6g}, 95 % {p95:.6g}")
+    limit = float(st.attrs.get("limit", np.nan))
+    if np.isfinite(limit):
+        line += f"; P(peak > {limit:g}) = {float(st.attrs['exceedance']):.3f}"
+    return [line]
 
 
 #: The largest first-order change a curve may show when its period is sampled twice as

@@ -37,6 +37,8 @@ LEVEL_FREE = "level_free"
 LEVEL_STUCK = "level_stuck"
 LINEAR_FREE = "linear_free"
 LINEAR_STUCK = "linear_stuck"
+SAMPLES = "samples"
+STATISTICS = "statistics"
 
 _CURVE = "curve_"
 _STEP = "step_"
@@ -261,6 +263,23 @@ LAYOUT = group(
                 *LEVEL_DATA),
           group(LEVEL_STUCK, "(peak, levels) the fully stuck peak", ("label", *_RUN),
                 *LEVEL_DATA),
+          group(SAMPLES, "(uncertainty) one row per sample",
+                ("names (the uncertain parameters, JSON)", "design", "seed",
+                 "distributions (JSON)"),
+                data("parameters", "(n, p) the sampled values"),
+                data("peak", "(n,) m, the peak in the window (NaN: none)"),
+                data("omega", "(n,) rad/s, where it is"),
+                data("slip_share", "(n,) share of the contact points slipping there"),
+                data("points", "(n,) continuation points of the sample's sweep"),
+                data("seconds", "(n,) s, the sample's task (0: from the cache)"),
+                data("status", "(n,) complete | stopped | failed | not run")),
+          group(STATISTICS, "(uncertainty) of the complete samples' peaks",
+                ("percent", "mean", "std", "count", "limit", "exceedance (P(peak > limit))",
+                 "exceedance_error", "free_peak", "free_omega", "stuck_peak",
+                 "stuck_omega (levels)"),
+                data("percentiles", "(3,) m, at percent (5, 50, 95)"),
+                data("spearman", "(p,) rank correlation of the peak with each parameter"),
+                data("prcc", "(p,) partial rank correlation")),
           group("curve_NNN", "(loops) one loop per amplitude",
                 ("label", *_RUN, "law", "contact", "dim", "mu", "motion (u | u_x | v)"),
                 data("amplitude", "(a,) the multipliers"),

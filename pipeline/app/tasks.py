@@ -1,0 +1,270 @@
+"""Independent curves as tasks: in this process one after another, or on a Dask cluster.
+
+A study is many curves that share nothing but the model: the members of a family, the
+values of a peak curve found by sweeps, the samples of an uncertainty study. Each is a
+:class:`Task`, a module-level function of the case's models and its own arguments that
+returns an :class:`Outcome` (the datasets and attributes of its results.h5 group, its status
+and the lines it reported). Continuation along one branch stays inside one task.
+
+Two executors run them with the same interface (:meth:`Serial.run`,
+:meth:`Distributed.run`: ``(task index, outcome)`` as each finishes):
+
+- :class:`Serial` calls each task in this process, in order, its progress printed live (as
+  every run did before there were clusters);
+- :class:`Distributed` submits them to a Dask cluster: a local one of worker processes,
+  started on first need (an analysis with one curve to compute runs here), or an existing
+  scheduler by address (a dask-jobqueue cluster is one). The models are scattered once to
+  every worker and stay there for the run (a worker's assembly models, built from them, are
+  kept between its tasks); numba's kernels load from its on-disk cache once per worker
+  process. Workers write nothing: the client gathers each outcome as it finishes, prints its
+  lines and is the only writer of results.h5.
+
+A worker lost mid-task (killed, out of memory) has its task re-run on another by the
+scheduler (up to ``distributed.scheduler.allowed-failures`` times, 3 by default, then the
+curve fails, naming the loss). A task that raises is a bug, not bad luck: it is reported as
+that curve's failure, not retried. Ctrl-C (or SIGTERM) while the client waits cancels every
+outstanding task and leaves what finished.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from .progress import time_left
+
+Progress = Callable[[str], None]
+
+#: Seconds to wait for a scheduler given by address before saying it is unreachable.
+CONNECT_S = 10.0
+#: A quiet wait longer than this prints a line (tasks done, running, time so far).
+HEARTBEAT_S = 30.0
+#: BLAS threads of a task, wherever it runs. One: the same numbers serially and on any
+#: worker (OpenBLAS' LU rounds differently with its thread count: 1e-10 on blisk_quick's
+#: curves, a point's dissipation at a stick/slip kink apart), and faster at these sizes
+#: (blisk_quick's three-curve family serially: 12.2 s at one thread, 22.9 s at two on two
+#: cores); the parallelism is the tasks'.
+BLAS_THREADS = 1
+#: Local workers per core at most: past that each worker gets too little of a core and of the
+#: memory to be worth its process.
+MAX_WORKERS_PER_CORE = 8
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one task computed: ``data`` and ``attrs`` of its results.h5 group (the layout of
+    ``ResultsWriter.write_group``), its ``status`` and ``message`` (as a curve's), the
+    ``lines`` its consumer prints once the outcome is written (its summary; on a worker
+    every line it gave) and the seconds it took."""
+
+    data: dict[str, Any]
+    attrs: dict[str, Any]
+    status: str
+    message: str = ""
+    lines: tuple[str, ...] = ()
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class Task:
+    """``function(models, *args, progress=..., live=...) -> Outcome``, a module-level
+    function (a worker imports it by name); ``label`` names it in progress lines. ``live``
+    False: the task runs on a worker, its progress lines are kept for the client and
+    per-point ticks are left out."""
+
+    function: Callable[..., Outcome]
+    args: tuple = ()
+    label: str = ""
+
+
+def call(task: Task, models: Any, progress: Progress, live: bool) -> Outcome:
+    """Run one task with BLAS_THREADS, timing it."""
+    from threadpoolctl import threadpool_limits
+
+    t = time.perf_counter()
+    with threadpool_limits(limits=BLAS_THREADS, user_api="blas"):
+        outcome = task.function(models, *task.args, progress=progress, live=live)
+    return Outcome(outcome.data, outcome.attrs, outcome.status, outcome.message,
+                   outcome.lines, time.perf_counter() - t)
+
+
+def _remote(task: Task, models: Any) -> Outcome:
+    """A task on a worker: its progress lines kept for the client."""
+    lines: list[str] = []
+    out = call(task, models, lines.append, live=False)
+    return Outcome(out.data, out.attrs, out.status, out.message, (*lines, *out.lines),
+                   out.seconds)
+
+
+class Serial:
+    """Every task in this process, in order (``--workers 0``)."""
+
+    workers = 0
+
+    def run(self, tasks: Sequence[Task], models: Any, progress: Progress, what: str = "",
+            count: bool = True) -> Iterator[tuple[int, Outcome]]:
+        for i, task in enumerate(tasks):
+            yield i, call(task, models, progress, live=True)
+
+    def close(self) -> None:
+        pass
+
+
+@dataclass
+class Distributed:
+    """Tasks on a Dask cluster: a local one of ``workers`` processes started on first need,
+    or the scheduler at ``address`` (connected at once: :func:`connect`)."""
+
+    workers: int = 0
+    address: str = ""
+    client: Any = None
+    _cluster: Any = None
+    _scattered: dict[int, Any] = field(default_factory=dict)
+
+    def run(self, tasks: Sequence[Task], models: Any, progress: Progress, what: str = "",
+            count: bool = True) -> Iterator[tuple[int, Outcome]]:
+        """(task index, outcome) as each finishes (``what`` prefixes the client's own lines;
+        ``count``: a line per finished task with the time left); a single task runs here
+        (no cluster needed). Ctrl-C cancels the outstanding tasks and is raised again."""
+        if len(tasks) == 1 and self.client is None:
+            yield 0, call(tasks[0], models, progress, live=True)
+            return
+        from distributed import wait
+
+        client = self._client(progress)
+        shared = self._scatter(models)
+        futures = [client.submit(_remote, t, shared, pure=False, retries=0) for t in tasks]
+        index = {f.key: i for i, f in enumerate(futures)}
+        pending, done_count, t0 = set(futures), 0, time.perf_counter()
+        try:
+            while pending:
+                done, pending = wait(pending, timeout=HEARTBEAT_S, return_when="FIRST_COMPLETED")
+                for f in sorted(done, key=lambda f: index[f.key]):
+                    done_count += 1
+                    outcome = _result(f, tasks[index[f.key]])
+                    left = time_left(time.perf_counter() - t0, done_count / len(tasks))
+                    if count:
+                        progress(f"{what}{done_count} of {len(tasks)} tasks finished on the "
+                                 f"cluster{', ' + left if left else ''}")
+                    yield index[f.key], outcome
+                if not done:
+                    progress(f"{what}{done_count} of {len(tasks)} tasks finished, "
+                             f"{len(pending)} running or queued "
+                             f"({time.perf_counter() - t0:.0f} s so far)")
+        finally:  # interrupted, or the consumer stopped early: nothing left running
+            if pending:
+                client.cancel(list(pending))
+
+    def _client(self, progress: Progress):
+        if self.client is None:
+            self._cluster, self.client = local_cluster(self.workers)
+            progress(f"[cluster] local Dask cluster: {self.workers} worker processes, one "
+                     "thread each")
+        return self.client
+
+    def _scatter(self, models: Any):
+        """The models on every worker, sent once per run (per models object)."""
+        key = id(models)
+        if key not in self._scattered:
+            self._scattered[key] = self.client.scatter(models, broadcast=True, hash=False)
+        return self._scattered[key]
+
+    def close(self) -> None:
+        """Release the models and shut a local cluster down."""
+        if self.client is not None:
+            self._scattered.clear()
+            self.client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+        self.client = self._cluster = None
+
+
+def _result(future, task: Task) -> Outcome:
+    """A finished future's outcome; a task that raised, or whose workers kept dying, as a
+    failed curve that says so."""
+    if future.status == "finished":
+        return future.result()
+    err = future.exception()
+    name = type(err).__name__
+    if name == "KilledWorker":
+        why = ("its worker was lost each time it ran (out of memory? give the workers more "
+               "memory, or run fewer of them)")
+    else:
+        why = f"error on a worker: {name}: {err}"
+    return Outcome({}, {}, "failed", f"{task.label}: {why}".lstrip(": "))
+
+
+def local_cluster(workers: int):
+    """(cluster, client) of ``workers`` local worker processes, one thread each (the
+    kernels are single-threaded; so is each worker's BLAS, by Dask's default), the
+    dashboard off and Dask's own log lines below errors silenced."""
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    return cluster, Client(cluster)
+
+
+def workers_fault(workers: int, cores: int | None = None) -> str:
+    """"" if ``--workers`` is allowed on this machine, else what is (one line)."""
+    cores = cores or machine_cores()
+    top = MAX_WORKERS_PER_CORE * cores
+    if 0 <= workers <= top:
+        return ""
+    return (f"--workers = {workers}: expected 0 (in this process) to {top} "
+            f"({MAX_WORKERS_PER_CORE} per core of this machine's {cores})")
+
+
+def machine_cores() -> int:
+    """The cores this process may use (the default number of local workers)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def connect(address: str, timeout: float = CONNECT_S) -> tuple[Any, str]:
+    """(client, "") of the scheduler at ``address`` whose every worker can run microslip's
+    tasks, else (None, one line saying why): unreachable, no workers, or a worker without
+    microslip (or with other sources than this machine's)."""
+    from distributed import Client
+
+    try:
+        client = Client(address, timeout=f"{timeout}s")
+    except (OSError, TimeoutError, ValueError) as err:
+        return None, (f"--scheduler {address}: cannot reach a Dask scheduler there in "
+                      f"{timeout:g} s ({type(err).__name__}); start one (dask scheduler) or "
+                      "give its address as tcp://host:port")
+    fault = workers_ready(client)
+    if fault:
+        client.close()
+        return None, f"--scheduler {address}: {fault}"
+    return client, ""
+
+
+def workers_ready(client) -> str:
+    """"" when the cluster has workers that all import microslip with this machine's
+    sources (the same code gives the same numbers), else what is wrong (one line)."""
+    from importlib.metadata import version
+
+    from .store import code_digest
+
+    # a function of the standard library: a worker without microslip can still run it
+    found = client.run(version, "microslip", on_error="return")
+    if not found:
+        return "the scheduler has no workers (start some: dask worker <address>)"
+    missing = sorted(w for w, v in found.items() if isinstance(v, BaseException))
+    if missing:
+        return (f"worker {missing[0]} cannot import microslip ({len(missing)} of {len(found)}"
+                " workers); install it there as on this machine (pip install -e <repo>)")
+    digests = client.run(code_digest, on_error="return")
+    mine = code_digest()
+    other = sorted(w for w, d in digests.items() if d != mine)
+    if other:
+        return (f"worker {other[0]} runs other microslip sources than this machine "
+                f"({len(other)} of {len(digests)} workers); install the same version there")
+    return ""

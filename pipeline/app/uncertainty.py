@@ -1,0 +1,193 @@
+"""The uncertainty study (``type = "uncertainty"``): the spread of a resonance peak when
+parameters are uncertain.
+
+Each sample of the design (``solve.uncertainty``) is a case variant and a task: an
+arclength sweep over the window, its top refined (the FRF maps' refined peak), the peak's
+frequency and the share of contact points slipping there. Samples whose inputs did not
+change come from the store (a Sobol' study grown from 64 to 256 samples computes the 192
+new ones). The client writes the samples as one table, their statistics and, for an
+assembly case, the free and fully stuck peaks at the case's own values; then the pictures.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+import h5py
+import numpy as np
+
+from microslip.pipeline.case import Case, operating_point, settings
+from microslip.pipeline.case.build import sample_variants
+from microslip.pipeline.case.specs import Uncertainty
+from microslip.pipeline.draw import pictures
+from microslip.pipeline.friction.laws import slip_share
+from microslip.pipeline.results import schema
+from microslip.pipeline.solve.response import sweep
+from microslip.pipeline.solve.uncertainty import PERCENTILES, statistics
+
+from .limits import linear_peak
+from .models import AssemblyModels, LumpedModels
+from .progress import time_left
+from .solutions import refined_peak, response_at
+from .store import draw_once
+from .tasks import Outcome, Progress, Task
+
+#: The numbers of a sample (its row of the samples table), NaN where not found.
+ROW = ("peak", "omega", "slip_share", "points")
+
+
+def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertainty, index: int,
+                *, progress: Progress, live: bool = True) -> Outcome:
+    """The peak of one sample (the case variant ``c``): a task (``tasks``)."""
+    hb = models.model(c)
+    rows = models.selection(c, [spec.output])
+    lo, hi = spec.window
+    base = operating_point(c, lo)
+    solver = settings(c)
+    r = sweep(hb, "frequency", lo, hi, base, settings=solver)
+    b = r.branch
+    if b.status == "interrupted":
+        return Outcome({}, {}, "interrupted", b.message)
+    if not len(r):
+        return Outcome(dict.fromkeys(ROW, np.nan) | {"points": 0}, {}, "failed",
+                       b.message or "no solution in the window")
+    shown = np.array([response_at(hb, x, r.point(i), rows, spec.measure)[0]
+                      for i, x in enumerate(b.x)])
+    w, x = refined_peak(r, shown, rows, spec.measure, solver)
+    point = base.set("frequency", w)
+    states = [cr.state for cr in hb.contact_response(x, point)]
+    share = slip_share(np.concatenate(states)) if states else np.nan
+    data = {"peak": float(response_at(hb, x, point, rows, spec.measure)[0]), "omega": w,
+            "slip_share": share, "points": len(r)}
+    return Outcome(data, {}, b.status, b.message)
+
+
+def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tuple[str, str]:
+    """Every sample (a task each, or from the store), the samples table, its statistics,
+    the linear levels (an assembly case with ``levels``) and the pictures."""
+    name, store = spec.name, run.store
+    t0 = time.perf_counter()
+    names, x, sets = sample_variants(case, spec)
+    n = len(sets)
+    table = {k: np.full(n, np.nan) for k in ROW} | {"seconds": np.zeros(n)}
+    status = np.array(["not run"] * n, dtype=object)
+    messages = [""] * n
+    tasks, slots, keys = [], [], []
+    for i, values in enumerate(sets):
+        variant = case.with_values(values)
+        key = store.key(variant.data, _computing(spec), curve="sample")
+        keys.append(key)
+        row = store.load_row(key)
+        if row is None:
+            tasks.append(Task(sample_task, (variant, spec, i), f"[{name}] sample {i + 1}"))
+            slots.append((i, key))
+            continue
+        _fill(table, status, messages, i, row)
+    run.progress(f"[{name}] {n} samples of {', '.join(names)} ({spec.design} design, seed "
+                 f"{spec.seed}): {n - len(tasks)} from the cache, {len(tasks)} to compute")
+    stopped = ""
+    try:
+        t = time.perf_counter()
+        for k, (j, outcome) in enumerate(run.executor.run(tasks, run.models, run.progress,
+                                                          f"[{name}] ", count=False)):
+            i, key = slots[j]
+            row = dict(outcome.data) | {"status": outcome.status, "message": outcome.message,
+                                        "seconds": outcome.seconds}
+            if outcome.status == "interrupted":
+                stopped = outcome.message
+                break
+            _fill(table, status, messages, i, row)
+            if outcome.status in ("complete", "stopped"):
+                store.save_row(key, row)
+            left = time_left(time.perf_counter() - t, (k + 1) / len(tasks))
+            for line in outcome.lines:
+                run.progress(line)
+            run.progress(f"[{name}] sample {i + 1} of {n} ({k + 1} of {len(tasks)} computed"
+                         f"{', ' + left if left else ''}): peak {table['peak'][i]:.6g} at "
+                         f"{table['omega'][i]:.6g} rad/s, slip share "
+                         f"{table['slip_share'][i]:.2f} {outcome.status} "
+                         f"{outcome.message}".rstrip())
+    except KeyboardInterrupt:
+        stopped = "interrupted by the user"
+    _write_samples(run.writer, group, spec, names, x, table, status)
+    complete = status == "complete"
+    st = statistics(x[complete], table["peak"][complete], spec.limit)
+    levels = _levels(case, spec, run) if spec.levels and isinstance(
+        run.models, AssemblyModels) and not stopped else {}
+    _write_statistics(run.writer, group, spec, st, levels)
+    run.progress(_summary(spec, names, st, levels, n, time.perf_counter() - t0))
+    draw_once(pictures.uncertainty, group, spec, run.out, run.progress, keys,
+              cached=not tasks)
+    if stopped:
+        return "interrupted", stopped
+    bad = [(i, status[i], messages[i]) for i in range(n) if status[i] != "complete"]
+    if bad:
+        i, s, m = bad[0]
+        return ("failed" if all(s == "failed" for _, s, _ in bad) and len(bad) == n
+                else "stopped"), (f"{len(bad)} of {n} samples not complete (the statistics "
+                                  f"leave them out); sample {i + 1}: {s} {m}".rstrip())
+    return "complete", ""
+
+
+def _computing(spec: Uncertainty) -> dict:
+    """What a sample's numbers depend on beyond its case variant: the window, output and
+    measure (not the design, the count or the limit)."""
+    return {"type": spec.type, "window": list(spec.window), "output": spec.output,
+            "measure": spec.measure}
+
+
+def _fill(table: dict, status: np.ndarray, messages: list, i: int, row: dict) -> None:
+    for k in (*ROW, "seconds"):
+        if k in row:
+            table[k][i] = row[k]
+    status[i] = str(row.get("status", "complete"))
+    messages[i] = str(row.get("message", ""))
+
+
+def _write_samples(writer, group, spec: Uncertainty, names, x, table, status) -> None:
+    writer.write_group(group, schema.SAMPLES, {
+        "parameters": x, **table, "status": np.array(status.tolist(), dtype="S")}, {
+        "names": json.dumps(names), "design": spec.design, "seed": spec.seed,
+        "distributions": json.dumps({k: spec.parameters[k] for k in names})})
+
+
+def _write_statistics(writer, group, spec: Uncertainty, st, levels: dict) -> None:
+    writer.write_group(group, schema.STATISTICS, {
+        "percentiles": st.percentiles, "spearman": st.spearman, "prcc": st.prcc}, {
+        "percent": list(PERCENTILES), "mean": st.mean, "std": st.std, "count": st.count,
+        "limit": spec.limit if spec.limit is not None else np.nan,
+        "exceedance": st.exceedance, "exceedance_error": st.exceedance_error,
+        **levels})
+    writer.flush()
+
+
+def _levels(case: Case, spec: Uncertainty, run) -> dict[str, float]:
+    """The free and fully stuck peaks in the window at the case's own values (linear)."""
+    t = time.perf_counter()
+    variant = case.with_values(spec.set)
+    cm = run.models.assembly(variant)
+    base = operating_point(variant, spec.window[0])
+    out = {}
+    for springs in ("free", "stuck"):
+        w, a = linear_peak(cm, base, springs, spec.output, spec.window,
+                           spec.measure == "vibration")
+        out |= {f"{springs}_peak": a, f"{springs}_omega": w}
+    run.progress(f"[{spec.name}] free and fully stuck peaks in {time.perf_counter() - t:.1f} s")
+    return out
+
+
+def _summary(spec: Uncertainty, names, st, levels: dict, n: int, elapsed: float) -> str:
+    """The study's lines for the terminal: percentiles, exceedance, sensitivities."""
+    p5, p50, p95 = st.percentiles
+    lines = [f"[{spec.name}] peak of {spec.output} over {st.count} of {n} samples "
+             f"({elapsed:.1f} s): 5 % {p5:.4g}, median {p50:.4g}, 95 % {p95:.4g} m"]
+    if levels:
+        lines.append(f"[{spec.name}]   free {levels['free_peak']:.4g} m, fully stuck "
+                     f"{levels['stuck_peak']:.4g} m")
+    if spec.limit is not None:
+        lines.append(f"[{spec.name}]   P(peak > {spec.limit:g} m) = {st.exceedance:.3f} "
+                     f"+- {st.exceedance_error:.3f}")
+    for k, rs, pr in zip(names, st.spearman, st.prcc):
+        lines.append(f"[{spec.name}]   {k}: rank correlation {rs:+.2f}, partial {pr:+.2f}")
+    return "\n".join(lines)
