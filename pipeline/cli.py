@@ -162,7 +162,8 @@ def run(argv: list[str]) -> int:
                         help="independent curves (family members, swept peaks, uncertainty "
                         "samples) on a local Dask cluster of this many worker processes, "
                         "started when an analysis has two or more to compute (default: the "
-                        "machine's cores); 0: in this process, one after another")
+                        "machine's cores, and only for analyses estimated to take over "
+                        "10 s in one process); 0: in this process, one after another")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run the independent curves on the Dask cluster whose scheduler "
                         "is at ADDRESS (e.g. tcp://host:8786; its workers need microslip "
@@ -227,15 +228,23 @@ def _workers_fault(workers: int | None, scheduler: str | None) -> str:
 
 def _executor(workers: int | None, scheduler: str | None):
     """(where the independent curves run, "") or (None, why not): in this process (0
-    workers), a local cluster started on first need (by default one worker per core), or
-    the cluster at ``scheduler``, connected now."""
-    from microslip.pipeline.app.tasks import Distributed, Serial, connect, machine_cores
+    workers), a local cluster started on first need (by default one worker per core, for
+    analyses whose curves are worth it: tasks.WORTH_S), or the cluster at ``scheduler``,
+    connected now."""
+    from microslip.pipeline.app.tasks import (
+        WORTH_S,
+        Distributed,
+        Serial,
+        connect,
+        machine_cores,
+    )
 
     if scheduler is not None:
         client, fault = connect(scheduler)
         return Distributed(address=scheduler, client=client), fault
-    n = machine_cores() if workers is None else workers
-    return (Serial() if n == 0 else Distributed(workers=n)), ""
+    if workers is None:
+        return Distributed(workers=machine_cores(), worth_s=WORTH_S), ""
+    return (Serial() if workers == 0 else Distributed(workers=workers)), ""
 
 
 def check(argv: list[str]) -> int:

@@ -13,22 +13,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from microslip.pipeline.case import Case, curve_variants, harmonics, operating_point, sizes
-from microslip.pipeline.case.specs import Frf, Peak
+from microslip.pipeline.case import (
+    Case,
+    curve_variants,
+    harmonics,
+    operating_point,
+    sizes,
+    task_seconds,
+)
+from microslip.pipeline.case.build import sample_variants
+from microslip.pipeline.case.estimate import POINT_UNKNOWNS
+from microslip.pipeline.case.specs import Frf, Peak, Uncertainty
 from microslip.pipeline.solve.memory import memory_text
 
 from .store import CurveStore
 
 #: Measured anchors of the estimates (two cores): a Craig-Bampton model per 1000 vertex nodes
-#: of its body (P2; P1 a fifth of it) [s]; a harmonic-balance point of 1296 real unknowns at
-#: 64 samples (its growth with the unknowns: exponent 1.8); points of a typical curve; solves
-#: per value of a peak curve; a linear limit of 1296 unknowns (225 frequencies) [s].
+#: of its body (P2; P1 a fifth of it) [s]; a linear limit of 1296 unknowns (225 frequencies)
+#: [s]; a mesh [s]. A harmonic-balance task's are case.estimate's.
 REDUCTION_S_PER_KNODE = 6.0
-POINT_S = 0.5
-POINT_UNKNOWNS = 1296
-POINT_EXPONENT = 1.8
-CURVE_POINTS = 50
-PEAK_SOLVES = 12
 LINEAR_S = 7.0
 MESH_S = 3.0
 
@@ -68,21 +71,23 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
         size = by_name.get(name)
         unknowns = size.unknowns if size else 0
         nbytes = size.nbytes if size else 0
+        if isinstance(spec, Uncertainty):
+            stages.append(_samples(case, spec, store, nbytes, unknowns))
+            continue
         if not isinstance(spec, (Frf, Peak)):
             stages.append(Stage(f"{name}: {spec.type}", False, 0.0, nbytes,
                                 "not cached (short)"))
             continue
-        samples = harmonics(case).n_samples if "harmonics" in data else 64
-        t_point = _point_seconds(unknowns, samples)
+        seconds = task_seconds(data, spec)
+        if isinstance(spec, Peak) and spec.tracking == "sweep":
+            seconds *= spec.points
         methods = spec.method if isinstance(spec, Frf) else ("continuation",)
         for j, (c, label, _) in enumerate(curve_variants(case, spec)):
             for method in methods:
                 if isinstance(spec, Frf):
                     cached = store.has(frf_key(store, c, spec, method))
-                    seconds = CURVE_POINTS * t_point + (20 * t_point if spec.maps else 0)
                 else:
                     cached = store.has(store.key(c.data, spec.table(), curve="peak"))
-                    seconds = (CURVE_POINTS + spec.points * PEAK_SOLVES) * t_point
                 what = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
                 stages.append(Stage(f"{name}: curve {j + 1}" + (f" ({what})" if what else ""),
                                     cached, 0.0 if cached else seconds, nbytes,
@@ -97,12 +102,18 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
     return stages
 
 
-def _point_seconds(unknowns: int, samples: int) -> float:
-    """Seconds per continuation point of a harmonic balance of ``unknowns`` real unknowns."""
-    if unknowns <= 0:
-        return 0.0
-    scale = (unknowns / POINT_UNKNOWNS) ** POINT_EXPONENT * (samples / 64) ** 0.5
-    return max(0.005, POINT_S * scale)
+def _samples(case: Case, spec: Uncertainty, store: CurveStore, nbytes: int, unknowns: int
+             ) -> Stage:
+    """An uncertainty study's samples as one stage: those to compute, in one process."""
+    from .uncertainty import sample_key
+
+    keys = [sample_key(store, case.with_values(v), spec)
+            for v in sample_variants(case, spec)[2]]
+    todo = sum(not store.has(k) for k in keys)
+    each = task_seconds(case.data, spec)
+    return Stage(f"{spec.name}: {len(keys)} samples", todo == 0, todo * each, nbytes,
+                 f"{todo} to compute (~{each:.2g} s each in one process; a cluster of n "
+                 f"workers ~n x faster), {unknowns:,} unknowns")
 
 
 def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[Stage]:

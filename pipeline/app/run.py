@@ -28,6 +28,7 @@ from microslip.pipeline.case import (
     lumped_model,
     operating_point,
     settings,
+    task_seconds,
 )
 from microslip.pipeline.case.specs import (
     Analysis,
@@ -400,7 +401,8 @@ def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, st
             if kept:
                 statuses[j] = kept
             else:
-                tasks.append(Task(frf_task, (variant, spec, method, tag, value, which), which))
+                tasks.append(Task(frf_task, (variant, spec, method, tag, value, which), which,
+                                  task_seconds(case.data, spec)))
                 targets.append((j, key, curve))
             j += 1
     statuses |= _computed(run, group, tasks, targets, f"[{name}] ")
@@ -625,6 +627,7 @@ def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, 
     keys: list[str] = []
     hits = store.hits
     n = len(spec.values()) if spec.tracking == "sweep" else 1  # tasks per curve
+    each = task_seconds(case.data, spec)
     tasks: list[Task] = []
     curves: list[tuple[str, str, str, object]] = []  # (key, group name, label, value)
     for j, (variant, label, value) in enumerate(curve_variants(case, spec)):
@@ -637,7 +640,7 @@ def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, 
             continue
         curves.append((key, schema.curve(j), label, value))
         tasks += [Task(peak_task, (variant, spec, label, i if n > 1 else None),
-                       f"[{name}] {label or 'curve'}") for i in range(n)]
+                       f"[{name}] {label or 'curve'}", each) for i in range(n)]
     rows: dict[int, Outcome] = {}
     try:
         for i, outcome in run.executor.run(tasks, models, run.progress, f"[{name}] "):

@@ -21,6 +21,8 @@ from typing import Any
 
 import h5py
 
+from microslip.pipeline.results.file import signals_held
+
 #: Case tables that do not change what a curve computes.
 NEUTRAL = ("title", "description", "analysis")
 #: Analysis keys that do not change a curve (naming, drawing, the family itself: its value
@@ -93,7 +95,7 @@ class CurveStore:
             self.misses += 1
             return False
         try:
-            with h5py.File(self._path(key), "r") as f:
+            with h5py.File(self._path(key), "r") as f, signals_held():  # whole or not at all
                 f.copy(f["curve"], parent, name=name)
         except (OSError, KeyError):
             self.misses += 1

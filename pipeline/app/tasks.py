@@ -12,12 +12,14 @@ Two executors run them with the same interface (:meth:`Serial.run`,
 - :class:`Serial` calls each task in this process, in order, its progress printed live (as
   every run did before there were clusters);
 - :class:`Distributed` submits them to a Dask cluster: a local one of worker processes,
-  started on first need (an analysis with one curve to compute runs here), or an existing
-  scheduler by address (a dask-jobqueue cluster is one). The models are scattered once to
-  every worker and stay there for the run (a worker's assembly models, built from them, are
-  kept between its tasks); numba's kernels load from its on-disk cache once per worker
-  process. Workers write nothing: the client gathers each outcome as it finishes, prints its
-  lines and is the only writer of results.h5.
+  started on first need, or an existing scheduler by address (a dask-jobqueue cluster is
+  one). Before a local cluster exists, an analysis with one task to compute, or (by
+  default) with less work than starting the cluster saves (``worth_s``), runs here. The
+  models reach every worker once, as a worker plugin (``worker.Models``: a worker that
+  joins or restarts later gets them too) and stay there for the run (a worker's assembly
+  models, built from them, are kept between its tasks); numba's kernels load from its
+  on-disk cache once per worker process. Workers write nothing: the client gathers each
+  outcome as it finishes, prints its lines and is the only writer of results.h5.
 
 A worker lost mid-task (killed, out of memory) has its task re-run on another by the
 scheduler (up to ``distributed.scheduler.allowed-failures`` times, 3 by default, then the
@@ -28,11 +30,12 @@ outstanding task and leaves what finished.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from .progress import time_left
@@ -49,6 +52,11 @@ HEARTBEAT_S = 30.0
 #: (blisk_quick's three-curve family serially: 12.2 s at one thread, 22.9 s at two on two
 #: cores); the parallelism is the tasks'.
 BLAS_THREADS = 1
+#: Starting a local cluster of two workers and loading microslip and the compiled kernels
+#: into each takes ~5 s here (1.3 s for the processes, 3.6 s for the imports). By default
+#: (``run`` without ``--workers``) an analysis whose tasks are estimated to take less than
+#: this in one process runs in it: two workers would save at most half of it.
+WORTH_S = 10.0
 #: Local workers per core at most: past that each worker gets too little of a core and of the
 #: memory to be worth its process.
 MAX_WORKERS_PER_CORE = 8
@@ -72,32 +80,24 @@ class Outcome:
 @dataclass(frozen=True)
 class Task:
     """``function(models, *args, progress=..., live=...) -> Outcome``, a module-level
-    function (a worker imports it by name); ``label`` names it in progress lines. ``live``
+    function (a worker imports it by name); ``label`` names it in progress lines;
+    ``estimate``: its rough seconds in one process (``case.task_seconds``). ``live``
     False: the task runs on a worker, its progress lines are kept for the client and
     per-point ticks are left out."""
 
     function: Callable[..., Outcome]
     args: tuple = ()
     label: str = ""
+    estimate: float = 0.0
 
+    def run(self, models: Any, progress: Progress, live: bool) -> Outcome:
+        """The outcome, computed with BLAS_THREADS and timed."""
+        from threadpoolctl import threadpool_limits
 
-def call(task: Task, models: Any, progress: Progress, live: bool) -> Outcome:
-    """Run one task with BLAS_THREADS, timing it."""
-    from threadpoolctl import threadpool_limits
-
-    t = time.perf_counter()
-    with threadpool_limits(limits=BLAS_THREADS, user_api="blas"):
-        outcome = task.function(models, *task.args, progress=progress, live=live)
-    return Outcome(outcome.data, outcome.attrs, outcome.status, outcome.message,
-                   outcome.lines, time.perf_counter() - t)
-
-
-def _remote(task: Task, models: Any) -> Outcome:
-    """A task on a worker: its progress lines kept for the client."""
-    lines: list[str] = []
-    out = call(task, models, lines.append, live=False)
-    return Outcome(out.data, out.attrs, out.status, out.message, (*lines, *out.lines),
-                   out.seconds)
+        t = time.perf_counter()
+        with threadpool_limits(limits=BLAS_THREADS, user_api="blas"):
+            outcome = self.function(models, *self.args, progress=progress, live=live)
+        return replace(outcome, seconds=time.perf_counter() - t)
 
 
 class Serial:
@@ -108,7 +108,7 @@ class Serial:
     def run(self, tasks: Sequence[Task], models: Any, progress: Progress, what: str = "",
             count: bool = True) -> Iterator[tuple[int, Outcome]]:
         for i, task in enumerate(tasks):
-            yield i, call(task, models, progress, live=True)
+            yield i, task.run(models, progress, live=True)
 
     def close(self) -> None:
         pass
@@ -117,27 +117,34 @@ class Serial:
 @dataclass
 class Distributed:
     """Tasks on a Dask cluster: a local one of ``workers`` processes started on first need,
-    or the scheduler at ``address`` (connected at once: :func:`connect`)."""
+    or the scheduler at ``address`` (connected at once: :func:`connect`). Until a local
+    cluster runs, tasks whose estimates sum to less than ``worth_s`` seconds run here."""
 
     workers: int = 0
     address: str = ""
+    worth_s: float = 0.0
     client: Any = None
     _cluster: Any = None
-    _scattered: dict[int, Any] = field(default_factory=dict)
+    _announced: bool = False
+    _pushed: dict[int, tuple[Any, str]] = field(default_factory=dict)
 
     def run(self, tasks: Sequence[Task], models: Any, progress: Progress, what: str = "",
             count: bool = True) -> Iterator[tuple[int, Outcome]]:
         """(task index, outcome) as each finishes (``what`` prefixes the client's own lines;
-        ``count``: a line per finished task with the time left); a single task runs here
-        (no cluster needed). Ctrl-C cancels the outstanding tasks and is raised again."""
-        if len(tasks) == 1 and self.client is None:
-            yield 0, call(tasks[0], models, progress, live=True)
+        ``count``: a line per finished task with the time left); without a cluster yet, a
+        single task, or less work than ``worth_s``, runs here. Ctrl-C cancels the
+        outstanding tasks and is raised again."""
+        if self.client is None and (len(tasks) < 2 or
+                                    sum(t.estimate for t in tasks) < self.worth_s):
+            yield from Serial().run(tasks, models, progress)
             return
         from distributed import wait
 
+        from .worker import remote
+
         client = self._client(progress)
-        shared = self._scatter(models)
-        futures = [client.submit(_remote, t, shared, pure=False, retries=0) for t in tasks]
+        name = self._push(models)
+        futures = [client.submit(remote, t, name, pure=False, retries=0) for t in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
         pending, done_count, t0 = set(futures), 0, time.perf_counter()
         try:
@@ -145,12 +152,12 @@ class Distributed:
                 done, pending = wait(pending, timeout=HEARTBEAT_S, return_when="FIRST_COMPLETED")
                 for f in sorted(done, key=lambda f: index[f.key]):
                     done_count += 1
-                    outcome = _result(f, tasks[index[f.key]])
+                    yield index[f.key], _result(f, tasks[index[f.key]])
+                    # said once the consumer has written it: a Ctrl-C now keeps it
                     left = time_left(time.perf_counter() - t0, done_count / len(tasks))
-                    if count:
+                    if count and len(tasks) > 1:
                         progress(f"{what}{done_count} of {len(tasks)} tasks finished on the "
                                  f"cluster{', ' + left if left else ''}")
-                    yield index[f.key], outcome
                 if not done:
                     progress(f"{what}{done_count} of {len(tasks)} tasks finished, "
                              f"{len(pending)} running or queued "
@@ -160,23 +167,40 @@ class Distributed:
                 client.cancel(list(pending))
 
     def _client(self, progress: Progress):
+        """The client, a local cluster started first if there is none; said once."""
         if self.client is None:
             self._cluster, self.client = local_cluster(self.workers)
             progress(f"[cluster] local Dask cluster: {self.workers} worker processes, one "
                      "thread each")
+            self._announced = True
+        if not self._announced:
+            n = len(self.client.scheduler_info().get("workers", {}))
+            progress(f"[cluster] the Dask cluster at {self.address}: {n} workers")
+            self._announced = True
         return self.client
 
-    def _scatter(self, models: Any):
-        """The models on every worker, sent once per run (per models object)."""
+    def _push(self, models: Any) -> str:
+        """The name under which ``models`` are on every worker (worker.Models), pushed once
+        per models object (kept here, so that its id stays its own)."""
+        import uuid
+
+        from .worker import Models
+
         key = id(models)
-        if key not in self._scattered:
-            self._scattered[key] = self.client.scatter(models, broadcast=True, hash=False)
-        return self._scattered[key]
+        if key not in self._pushed:
+            name = f"microslip-models-{uuid.uuid4().hex}"
+            self.client.register_plugin(Models(models, name), name=name)
+            self._pushed[key] = (models, name)
+        return self._pushed[key][1]
 
     def close(self) -> None:
-        """Release the models and shut a local cluster down."""
+        """Take the models off the workers (a remote cluster outlives the run) and shut a
+        local cluster down."""
         if self.client is not None:
-            self._scattered.clear()
+            for _, name in self._pushed.values():
+                with contextlib.suppress(Exception):  # a cluster already gone
+                    self.client.unregister_worker_plugin(name)
+            self._pushed.clear()
             self.client.close()
         if self._cluster is not None:
             self._cluster.close()
@@ -200,12 +224,15 @@ def _result(future, task: Task) -> Outcome:
 
 def local_cluster(workers: int):
     """(cluster, client) of ``workers`` local worker processes, one thread each (the
-    kernels are single-threaded; so is each worker's BLAS, by Dask's default), the
-    dashboard off and Dask's own log lines below errors silenced."""
+    kernels are single-threaded; so is each worker's BLAS, by Dask's default), no dashboard
+    (the scheduler's HTTP routes on a free port: two runs at once do not collide on 8787)
+    and Dask's own log lines below errors silenced."""
     from distributed import Client, LocalCluster
 
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+                           dashboard_address=None, silence_logs=logging.ERROR,
+                           scheduler_kwargs={"dashboard_address": ":0"},
+                           preload=["microslip.pipeline.app.worker"])  # its dask_setup
     return cluster, Client(cluster)
 
 
@@ -233,17 +260,43 @@ def connect(address: str, timeout: float = CONNECT_S) -> tuple[Any, str]:
     microslip (or with other sources than this machine's)."""
     from distributed import Client
 
+    unreachable = (f"--scheduler {address}: cannot reach a Dask scheduler there in "
+                   f"{timeout:g} s ({{}}); start one (dask scheduler) or give its address as "
+                   "tcp://host:port")
+    refused = _refused(address, timeout)
+    if refused:  # said at once: Dask's own connect would retry until the timeout
+        return None, unreachable.format(refused)
     try:
         client = Client(address, timeout=f"{timeout}s")
     except (OSError, TimeoutError, ValueError) as err:
-        return None, (f"--scheduler {address}: cannot reach a Dask scheduler there in "
-                      f"{timeout:g} s ({type(err).__name__}); start one (dask scheduler) or "
-                      "give its address as tcp://host:port")
+        return None, unreachable.format(type(err).__name__)
     fault = workers_ready(client)
     if fault:
         client.close()
         return None, f"--scheduler {address}: {fault}"
     return client, ""
+
+
+def _refused(address: str, timeout: float) -> str:
+    """Why a TCP scheduler address cannot be connected to (one phrase), or "" (also for
+    other protocols, which Dask checks itself)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return ""
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:  # a port out of range or not a number
+        return "no valid port"
+    if not host or port is None:
+        return "no host:port"
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            return ""
+    except OSError as err:
+        return err.strerror or type(err).__name__
 
 
 def workers_ready(client) -> str:

@@ -17,7 +17,7 @@ import time
 import h5py
 import numpy as np
 
-from microslip.pipeline.case import Case, operating_point, settings
+from microslip.pipeline.case import Case, operating_point, settings, task_seconds
 from microslip.pipeline.case.build import sample_variants
 from microslip.pipeline.case.specs import Uncertainty
 from microslip.pipeline.draw import pictures
@@ -74,13 +74,14 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tu
     status = np.array(["not run"] * n, dtype=object)
     messages = [""] * n
     tasks, slots, keys = [], [], []
+    each = task_seconds(case.data, spec)
     for i, values in enumerate(sets):
         variant = case.with_values(values)
-        key = store.key(variant.data, _computing(spec), curve="sample")
+        key = sample_key(store, variant, spec)
         keys.append(key)
         row = store.load_row(key)
         if row is None:
-            tasks.append(Task(sample_task, (variant, spec, i), f"[{name}] sample {i + 1}"))
+            tasks.append(Task(sample_task, (variant, spec, i), f"[{name}] sample {i + 1}", each))
             slots.append((i, key))
             continue
         _fill(table, status, messages, i, row)
@@ -130,11 +131,12 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tu
     return "complete", ""
 
 
-def _computing(spec: Uncertainty) -> dict:
-    """What a sample's numbers depend on beyond its case variant: the window, output and
-    measure (not the design, the count or the limit)."""
-    return {"type": spec.type, "window": list(spec.window), "output": spec.output,
-            "measure": spec.measure}
+def sample_key(store, variant: Case, spec: Uncertainty) -> str:
+    """The store key of a sample: its case variant and what its numbers depend on beyond
+    it, the window, output and measure (not the design, the count or the limit)."""
+    return store.key(variant.data, {"type": spec.type, "window": list(spec.window),
+                                    "output": spec.output, "measure": spec.measure},
+                     curve="sample")
 
 
 def _fill(table: dict, status: np.ndarray, messages: list, i: int, row: dict) -> None:

@@ -16,11 +16,11 @@ from .build import (
     operating_point,
     settings,
 )
-from .estimate import Size, notes, sizes
+from .estimate import Size, notes, sizes, task_seconds
 from .file import check, load
 from .geometry import GeometryTable
 from .validated import Case, CaseError, InputError
 
 __all__ = ["Case", "CaseError", "GeometryTable", "InputError", "Size", "check", "contact_elements",
            "curve_variants", "harmonics", "load", "lumped_model", "notes", "operating_point",
-           "settings", "sizes"]
+           "settings", "sizes", "task_seconds"]

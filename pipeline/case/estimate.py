@@ -1,6 +1,8 @@
 """What a valid case will need before anything is built: the unknowns and peak memory of
-each analysis (:func:`sizes`, refused by check when above the memory available), and the
-notes on contacts stiffer than the time sampling resolves (:func:`notes`)."""
+each analysis (:func:`sizes`, refused by check when above the memory available), the rough
+time of each of its tasks (:func:`task_seconds`: the dry run's figures, and whether a local
+cluster is worth starting), and the notes on contacts stiffer than the time sampling
+resolves (:func:`notes`)."""
 
 from __future__ import annotations
 
@@ -53,6 +55,44 @@ def sizes(data: dict) -> list[Size]:
         out.append(max((_size(name, v, a) for v in _variants(data, a)),
                        key=lambda s: s.nbytes))
     return out
+
+
+#: Measured anchors of the time estimates (two cores, one BLAS thread per task): a
+#: harmonic-balance point of 1296 real unknowns at 64 samples [s] and its growth with the
+#: unknowns (exponent 1.8); points of a typical curve; Newton solves per refined peak (a map
+#: point, an uncertainty sample's top, a tracked value of a peak curve). Good to a factor of
+#: about two: enough to tell a minute from an hour.
+POINT_S = 0.5
+POINT_UNKNOWNS = 1296
+POINT_EXPONENT = 1.8
+CURVE_POINTS = 50
+PEAK_SOLVES = 12
+
+
+def point_seconds(unknowns: int, samples: int) -> float:
+    """Rough seconds per continuation point of a harmonic balance of ``unknowns`` real
+    unknowns at ``samples`` per period."""
+    if unknowns <= 0:
+        return 0.0
+    scale = (unknowns / POINT_UNKNOWNS) ** POINT_EXPONENT * (samples / 64) ** 0.5
+    return max(0.005, POINT_S * scale)
+
+
+def task_seconds(data: dict, spec: specs.Analysis) -> float:
+    """Rough seconds of one task of analysis ``spec`` of the valid case ``data``, in one
+    process: an FRF curve (with its map points), a peak curve (or one of its values, found by
+    a sweep), an uncertainty sample (a sweep and its refined top); 0 for the others."""
+    a = next(x for i, x in enumerate(data["analysis"]) if str(x.get("name", i)) == spec.name)
+    t = max(point_seconds(_size(spec.name, v, a).unknowns, harmonics_of(v).n_samples)
+            for v in _variants(data, a))
+    if isinstance(spec, specs.Frf):
+        return (CURVE_POINTS + (2 * PEAK_SOLVES if spec.maps else 0)) * t
+    if isinstance(spec, specs.Peak):
+        solves = 0 if spec.tracking == "sweep" else spec.points * PEAK_SOLVES
+        return (CURVE_POINTS + solves) * t
+    if isinstance(spec, specs.Uncertainty):
+        return (CURVE_POINTS + PEAK_SOLVES) * t
+    return 0.0
 
 
 def memory_faults(data: dict, out: list[str]) -> None:

@@ -9,12 +9,15 @@ still renames what it finished, marked ``partial`` or ``failed``.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 import os
 import platform
 import re
-from collections.abc import Mapping
+import signal
+import threading
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import h5py
@@ -104,11 +107,13 @@ class ResultsWriter:
 
     @staticmethod
     def write_group(parent: h5py.Group, name: str, datasets: Mapping, attrs: Mapping) -> None:
-        """One curve: datasets (arrays, or nested mappings as subgroups) and attrs."""
-        g = parent.create_group(name)
-        for k, v in attrs.items():
-            g.attrs[k] = _attr(v)
-        _datasets(g, datasets)
+        """One curve: datasets (arrays, or nested mappings as subgroups) and attrs; whole
+        or not at all (signals_held)."""
+        with signals_held():
+            g = parent.create_group(name)
+            for k, v in attrs.items():
+                g.attrs[k] = _attr(v)
+            _datasets(g, datasets)
 
     def flush(self) -> None:
         self.file.flush()
@@ -130,6 +135,34 @@ class ResultsWriter:
         else:
             self.close("failed", f"{kind.__name__}: {err}")
         return False
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Ctrl-C (SIGINT) and SIGTERM held for the duration, then handled as they would have
+    been: a curve is written whole or not at all. (A run that waits on a cluster spends its
+    time between writes, but a Ctrl-C landing inside one left a group without its datasets,
+    which the pictures and ``show`` could not read.) Only the main thread receives signals;
+    elsewhere nothing is held."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[tuple[int, object]] = []
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    for s in previous:
+        signal.signal(s, lambda signum, frame: held.append((signum, frame)))
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        if held:
+            signum, frame = held[0]
+            handler = previous[signum]
+            if callable(handler):  # Python's KeyboardInterrupt, or run's Terminated
+                handler(signum, frame)
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), signum)
 
 
 #: A key of a nested mapping given to ``write_group`` whose value (a mapping) becomes the

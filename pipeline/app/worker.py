@@ -1,0 +1,47 @@
+"""What runs on a Dask worker (``tasks.Distributed``): the case's models pushed once per
+worker, the task that reads them, and the start-up hook of local workers.
+
+The models reach the workers as a worker plugin (:class:`Models`), not as scattered data:
+the scheduler keeps a plugin and hands it to every worker that joins later, a worker
+restarted after a loss included, while its memory manager keeps only as many copies of
+scattered data as tasks wait for (one, between analyses), so a lost worker could take the
+only copy with it and each task could fetch the models again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+from distributed import get_worker
+from distributed.diagnostics.plugin import WorkerPlugin
+
+
+class Models(WorkerPlugin):
+    """A case's models (``LumpedModels`` or ``AssemblyModels``) on a worker, under ``name``;
+    a worker's assembly models, built from them by its tasks, stay for the next ones."""
+
+    def __init__(self, models: Any, name: str):
+        self.models = models
+        self.name = name
+
+
+def remote(task, name: str):
+    """Run ``task`` (a ``tasks.Task``) on this worker with the models pushed as ``name``;
+    its outcome, carrying every line the task gave (the client prints them)."""
+    lines: list[str] = []
+    models = get_worker().plugins[name].models
+    outcome = task.run(models, lines.append, live=False)
+    return replace(outcome, lines=(*lines, *outcome.lines))
+
+
+def dask_setup(worker) -> None:
+    """Dask's preload hook, run in each local worker process as it starts (and restarts):
+    the worker ignores SIGINT. Ctrl-C in a terminal reaches the whole process group; the
+    client alone handles it (cancels the outstanding tasks, saves what finished, closes the
+    cluster), where a worker taking it would die mid-task with a traceback."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)

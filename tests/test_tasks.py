@@ -1,0 +1,285 @@
+"""Independent curves on a real Dask cluster (local worker processes): the same numbers as in
+one process, a lost worker's task re-run elsewhere, Ctrl-C keeping every finished curve, and
+a cluster that cannot serve refused in one line before any work."""
+
+import copy
+import os
+import signal
+import socket
+import subprocess
+import sys
+import textwrap
+import time
+import tomllib
+
+import h5py
+import pytest
+
+from microslip.pipeline import case as cases
+from microslip.pipeline.app import tasks
+from microslip.pipeline.app.run import run_case
+from microslip.pipeline.app.tasks import Distributed, Serial
+from microslip.pipeline.cli import main
+from microslip.pipeline.results.compare import differences
+
+CLI = [sys.executable, "-m", "microslip.pipeline.cli"]
+
+#: The Jenkins oscillator of sdof_wall.toml with a family of FRFs, a peak curve found by a
+#: sweep per value and an uncertainty study: every kind of independent curve, 4 + 3 + 8 tasks.
+STUDY_TOML = textwrap.dedent("""\
+    title = "Jenkins oscillator: every kind of independent curve"
+    [model]
+    dofs = ["x"]
+    mass = [1.0]
+    stiffness = [1.0]
+    damping = [0.02]
+    [[contacts]]
+    name = "wall"
+    law = "A"
+    kt = 3.0
+    mu = 1.0
+    n0 = 1.0
+    u = { x = 1.0 }
+    [[loads]]
+    dof = "x"
+    amplitude = 0.1
+    harmonic = 1
+    [harmonics]
+    max = 3
+    samples = 128
+    [[analysis]]
+    name = "family"
+    type = "frf"
+    start = 0.5
+    stop = 2.5
+    family = { key = "contacts.wall.n0", values = [0.0, 0.02, 0.05, 0.2] }
+    [[analysis]]
+    name = "swept"
+    type = "peak"
+    parameter = "excitation"
+    start = 0.5
+    stop = 2.0
+    points = 3
+    tracking = "sweep"
+    window = [0.5, 2.5]
+    output = "x"
+    [[analysis]]
+    name = "spread"
+    type = "uncertainty"
+    window = [0.8, 2.2]
+    output = "x"
+    samples = 8
+    limit = 0.8
+    parameters = { mu = { uniform = [0.01, 0.06] } }
+    """)
+STUDY = tomllib.loads(STUDY_TOML)
+
+
+def run(folder, executor, progress=lambda m: None):
+    return run_case(cases.Case(copy.deepcopy(STUDY), "study.toml"), folder, progress=progress,
+                    cache=False, executor=executor)
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    return run(tmp_path_factory.mktemp("serial"), Serial())
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A local cluster of two worker processes, one thread each, started now."""
+    executor = Distributed(workers=2)
+    lines = []
+    executor._client(lines.append)
+    assert lines == ["[cluster] local Dask cluster: 2 worker processes, one thread each"]
+    yield executor
+    executor.close()
+
+
+def scheduled(client) -> dict[str, int]:
+    """How many times the scheduler has moved the study's tasks into each state so far."""
+    def counts(dask_scheduler):
+        prefix = dask_scheduler.task_prefixes.get("remote")  # the tasks' function, _remote
+        return {} if prefix is None else dict(prefix.state_counts)
+    return client.run_on_scheduler(counts)
+
+
+def test_a_cluster_gives_the_serial_numbers(serial, cluster, tmp_path):
+    before = scheduled(cluster.client)
+    path = run(tmp_path, cluster)
+    # every task went to the workers, once: 4 + 3 + 8
+    done = {k: v - before.get(k, 0) for k, v in scheduled(cluster.client).items()}
+    assert done["memory"] == done["processing"] == 15
+    with h5py.File(path) as f:
+        assert f.attrs["status"] == "complete"
+    # same curves in the same order, every number to 1e-12 of its dataset (one BLAS thread
+    # per task, here and there: the same operations in the same order)
+    assert differences(serial, path, rtol=1e-12) == []
+
+
+def test_a_lost_worker_s_task_runs_again_elsewhere(serial, cluster, tmp_path):
+    killed = []
+
+    def kill_a_busy_worker(line):
+        if killed or "tasks finished on the cluster" not in line:
+            return
+        busy = [w for w, keys in cluster.client.processing().items() if keys]
+        if busy:  # the first finished task's line: others are on the workers
+            pid = cluster.client.run(os.getpid, workers=busy[:1])[busy[0]]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+    before = scheduled(cluster.client)
+    path = run(tmp_path, cluster, kill_a_busy_worker)
+    assert killed, "no worker was busy when the first task finished"
+    after = scheduled(cluster.client)
+    # 15 tasks finished, one or more of them assigned again after the loss
+    assert after["memory"] - before.get("memory", 0) == 15
+    assert after["processing"] - before.get("processing", 0) > 15
+    with h5py.File(path) as f:
+        assert f.attrs["status"] == "complete"
+    assert differences(serial, path, rtol=1e-12) == []
+
+
+def test_a_cluster_by_address_gives_the_serial_numbers(serial, cluster, tmp_path, capsys):
+    address = cluster._cluster.scheduler_address  # as if started by `dask scheduler`
+    before = scheduled(cluster.client)
+    code = main(["run", str(case_file(tmp_path)), "--out", str(tmp_path / "o"), "--no-cache",
+                 "--scheduler", address])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert f"[cluster] the Dask cluster at {address}: 2 workers" in out.out
+    assert scheduled(cluster.client)["memory"] - before.get("memory", 0) == 15
+    found = differences(serial, tmp_path / "o" / "results.h5", rtol=1e-12)
+    assert [d.path for d in found] == ["@source"]  # the case file's path, not the numbers
+
+
+def case_file(folder):
+    path = folder / "study.toml"
+    path.write_text(STUDY_TOML)
+    return path
+
+
+# ------------------------------------------------------------------ faults, before any work
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return path
+
+
+TINY = textwrap.dedent("""\
+    title = "tiny"
+    [model]
+    dofs = ["x"]
+    mass = [1.0]
+    stiffness = [1.0]
+    damping = [0.02]
+    [[loads]]
+    dof = "x"
+    amplitude = 0.1
+    harmonic = 1
+    [[analysis]]
+    name = "a"
+    type = "frf"
+    start = 0.5
+    stop = 2.5
+    """)
+
+
+def test_an_unreachable_scheduler_is_one_line_at_once(tiny, tmp_path, capsys):
+    t = time.perf_counter()
+    address = f"tcp://127.0.0.1:{free_port()}"
+    assert main(["run", str(tiny), "--out", str(tmp_path / "o"), "--scheduler", address]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert f"--scheduler {address}: cannot reach a Dask scheduler there" in err
+    assert "refused" in err.lower()
+    assert time.perf_counter() - t < 5.0  # refused at once, not after Dask's retries
+    assert not (tmp_path / "o" / "results.h5").exists()
+
+
+@pytest.mark.parametrize("argv,expected", [
+    (["--workers", "-1"], "--workers = -1: expected 0 (in this process) to "),
+    (["--workers", "100000"], "--workers = 100000: expected 0 (in this process) to "),
+    (["--workers", "2", "--scheduler", "tcp://h:1"], "give one"),
+    (["--scheduler", " "], "expected an address such as tcp://host:8786"),
+])
+def test_bad_cluster_options_are_one_line(tiny, tmp_path, capsys, argv, expected):
+    assert main(["run", str(tiny), "--out", str(tmp_path / "o"), *argv]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1 and expected in err
+
+
+class FakeClient:
+    """What workers_ready asks of a client: run a function on every worker."""
+
+    def __init__(self, versions, digests):
+        self.answers = {"version": versions, "code_digest": digests}
+
+    def run(self, function, *args, on_error="raise"):
+        return self.answers[function.__name__]
+
+
+def test_workers_that_cannot_run_microslip_are_named():
+    from microslip.pipeline.app.store import code_digest
+
+    mine = code_digest()
+    ok = {"tcp://a:1": "0.1.0", "tcp://b:1": "0.1.0"}
+    assert tasks.workers_ready(FakeClient(ok, dict.fromkeys(ok, mine))) == ""
+    assert "no workers" in tasks.workers_ready(FakeClient({}, {}))
+    missing = ok | {"tcp://b:1": ModuleNotFoundError("microslip")}
+    fault = tasks.workers_ready(FakeClient(missing, {}))
+    assert "worker tcp://b:1 cannot import microslip (1 of 2 workers)" in fault
+    other = tasks.workers_ready(FakeClient(ok, {"tcp://a:1": mine, "tcp://b:1": "x"}))
+    assert "worker tcp://b:1 runs other microslip sources" in other
+
+
+# ------------------------------------------------------------------ Ctrl-C
+#: Six FRFs of small steps, ~1.5 s each: a Ctrl-C after the first lands while others run.
+FAMILY_TOML = STUDY_TOML.split("[[analysis]]")[0].replace("samples = 128", """samples = 128
+    [solver]
+    step = 5e-3
+    max_step = 5e-3
+    max_points = 100000""") + textwrap.dedent("""\
+    [[analysis]]
+    name = "slow"
+    type = "frf"
+    start = 0.5
+    stop = 2.5
+    stability = false
+    family = { key = "contacts.wall.n0", values = [0.0, 0.02, 0.05, 0.1, 0.2, 0.5] }
+    """)
+
+
+def test_ctrl_c_on_a_cluster_keeps_every_finished_curve(tmp_path):
+    (tmp_path / "family.toml").write_text(FAMILY_TOML)
+    out = tmp_path / "o"
+    # its own session: the signal goes to the whole process group, as a terminal's Ctrl-C
+    # does (the workers ignore it: the client cancels them and saves)
+    p = subprocess.Popen([*CLI, "run", "family.toml", "--workers", "2", "--out", str(out)],
+                         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, start_new_session=True)
+    seen = []
+    for line in p.stdout:  # said once that curve is written
+        seen.append(line)
+        if "[slow] 1 of 6 tasks finished on the cluster" in line:
+            os.killpg(p.pid, signal.SIGINT)
+            break
+    rest, err = p.communicate(timeout=120)
+    assert p.returncode == 130, "".join(seen) + rest + err
+    assert "Traceback" not in err and "interrupted" in err, err
+    with h5py.File(out / "results.h5") as f:
+        assert f.attrs["status"] == "partial"
+        g = f["slow"]
+        assert g.attrs["status"] == "interrupted"
+        finished = sorted(g)
+        assert 1 <= len(finished) < 6
+        for name in finished:  # whole curves only, each complete
+            assert g[name].attrs["status"] == "complete" and g[name]["parameter"].size > 100
