@@ -18,7 +18,7 @@ import pytest
 from microslip.pipeline import case as cases
 from microslip.pipeline.app import tasks
 from microslip.pipeline.app.run import run_case
-from microslip.pipeline.app.tasks import Distributed, Serial
+from microslip.pipeline.app.tasks import Distributed, Outcome, Serial, Task
 from microslip.pipeline.cli import main
 from microslip.pipeline.results.compare import differences
 
@@ -139,6 +139,23 @@ def test_a_lost_worker_s_task_runs_again_elsewhere(serial, cluster, tmp_path):
     with h5py.File(path) as f:
         assert f.attrs["status"] == "complete"
     assert differences(serial, path, rtol=1e-12) == []
+
+
+def sleepy(models, seconds, *, progress, live=True):
+    """A task that only waits."""
+    time.sleep(seconds)
+    return Outcome({"slept": seconds}, {}, "complete")
+
+
+def test_a_quiet_cluster_says_it_is_working(cluster, monkeypatch):
+    monkeypatch.setattr(cluster, "heartbeat_s", 0.25)
+    lines = []
+    found = dict(cluster.run([Task(sleepy, (1.0,)), Task(sleepy, (1.5,))], None, lines.append))
+    assert [found[i].data["slept"] for i in (0, 1)] == [1.0, 1.5]
+    assert found[0].seconds >= 1.0  # timed on the worker
+    # quiet lines while both sleep, then a line per finished task
+    assert "0 of 2 tasks finished, 2 running or queued (0 s so far)" in lines
+    assert lines[-1] == "2 of 2 tasks finished on the cluster"
 
 
 def test_a_cluster_by_address_gives_the_serial_numbers(serial, cluster, tmp_path, capsys):

@@ -123,6 +123,7 @@ class Distributed:
     workers: int = 0
     address: str = ""
     worth_s: float = 0.0
+    heartbeat_s: float = HEARTBEAT_S
     client: Any = None
     _cluster: Any = None
     _announced: bool = False
@@ -149,7 +150,14 @@ class Distributed:
         pending, done_count, t0 = set(futures), 0, time.perf_counter()
         try:
             while pending:
-                done, pending = wait(pending, timeout=HEARTBEAT_S, return_when="FIRST_COMPLETED")
+                try:
+                    done, pending = wait(pending, timeout=self.heartbeat_s,
+                                         return_when="FIRST_COMPLETED")
+                except TimeoutError:  # a quiet while: say that the cluster works
+                    progress(f"{what}{done_count} of {len(tasks)} tasks finished, "
+                             f"{len(pending)} running or queued "
+                             f"({time.perf_counter() - t0:.0f} s so far)")
+                    continue
                 for f in sorted(done, key=lambda f: index[f.key]):
                     done_count += 1
                     yield index[f.key], _result(f, tasks[index[f.key]])
@@ -158,10 +166,6 @@ class Distributed:
                     if count and len(tasks) > 1:
                         progress(f"{what}{done_count} of {len(tasks)} tasks finished on the "
                                  f"cluster{', ' + left if left else ''}")
-                if not done:
-                    progress(f"{what}{done_count} of {len(tasks)} tasks finished, "
-                             f"{len(pending)} running or queued "
-                             f"({time.perf_counter() - t0:.0f} s so far)")
         finally:  # interrupted, or the consumer stopped early: nothing left running
             if pending:
                 client.cancel(list(pending))
