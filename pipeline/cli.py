@@ -22,6 +22,7 @@ BENCHES = {
     "assembly": "microslip.pipeline.bench.assembly",
     "trade": "microslip.pipeline.bench.trade",
     "elements": "microslip.pipeline.bench.elements",
+    "cluster": "microslip.pipeline.bench.cluster",
 }
 
 
@@ -505,6 +506,7 @@ def main(argv: list[str] | None = None) -> int:
               "  bench assembly   blisk + damper assembly: time per point against contact grid\n"
               "  bench trade      the blisk-damper study's knobs: accuracy against time\n"
               "  bench elements   element shapes and orders: frequency error, DOFs, time\n"
+              "  bench cluster    Dask: overhead per task, speed-up and memory of studies\n"
               "\n"
               "microslip COMMAND --help: the options of a command; --version: the version",
               file=sys.stdout if asked else sys.stderr)

@@ -158,6 +158,24 @@ def test_a_quiet_cluster_says_it_is_working(cluster, monkeypatch):
     assert lines[-1] == "2 of 2 tasks finished on the cluster"
 
 
+def broken(models, *, progress, live=True):
+    """A task with a bug."""
+    raise ValueError("a bug, not bad luck")
+
+
+def test_a_task_that_raises_is_a_failed_curve_not_retried(cluster):
+    before = scheduled(cluster.client)
+    found = dict(cluster.run([Task(broken, (), "[a] curve 1"), Task(sleepy, (0.1,))], None,
+                             lambda m: None))
+    assert found[0].status == "failed"
+    assert found[0].message == ("[a] curve 1: error on a worker: ValueError: a bug, not bad "
+                                "luck")
+    assert found[1].status == "complete"
+    after = scheduled(cluster.client)
+    assert after["processing"] - before.get("processing", 0) == 2  # each ran once
+    assert after["erred"] - before.get("erred", 0) == 1
+
+
 def test_a_cluster_by_address_gives_the_serial_numbers(serial, cluster, tmp_path, capsys):
     address = cluster._cluster.scheduler_address  # as if started by `dask scheduler`
     before = scheduled(cluster.client)

@@ -30,6 +30,13 @@ class LumpedModels:
         return [case.dofs.index(n) for n in names]
 
 
+#: Assembly models kept for reuse: each holds up to solve.hbm.CACHE_LIMIT (512 MB) of
+#: per-point results, and a study that changes the contacts per curve (an uncertainty
+#: sample) never meets one again; a case's base and one variant of it (blisk_damper's
+#: light damper) are what a run reuses. (8 grew a worker to 3.7 GB over 4 samples.)
+KEPT_ASSEMBLIES = 2
+
+
 class AssemblyModels:
     """A [assembly] case: the mesh and reduced bodies are built once; each variant of the
     case (an analysis' ``set``, a family value) gets its assembly model, kept while its
@@ -61,7 +68,7 @@ class AssemblyModels:
                              if k not in ("mass_multiplier", "excitation")}
         key = json.dumps(table, sort_keys=True, default=str)
         if key not in self._built:
-            if len(self._built) >= 8:
+            if len(self._built) >= KEPT_ASSEMBLIES:
                 self._built.pop(next(iter(self._built)))
             self._built[key] = join(
                 self.mesh, self.structure.models, self.structure.patch_stiffness,

@@ -46,6 +46,9 @@ Progress = Callable[[str], None]
 CONNECT_S = 10.0
 #: A quiet wait longer than this prints a line (tasks done, running, time so far).
 HEARTBEAT_S = 30.0
+#: How often the client looks for finished tasks while it waits [s] (Dask's own
+#: as_completed polls as often).
+POLL_S = 0.1
 #: BLAS threads of a task, wherever it runs. One: the same numbers serially and on any
 #: worker (OpenBLAS' LU rounds differently with its thread count: 1e-10 on blisk_quick's
 #: curves, a point's dissipation at a stick/slip kink apart), and faster at these sizes
@@ -90,12 +93,14 @@ class Task:
     label: str = ""
     estimate: float = 0.0
 
-    def run(self, models: Any, progress: Progress, live: bool) -> Outcome:
-        """The outcome, computed with BLAS_THREADS and timed."""
-        from threadpoolctl import threadpool_limits
+    def run(self, models: Any, progress: Progress, live: bool, blas: Any = None) -> Outcome:
+        """The outcome, computed with BLAS_THREADS and timed. ``blas``: this process'
+        ``threadpoolctl.ThreadpoolController`` (its scan of the loaded libraries takes
+        3 ms, half a cluster's cost per task: made once by the caller), or None."""
+        from threadpoolctl import ThreadpoolController
 
         t = time.perf_counter()
-        with threadpool_limits(limits=BLAS_THREADS, user_api="blas"):
+        with (blas or ThreadpoolController()).limit(limits=BLAS_THREADS, user_api="blas"):
             outcome = self.function(models, *self.args, progress=progress, live=live)
         return replace(outcome, seconds=time.perf_counter() - t)
 
@@ -107,8 +112,11 @@ class Serial:
 
     def run(self, tasks: Sequence[Task], models: Any, progress: Progress, what: str = "",
             count: bool = True) -> Iterator[tuple[int, Outcome]]:
+        from threadpoolctl import ThreadpoolController
+
+        blas = ThreadpoolController()
         for i, task in enumerate(tasks):
-            yield i, task.run(models, progress, live=True)
+            yield i, task.run(models, progress, live=True, blas=blas)
 
     def close(self) -> None:
         pass
@@ -139,7 +147,7 @@ class Distributed:
                                     sum(t.estimate for t in tasks) < self.worth_s):
             yield from Serial().run(tasks, models, progress)
             return
-        from distributed import wait
+        from distributed import as_completed
 
         from .worker import remote
 
@@ -147,25 +155,31 @@ class Distributed:
         name = self._push(models)
         futures = [client.submit(remote, t, name, pure=False, retries=0) for t in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
-        pending, done_count, t0 = set(futures), 0, time.perf_counter()
+        # results gathered in the background as tasks finish (one callback per future, not
+        # a wait over every pending one per finished task: 10,000 samples stay linear)
+        finished = as_completed(futures, with_results=True, raise_errors=False)
+        pending, t0, quiet = set(futures), time.perf_counter(), time.perf_counter()
         try:
             while pending:
-                try:
-                    done, pending = wait(pending, timeout=self.heartbeat_s,
-                                         return_when="FIRST_COMPLETED")
-                except TimeoutError:  # a quiet while: say that the cluster works
-                    progress(f"{what}{done_count} of {len(tasks)} tasks finished, "
-                             f"{len(pending)} running or queued "
-                             f"({time.perf_counter() - t0:.0f} s so far)")
+                if not finished.has_ready():
+                    time.sleep(POLL_S)
+                    if time.perf_counter() - quiet > self.heartbeat_s:
+                        quiet = time.perf_counter()  # a quiet while: the cluster works
+                        progress(f"{what}{len(tasks) - len(pending)} of {len(tasks)} tasks "
+                                 f"finished, {len(pending)} running or queued "
+                                 f"({quiet - t0:.0f} s so far)")
                     continue
-                for f in sorted(done, key=lambda f: index[f.key]):
-                    done_count += 1
-                    yield index[f.key], _result(f, tasks[index[f.key]])
+                for f, result in sorted(finished.next_batch(block=False),
+                                        key=lambda fr: index[fr[0].key]):
+                    pending.discard(f)
+                    yield index[f.key], _result(f, result, tasks[index[f.key]])
                     # said once the consumer has written it: a Ctrl-C now keeps it
-                    left = time_left(time.perf_counter() - t0, done_count / len(tasks))
+                    done = len(tasks) - len(pending)
+                    left = time_left(time.perf_counter() - t0, done / len(tasks))
                     if count and len(tasks) > 1:
-                        progress(f"{what}{done_count} of {len(tasks)} tasks finished on the "
+                        progress(f"{what}{done} of {len(tasks)} tasks finished on the "
                                  f"cluster{', ' + left if left else ''}")
+                quiet = time.perf_counter()
         finally:  # interrupted, or the consumer stopped early: nothing left running
             if pending:
                 client.cancel(list(pending))
@@ -211,12 +225,12 @@ class Distributed:
         self.client = self._cluster = None
 
 
-def _result(future, task: Task) -> Outcome:
-    """A finished future's outcome; a task that raised, or whose workers kept dying, as a
-    failed curve that says so."""
+def _result(future, result: Any, task: Task) -> Outcome:
+    """A finished future's outcome (``result``: its value, or (type, error, traceback)); a
+    task that raised, or whose workers kept dying, as a failed curve that says so."""
     if future.status == "finished":
-        return future.result()
-    err = future.exception()
+        return result
+    err = result[1]
     name = type(err).__name__
     if name == "KilledWorker":
         why = ("its worker was lost each time it ran (out of memory? give the workers more "

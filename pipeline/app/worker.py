@@ -24,14 +24,27 @@ class Models(WorkerPlugin):
     def __init__(self, models: Any, name: str):
         self.models = models
         self.name = name
+        self.blas = None  # the worker's ThreadpoolController, made by its first task
+
+    def setup(self, worker) -> None:
+        """The worker process keeps the memory it frees for reuse, as the command does
+        (fe.linalg.retain_freed_memory): without it a worker spent 30 % of its time in the
+        kernel, faulting in fresh pages for each large array."""
+        from microslip.pipeline.fe.linalg import retain_freed_memory
+
+        retain_freed_memory()
 
 
 def remote(task, name: str):
     """Run ``task`` (a ``tasks.Task``) on this worker with the models pushed as ``name``;
     its outcome, carrying every line the task gave (the client prints them)."""
+    from threadpoolctl import ThreadpoolController
+
     lines: list[str] = []
-    models = get_worker().plugins[name].models
-    outcome = task.run(models, lines.append, live=False)
+    plugin = get_worker().plugins[name]
+    if plugin.blas is None:  # the libraries a task's imports load are loaded by now
+        plugin.blas = ThreadpoolController()
+    outcome = task.run(plugin.models, lines.append, live=False, blas=plugin.blas)
     return replace(outcome, lines=(*lines, *outcome.lines))
 
 
