@@ -7,6 +7,7 @@ import ast
 import importlib.metadata
 import subprocess
 import sys
+import tomllib
 import zipfile
 from pathlib import Path
 
@@ -149,6 +150,17 @@ def test_the_distribution_installs_only_the_microslip_name(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                          text=True, check=True).stdout.split()
     assert out == ["None", "None"]
+
+
+def test_every_package_folder_is_installed():
+    """`pip install .` (the README's main job) installs the packages pyproject lists, and
+    only those: every folder with an __init__.py must be there (case/, draw/, results/ and
+    two sub-packages were not, and the installed command could not import them)."""
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    folders = {"microslip." + ".".join(p.parent.relative_to(ROOT).parts)
+               for top in ("geometry", "pipeline") for p in (ROOT / top).rglob("__init__.py")}
+    assert listed == folders
 
 
 @pytest.mark.slow

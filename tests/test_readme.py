@@ -25,7 +25,7 @@ def _python_blocks() -> list[str]:
 
 
 def test_the_library_example_prints_what_its_comments_say():
-    (code,) = _python_blocks()
+    (code,) = [b for b in _python_blocks() if "sweep(" in b]
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         exec(compile(code, "README.md", "exec"), {})
@@ -35,6 +35,29 @@ def test_the_library_example_prints_what_its_comments_say():
     expected = re.search(r"# \(w at the peak, max\|x\(t\)\|\): \(([\d.]+), ([\d.]+)\)", code)
     assert w == pytest.approx(float(expected[1]), abs=1e-4)
     assert a == pytest.approx(float(expected[2]), abs=1e-4)
+
+
+def test_the_slurm_example_writes_one_core_worker_jobs(monkeypatch):
+    """The dask-jobqueue example, run as written but for the SLURM jobs it would submit:
+    its job script asks one core and the memory per worker, and starts a one-thread worker
+    with the numba cache on the node."""
+    from dask_jobqueue import SLURMCluster
+
+    (code,) = [b for b in _python_blocks() if "SLURMCluster" in b]
+    monkeypatch.setattr(SLURMCluster, "scale", lambda self, jobs=0, **kw: None)
+    names: dict = {}
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "README.md", "exec"), names)
+    cluster = names["cluster"]
+    try:
+        script = cluster.job_script()
+        assert out.getvalue().strip() == cluster.scheduler_address
+    finally:
+        cluster.close()
+    assert "#SBATCH --cpus-per-task=1" in script and "#SBATCH --mem=2G" in script
+    assert "export NUMBA_CACHE_DIR=/tmp/$USER-numba" in script
+    assert "--nthreads 1" in script and cluster.scheduler_address in script
 
 
 def _strip_parentheses(text: str) -> str:
