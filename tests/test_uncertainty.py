@@ -153,3 +153,21 @@ def test_each_sample_is_the_describing_function_peak(jenkins_study):
     # more friction, a lower peak: a perfect negative rank correlation
     assert spearman[0] == pytest.approx(-1.0)
     np.testing.assert_allclose(percentiles, np.percentile(peak, [5, 50, 95]), rtol=1e-14)
+
+
+def test_a_study_grown_computes_only_its_new_samples(jenkins_study):
+    grown = copy.deepcopy(JENKINS)
+    grown["analysis"][0]["samples"] = 16
+    lines = []
+    path = run_case(cases.Case(grown, "jenkins.toml"), jenkins_study.parent,
+                    progress=lines.append)
+    assert ("[spread] 16 samples of mu (sobol design, seed 0): 8 from the cache, 8 to "
+            "compute") in lines
+    with h5py.File(path) as f:
+        s = f["spread"][schema.SAMPLES]
+        mu, peak, seconds = s["parameters"][()][:, 0], s["peak"][()], s["seconds"][()]
+    np.testing.assert_array_equal(mu, design([Distribution("uniform", 0.01, 0.06)], 16)[:, 0])
+    # the first 8 are the stored ones (the same design points: scrambled Sobol' prefixes)
+    reference = np.array([describing_function_peak(m) for m in mu])
+    np.testing.assert_allclose(peak, reference, rtol=2e-5)
+    assert np.all(seconds > 0)  # each when it was computed, the stored ones too

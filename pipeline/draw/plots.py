@@ -255,7 +255,8 @@ def against_parameters(path: Path, title: str, columns: Sequence[dict], y: np.nd
     panel titled with its ``note``, e.g. the rank correlation), points coloured by
     ``colour`` when given."""
     k = len(columns)
-    fig = _figure((min(3.6 * k, 14.4), 4.0))
+    fig = _figure((min(1.6 + 3.4 * k, 15.0), 4.2))
+    fig.set_layout_engine("constrained")  # places the shared colour bar and the labels
     axes = fig.subplots(1, k, sharey=True, squeeze=False)[0]
     for ax, col in zip(axes, columns):
         dots = ax.scatter(col["x"], y, s=12, c=colour if colour is not None else "C0",
@@ -267,5 +268,5 @@ def against_parameters(path: Path, title: str, columns: Sequence[dict], y: np.nd
     if colour is not None:
         fig.colorbar(dots, ax=list(axes), label=colour_label, fraction=0.04, pad=0.02)
     fig.suptitle(title, fontsize=10)
-    fig.savefig(path, dpi=110)  # no tight_layout: it cannot place the shared colour bar
+    fig.savefig(path, dpi=110)
     return fig

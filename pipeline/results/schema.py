@@ -271,7 +271,7 @@ LAYOUT = group(
                 data("omega", "(n,) rad/s, where it is"),
                 data("slip_share", "(n,) share of the contact points slipping there"),
                 data("points", "(n,) continuation points of the sample's sweep"),
-                data("seconds", "(n,) s, the sample's task (0: from the cache)"),
+                data("seconds", "(n,) s, the sample's task when it was computed"),
                 data("status", "(n,) complete | stopped | failed | not run")),
           group(STATISTICS, "(uncertainty) of the complete samples' peaks",
                 ("percent", "mean", "std", "count", "limit", "exceedance (P(peak > limit))",
