@@ -117,6 +117,31 @@ def test_a_cluster_gives_the_serial_numbers(serial, cluster, tmp_path):
     assert differences(serial, path, rtol=1e-12) == []
 
 
+@pytest.mark.slow
+def test_an_assembly_study_on_a_cluster_gives_the_serial_numbers(cluster, tmp_path):
+    """The coarse blisk + damper (30 s): a damper-mass family with its maps and linear
+    limits, and an uncertainty study with its free and stuck levels."""
+    from test_assembly_case import CASE
+
+    data = copy.deepcopy(CASE)
+    frf = data["analysis"][0] | {"maps": ["peak"], "map_types": ["status"],
+                                 "family": {"key": "assembly.mass_multiplier",
+                                            "values": [1.0, 4.0]}}
+    spread = {"name": "spread", "type": "uncertainty", "window": [3200.0, 3300.0],
+              "output": "tip", "samples": 4, "levels": True,
+              "parameters": {"mu": {"uniform": [0.3, 0.8]}}}
+    data["analysis"] = [frf, spread]
+    before = scheduled(cluster.client)
+    paths = [run_case(cases.Case(copy.deepcopy(data), "coarse.toml"), tmp_path / where,
+                      cache=False, progress=lambda m: None, executor=executor)
+             for where, executor in (("serial", Serial()), ("cluster", cluster))]
+    assert scheduled(cluster.client)["memory"] - before.get("memory", 0) == 2 + 4
+    with h5py.File(paths[1]) as f:
+        assert f.attrs["status"] == "complete"
+        assert "linear_free" in f["frf"] and "free_peak" in f["spread/statistics"].attrs
+    assert differences(paths[0], paths[1], rtol=1e-12) == []
+
+
 def test_a_lost_worker_s_task_runs_again_elsewhere(serial, cluster, tmp_path):
     killed = []
 

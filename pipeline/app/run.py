@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import h5py
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from microslip.geometry.mesh import SurfaceContact
 from microslip.geometry.pairing import paired_contact
@@ -60,7 +61,7 @@ from .models import AssemblyModels, LumpedModels
 from .progress import time_left
 from .solutions import map_groups, map_solutions, response_at, sampling_change
 from .store import CurveStore, draw_once
-from .tasks import Distributed, Outcome, Serial, Task
+from .tasks import BLAS_THREADS, Distributed, Outcome, Serial, Task
 from .uncertainty import run_uncertainty
 
 if TYPE_CHECKING:
@@ -119,6 +120,9 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
                     models = AssemblyModels(m, result)
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
         run = Run(writer, out, progress, models, store, executor or Serial())
+        # what the analyses compute here (linear limits and levels, maps' solutions, curves
+        # run serially) with the tasks' BLAS threads: the same numbers as on any worker
+        blas = ThreadpoolController()
         for spec in case.analysis_specs:
             name = spec.name
             t = time.perf_counter()
@@ -127,7 +131,8 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
             if spec.type in ("frf", "peak", "uncertainty", "loops") and (case.contacts_enabled()
                                                           or "assembly" in case.data):
                 warm_up(progress)  # says so when a first run compiles the contact kernels
-            status, message = RUNNERS[spec.type](case, spec, group, run)
+            with blas.limit(limits=BLAS_THREADS, user_api="blas"):  # as every task's
+                status, message = RUNNERS[spec.type](case, spec, group, run)
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t

@@ -10,7 +10,8 @@
   of each ``--workers`` count, the cluster's start included (what a user waits for): the
   analysis' time, the speed-up, the peak resident memory of every worker and of this
   process, and whether the results are the serial ones to 1e-12. The reduced models come
-  from ``--out``'s model cache (built by the first run, not timed); no curve cache.
+  from ``--out``'s model cache (built by the first run, outside the analysis' time); no
+  curve cache.
 
 A study is run once per setting (minutes each): its spread between runs is a few per cent,
 far below the differences measured.
@@ -30,6 +31,7 @@ import h5py
 from microslip.pipeline.app.run import run_case
 from microslip.pipeline.app.tasks import Distributed, Outcome, Serial, Task
 from microslip.pipeline.case import Case, CaseError, load
+from microslip.pipeline.friction import warm_up
 from microslip.pipeline.results.compare import differences
 
 from .core import median_time, reference_unit
@@ -44,8 +46,15 @@ def empty(models, *, progress, live=True) -> Outcome:
 
 
 def peak_rss_mb() -> float:
-    """This process' peak resident memory [MB] (Linux: ru_maxrss in KB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    """This process' peak resident memory [MB]: VmHWM of /proc/self/status, the high-water
+    mark of its own memory (ru_maxrss, which Linux keeps across exec, would give a spawned
+    worker its parent's); ru_maxrss where there is no /proc."""
+    try:
+        with open("/proc/self/status") as f:
+            kb = next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
+    except (OSError, StopIteration):
+        kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kb / 1024
 
 
 def overhead(workers: int, tasks: int, repeat: int, unit: float) -> list[str]:
@@ -94,7 +103,7 @@ def run_once(case: Case, out: Path, workers: int) -> dict:
 
 def study_table(spec: str, samples: int | None, counts: list[int], out: Path) -> list[str]:
     """A study run in this process and on each worker count, into one folder (one model
-    cache: the first run reduces, untimed)."""
+    cache: the first run reduces, outside the analysis' time)."""
     name, _, analysis = spec.partition(":")
     path = Path(name) if Path(name).is_file() else CASES / name
     case = study_case(path, analysis, samples)
@@ -104,8 +113,7 @@ def study_table(spec: str, samples: int | None, counts: list[int], out: Path) ->
     lines = [f"{path.name} analysis {analysis} ({kind.type}, {size}):",
              f"  {'workers':>7} {'time s':>8} {'speed-up':>8} {'peak memory MB':>24}  "
              "same numbers"]
-    bare = Case(copy.deepcopy(case.data) | {"analysis": []}, case.source)
-    run_case(bare, out, progress=lambda m: None, cache=False)  # the models, the kernels
+    warm_up(lambda m: None)  # the kernels, compiled or loaded; the first run reduces
     serial = run_once(case, out, 0)
     lines.append(f"  {0:>7} {serial['seconds']:8.1f} {1.0:8.2f} "
                  f"{f'{peak_rss_mb():.0f} (this process)':>24}  (reference) "
