@@ -234,17 +234,8 @@ def tiny(tmp_path):
     return path
 
 
-TINY = textwrap.dedent("""\
-    title = "tiny"
-    [model]
-    dofs = ["x"]
-    mass = [1.0]
-    stiffness = [1.0]
-    damping = [0.02]
-    [[loads]]
-    dof = "x"
-    amplitude = 0.1
-    harmonic = 1
+#: The study's oscillator with one FRF.
+TINY = STUDY_TOML.split("[[analysis]]")[0] + textwrap.dedent("""\
     [[analysis]]
     name = "a"
     type = "frf"
