@@ -19,9 +19,9 @@ import h5py
 import numpy as np
 
 #: Attributes and datasets that record the run, not its numbers: when, with which versions,
-#: how long (elapsed_s, a time integration's seconds per frequency), and the messages that
-#: quote those times
-VOLATILE = frozenset({"created", "versions", "elapsed_s", "message", "seconds"})
+#: how long (elapsed_s, a time integration's or a sample's seconds), the messages that quote
+#: those times, and which reduced models came from the cache
+VOLATILE = frozenset({"created", "versions", "elapsed_s", "message", "seconds", "cached"})
 
 
 @dataclass(frozen=True)
