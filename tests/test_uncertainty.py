@@ -171,3 +171,28 @@ def test_a_study_grown_computes_only_its_new_samples(jenkins_study):
     reference = np.array([describing_function_peak(m) for m in mu])
     np.testing.assert_allclose(peak, reference, rtol=2e-5)
     assert np.all(seconds > 0)  # each when it was computed, the stored ones too
+
+
+@pytest.mark.parametrize("max_points, status", [(70, "complete"), (40, "stopped")])
+def test_a_sample_whose_sweep_stops_is_swept_from_the_other_end(tmp_path, max_points, status):
+    """An upward sweep cut short by max_points is met by a downward one from the window's
+    top: where the two overlap (70 points each) the sample is complete and its peak the
+    describing function's; where they leave a gap (40 each: the peak in it) the sample is
+    stopped and the statistics leave it out."""
+    data = copy.deepcopy(JENKINS) | {"solver": {"max_points": max_points}}
+    data["analysis"][0]["samples"] = 4
+    lines = []
+    path = run_case(cases.Case(data, "jenkins.toml"), tmp_path, progress=lines.append,
+                    cache=False)
+    with h5py.File(path) as f:
+        s, st = f["spread"][schema.SAMPLES], f["spread"][schema.STATISTICS]
+        assert np.all(s["status"][()] == status.encode())
+        assert np.all(s["points"][()] == 2 * max_points)  # both sweeps ran to their limit
+        mu, peak, count = s["parameters"][()][:, 0], s["peak"][()], st.attrs["count"]
+        assert f["spread"].attrs["status"] == status
+    if status == "complete":
+        assert count == 4 and sum("swept from both ends" in line for line in lines) == 4
+        reference = np.array([describing_function_peak(m) for m in mu])
+        np.testing.assert_allclose(peak, reference, rtol=2e-5)  # as the full sweep's
+    else:
+        assert count == 0

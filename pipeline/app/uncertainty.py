@@ -39,28 +39,54 @@ ROW = ("peak", "omega", "slip_share", "points")
 
 def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertainty, index: int,
                 *, progress: Progress, live: bool = True) -> Outcome:
-    """The peak of one sample (the case variant ``c``): a task (``tasks``)."""
+    """The peak of one sample (the case variant ``c``): a task (``tasks``). The window is
+    swept upwards; where that sweep stops short it is swept downwards from its top too, and
+    the peak is the largest response of either branch, refined, when the two together
+    cover the window (a branch with a crawl or a turn the upward sweep could not follow,
+    e.g. where a contact with a gap closes, is often passed from the other side)."""
     hb = models.model(c)
     rows = models.selection(c, [spec.output])
     lo, hi = spec.window
     base = operating_point(c, lo)
     solver = settings(c)
-    r = sweep(hb, "frequency", lo, hi, base, settings=solver)
-    b = r.branch
-    if b.status == "interrupted":
-        return Outcome({}, {}, "interrupted", b.message)
-    if not len(r):
+    found = [sweep(hb, "frequency", lo, hi, base, settings=solver)]
+    if found[0].branch.status == "stopped":
+        found.append(sweep(hb, "frequency", hi, lo, base.set("frequency", hi),
+                           settings=solver))
+    if any(r.branch.status == "interrupted" for r in found):
+        return Outcome({}, {}, "interrupted", "interrupted by the user")
+    status, message = _coverage(found, lo, hi)
+    found = [r for r in found if len(r)]
+    if not found:
         return Outcome(dict.fromkeys(ROW, np.nan) | {"points": 0}, {}, "failed",
-                       b.message or "no solution in the window")
-    shown = np.array([response_at(hb, x, r.point(i), rows, spec.measure)[0]
-                      for i, x in enumerate(b.x)])
-    w, x = refined_peak(r, shown, rows, spec.measure, solver)
+                       message or "no solution in the window")
+    shown = [np.array([response_at(hb, x, r.point(i), rows, spec.measure)[0]
+                       for i, x in enumerate(r.branch.x)]) for r in found]
+    top = int(np.argmax([np.max(y) for y in shown]))
+    w, x = refined_peak(found[top], shown[top], rows, spec.measure, solver)
     point = base.set("frequency", w)
     states = [cr.state for cr in hb.contact_response(x, point)]
     share = slip_share(np.concatenate(states)) if states else np.nan
     data = {"peak": float(response_at(hb, x, point, rows, spec.measure)[0]), "omega": w,
-            "slip_share": share, "points": len(r)}
-    return Outcome(data, {}, b.status, b.message)
+            "slip_share": share, "points": sum(len(r) for r in found)}
+    return Outcome(data, {}, status, message)
+
+
+def _coverage(found: list, lo: float, hi: float) -> tuple[str, str]:
+    """(status, message) of a sample's sweeps: complete when one reached the end of the
+    window or the upward and downward ones overlap (said in the message); else the upward
+    sweep's status and why each stopped."""
+    up = found[0].branch
+    if len(found) == 1:
+        return up.status, up.message
+    down = found[1].branch
+    reached_up = max(up.values, default=lo)
+    reached_down = min(down.values, default=hi)
+    if down.status == "complete" or reached_down <= reached_up:
+        return "complete", (f"swept from both ends: upwards to {reached_up:.6g} rad/s "
+                            f"({up.message}), downwards to {reached_down:.6g}")
+    return "stopped", (f"upwards to {reached_up:.6g} rad/s ({up.message}), downwards to "
+                       f"{reached_down:.6g} ({down.message})")
 
 
 def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tuple[str, str]:
