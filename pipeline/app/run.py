@@ -393,6 +393,7 @@ def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, st
     tasks: list[Task] = []
     targets: list[tuple[int, str, str]] = []
     hits = store.hits
+    each = task_seconds(case.data, spec)
     j = 0
     for variant, label, value in curve_variants(case, spec):
         for method in methods:
@@ -407,12 +408,13 @@ def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, st
                 statuses[j] = kept
             else:
                 tasks.append(Task(frf_task, (variant, spec, method, tag, value, which), which,
-                                  task_seconds(case.data, spec)))
+                                  each))
                 targets.append((j, key, curve))
             j += 1
     statuses |= _computed(run, group, tasks, targets, f"[{name}] ")
     for k in sorted(statuses):
-        coarse = sampling_warning(group[schema.curve(k)]) if k >= 0 else ""
+        written = k >= 0 and schema.curve(k) in group  # a failed task has no curve
+        coarse = sampling_warning(group[schema.curve(k)]) if written else ""
         if coarse:
             progress(f"warning: {whiches[k]}: {coarse}")
     done = [statuses[k] for k in sorted(statuses)]
@@ -439,8 +441,9 @@ def _computed(run: Run, group: h5py.Group, tasks: list[Task],
     try:
         for i, outcome in run.executor.run(tasks, run.models, run.progress, what):
             j, key, curve = targets[i]
-            run.writer.write_group(group, curve, outcome.data, outcome.attrs)
-            run.writer.flush()
+            if outcome.data:  # a task that failed on a worker brought nothing
+                run.writer.write_group(group, curve, outcome.data, outcome.attrs)
+                run.writer.flush()
             out[j] = (outcome.status, outcome.message)
             if outcome.status in ("complete", "stopped"):
                 run.store.save(key, group[curve])
