@@ -177,8 +177,8 @@ def test_a_study_grown_computes_only_its_new_samples(jenkins_study):
 def test_a_sample_whose_sweep_stops_is_swept_from_the_other_end(tmp_path, max_points, status):
     """An upward sweep cut short by max_points is met by a downward one from the window's
     top: where the two overlap (70 points each) the sample is complete and its peak the
-    describing function's; where they leave a gap (40 each: the peak in it) the sample is
-    stopped and the statistics leave it out."""
+    describing function's; where they leave a gap (40 each: the peak in it), and again at
+    twice the samples, the sample is stopped and the statistics leave it out."""
     data = copy.deepcopy(JENKINS) | {"solver": {"max_points": max_points}}
     data["analysis"][0]["samples"] = 4
     lines = []
@@ -190,9 +190,13 @@ def test_a_sample_whose_sweep_stops_is_swept_from_the_other_end(tmp_path, max_po
         assert np.all(s["points"][()] == 2 * max_points)  # both sweeps ran to their limit
         mu, peak, count = s["parameters"][()][:, 0], s["peak"][()], st.attrs["count"]
         assert f["spread"].attrs["status"] == status
+        # stopped from both ends: swept once more at twice the samples, which cannot help
+        # here (the limit is the points), said with the first attempt's reasons
+        assert np.all(s["samples"][()] == (1024 if status == "complete" else 2048))
+        message = f["spread"].attrs["message"]
     if status == "complete":
         assert count == 4 and sum("swept from both ends" in line for line in lines) == 4
         reference = np.array([describing_function_peak(m) for m in mu])
         np.testing.assert_allclose(peak, reference, rtol=2e-5)  # as the full sweep's
     else:
-        assert count == 0
+        assert count == 0 and "at 1024 samples per period: upwards to" in message

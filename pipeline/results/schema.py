@@ -270,7 +270,9 @@ LAYOUT = group(
                 data("peak", "(n,) m, the peak in the window (NaN: none)"),
                 data("omega", "(n,) rad/s, where it is"),
                 data("slip_share", "(n,) share of the contact points slipping there"),
-                data("points", "(n,) continuation points of the sample's sweep"),
+                data("points", "(n,) continuation points of the sample's sweeps"),
+                data("samples", "(n,) time samples per period of its sweeps (the case's, or "
+                     "twice as many where those could not cover the window)"),
                 data("seconds", "(n,) s, the sample's task when it was computed"),
                 data("status", "(n,) complete | stopped | failed | not run")),
           group(STATISTICS, "(uncertainty) of the complete samples' peaks",
