@@ -183,6 +183,22 @@ def test_a_quiet_cluster_says_it_is_working(cluster, monkeypatch):
     assert lines[-1] == "2 of 2 tasks finished on the cluster"
 
 
+def threads(models, *, progress, live=True):
+    """A task that reports the threads its kernels and linear algebra may use."""
+    import numba
+    from threadpoolctl import threadpool_info
+
+    blas = {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
+    return Outcome({"numba": numba.get_num_threads(), "blas": max(blas)}, {}, "complete")
+
+
+def test_a_worker_runs_each_task_on_one_thread(cluster):
+    # N one-thread workers on N cores: numba's default (every core) per worker made 2N
+    # threads; a task must also see the one BLAS thread that keeps the numbers identical
+    found = dict(cluster.run([Task(threads, ()), Task(threads, ())], None, lambda m: None))
+    assert [found[i].data for i in (0, 1)] == [{"numba": 1, "blas": 1}] * 2
+
+
 def broken(models, *, progress, live=True):
     """A task with a bug."""
     raise ValueError("a bug, not bad luck")
