@@ -158,8 +158,11 @@ def test_a_lost_worker_s_task_runs_again_elsewhere(serial, cluster, tmp_path):
     path = run(tmp_path, cluster, kill_a_busy_worker)
     assert killed, "no worker was busy when the first task finished"
     after = scheduled(cluster.client)
-    # 15 tasks finished, one or more of them assigned again after the loss
-    assert after["memory"] - before.get("memory", 0) == 15
+    # 15 tasks finished, one or more of them assigned again after the loss: the one the
+    # killed worker ran, and any finished result it still held before the client took it
+    # (then that task finishes twice)
+    finished = after["memory"] - before.get("memory", 0)
+    assert finished >= 15
     assert after["processing"] - before.get("processing", 0) > 15
     with h5py.File(path) as f:
         assert f.attrs["status"] == "complete"
