@@ -55,7 +55,7 @@ def test_the_slurm_example_writes_one_core_worker_jobs(monkeypatch):
         assert out.getvalue().strip() == cluster.scheduler_address
     finally:
         cluster.close()
-    assert "#SBATCH --cpus-per-task=1" in script and "#SBATCH --mem=2G" in script
+    assert "#SBATCH --cpus-per-task=1" in script and "#SBATCH --mem=4G" in script
     assert "export NUMBA_CACHE_DIR=/tmp/$USER-numba" in script
     assert "--nthreads 1" in script and cluster.scheduler_address in script
 
