@@ -62,7 +62,7 @@ def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertaint
             break
         notes.append(f"at {model.harmonics.n_samples} samples per period: {message}")
     samples = model.harmonics.n_samples
-    message = "; ".join([*notes, message]) if notes else message
+    message = "; ".join([*notes, message])
     found = [r for r in found if len(r)]
     if not found:
         return Outcome(dict.fromkeys(ROW, np.nan) | {"points": 0, "samples": samples}, {},
