@@ -403,7 +403,8 @@ def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, st
             key = frf_key(store, variant, spec, method)
             keys.append(key)
             curve = schema.curve(j)
-            kept = _cached_curve(store, key, group, curve, f"{which}: {{}} points", progress)
+            kept = _cached_curve(store, key, group, curve, f"{which}: {{}} points", progress,
+                                 frf_identity(spec, tag, value))
             if kept:
                 statuses[j] = kept
             else:
@@ -462,16 +463,34 @@ def _draw(draw, group: h5py.Group, spec: Analysis, run: Run, keys: list[str] = (
 
 
 def _cached_curve(store: CurveStore, key: str, group, curve: str, what: str,
-                  progress: Progress) -> tuple[str, str] | None:
+                  progress: Progress, identity: dict) -> tuple[str, str] | None:
     """(status, message) of the curve ``group[curve]`` copied from the store, saying so
-    (``what`` formats its number of points); None when the store does not have it."""
+    (``what`` formats its number of points); None when the store does not have it.
+
+    The store is keyed by what a curve computes, so another analysis (or another family
+    member) may have computed it: its ``identity`` attributes (label, family key and value)
+    are this analysis' own, set over the stored ones."""
     if not store.load(key, group, curve):
         return None
     g = group[curve]
+    for k, v in identity.items():
+        g.attrs[k] = v
     status, message = str(g.attrs["status"]), str(g.attrs["message"])
     progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
              f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
     return status, message
+
+
+def frf_identity(spec: Frf, tag: str, value) -> dict:
+    """The attributes of an FRF curve that say which analysis and member it is (not what it
+    computes): its label, family key and value."""
+    return {"label": tag, "family_key": spec.family.key if spec.family else "",
+            "family_value": value if value is not None else ""}
+
+
+def peak_identity(spec: Peak, label: str, value) -> dict:
+    """The attributes of a peak curve that say which analysis and member it is."""
+    return {"label": label or f"peak of {spec.output}", "family_value": value or ""}
 
 
 def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: str, tag: str,
@@ -539,14 +558,12 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
             if missing:
                 progress(f"warning: {which}: no solution found at {par} = "
                          f"{', '.join(f'{x:g}' for x in missing)} for its maps")
-    attrs = {"label": tag, "method": method, "measure": measure,
-             "family_key": spec.family.key if spec.family else "",
-             "family_value": value if value is not None else "", "status": b.status,
-             "message": b.message, "turning_points": b.turning_points,
-             "elapsed_s": elapsed, "outputs": names,
-             "harmonic_orders": list(hb.harmonics.orders),
-             "samples": hb.harmonics.n_samples, "mass_multiplier": base.mass_multiplier,
-             "excitation": base.excitation, "normalised": spec.normalise}
+    attrs = frf_identity(spec, tag, value) | {
+        "method": method, "measure": measure, "status": b.status, "message": b.message,
+        "turning_points": b.turning_points, "elapsed_s": elapsed, "outputs": names,
+        "harmonic_orders": list(hb.harmonics.orders), "samples": hb.harmonics.n_samples,
+        "mass_multiplier": base.mass_multiplier, "excitation": base.excitation,
+        "normalised": spec.normalise}
     done = f"{which}: {len(r)} points, {b.status} ({elapsed:.2f} s) {b.message}".rstrip()
     return Outcome(data, attrs, b.status, b.message, (done,))
 
@@ -642,7 +659,8 @@ def run_peak(case: Case, spec: Peak, group: h5py.Group, run: Run) -> tuple[str, 
         key = store.key(variant.data, spec.table(), curve="peak")
         keys.append(key)
         kept = _cached_curve(store, key, group, schema.curve(j),
-                             f"[{name}] {label or 'curve'}: {{}} values", run.progress)
+                             f"[{name}] {label or 'curve'}: {{}} values", run.progress,
+                             peak_identity(spec, label, value))
         if kept:
             statuses.append(kept)
             continue
@@ -702,8 +720,7 @@ def _write_peak_curve(group: h5py.Group, curve: str, label: str, value, spec: Pe
     data = {k: np.concatenate([r[k] for r in rows]) for k in rows[0]}
     if "stable" in data and not np.any(data["stable"] >= 0):
         del data["stable"], data["floquet"]  # no stability anywhere
-    run.writer.write_group(group, curve, data, {
-        "label": label or f"peak of {spec.output}", "family_value": value or "",
+    run.writer.write_group(group, curve, data, peak_identity(spec, label, value) | {
         "status": status, "message": message,
         "elapsed_s": sum(p.seconds for p in done)})
     run.writer.flush()
