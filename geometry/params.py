@@ -85,9 +85,10 @@ def check_ranges(params) -> None:
             ok_type = isinstance(value, int | float) and not isinstance(value, bool)
         if not ok_type or not math.isfinite(value) or value not in meta["bound"]:
             kind = "an integer" if meta["integer"] else "a finite number"
+            unit = "" if unit == "-" else f" {unit}"  # a count or ratio has no unit to say
             raise GeometryParameterError(
-                f"{owner}.{f.name} = {value!r} {unit}: must be {kind} in "
-                f"{meta['bound']} {unit} ({meta['doc']})"
+                f"{owner}.{f.name} = {value!r}{unit}: must be {kind} in "
+                f"{meta['bound']}{unit} ({meta['doc']})"
             )
 
 

@@ -76,8 +76,7 @@ def _load_case(command: str, path):
     try:
         case = load(path)
     except CaseError as err:
-        text = f"{path}: {err.faults[0]}" if len(err.faults) == 1 else str(err)
-        print(f"microslip {command}: {text}", file=sys.stderr)
+        print(f"microslip {command}: {err}", file=sys.stderr)
         return None
     for note in case.renamed:  # the user has something to do: rename the table
         print(f"{path}: note: {note}")

@@ -6,8 +6,8 @@ against the full-disk model (the test of the neighbour-sector phase and rotation
 import numpy as np
 import pytest
 import scipy.linalg as sla
-from scipy.optimize import linear_sum_assignment
 from derivatives import fd_residual_jacobian
+from scipy.optimize import linear_sum_assignment
 
 from microslip import geometry
 from microslip.pipeline.app import structure

@@ -53,6 +53,22 @@ def test_good_case_builds_the_model_it_says():
         (lambda d: d["analysis"][0].update(family={"key": "contacts.c.zz", "values": [1]}),
          "no such key"),
         (lambda d: d.pop("analysis"), "analysis: missing"),
+        # a load on an order the balance does not compute would drive nothing, 'complete'
+        (lambda d: d["harmonics"].update(max=0),
+         "loads[0].harmonic = 1: that order is not computed (harmonics.max = 0: orders [0])"),
+        (lambda d: d.update(harmonics={"orders": [0, 3], "samples": 64}),
+         "loads[0].harmonic = 1: that order is not computed (harmonics.orders = [0, 3])"),
+        (lambda d: d["loads"][0].update(harmonic=5), "loads[0].harmonic = 5: that order is "
+         "not computed (harmonics.max = 3: orders [0, 1, 2, 3]), so the load would drive "
+         "nothing; raise harmonics.max to 5"),
+        (lambda d: d["analysis"][0].update(set={"harmonics.max": 0}),
+         "analysis.a.set: loads[0].harmonic = 1: that order is not computed"),
+        # two analyses of one name would write one results group twice
+        (lambda d: d["analysis"].append(dict(d["analysis"][0])),
+         "analysis[1].name = 'a': analysis[0] has that name already"),
+        (lambda d: d["analysis"][0].update(name="reduction"),
+         "analysis[0].name = 'reduction': reserved"),
+        (lambda d: d["analysis"][0].update(name="a/b"), "analysis[0].name = 'a/b': expected"),
     ],
 )
 def test_each_fault_is_named(mutate, expected):
@@ -213,3 +229,11 @@ def test_a_dti_without_compare_is_valid():
         cases.check(data)
     assert err.value.faults == ["analysis.steady.compare = 'nowhere': no analysis of that "
                                 "name; known: ['steady']"]
+
+
+def test_reserved_analysis_names_are_the_results_file_s_groups():
+    from microslip.pipeline.case.validate import RESERVED
+    from microslip.pipeline.results import schema
+
+    assert set(RESERVED) == {schema.CASE, schema.GEOMETRY, schema.CONTACT_GRIDS,
+                             schema.SURFACES, schema.REDUCTION}

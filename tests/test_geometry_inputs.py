@@ -90,7 +90,7 @@ def test_simple_models_reject_bad_input_before_gmsh(no_gmsh, call, name):
 
 
 def test_error_is_a_value_error_with_value_in_message(no_gmsh):
-    with pytest.raises(ValueError, match=r"sectors = 2 -: must be an integer in \[3, 400\]"):
+    with pytest.raises(ValueError, match=r"sectors = 2: must be an integer in \[3, 400\]"):
         blisk_sector(sectors=2)
 
 

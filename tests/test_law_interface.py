@@ -79,7 +79,8 @@ def test_the_case_reader_checks_a_registered_laws_keys(spring_law):
     with pytest.raises(cases.CaseError) as err:
         cases.check(bad)
     assert set(err.value.faults) == {
-        "contacts.s.kt: unknown key; allowed: ['enabled', 'k', 'law', 'name', 'u']",
+        "contacts.s.kt: unknown key; did you mean 'k'? allowed: ['enabled', 'k', 'law', "
+        "'name', 'u']",
         "contacts.s.k = None: expected a number"}
 
 

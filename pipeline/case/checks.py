@@ -6,6 +6,7 @@ so that every fault of a file is reported at once, before any work starts.
 
 from __future__ import annotations
 
+import difflib
 from typing import Any
 
 import numpy as np
@@ -18,8 +19,10 @@ def unknown_keys(prefix: str, table: Any, allowed: set[str], out: list[str]) -> 
     if not isinstance(table, dict):
         out.append(f"{prefix.rstrip('.') or 'case'}: expected a table, got {table!r}")
         return
-    for k in sorted(set(table) - allowed):
-        out.append(f"{prefix}{k}: unknown key; allowed: {sorted(allowed)}")
+    for k in sorted(set(table) - allowed, key=str):
+        near = difflib.get_close_matches(str(k), sorted(allowed), n=1)
+        hint = f"did you mean {near[0]!r}? " if near else ""
+        out.append(f"{prefix}{k}: unknown key; {hint}allowed: {sorted(allowed)}")
 
 
 def is_int(v: Any) -> bool:

@@ -47,6 +47,7 @@ modification time).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Mapping
@@ -239,6 +240,7 @@ def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
             out.append("geometry.parameters: expected a table")
             return None
         before = len(out)
+        check_parameters(geo["model"], geo.get("parameters", {}), out)
         _check_contacts(geo.get("contacts", {}), out)
         return GeometryTable.of(geo, base) if len(out) == before else None
     before = len(out)
@@ -283,6 +285,23 @@ def check(geo: Any, base: str | Path, out: list[str]) -> GeometryTable | None:
         out.append(str(exc))
         return None
     return table
+
+
+def check_parameters(model: str, given: Mapping[str, Any], out: list[str]) -> None:
+    """The faults of a parametric model's [geometry.parameters], as the model would meet
+    them before meshing: unknown names, then each value's type and range and the rules
+    between values (the parameter class's ``validate``), one line each."""
+    cls = geometry.PARAMETERS[model]
+    names = {f.name for f in dataclasses.fields(cls)}
+    before = len(out)
+    unknown_keys("geometry.parameters.", given, names, out)
+    if len(out) > before:
+        return
+    try:
+        cls(**given).validate()
+    except geometry.GeometryParameterError as err:  # "<Class>.name = v: ..." or "name = v"
+        text = str(err).removeprefix(f"{cls.__name__}.")
+        out.append(f"geometry.parameters.{text}")
 
 
 def _check_contacts(contacts: Any, out: list[str]) -> None:

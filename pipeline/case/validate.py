@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import re
 
 import numpy as np
 
@@ -80,20 +81,46 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
         _contact(i, c, names, seen, out)
     for i, load in enumerate(data.get("loads", [])):
         _load(i, load, names, out)
-    _harmonics(data.get("harmonics", {}), out)
+    h = data.get("harmonics", {})
+    _loads_computed(data.get("loads", []), "loads", h, _harmonics(h, out), out)
     _solver(data.get("solver", {}), out)
     if analyses:
         for i, a in _analysis_tables(data, tuple(specs.ANALYSES), out):
             _analysis(i, a, data, seen, names, out)
 
 
+#: Top-level groups of results.h5 that are not analyses (``results.schema``'s, which this
+#: stage does not import; a test holds them equal): an analysis may not take their name.
+RESERVED = ("case", "geometry", "contact_grids", "surfaces", "reduction")
+#: An analysis name: its results.h5 group and the start of its pictures' file names.
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+
+
 def _analysis_tables(data: dict, kinds: tuple[str, ...], out: list[str]) -> list:
-    """(index, table) of the case's [[analysis]], or a fault if there is none."""
+    """(index, table) of the case's [[analysis]], or a fault if there is none; a fault per
+    name that is taken twice, reserved or not a file name."""
     items = data.get("analysis", [])
     if not isinstance(items, list) or not items:
         out.append(f"analysis: missing; add at least one [[analysis]] with type in "
                    f"{list(kinds)}")
         return []
+    seen: dict[str, int] = {}
+    for i, a in enumerate(items):
+        if not isinstance(a, dict):
+            continue
+        name = a.get("name", f"analysis{i}")
+        if not (isinstance(name, str) and NAME.fullmatch(name)):
+            out.append(f"analysis[{i}].name = {name!r}: expected letters, digits, '_', '-' "
+                       "or '.', starting with a letter or digit (it names the analysis' "
+                       "results group and pictures)")
+        elif name in RESERVED:
+            out.append(f"analysis[{i}].name = {name!r}: reserved for the results file's "
+                       f"{name} group; names taken: {list(RESERVED)}")
+        elif name in seen:
+            out.append(f"analysis[{i}].name = {name!r}: analysis[{seen[name]}] has that name "
+                       "already; each analysis needs its own")
+        else:
+            seen[name] = i
     return list(enumerate(items))
 
 
@@ -116,7 +143,10 @@ def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | No
     for key in ("contacts", "loads"):
         if key in data:
             out.append(f"{key}: an assembly case gives its contacts and loads in [assembly]")
-    _harmonics(data.get("harmonics", {}), out)
+    h = data.get("harmonics", {})
+    orders = _harmonics(h, out)
+    if isinstance(data["assembly"], dict):
+        _loads_computed(data["assembly"].get("loads", []), "assembly.loads", h, orders, out)
     _solver(data.get("solver", {}), out)
     if not analyses:
         return
@@ -311,10 +341,12 @@ def _load(i: int, load, dofs: set[str], out: list[str]) -> None:
     number(f"{pre}.phase", load.get("phase", specs.LoadTable.phase), out)
 
 
-def _harmonics(h, out: list[str]) -> None:
+def _harmonics(h, out: list[str]) -> tuple[int, ...] | None:
+    """The faults of [harmonics]; the orders it computes (None when it has a fault)."""
+    before = len(out)
     unknown_keys("harmonics.", h, HARMONIC_KEYS, out)
     if not isinstance(h, dict):
-        return
+        return None
     if "max" in h and "orders" in h:
         out.append("harmonics: give either 'max' (orders 0..max) or 'orders', not both")
     if "max" in h:
@@ -324,10 +356,30 @@ def _harmonics(h, out: list[str]) -> None:
         o = h["orders"]
         if not (isinstance(o, list) and o and all(isinstance(x, int) and x >= 0 for x in o)):
             out.append(f"harmonics.orders = {o!r}: expected a list of integers >= 0")
-            return
+            return None
         top = max(o)
     if "samples" in h and is_int(top) and top >= 0:
         samples_rule("harmonics.samples", h["samples"], top, out)
+    if len(out) > before:
+        return None
+    return specs.HarmonicsTable.of(h).all_orders
+
+
+def _loads_computed(loads, where: str, h: dict, orders: tuple[int, ...] | None,
+                    out: list[str]) -> None:
+    """A fault per load on a harmonic the balance does not compute: its response would be
+    zero, and the run 'complete'."""
+    if orders is None or not isinstance(loads, list):
+        return
+    given = (f"harmonics.orders = {list(orders)}" if "orders" in h
+             else f"harmonics.max = {max(orders)}: orders {list(orders)}")
+    for i, ld in enumerate(loads):
+        n = ld.get("harmonic", specs.LoadTable.harmonic) if isinstance(ld, dict) else None
+        if is_int(n) and n >= 0 and n not in orders:
+            fix = (f"add {n} to harmonics.orders" if "orders" in h
+                   else f"raise harmonics.max to {n}")
+            out.append(f"{where}[{i}].harmonic = {n}: that order is not computed ({given}), "
+                       f"so the load would drive nothing; {fix}")
 
 
 def _solver(s, out: list[str]) -> None:

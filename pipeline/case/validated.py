@@ -23,7 +23,10 @@ class CaseError(ValueError):
 
     def __init__(self, source: str, faults: list[str]):
         self.faults = faults
-        super().__init__(f"{source}: {len(faults)} fault(s)\n" + "\n".join(
+        if len(faults) == 1:  # one fault, one line
+            super().__init__(f"{source}: {faults[0]}")
+            return
+        super().__init__(f"{source}: {len(faults)} faults\n" + "\n".join(
             f"  - {f}" for f in faults))
 
 
