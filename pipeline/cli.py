@@ -252,6 +252,7 @@ def check(argv: list[str]) -> int:
     from pathlib import Path
 
     from microslip.pipeline.case import CaseError, load, notes, sizes
+    from microslip.pipeline.case.units import case_unit_lines
 
     parser = argparse.ArgumentParser(prog="microslip check", description=check.__doc__)
     parser.add_argument("case", type=Path, nargs="+", help="case file(s) (TOML)")
@@ -264,8 +265,11 @@ def check(argv: list[str]) -> int:
             size = f"; largest analysis: {largest}" if largest else ""
             print(f"{path}: ok ({len(c.analyses)} analyses: "
                   f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)}{size})")
-            for note in (*c.renamed, *notes(c.data)):
+            units, implausible = case_unit_lines(c.data)
+            for note in (*c.renamed, *units, *notes(c.data)):
                 print(f"{path}: note: {note}")
+            for line in implausible:
+                print(f"{path}: warning: {line}")
         except CaseError as err:
             print(err, file=sys.stderr)
             bad += 1
@@ -400,7 +404,7 @@ def maps_panel() -> str:
 
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
-    from microslip.pipeline.app.run import mesh_geometry
+    from microslip.pipeline.app.run import mesh_geometry, say_units
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML) with a [geometry] table")
@@ -419,6 +423,7 @@ def mesh(argv: list[str]) -> int:
         return 2
     try:
         mesh_geometry(c.geometry_table, out, progress=print, pictures=not args.no_pictures)
+        say_units(c.data, print)
     except (TypeError, ValueError) as err:
         print(f"microslip mesh: [geometry.parameters]: {err}", file=sys.stderr)
         return 2

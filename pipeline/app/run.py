@@ -40,6 +40,7 @@ from microslip.pipeline.case.specs import (
     TimeIntegration,
     Transient,
 )
+from microslip.pipeline.case.units import case_unit_lines
 from microslip.pipeline.draw import pictures
 from microslip.pipeline.draw.maps import EDGES
 from microslip.pipeline.friction import warm_up
@@ -108,6 +109,7 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
         if "geometry" in case.data:
             t = time.perf_counter()
             m = mesh_geometry(case.geometry_table, out, progress, pictures=False)
+            say_units(case.data, progress)
             write_mesh(writer, m, time.perf_counter() - t)
             draw_previews(writer.file, m.content_hash, out, progress)
             if "reduction" in case.data:
@@ -197,6 +199,16 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
 
         draw_previews(MeshView.from_mesh(m), m.content_hash, out, progress)
     return m
+
+
+def say_units(data: dict, progress: Progress) -> None:
+    """The unit an imported mesh was read in when the case gives none, and a warning per
+    body implausible in its units (``case.units``)."""
+    notes, warnings = case_unit_lines(data)
+    for line in notes:
+        progress(f"[geometry] note: {line}")
+    for line in warnings:
+        progress(f"warning: [geometry] {line}")
 
 
 def draw_previews(source, content_hash: str, out: Path, progress: Progress = print) -> None:
