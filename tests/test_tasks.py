@@ -2,6 +2,7 @@
 one process, a lost worker's task re-run elsewhere, Ctrl-C keeping every finished curve, and
 a cluster that cannot serve refused in one line before any work."""
 
+import contextlib
 import copy
 import os
 import signal
@@ -9,6 +10,7 @@ import socket
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 import tomllib
 
@@ -273,6 +275,57 @@ def test_an_unreachable_scheduler_is_one_line_at_once(tiny, tmp_path, capsys):
     assert "refused" in err.lower()
     assert time.perf_counter() - t < 5.0  # refused at once, not after Dask's retries
     assert not (tmp_path / "o" / "results.h5").exists()
+
+
+@contextlib.contextmanager
+def service(reply: bytes | None):
+    """A TCP service on a free local port that is not a Dask scheduler: ``reply`` None is an
+    HTTP server (it waits for a request: silent on connect); bytes are sent on connect (a
+    banner, as SSH's). Yields its address."""
+    import http.server
+    import socketserver
+
+    if reply is None:
+        server = http.server.HTTPServer(("127.0.0.1", 0), http.server.BaseHTTPRequestHandler)
+    else:
+        class Banner(socketserver.BaseRequestHandler):
+            def handle(self):
+                self.request.sendall(reply)
+                time.sleep(0.5)
+
+        server = socketserver.TCPServer(("127.0.0.1", 0), Banner)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{server.server_address[1]}"
+    finally:
+        server.shutdown()
+        server.server_close()
+
+
+@pytest.mark.parametrize("reply, expected", [
+    (None, "a service listens there but said nothing in 1 s, as a Dask scheduler would at "
+     "once (an HTTP server or a proxy?)"),
+    (b"SSH-2.0-OpenSSH_9.2\r\n", "the service there is not a Dask scheduler (it began with "
+     "b'SSH-2.0-'"),
+])
+def test_a_service_that_is_not_a_scheduler_is_named_within_the_timeout(reply, expected):
+    """An HTTP server kept Dask's client waiting for over 300 s; a proxy answering Dask's
+    handshake with 'HTTP/1.1 400' was read as a frame of 3 EiB."""
+    with service(reply) as address:
+        t = time.perf_counter()
+        client, fault = tasks.connect(address, timeout=1.0)
+        assert client is None and expected in fault, fault
+        assert time.perf_counter() - t < 3.0  # the timeout, not Dask's
+
+
+def test_run_at_a_banner_service_is_one_line(tiny, tmp_path, capsys):
+    with service(b"HTTP/1.1 400 Bad Request\r\n\r\n") as address:
+        assert main(["run", str(tiny), "--out", str(tmp_path / "o"), "--scheduler",
+                     address]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert f"--scheduler {address}: the service there is not a Dask scheduler" in err
 
 
 @pytest.mark.parametrize("argv,expected", [

@@ -284,6 +284,10 @@ def connect(address: str, timeout: float = CONNECT_S) -> tuple[Any, str]:
     refused = _refused(address, timeout)
     if refused:  # said at once: Dask's own connect would retry until the timeout
         return None, unreachable.format(refused)
+    other = _not_dask(address, timeout)
+    if other:  # Dask's client would wait for ever, or read a reply as a frame size
+        return None, (f"--scheduler {address}: {other}; give the address of a Dask "
+                      "scheduler (dask scheduler prints it: tcp://host:8786)")
     try:
         client = Client(address, timeout=f"{timeout}s")
     except (OSError, TimeoutError, ValueError) as err:
@@ -315,6 +319,47 @@ def _refused(address: str, timeout: float) -> str:
             return ""
     except OSError as err:
         return err.strerror or type(err).__name__
+
+
+#: A Dask message's first 8 bytes are its size; a handshake is far below this [bytes].
+HANDSHAKE_BYTES = 1 << 26
+
+
+def _not_dask(address: str, timeout: float) -> str:
+    """Why the TCP service at ``address`` is not a Dask scheduler (one phrase), or "".
+
+    A scheduler greets each connection with its handshake at once: a message whose first 8
+    bytes are its size. A service that says nothing until asked (an HTTP server, a proxy
+    that accepts any address) would keep Dask's client waiting past any timeout, and one
+    that answers what Dask sends is read as a frame of exabytes; so listen first, send
+    nothing, for ``timeout`` seconds."""
+    import socket
+    import struct
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return ""
+    head = b""
+    deadline = time.monotonic() + timeout
+    try:
+        with socket.create_connection((parts.hostname, parts.port), timeout=timeout) as sock:
+            while len(head) < 8 and time.monotonic() < deadline:
+                sock.settimeout(max(deadline - time.monotonic(), 1e-3))
+                chunk = sock.recv(8 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+    except TimeoutError:
+        pass
+    except OSError as err:
+        return f"the connection failed ({err.strerror or type(err).__name__})"
+    if not head:
+        return (f"a service listens there but said nothing in {timeout:g} s, as a Dask "
+                "scheduler would at once (an HTTP server or a proxy?)")
+    if len(head) < 8 or struct.unpack("Q", head)[0] > HANDSHAKE_BYTES:
+        return f"the service there is not a Dask scheduler (it began with {head!r})"
+    return ""
 
 
 def workers_ready(client) -> str:
