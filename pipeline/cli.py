@@ -145,6 +145,7 @@ def _report_run(path: Path, out: Path, start: float) -> tuple[str, str]:
 
 def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
+    from microslip.pipeline.app.folder import FolderBusy, NoSpace
     from microslip.pipeline.app.run import run_case
     from microslip.pipeline.case import InputError
 
@@ -199,6 +200,12 @@ def run(argv: list[str]) -> int:
         except InputError as err:  # found once the mesh exists: before any heavy work
             print(f"microslip run: {args.case}: {err}", file=sys.stderr)
             return 2
+        except FolderBusy as err:  # before any work: nothing of the other run is touched
+            print(f"microslip run: {err}", file=sys.stderr)
+            return 2
+        except NoSpace as err:  # what finished is kept (partial)
+            print(f"microslip run: {err}", file=sys.stderr)
+            return 2 if err.before_work else 1
         except KeyboardInterrupt:  # Terminated too
             why = "terminated (SIGTERM)" if received else "interrupted"
             print(f"microslip run: {why}; the results file keeps what finished, marked "

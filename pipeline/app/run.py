@@ -46,7 +46,12 @@ from microslip.pipeline.draw.maps import EDGES
 from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.results import schema
-from microslip.pipeline.results.file import ATTRS, ResultsWriter, sampling_warning
+from microslip.pipeline.results.file import (
+    ATTRS,
+    ResultsWriter,
+    is_disk_full,
+    sampling_warning,
+)
 from microslip.pipeline.solve.bifurcation import find_bifurcations
 from microslip.pipeline.solve.response import (
     Response,
@@ -57,6 +62,7 @@ from microslip.pipeline.solve.response import (
 )
 from microslip.pipeline.solve.stability import hill_stability, undefined
 
+from .folder import FolderLock, NoSpace, free_bytes, size_text
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import AssemblyModels, LumpedModels
 from .progress import time_left
@@ -101,9 +107,38 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
     the caller closes it."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    free = free_bytes(out)
+    with FolderLock(out) as lock:  # FolderBusy: another run writes there
+        try:
+            return _run_case(case, out, progress, cache, executor, lock)
+        except OSError as err:
+            if not is_disk_full(err):
+                raise
+            raise NoSpace(disk_full_text(out, free)) from None
+
+
+def disk_full_text(out: Path, free: int) -> str:
+    """The one line of a run whose disk filled: where, what was free, what was kept."""
+    kept = ""
+    path = out / "results.h5"
+    if path.is_file():
+        with h5py.File(path, "r") as f:
+            curves = sum(1 for g in f.values() if isinstance(g, h5py.Group)
+                         for c in g.values() if isinstance(c, h5py.Group)
+                         and c.attrs.get("status") in ("complete", "stopped"))
+        kept = f"; {path} keeps the {curves} curves that finished (partial)"
+    return (f"{out}: no space left on its device; {size_text(free)} were free when the run "
+            f"started and it needs more: free space there, or give --out on another "
+            f"disk{kept}")
+
+
+def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
+              executor: Serial | Distributed | None, lock: FolderLock) -> Path:
+    """run_case in the folder it holds."""
     store = CurveStore(out / "cache" / "curves" if cache else None)
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
-                       case_hash=case.content_hash, case=case.data) as writer:
+                       case_hash=case.content_hash, case=case.data,
+                       on_disk_full=lock.release_reserve) as writer:
         stopped = ""
         models: LumpedModels | AssemblyModels = LumpedModels()
         if "geometry" in case.data:

@@ -12,10 +12,11 @@ again); an interrupted one is computed again. The files are HDF5, safe to open.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -107,11 +108,22 @@ class CurveStore:
         """Keep a written curve group (atomically: a partial file is never read)."""
         if self.folder is None:
             return
+        with self._replacing(key) as tmp, h5py.File(tmp, "w") as f:
+            group.file.copy(group, f, name="curve")
+
+    @contextlib.contextmanager
+    def _replacing(self, key: str) -> Iterator[Path]:
+        """A temporary file that becomes the stored ``key`` when the block ends, and is
+        removed if it fails (a full disk leaves no stray file)."""
+        assert self.folder is not None
         self.folder.mkdir(parents=True, exist_ok=True)
         tmp = self._path(key).with_suffix(".tmp")
-        with h5py.File(tmp, "w") as f:
-            group.file.copy(group, f, name="curve")
-        os.replace(tmp, self._path(key))
+        try:
+            yield tmp
+            os.replace(tmp, self._path(key))
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
 
     def load_row(self, key: str) -> dict[str, Any] | None:
         """A stored row of numbers and texts (:meth:`save_row`), or None."""
@@ -132,13 +144,10 @@ class CurveStore:
         """Keep a row of numbers and texts (a sample of a study), atomically."""
         if self.folder is None:
             return
-        self.folder.mkdir(parents=True, exist_ok=True)
-        tmp = self._path(key).with_suffix(".tmp")
-        with h5py.File(tmp, "w") as f:
+        with self._replacing(key) as tmp, h5py.File(tmp, "w") as f:
             g = f.create_group("row")
             for k, v in row.items():
                 g.attrs[k] = v
-        os.replace(tmp, self._path(key))
 
     def has(self, key: str) -> bool:
         return self.folder is not None and self._path(key).is_file()

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from microslip.pipeline.draw.files import written
 from microslip.pipeline.friction.states import (
     GROSS_SLIP,
     OPEN,
@@ -347,9 +348,11 @@ def save(pl, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     from microslip.pipeline.draw.previews import vtk_warnings_off
 
-    with vtk_warnings_off():
-        pl.screenshot(str(path))
-    pl.close()
+    try:
+        with vtk_warnings_off(), written(path) as tmp:
+            pl.screenshot(str(tmp))
+    finally:
+        pl.close()
     return path
 
 

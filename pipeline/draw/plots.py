@@ -16,6 +16,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
+from microslip.pipeline.draw.files import written
+
 LABELS = {
     "frequency": "excitation frequency w [rad/s]",
     "excitation": "excitation: multiple of the nominal load [-]",
@@ -36,7 +38,8 @@ def _figure(size: tuple[float, float]) -> Figure:
 
 def _save(fig: Figure, path: Path) -> Figure:
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with written(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return fig
 
 
@@ -268,5 +271,6 @@ def against_parameters(path: Path, title: str, columns: Sequence[dict], y: np.nd
     if colour is not None:
         fig.colorbar(dots, ax=list(axes), label=colour_label, fraction=0.04, pad=0.02)
     fig.suptitle(title, fontsize=10)
-    fig.savefig(path, dpi=110)
+    with written(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return fig

@@ -17,6 +17,7 @@ from vtkmodules.vtkCommonCore import vtkObject
 
 from microslip.geometry.mesh import Mesh, rotation_z
 from microslip.geometry.pairing import paired_contact
+from microslip.pipeline.draw.files import written
 from microslip.pipeline.results import schema
 from microslip.pipeline.results.file import ATTRS, attr_text
 
@@ -190,9 +191,11 @@ def title_strip(pl: pv.Plotter, title: str, font_size: int) -> None:
 
 
 def _save(pl: pv.Plotter, path: Path) -> Path:
-    with vtk_warnings_off():
-        pl.screenshot(str(path))
-    pl.close()
+    try:
+        with vtk_warnings_off(), written(path) as tmp:
+            pl.screenshot(str(tmp))
+    finally:
+        pl.close()
     return path
 
 

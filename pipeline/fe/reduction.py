@@ -813,5 +813,9 @@ def _save_atomically(model: ReducedModel, path: Path) -> None:
     that a later run would take for a cache hit."""
     tmp = path.with_name(path.name + ".part")
     tmp.unlink(missing_ok=True)
-    model.save(tmp)
-    tmp.replace(path)
+    try:
+        model.save(tmp)
+        tmp.replace(path)
+    except BaseException:  # (a full disk) no stray part file
+        tmp.unlink(missing_ok=True)
+        raise

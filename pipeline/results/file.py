@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import json
 import os
 import platform
 import re
 import signal
 import threading
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 import h5py
@@ -76,11 +77,24 @@ def attr_table(attrs) -> dict:
     return {k: attr_value(attrs[k]) for k in attrs}
 
 
+#: The errors of a full disk (or an exhausted quota).
+DISK_FULL = (errno.ENOSPC, errno.EDQUOT)
+
+
+def is_disk_full(err: BaseException) -> bool:
+    return isinstance(err, OSError) and err.errno in DISK_FULL
+
+
 class ResultsWriter:
-    """Context manager writing ``path`` atomically (``path.tmp`` then rename)."""
+    """Context manager writing ``path`` atomically (``path.tmp`` then rename).
+
+    When the disk fills, the curve being written is dropped (write_group), ``on_disk_full``
+    is called (to give back reserved space: ``app.folder``) and the file is closed
+    ``partial`` with every finished curve; the error is raised again."""
 
     def __init__(self, path: str | Path, *, title: str, source: str, case_hash: str,
-                 case: Mapping):
+                 case: Mapping, on_disk_full: Callable[[], None] | None = None):
+        self.on_disk_full = on_disk_full
         self.path = Path(path)
         self.tmp = self.path.with_name(self.path.name + ".tmp")
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -110,10 +124,15 @@ class ResultsWriter:
         """One curve: datasets (arrays, or nested mappings as subgroups) and attrs; whole
         or not at all (signals_held)."""
         with signals_held():
-            g = parent.create_group(name)
-            for k, v in attrs.items():
-                g.attrs[k] = _attr(v)
-            _datasets(g, datasets)
+            try:
+                g = parent.create_group(name)
+                for k, v in attrs.items():
+                    g.attrs[k] = _attr(v)
+                _datasets(g, datasets)
+            except BaseException:  # (a full disk): no half-written curve stays in the file
+                with contextlib.suppress(Exception):
+                    del parent[name]
+                raise
 
     def flush(self) -> None:
         self.file.flush()
@@ -132,6 +151,10 @@ class ResultsWriter:
             self.close("complete")
         elif issubclass(kind, KeyboardInterrupt):
             self.close("partial", "interrupted by the user")
+        elif is_disk_full(err):
+            if self.on_disk_full is not None:
+                self.on_disk_full()
+            self.close("partial", "no space left on the device: the run stopped there")
         else:
             self.close("failed", f"{kind.__name__}: {err}")
         return False
