@@ -382,6 +382,11 @@ def render(argv: list[str]) -> int:
         print(f"microslip render: no results file at {target}", file=sys.stderr)
         return 2
     options, faults = _render_options(args)
+    try:
+        faults += _analysis_faults(target, args.analysis)
+    except ResultsError as err:
+        print(f"microslip render: {err}", file=sys.stderr)
+        return 2
     if faults:
         print("\n".join(f"microslip render: {f}" for f in faults), file=sys.stderr)
         return 2
@@ -400,6 +405,17 @@ def render(argv: list[str]) -> int:
               + (f" among {args.analysis}" if args.analysis else ""), file=sys.stderr)
         return 1
     return 0
+
+
+def _analysis_faults(target: Path, names: list[str] | None) -> list[str]:
+    """A line per ``--analysis`` NAME the results file does not hold."""
+    from microslip.pipeline.results.file import analysis_names
+
+    if not names:
+        return []
+    held = analysis_names(target)
+    return [f"--analysis {n}: {target} has no analysis of that name; its analyses: {held}"
+            for n in names if n not in held]
 
 
 def maps_panel() -> str:
@@ -441,6 +457,7 @@ def compare(argv: list[str]) -> int:
     """Compare two results files (or folders) dataset by dataset: exit 0 when every number
     agrees to --rtol, 1 when some differ (listed)."""
     from microslip.pipeline.results.compare import report, results_path
+    from microslip.pipeline.results.file import ResultsError, open_results
 
     parser = argparse.ArgumentParser(prog="microslip compare", description=compare.__doc__)
     parser.add_argument("old", type=Path, help="results.h5 or the output folder holding it")
@@ -457,6 +474,11 @@ def compare(argv: list[str]) -> int:
         if not results_path(given).is_file():
             print(f"microslip compare: no results file at {results_path(given)}",
                   file=sys.stderr)
+            return 2
+        try:  # a file that is not a results file is bad input, not a difference
+            open_results(results_path(given)).close()
+        except ResultsError as err:
+            print(f"microslip compare: {err}", file=sys.stderr)
             return 2
     try:
         same, text = report(args.old, args.new, args.rtol)
@@ -499,8 +521,12 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] in ("-V", "--version"):
         print(f"microslip {_version()}")
         return 0
-    if not argv or argv[0] in ("-h", "--help") or argv[0] not in COMMANDS:
-        asked = bool(argv) and argv[0] in ("-h", "--help")
+    if argv and argv[0] not in COMMANDS and argv[0] not in ("-h", "--help"):
+        print(f"microslip: {argv[0]!r} is not a command; the commands: {', '.join(COMMANDS)} "
+              "(microslip --help: what each does)", file=sys.stderr)
+        return 2
+    if not argv or argv[0] in ("-h", "--help"):
+        asked = bool(argv)
         print("usage: microslip [--version] {demo,run,check,show,render,compare,mesh,bench} "
               "...\n\n"
               "  demo             frequency response of the single-DOF Jenkins oscillator\n"

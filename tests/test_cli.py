@@ -39,6 +39,10 @@ def test_mesh_rejects_bad_cases(tmp_path, capsys, text, msg):
 
 def test_unknown_command_is_a_usage_error(capsys):
     assert main(["fly"]) == 2
+    assert capsys.readouterr().err == (
+        "microslip: 'fly' is not a command; the commands: demo, run, check, show, render, "
+        "compare, mesh, bench (microslip --help: what each does)\n")
+    assert main([]) == 2
     assert "usage: microslip" in capsys.readouterr().err
 
 

@@ -13,6 +13,8 @@ def _results(path, *, scale=1.0, extra=False, label="a", created="2026-01-01"):
     with h5py.File(path, "w") as f:
         f.attrs["created"] = created  # volatile: never compared
         f.attrs["status"] = "complete"
+        for key in ("title", "source", "case_hash", "message", "versions"):
+            f.attrs[key] = ""
         g = f.create_group("frf/curve_000")
         g.attrs["label"] = label
         g.attrs["elapsed_s"] = 3.0 * scale  # volatile
@@ -60,3 +62,30 @@ def test_additions_leave_every_old_number_in_place(tmp_path, capsys):
     assert main(["compare", str(a), str(b)]) == 0
     out = capsys.readouterr().out
     assert "the same numbers, 1 addition(s)" in out and "jumps: only in the new file" in out
+
+
+def test_a_file_that_is_not_a_results_file_is_bad_input(tmp_path, capsys):
+    """An HDF5 file of another program said 'only in the old file' and exit 1; it is bad
+    input: one line, exit 2, on either side."""
+    a = _results(tmp_path / "a.h5")
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f.create_dataset("x", data=[1.0])
+    text = tmp_path / "notes.txt"
+    text.write_text("not HDF5")
+    for old, new in ((a, other), (other, a), (a, text)):
+        assert main(["compare", str(old), str(new)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("microslip compare: "), err
+    assert main(["compare", str(a), str(other)]) == 2
+    assert "an HDF5 file but not a microslip results file" in capsys.readouterr().err
+    assert main(["compare", str(a), str(text)]) == 2
+    assert "not an HDF5 file" in capsys.readouterr().err
+
+
+def test_render_of_an_analysis_the_file_lacks_is_bad_input(tmp_path, capsys):
+    a = _results(tmp_path / "a.h5")
+    assert main(["render", str(a), "--analysis", "nope"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"microslip render: --analysis nope: {a} has no analysis of that name; "
+                   "its analyses: ['frf']\n")

@@ -236,6 +236,17 @@ def open_results(path: str | Path, *, locking: bool = True) -> h5py.File:
     return f
 
 
+#: Top-level groups of a results file that are not analyses.
+NOT_ANALYSES = (schema.CASE, schema.GEOMETRY, schema.CONTACT_GRIDS, schema.SURFACES,
+                schema.REDUCTION)
+
+
+def analysis_names(path: str | Path) -> list[str]:
+    """The analyses a results file holds, in its order; ResultsError if it is not one."""
+    with open_results(path) as f:
+        return [k for k in f if k not in NOT_ANALYSES]
+
+
 def _reason(err: OSError) -> str:
     """h5py's open errors, shortened to what a user can act on."""
     if err.errno:
