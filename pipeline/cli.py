@@ -28,6 +28,7 @@ BENCHES = {
 
 def demo(argv: list[str]) -> int:
     """Frequency response of the single-DOF Jenkins oscillator, as a table."""
+    from microslip.pipeline.app.run import ticker
     from microslip.pipeline.bench.demos import jenkins_oscillator
     from microslip.pipeline.case.checks import samples_rule
     from microslip.pipeline.solve.hbm import OperatingPoint
@@ -46,9 +47,17 @@ def demo(argv: list[str]) -> int:
     if faults:
         print(f"microslip demo: {faults[0]}", file=sys.stderr)
         return 2
+    seconds, fault = _demo_estimate(args.harmonics, args.samples)
+    if fault:  # before any work, as a case's check and run do
+        print(f"microslip demo: {fault}", file=sys.stderr)
+        return 2
+    if seconds > DEMO_SAY_S:
+        print(f"estimated ~{seconds:.0f} s (rough: within about 2x)", file=sys.stderr)
     hb = jenkins_oscillator(args.harmonics, args.samples)
     t = time.perf_counter()
-    r = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5))
+    tick = ticker(lambda m: print(m, file=sys.stderr, flush=True), "demo", 0.5, 2.5) \
+        if seconds > DEMO_SAY_S else None  # a quick demo prints its table only
+    r = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5), progress=tick)
     elapsed = time.perf_counter() - t
     amp = r.amplitude([0])[:, 0]
     print("Single-DOF Jenkins oscillator: m=1 kg, c=0.02 N s/m, k=1 N/m, kt=3 N/m, "
@@ -62,6 +71,35 @@ def demo(argv: list[str]) -> int:
     print(f"peak max|x| = {a:.6f} m at w = {w:.6f} rad/s; {len(r)} points in "
           f"{elapsed * 1e3:.0f} ms ({r.branch.status})")
     return 0 if r.branch.complete else 1
+
+
+#: The demo says its estimate above this [s], and refuses above DEMO_MAX_S (a case file
+#: runs longer sweeps, with --dry-run, progress and results kept).
+DEMO_SAY_S = 5.0
+DEMO_MAX_S = 120.0
+
+
+def _demo_estimate(harmonics: int, samples: int) -> tuple[float, str]:
+    """(rough seconds of the demo's sweep, "" or why it is refused: more memory than is
+    available, or longer than DEMO_MAX_S)."""
+    from microslip.pipeline.bench.demos import jenkins_case
+    from microslip.pipeline.case import specs
+    from microslip.pipeline.case.estimate import memory_faults, task_seconds
+
+    data = jenkins_case(harmonics, samples)
+    found: list[str] = []
+    memory_faults(data, found)
+    seconds = task_seconds(data, specs.analysis(data["analysis"][0], 0))
+    if found:
+        return seconds, f"--harmonics {harmonics} --samples {samples}: " + found[0].split(
+            ": ", 1)[1]
+    if seconds > DEMO_MAX_S:
+        return seconds, (f"--harmonics {harmonics} --samples {samples}: ~{seconds / 60:.0f} "
+                         f"min estimated, the demo takes at most {DEMO_MAX_S / 60:.0f} min; "
+                         "lower them, or run a case file (cases/sdof_wall.toml is this "
+                         "oscillator: microslip run --dry-run estimates it, and a run shows "
+                         "progress and keeps its results)")
+    return seconds, ""
 
 
 INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), for every command
@@ -178,12 +216,17 @@ def run(argv: list[str]) -> int:
         print(f"microslip run: {fault}", file=sys.stderr)
         return 2
     out = args.out or Path("out") / args.case.stem
+    shared = _shared_cache("run")
+    if shared is None:
+        return 2
     if args.dry_run:
         from microslip.pipeline.app import plan
 
-        stages = plan.plan(c, out, cache=not args.no_cache)
+        factor = plan.machine_factor()
+        stages = plan.scaled(plan.plan(c, out, cache=not args.no_cache, shared=shared),
+                             factor)
         print(f"{args.case} into {out} (dry run: nothing computed)")
-        print(plan.text(stages))
+        print(plan.text(stages, factor))
         return 0
     if not _output_folder("run", out, args.out is not None):
         return 2
@@ -195,7 +238,7 @@ def run(argv: list[str]) -> int:
     with _sigterm_as_interrupt() as received, contextlib.closing(executor):
         try:
             path = run_case(c, out, progress=lambda msg: print(msg, flush=True),
-                            cache=not args.no_cache, executor=executor)
+                            cache=not args.no_cache, executor=executor, shared=shared)
             status, message = _report_run(path, out, t)
         except InputError as err:  # found once the mesh exists: before any heavy work
             print(f"microslip run: {args.case}: {err}", file=sys.stderr)
@@ -218,6 +261,49 @@ def run(argv: list[str]) -> int:
     if message.startswith("interrupted"):  # a curve caught the interrupt and saved itself
         return TERMINATED if received else INTERRUPTED
     return 1
+
+
+def _shared_cache(command: str):
+    """The shared cache of meshes and reduced models (``app.cache``), or None after one
+    line saying why it cannot be used (a bad setting, a folder that cannot be written)."""
+    from microslip.pipeline.app.cache import CacheSettingError, SharedCache
+
+    try:
+        shared = SharedCache.from_environment()
+    except CacheSettingError as err:
+        print(f"microslip {command}: {err}", file=sys.stderr)
+        return None
+    fault = shared.check_writable()
+    if fault:
+        print(f"microslip {command}: the shared cache of meshes and reduced models: {fault}; "
+              "set MICROSLIP_CACHE to a writable folder", file=sys.stderr)
+        return None
+    return shared
+
+
+def cache(argv: list[str]) -> int:
+    """The cache of meshes and reduced models every run shares: where it is, what it holds
+    and its bound (MICROSLIP_CACHE, MICROSLIP_CACHE_SIZE); --clear empties it."""
+    from microslip.pipeline.app.folder import size_text
+
+    parser = argparse.ArgumentParser(prog="microslip cache", description=cache.__doc__)
+    parser.add_argument("--clear", action="store_true",
+                        help="remove every kept mesh and reduced model (runs make them again)")
+    args = parser.parse_args(argv)
+    shared = _shared_cache("cache")
+    if shared is None:
+        return 2
+    if args.clear:
+        files, nbytes = shared.clear()
+        print(f"removed {files} files ({size_text(nbytes)}) from {shared.root}")
+        return 0
+    usage = shared.usage()
+    total = sum(b for _, b in usage.values())
+    print(f"{shared.root}: {size_text(total)} of at most {size_text(shared.limit)} "
+          "(MICROSLIP_CACHE_SIZE; the least recently used go first)")
+    for kind, (files, nbytes) in usage.items():
+        print(f"  {kind}: {files} files, {size_text(nbytes)}")
+    return 0
 
 
 def _workers_fault(workers: int | None, scheduler: str | None) -> str:
@@ -442,10 +528,12 @@ def mesh(argv: list[str]) -> int:
         print(f"microslip mesh: {args.case} has no [geometry] table", file=sys.stderr)
         return 2
     out = args.out or Path("out") / args.case.stem
-    if not _output_folder("mesh", out, args.out is not None):
+    shared = _shared_cache("mesh")
+    if shared is None or not _output_folder("mesh", out, args.out is not None):
         return 2
     try:
-        mesh_geometry(c.geometry_table, out, progress=print, pictures=not args.no_pictures)
+        mesh_geometry(c.geometry_table, out, progress=print, pictures=not args.no_pictures,
+                      cache=shared)
         say_units(c.data, print)
     except (TypeError, ValueError) as err:
         print(f"microslip mesh: [geometry.parameters]: {err}", file=sys.stderr)
@@ -503,7 +591,7 @@ def bench(argv: list[str]) -> int:
 
 
 COMMANDS = {"demo": demo, "run": run, "check": check, "show": show, "render": render,
-            "compare": compare, "mesh": mesh, "bench": bench}
+            "compare": compare, "mesh": mesh, "cache": cache, "bench": bench}
 
 
 def _version() -> str:
@@ -527,8 +615,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if not argv or argv[0] in ("-h", "--help"):
         asked = bool(argv)
-        print("usage: microslip [--version] {demo,run,check,show,render,compare,mesh,bench} "
-              "...\n\n"
+        print("usage: microslip [--version] {demo,run,check,show,render,compare,mesh,cache,"
+              "bench} ...\n\n"
               "  demo             frequency response of the single-DOF Jenkins oscillator\n"
               "  run CASE.toml    run a case: results.h5 and pictures in out/<case>\n"
               "  check CASE.toml  validate a case file without running it\n"
@@ -536,6 +624,7 @@ def main(argv: list[str] | None = None) -> int:
               "  render DIR       redraw a results folder's pictures from results.h5\n"
               "  compare OLD NEW  compare two results files' numbers, dataset by dataset\n"
               "  mesh CASE.toml   mesh a case's geometry: .msh, .vtu, PNG previews\n"
+              "  cache            the meshes and reduced models every run shares (--clear)\n"
               "  bench core       speed and accuracy of the numerical core\n"
               "  bench mesh       meshing time and size over a mesh-size sweep\n"
               "  bench reduction  assembly, cyclic matrices and Craig-Bampton: time, memory\n"

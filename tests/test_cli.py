@@ -93,3 +93,16 @@ def test_run_dry_run_lists_the_stages_and_computes_nothing(tmp_path, capsys):
     assert "dry run: nothing computed" in out and "stages run" in out
     assert "frf_force: curve 1" in out
     assert not (tmp_path / "results.h5").exists()
+
+
+def test_a_demo_too_large_is_refused_before_any_work(capsys):
+    """--harmonics 1000 --samples 16384 ran over ten minutes at 1.4 GB with no word; it is
+    estimated and refused at once, as a case's check refuses what it cannot run."""
+    import time
+
+    t = time.perf_counter()
+    assert main(["demo", "--harmonics", "1000", "--samples", "16384"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(
+        "microslip demo: --harmonics 1000 --samples 16384: ~") and "min estimated" in err
+    assert time.perf_counter() - t < 10.0  # no sweep started

@@ -11,7 +11,7 @@ from models import jenkins_oscillator, normal_oscillator
 
 from microslip.pipeline import case as cases
 from microslip.pipeline.app import structure
-from microslip.pipeline.app.run import _ticker, run_case, time_left
+from microslip.pipeline.app.run import run_case, ticker, time_left
 from microslip.pipeline.results.file import summary
 from microslip.pipeline.solve import continuation as cont
 from microslip.pipeline.solve.hbm import OperatingPoint
@@ -249,7 +249,7 @@ class FakeClock:
 
 def test_continuation_ticks_show_the_range_covered_and_the_time_left():
     clock, lines = FakeClock(), []
-    tick = _ticker(lines.append, "[frf] curve 1", 0.5, 2.5, clock)
+    tick = ticker(lines.append, "[frf] curve 1", 0.5, 2.5, clock)
     clock.t += 0.2
     tick(1, 0.5, 3)  # the first point: shown, nothing covered yet
     for n, (dt, value) in enumerate([(0.3, 0.6), (0.3, 0.7), (0.6, 1.0), (0.5, 1.1)], 2):
@@ -268,7 +268,7 @@ def test_continuation_ticks_show_the_range_covered_and_the_time_left():
     tick(7, 1.5, 4)
     assert lines[-1] == ("[frf] curve 1 point 7, value 1.5 (50% of the range, ~4 s left), "
                          "4 Newton iterations")  # 3.6 s x 0.5 / 0.5
-    down = _ticker(lines.append, "[frf] curve 2", 2.5, 0.5, clock)  # natural-down
+    down = ticker(lines.append, "[frf] curve 2", 2.5, 0.5, clock)  # natural-down
     clock.t += 2.0
     down(3, 2.0, 2)
     assert lines[-1].endswith("(25% of the range, ~6 s left), 2 Newton iterations")

@@ -4,6 +4,8 @@ frequency range, and reuse of unchanged models."""
 
 import copy
 import json
+import os
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -19,6 +21,12 @@ from microslip.pipeline.case import reduction as reduction_table
 from microslip.pipeline.fe import cyclic, fem, linalg, reduction
 
 # The default blisk sector meshed twice as coarse: the stage end to end in a few seconds.
+
+def _shared() -> Path:
+    """The shared cache of meshes and reduced models (conftest's, for the session)."""
+    return Path(os.environ["MICROSLIP_CACHE"])
+
+
 CASE = {
     "title": "coarse blisk reduction",
     "geometry": {"model": "blisk_sector",
@@ -121,7 +129,8 @@ def test_stage_reduces_every_body_at_every_nd(stage):
         fixed_interface = {h: g["blisk"][f"nd{h}"]["mode_frequencies_hz"][()] for h in (0, 5)}
         damper_fixed_interface = g["damper"]["nd0"]["mode_frequencies_hz"][()]
         damper_masters = g["damper"]["nd0"]["master_nodes"][()]
-        files = {h: out / g["blisk"][f"nd{h}"].attrs["file"] for h in (0, 5)}
+        # (the models are in the shared cache, by file name: conftest's for the tests)
+        files = {h: _shared() / "models" / g["blisk"][f"nd{h}"].attrs["file"] for h in (0, 5)}
         kn_left = g["contact_stiffness"]["damper_left"]["normal_n_per_m"][()]
         kn_right = g["contact_stiffness"]["damper_right"]["normal_n_per_m"][()]
     # Against the unreduced sector (independent: direct eigen-solve of K_h, M_h); the CB
@@ -179,7 +188,7 @@ def test_rerun_reuses_unchanged_models(stage, monkeypatch):
         assert f.attrs["status"] == "complete"
         assert len(json.loads(f["reduction"].attrs["cached"])) == 3  # blisk ND 0, 5; damper
     mesh = geometry.blisk_sector(**CASE["geometry"]["parameters"])
-    result = structure.reduce_structure(mesh, data["reduction"], out / "models",
+    result = structure.reduce_structure(mesh, data["reduction"], _shared() / "models",
                                         progress=lambda s: None)
     model = result.models["blisk"][5]
     assert model.damping_spec == fem.Damping(modal_ratios=(0.002,))
@@ -188,6 +197,25 @@ def test_rerun_reuses_unchanged_models(stage, monkeypatch):
     lam, Phi = sla.eigh(model.stiffness, model.mass)
     C = Phi.conj().T @ model.damping @ Phi
     np.testing.assert_allclose(np.diag(C).real[:10], 2 * 0.002 * np.sqrt(lam[:10]), rtol=1e-6)
+
+
+def test_a_copied_case_in_another_folder_meshes_and_reduces_nothing(stage, tmp_path,
+                                                                    monkeypatch):
+    """The models and the mesh are kept for every run of the user, not per output folder: a
+    copy of the case with another title and damping, run elsewhere, meshes and assembles
+    nothing, and says where they came from."""
+    case, _, _ = stage
+    monkeypatch.setattr(fem, "assemble", lambda *a, **k: pytest.fail("re-assembled"))
+    monkeypatch.setitem(geometry.MODELS, "blisk_sector", lambda **k: pytest.fail("re-meshed"))
+    data = copy.deepcopy(case.data) | {"title": "a copy"}
+    data["reduction"]["damping"] = {"modal_ratios": 0.01}
+    lines: list[str] = []
+    run_case(cases.Case(data, "copy.toml"), tmp_path / "elsewhere", progress=lines.append)
+    where = _shared()
+    assert any(x.startswith("[geometry] blisk_sector: ") and
+               f"from the shared cache ({where / 'meshes'})" in x for x in lines), lines
+    assert f"[reduction] 3 of 3 models from the shared cache ({where / 'models'})" in \
+        "\n".join(lines)
 
 
 def test_show_summarises_the_stage(stage):

@@ -1,17 +1,20 @@
 """What a run will do, before it does it (``microslip run --dry-run``): each stage, whether it
-comes from a cache (the reduced models in ``<out>/models``, the curves in ``<out>/cache``) or
-runs, and a rough estimate of its time and memory.
+comes from a cache (meshes and reduced models in the shared cache, ``app.cache``; the
+curves in ``<out>/cache``) or runs, and a rough estimate of its time and memory.
 
-Nothing is computed: a meshed case is meshed (a few seconds) because the reduced models'
-cache names depend on the mesh. The time estimates scale measured figures of this project
-(two cores; see the README's benchmarks) by the sizes of the case: they are good to a factor
-of about two, enough to tell a minute from an hour.
+Nothing is computed: a meshed case is meshed (a few seconds, unless its mesh is in the
+shared cache) because the reduced models' cache names depend on the mesh. The time
+estimates scale measured figures of this project (two cores; see the README's benchmarks) by
+the sizes of the case: they are good to a factor of about two, enough to tell a minute from
+an hour.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+
+import numpy as np
 
 from microslip.pipeline.case import (
     Case,
@@ -22,18 +25,67 @@ from microslip.pipeline.case import (
     task_seconds,
 )
 from microslip.pipeline.case.build import sample_variants
-from microslip.pipeline.case.estimate import POINT_UNKNOWNS
+from microslip.pipeline.case.estimate import (
+    POINT_EXPONENT,
+    POINT_UNKNOWNS,
+    START_S,
+    analysis_seconds,
+)
 from microslip.pipeline.case.specs import Frf, Peak, Uncertainty
+from microslip.pipeline.friction import kernels_cached
 from microslip.pipeline.solve.memory import memory_text
 
+from .cache import SharedCache, built_mesh
 from .store import CurveStore
 
-#: Measured anchors of the estimates (two cores): a Craig-Bampton model per 1000 vertex nodes
-#: of its body (P2; P1 a fifth of it) [s]; a linear limit of 1296 unknowns (225 frequencies)
-#: [s]; a mesh [s]. A harmonic-balance task's are case.estimate's.
-REDUCTION_S_PER_KNODE = 6.0
-LINEAR_S = 7.0
+#: Measured anchors of the estimates (two quiet cores, the shipped cases; the harmonic
+#: balance's, the pictures' and the start's are case.estimate's): a Craig-Bampton model per
+#: 1000 vertex nodes of its body, P2 tetrahedra [s] (P1 a fifth; a complex nodal diameter
+#: COMPLEX_ND times, quadratic hexahedra and wedges SOLID_ELEMENTS times: their denser
+#: rows); a linear limit curve of 1296 unknowns [s] (growing as unknowns^1.8); a Gmsh mesh
+#: and its three previews [s].
+REDUCTION_S_PER_KNODE = 10.0
+COMPLEX_ND = 1.5
+SOLID_ELEMENTS = 2.0
+LINEAR_S = 10.0
 MESH_S = 3.0
+PREVIEWS_S = 3.0
+
+
+#: The reference workload: the single-DOF Jenkins oscillator's FRF (harmonics 0-3, 64
+#: samples, 0.5..2.5 rad/s: 93 points) in one process, one BLAS thread; REFERENCE_S is its
+#: time on the two quiet cores the anchors were measured on [s] (medians of 5: 0.255-0.261
+#: s; with both cores busy with two other processes, 1.5-1.9 x that).
+REFERENCE = {"model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0], "damping": [0.02]},
+             "contacts": [{"name": "wall", "law": "A", "kt": 3.0, "mu": 1.0, "n0": 0.05,
+                           "u": {"x": 1.0}}],
+             "loads": [{"dof": "x", "amplitude": 0.1, "harmonic": 1}],
+             "harmonics": {"max": 3, "samples": 64}}
+REFERENCE_S = 0.26
+
+
+def machine_factor(repeat: int = 3) -> float:
+    """How much longer than on the anchors' quiet machine work takes here now: the median
+    time of the reference workload (after one run that loads it) over REFERENCE_S, at least
+    0.5. 1 when the contact kernels are not compiled yet (a dry run does not compile them)."""
+    import time
+
+    from threadpoolctl import threadpool_limits
+
+    from microslip.pipeline.case import Case, lumped_model
+    from microslip.pipeline.solve.hbm import OperatingPoint
+    from microslip.pipeline.solve.response import sweep
+
+    if not kernels_cached():
+        return 1.0
+    hb = lumped_model(Case(REFERENCE, "reference"))
+    times = []
+    with threadpool_limits(limits=1, user_api="blas"):
+        for _ in range(repeat + 1):
+            t = time.perf_counter()
+            sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5))
+            times.append(time.perf_counter() - t)
+    return max(0.5, float(np.median(times[1:])) / REFERENCE_S)
 
 
 @dataclass(frozen=True)
@@ -47,20 +99,27 @@ class Stage:
     detail: str = ""
 
 
-def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
+def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None = None
+         ) -> list[Stage]:
     """The stages of a run of ``case`` into ``out`` (see the module); ``cache`` False: the
-    curves are computed afresh (``run --no-cache``)."""
-    stages: list[Stage] = []
+    curves are computed afresh (``run --no-cache``); ``shared``: the cache of meshes and
+    reduced models (default: the environment's)."""
+    stages: list[Stage] = [Stage("start: Python and microslip loaded", False, START_S, 0,
+                                 "" if kernels_cached() else "and the contact kernels "
+                                 "compiled once (first run: ~25-100 s more)")]
     data = case.data
+    shared = shared or SharedCache.from_environment()
     if "geometry" in data:
-        mesh = case.geometry_table.build()
-        what = "mesh read" if case.geometry_table.imported else "Gmsh mesh"
-        stages.append(Stage(f"geometry: {what} and previews", False, MESH_S, 0,
+        mesh, kept = built_mesh(case.geometry_table, shared)
+        imported = case.geometry_table.imported
+        what = "mesh read" if imported else "Gmsh mesh"
+        stages.append(Stage(f"geometry: {what} and previews", False,
+                            PREVIEWS_S + (0.0 if kept or imported else MESH_S), 0,
                             f"{mesh.points.shape[0]} nodes, {mesh.element_summary()}; "
-                            "every run"))
+                            + ("mesh from the shared cache" if kept else "every run")))
         if "reduction" in data:
             orders = harmonics(case).orders if "harmonics" in data else None
-            stages += _reduction(mesh, case.reduction_table, out / "models", orders,
+            stages += _reduction(mesh, case.reduction_table, shared.models, orders,
                                  case.draws_shapes)
     store = CurveStore(out / "cache" / "curves" if cache else None)
     by_name = {s.analysis: s for s in sizes(data)}
@@ -74,15 +133,17 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
         if isinstance(spec, Uncertainty):
             stages.append(_samples(case, spec, store, nbytes, unknowns))
             continue
+        pictures = analysis_seconds(data, spec)
         if not isinstance(spec, (Frf, Peak)):
-            stages.append(Stage(f"{name}: {spec.type}", False, 0.0, nbytes,
-                                "not cached (short)"))
+            stages.append(Stage(f"{name}: {spec.type}", False,
+                                task_seconds(data, spec) + pictures, nbytes,
+                                "not cached"))
             continue
-        seconds = task_seconds(data, spec)
-        if isinstance(spec, Peak) and spec.tracking == "sweep":
-            seconds *= spec.points
+        stages.append(Stage(f"{name}: pictures", False, pictures, 0, "every run"))
         methods = spec.method if isinstance(spec, Frf) else ("continuation",)
         for j, (c, label, _) in enumerate(curve_variants(case, spec)):
+            seconds = task_seconds(data, spec, c.data) * (
+                spec.points if isinstance(spec, Peak) and spec.tracking == "sweep" else 1)
             for method in methods:
                 if isinstance(spec, Frf):
                     cached = store.has(frf_key(store, c, spec, method))
@@ -95,7 +156,7 @@ def plan(case: Case, out: Path, cache: bool = True) -> list[Stage]:
         if "assembly" in data and isinstance(spec, Frf) and spec.parameter == "frequency":
             masses = {operating_point(c, spec.omega).mass_multiplier
                       for c, _, _ in curve_variants(case, spec)}
-            seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** 2
+            seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** POINT_EXPONENT
             stages.append(Stage(f"{name}: linear limits (free, stuck x {len(masses)})", False,
                                 seconds * (1 + len(masses)), 0,
                                 "each reused from the cache when unchanged"))
@@ -129,8 +190,12 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
     for spec in sorted(body_specs(mesh, red, surfaces), key=lambda s: s.body not in mesh.cyclic):
         nodes = mesh.body_nodes(spec.body).size
         seconds = REDUCTION_S_PER_KNODE * nodes / 1000 * (1.0 if spec.order == 2 else 0.2)
+        if spec.order == 2 and len(mesh.hexahedra) + len(mesh.wedges):
+            seconds *= SOLID_ELEMENTS
         is_cyclic = spec.body in mesh.cyclic
+        sectors = mesh.cyclic[spec.body].sectors if is_cyclic else 0
         for h in (nds if is_cyclic else (None,)):
+            complex_nd = is_cyclic and 0 < h < sectors / 2
             if not is_cyclic and spec.f_max is None and spec.n_modes == "auto":
                 if not cyclic_cached:  # its modes follow the cyclic bodies' reduced models
                     stages.append(Stage(f"reduction: {spec.body}", False, seconds, 0,
@@ -142,7 +207,8 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
             cached = path.is_file()
             cyclic_cached = cyclic_cached and (cached or not is_cyclic)
             where = f"{spec.body} ND {h}" if is_cyclic else spec.body
-            stages.append(Stage(f"reduction: {where}", cached, 0.0 if cached else seconds, 0,
+            stages.append(Stage(f"reduction: {where}", cached, 0.0 if cached else
+                                seconds * (COMPLEX_ND if complex_nd else 1.0), 0,
                                 f"{nodes} vertex nodes, P{spec.order}"))
     return stages
 
@@ -161,8 +227,14 @@ def _with_reference(spec, mesh, red, nds, cache: Path, surfaces: bool = False):
     return spec if f_ref is None else replace(spec, f_max=f_ref)
 
 
-def text(stages: list[Stage]) -> str:
-    """The plan as a table, with the totals."""
+def scaled(stages: list[Stage], factor: float) -> list[Stage]:
+    """The stages with their times ``factor`` times longer (``machine_factor``)."""
+    return [replace(s, seconds=s.seconds * factor) for s in stages]
+
+
+def text(stages: list[Stage], factor: float = 1.0) -> str:
+    """The plan as a table, with the totals (``factor``: the machine's, already applied to
+    the stages, said at the end)."""
     rows = [f"{'stage':<58} {'':>7} {'time':>9} {'memory':>9}"]
     for s in stages:
         state = "cached" if s.cached else "runs"
@@ -174,7 +246,11 @@ def text(stages: list[Stage]) -> str:
     peak = max((s.nbytes for s in stages), default=0)
     runs = sum(not s.cached for s in stages)
     rows.append(f"{runs} of {len(stages)} stages run, {_duration(total)} in all (rough: "
-                f"within about 2x), peak memory {memory_text(peak).lstrip('~')}")
+                f"within about 2x of a run in one process; a cluster of n workers takes up to "
+                f"n x less for the curves), peak memory {memory_text(peak).lstrip('~')}")
+    rows.append(f"the times are the shipped cases' on two quiet cores, x {factor:.2g}: this "
+                "machine's speed now (a reference sweep timed just before), which a busier "
+                "machine later changes")
     return "\n".join(rows)
 
 

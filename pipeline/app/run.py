@@ -62,6 +62,7 @@ from microslip.pipeline.solve.response import (
 )
 from microslip.pipeline.solve.stability import hill_stability, undefined
 
+from .cache import SharedCache, built_mesh
 from .folder import FolderLock, NoSpace, free_bytes, size_text
 from .limits import LEVEL_POINTS, linear_limits, peak_levels
 from .models import AssemblyModels, LumpedModels
@@ -98,19 +99,22 @@ class StageFailed(RuntimeError):
 
 
 def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
-             cache: bool = True, executor: Serial | Distributed | None = None) -> Path:
+             cache: bool = True, executor: Serial | Distributed | None = None,
+             shared: SharedCache | None = None) -> Path:
     """Compute every analysis of ``case`` into ``out_dir``; returns results.h5.
 
     cache: reuse the curves kept in ``out_dir/cache`` whose inputs are unchanged (and keep
     the new ones); False computes everything afresh (and keeps nothing). executor: where
     the independent curves run (``tasks``; default: in this process, one after another);
-    the caller closes it."""
+    the caller closes it. shared: where meshes and reduced models are kept for every run
+    (``cache``; default: the environment's, ``SharedCache.from_environment``)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     free = free_bytes(out)
     with FolderLock(out) as lock:  # FolderBusy: another run writes there
         try:
-            return _run_case(case, out, progress, cache, executor, lock)
+            return _run_case(case, out, progress, cache, executor, lock,
+                             shared or SharedCache.from_environment())
         except OSError as err:
             if not is_disk_full(err):
                 raise
@@ -133,7 +137,8 @@ def disk_full_text(out: Path, free: int) -> str:
 
 
 def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
-              executor: Serial | Distributed | None, lock: FolderLock) -> Path:
+              executor: Serial | Distributed | None, lock: FolderLock,
+              shared: SharedCache) -> Path:
     """run_case in the folder it holds."""
     store = CurveStore(out / "cache" / "curves" if cache else None)
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
@@ -143,13 +148,14 @@ def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
         models: LumpedModels | AssemblyModels = LumpedModels()
         if "geometry" in case.data:
             t = time.perf_counter()
-            m = mesh_geometry(case.geometry_table, out, progress, pictures=False)
+            m = mesh_geometry(case.geometry_table, out, progress, pictures=False,
+                              cache=shared)
             say_units(case.data, progress)
             write_mesh(writer, m, time.perf_counter() - t)
             draw_previews(writer.file, m.content_hash, out, progress)
             if "reduction" in case.data:
                 try:
-                    result = write_structure(writer, m, case, out, progress)
+                    result = write_structure(writer, m, case, out, progress, shared)
                 except StageFailed as err:  # numerical: said, kept in the file, exit 1
                     progress(f"[reduction] failed: {err}")
                     return writer.close("failed", str(err))
@@ -196,21 +202,23 @@ MIDNODE_NOTE = 1e-3
 
 
 def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
-                  pictures: bool = True):
-    """Build (or read) the [geometry] of a case; write mesh.msh, mesh.vtu and (``pictures``)
-    the previews (``microslip mesh``: no results file; a run draws them from results.h5)."""
+                  pictures: bool = True, cache: SharedCache | None = None):
+    """Build (or read) the [geometry] of a case, a parametric model's mesh kept in the
+    shared ``cache``; write mesh.msh, mesh.vtu and (``pictures``) the previews (``microslip
+    mesh``: no results file; a run draws them from results.h5)."""
     t = time.perf_counter()
     try:
-        m = table.build()
+        m, kept = built_mesh(table, cache)
     except ValueError as err:  # a declared contact on a model known only once meshed
         raise InputError(str(err)) from None
     elapsed = time.perf_counter() - t
     m.write_msh(out / "mesh.msh")
     m.write(out / "mesh.vtu")
     source = (f"{table.file} ({table.units})" if table.imported else m.model)
+    where = f" from the shared cache ({kept.parent})" if kept else ""
     progress(f"[geometry] {source}: {m.points.shape[0]} nodes, {m.element_summary()}, "
              f"bodies {sorted(m.bodies)}, cyclic {sorted(m.cyclic)}, contacts "
-             f"{sorted(m.contacts)} in {elapsed:.2f} s; hash {m.content_hash[:12]}")
+             f"{sorted(m.contacts)} in {elapsed:.2f} s{where}; hash {m.content_hash[:12]}")
     for name, c in sorted(m.contacts.items()):
         dropped = paired_contact(m, name).dropped if isinstance(c, SurfaceContact) else (0,)
         if dropped[0]:
@@ -299,11 +307,13 @@ def write_contact_grids(writer: ResultsWriter, mesh) -> None:
 
 
 def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
-                    progress: Progress = print) -> StructureResult:
-    """The [reduction] stage: reduced models in out/models (reused when unchanged) and their
-    summary in results.h5 /reduction/<body>/nd<h> (frequencies of the reduced model with free
-    masters, fixed-interface mode frequencies, master nodes; attrs: model file, sizes) and
-    /reduction/contact_stiffness/<patch> (kn, kt per node pair [N/m])."""
+                    progress: Progress = print, cache: SharedCache | None = None
+                    ) -> StructureResult:
+    """The [reduction] stage: reduced models in the shared ``cache`` (reused when
+    unchanged, by any run; None: kept nowhere) and their summary in results.h5
+    /reduction/<body>/nd<h> (frequencies of the reduced model with free masters,
+    fixed-interface mode frequencies, master nodes; attrs: model file name in the cache,
+    sizes) and /reduction/contact_stiffness/<patch> (kn, kt per node pair [N/m])."""
     from microslip.pipeline.fe.reduction import ReductionError
 
     from .structure import reduce_structure  # imports the FE stages only when needed
@@ -312,10 +322,14 @@ def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
     orders = harmonics(case).orders if "harmonics" in case.data else None
     shapes = case.draws_shapes
     try:
-        result = reduce_structure(mesh, case.reduction_table, out / "models", orders,
+        result = reduce_structure(mesh, case.reduction_table,
+                                  cache.models if cache is not None else None, orders,
                                   progress, surfaces=shapes)
     except ReductionError as err:
         raise StageFailed(str(err)) from err
+    if cache is not None:  # the least recently used beyond the bound go, never these
+        cache.used(result.files.values())
+        cache.prune(keep=result.files.values())
     datasets: dict = {body: {schema.nodal_diameter(h): {
         "frequencies_hz": result.frequencies[body, h], "mode_frequencies_hz": m.mode_frequencies,
         "master_nodes": m.master_nodes} for h, m in models.items()}
@@ -333,9 +347,10 @@ def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
             attrs = writer.file[schema.REDUCTION][body][schema.nodal_diameter(h)].attrs
             attrs["n_modes"], attrs["n_master_dofs"] = m.n_modes, m.n_masters
             path = result.files.get((body, h))
-            attrs["file"] = "" if path is None else str(path.relative_to(out))
+            attrs["file"] = "" if path is None else path.name
+    where = f" ({cache.models})" if cache is not None else ""
     progress(f"[reduction] {len(result.cached)} of {len(result.seconds)} models from the "
-             f"cache; stage {time.perf_counter() - t:.1f} s")
+             f"shared cache{where}; stage {time.perf_counter() - t:.1f} s")
     return result
 
 
@@ -348,7 +363,7 @@ def _outputs(case: Case, names: tuple[str, ...] | None, models=None
     return names, models.selection(case, names)
 
 
-def _ticker(progress: Progress, prefix: str, start: float, stop: float,
+def ticker(progress: Progress, prefix: str, start: float, stop: float,
             clock: Callable[[], float] = time.perf_counter) -> Callable[[int, float, int], None]:
     """Continuation ticks, at most one line a second: the point, the share of the parameter
     range covered (the farthest reached: arclength turns back at folds) and the time left."""
@@ -555,7 +570,7 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
     r = sweep(hb, par, start, stop, base,
               method="natural" if method.startswith("natural") else method,
               settings=settings(c),
-              progress=_ticker(progress, which, start, stop) if live else None)
+              progress=ticker(progress, which, start, stop) if live else None)
     elapsed = time.perf_counter() - t
     b = r.branch
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))

@@ -57,42 +57,107 @@ def sizes(data: dict) -> list[Size]:
     return out
 
 
-#: Measured anchors of the time estimates (two cores, one BLAS thread per task): a
-#: harmonic-balance point of 1296 real unknowns at 64 samples [s] and its growth with the
-#: unknowns (exponent 1.8); points of a typical curve; Newton solves per refined peak (a map
-#: point, an uncertainty sample's top, a tracked value of a peak curve). Good to a factor of
-#: about two: enough to tell a minute from an hour.
+#: Measured anchors of the time estimates: the shipped cases run to the end with
+#: ``--workers 0`` (one process, one BLAS thread) on two quiet cores (2026-11; the README's
+#: Estimates table gives each case's estimate against its run). Each is a whole-analysis
+#: figure: the solves, Hill's stability at every point, the map points, the pictures.
+#:
+#: A harmonic-balance point of an assembly: POINT_S at 1296 real unknowns and 64 samples,
+#: growing as unknowns^1.8 (the dense LU of the Jacobian, a few per point) and as
+#: samples^0.5; Hill's stability adds STABILITY of it. A lumped model's point: the
+#: per-contact overhead of a Newton step (LUMPED_CONTACT_S, the kernels' calls) and the
+#: return map's work, samples x unknowns x motions (LUMPED_SAMPLE_S). A curve: CURVE_POINTS
+#: points (the shipped curves: 26 to 161); a map point: MAP_SOLVES solves and MAP_DRAW_S per
+#: picture; a peak value followed by continuation: PEAK_SOLVES solves. A time integration:
+#: STEP_S per step of 9 DOFs (linear in the DOFs), STEADY_PERIODS periods after the ramp.
 POINT_S = 0.5
 POINT_UNKNOWNS = 1296
 POINT_EXPONENT = 1.8
-CURVE_POINTS = 50
-PEAK_SOLVES = 12
+STABILITY = 0.5
+LUMPED_CONTACT_S = 3e-3
+LUMPED_SAMPLE_S = 1e-6
+CURVE_POINTS = 80
+MAP_SOLVES = 12
+MAP_DRAW_S = 2.0
+PEAK_SOLVES = 20
+STEP_S = 13e-6
+STEADY_PERIODS = 250
+LOOPS_S = 0.2
+#: A results picture (matplotlib) [s]; a run's start (Python, NumPy, SciPy, numba's cached
+#: kernels and microslip imported) [s].
+PICTURE_S = 1.0
+START_S = 4.0
 
 
-def point_seconds(unknowns: int, samples: int) -> float:
+def point_seconds(unknowns: int, samples: int, lumped: tuple[int, int] | None = None,
+                  stability: bool = True) -> float:
     """Rough seconds per continuation point of a harmonic balance of ``unknowns`` real
-    unknowns at ``samples`` per period."""
+    unknowns at ``samples`` per period, Hill's stability included with ``stability``;
+    ``lumped``: (contacts, their motions) of a lumped model (None: an assembly)."""
+    if lumped is not None:
+        contacts, motions = lumped
+        return (LUMPED_CONTACT_S * (1 + contacts)
+                + LUMPED_SAMPLE_S * samples * max(unknowns, 1) * max(motions, 1))
     if unknowns <= 0:
         return 0.0
     scale = (unknowns / POINT_UNKNOWNS) ** POINT_EXPONENT * (samples / 64) ** 0.5
-    return max(0.005, POINT_S * scale)
+    return POINT_S * scale * (1 + (STABILITY if stability else 0.0))
 
 
-def task_seconds(data: dict, spec: specs.Analysis) -> float:
+def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None) -> float:
     """Rough seconds of one task of analysis ``spec`` of the valid case ``data``, in one
     process: an FRF curve (with its map points), a peak curve (or one of its values, found by
-    a sweep), an uncertainty sample (a sweep and its refined top); 0 for the others."""
+    a sweep), an uncertainty sample (a sweep and its refined top); a time integration, or
+    the loops, whole (they are one task). ``variant``: the case as that curve sees it
+    (default: the largest of the analysis' curves)."""
     a = next(x for i, x in enumerate(data["analysis"]) if str(x.get("name", i)) == spec.name)
-    t = max(point_seconds(_size(spec.name, v, a).unknowns, harmonics_of(v).n_samples)
-            for v in _variants(data, a))
+    if isinstance(spec, specs.Loops):
+        return LOOPS_S
+    if isinstance(spec, specs.TimeIntegration):
+        return _time_integration_seconds(data, spec)
+    stability = bool(getattr(spec, "stability", False))
+    variants = [variant] if variant is not None else _variants(data, a)
+    t = max(_point(v, a, spec.name, stability) for v in variants)
     if isinstance(spec, specs.Frf):
-        return (CURVE_POINTS + (2 * PEAK_SOLVES if spec.maps else 0)) * t
+        solve = max(_point(v, a, spec.name, False) for v in variants)
+        maps = len(spec.maps) * (MAP_SOLVES * solve + MAP_DRAW_S * len(spec.map_types))
+        return CURVE_POINTS * t + maps
     if isinstance(spec, specs.Peak):
-        solves = 0 if spec.tracking == "sweep" else spec.points * PEAK_SOLVES
-        return (CURVE_POINTS + solves) * t
+        if spec.tracking == "sweep":
+            return CURVE_POINTS * t
+        return spec.points * PEAK_SOLVES * t
     if isinstance(spec, specs.Uncertainty):
         return (CURVE_POINTS + PEAK_SOLVES) * t
     return 0.0
+
+
+def _point(data: dict, a: dict, name: str, stability: bool) -> float:
+    """point_seconds of one curve's case ``data``."""
+    h = harmonics_of(data)
+    unknowns = _size(name, data, a).unknowns
+    lumped = None
+    if "assembly" not in data:
+        shapes = _lumped_contacts(data)[1]
+        lumped = (len(shapes), sum(c.components for c in shapes))
+    return point_seconds(unknowns, h.n_samples, lumped, stability)
+
+
+def _time_integration_seconds(data: dict, spec: specs.TimeIntegration) -> float:
+    """The steps of a time integration (the load steps, the ramp, STEADY_PERIODS periods
+    to the steady state per frequency) times STEP_S for its DOFs."""
+    dofs = len(data["model"]["dofs"])
+    freqs = spec.frequencies if isinstance(spec, specs.Dti) else (spec.frequency,)
+    steady = min(spec.max_periods, STEADY_PERIODS) if isinstance(spec, specs.Dti) else 0
+    periods = sum((spec.ramp_time + spec.settle_time) * w / (2 * math.pi)
+                  + spec.ramp_periods + steady for w in freqs)
+    return periods * spec.steps_per_period * STEP_S * dofs / 9
+
+
+def analysis_seconds(data: dict, spec: specs.Analysis) -> float:
+    """Rough seconds of a whole analysis in one process beyond its tasks: its pictures
+    (one per analysis and per output of a lumped FRF)."""
+    outputs = len(getattr(spec, "outputs", None) or ()) or 1
+    return PICTURE_S * (outputs if isinstance(spec, (specs.Frf, specs.Dti)) else 1)
 
 
 def memory_faults(data: dict, out: list[str]) -> None:

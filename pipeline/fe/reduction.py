@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -811,7 +812,7 @@ def _load(path: Path | None, damping: Damping | None) -> ReducedModel | None:
 def _save_atomically(model: ReducedModel, path: Path) -> None:
     """Write to a temporary name and rename: an interrupted run leaves no half-written model
     that a later run would take for a cache hit."""
-    tmp = path.with_name(path.name + ".part")
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.part")  # runs share the cache folder
     tmp.unlink(missing_ok=True)
     try:
         model.save(tmp)
