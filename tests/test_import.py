@@ -241,7 +241,7 @@ def test_bad_files_are_one_line_exit_2(tmp_path):
         code, said = _check(tmp_path, table)
         assert code == 2, (table, said)
         assert message in said, (table, said)
-        assert len(said.strip().splitlines()) == 2, said  # the case's line, the fault's
+        assert len(said.strip().splitlines()) == 1, said  # one fault, one line
     code, said = _check(tmp_path, 'file = "good.inp"\nbodies = {block = "block"}')
     assert code == 0, said
     code, said = _check(tmp_path, 'file = "good.inp"', '"nope"')

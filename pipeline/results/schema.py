@@ -235,7 +235,7 @@ LAYOUT = group(
                       data("normal_n_per_m", "(n1, n2) N/m per node pair"),
                       data("tangential_n_per_m", "(n1, n2) N/m per node pair"))),
           group("<body>", "", (),
-                group("ndH", "", ("n_modes", "n_master_dofs", "file (the model, in models/)"),
+                group("ndH", "", ("n_modes", "n_master_dofs", "file (the model, in the cache)"),
                       data("frequencies_hz", "(k,) Hz, the reduced model, masters free"),
                       data("mode_frequencies_hz", "(modes,) Hz, fixed-interface modes"),
                       data("master_nodes", "(masters,) mesh nodes")))),
