@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -27,13 +29,40 @@ KINDS = {cls.__name__: cls for cls in (CyclicBoundary, ContactPatch, SurfaceCont
 KEY, KIND = "__key__", "__kind__"
 
 
-def save_mesh(mesh: Mesh, path: str | Path) -> None:
-    """Write ``mesh`` to ``path`` (HDF5); TypeError for a field of a type it cannot keep."""
+def written_whole(path: str | Path, fill: Callable[[Any], None]) -> None:
+    """Write the HDF5 file ``path`` whole or not at all: ``fill(file)`` builds it in
+    memory, then its bytes go to a temporary name of this process and are renamed. HDF5
+    meeting a full disk mid-file corrupts its own state (h5py then fails closing the file,
+    or crashes); plain file writes fail cleanly (OSError, ENOSPC), and the temporary file
+    is removed."""
+    import io
+
     import h5py
 
-    with h5py.File(path, "w") as f:
+    path = Path(path)
+    buffer = io.BytesIO()
+    with h5py.File(buffer, "w") as f:
+        fill(f)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.part")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(tmp, "wb") as out:
+            out.write(buffer.getbuffer())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def save_mesh(mesh: Mesh, path: str | Path) -> None:
+    """Write ``mesh`` to ``path`` (HDF5, whole or not at all); TypeError for a field of a
+    type it cannot keep."""
+
+    def fill(f) -> None:
         f.attrs["format"] = FORMAT
         _put(f, mesh)
+
+    written_whole(path, fill)
 
 
 def load_mesh(path: str | Path) -> Mesh:

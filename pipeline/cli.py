@@ -94,7 +94,7 @@ def _demo_estimate(harmonics: int, samples: int) -> tuple[float, str]:
         return seconds, f"--harmonics {harmonics} --samples {samples}: " + found[0].split(
             ": ", 1)[1]
     if seconds > DEMO_MAX_S:
-        return seconds, (f"--harmonics {harmonics} --samples {samples}: ~{seconds / 60:.0f} "
+        return seconds, (f"--harmonics {harmonics} --samples {samples}: ~{seconds / 60:.1f} "
                          f"min estimated, the demo takes at most {DEMO_MAX_S / 60:.0f} min; "
                          "lower them, or run a case file (cases/sdof_wall.toml is this "
                          "oscillator: microslip run --dry-run estimates it, and a run shows "
@@ -216,9 +216,11 @@ def run(argv: list[str]) -> int:
         print(f"microslip run: {fault}", file=sys.stderr)
         return 2
     out = args.out or Path("out") / args.case.stem
-    shared = _shared_cache("run")
-    if shared is None:
-        return 2
+    shared = None  # only a meshed case keeps anything in the shared cache
+    if "geometry" in c.data:
+        shared = _shared_cache("run")
+        if shared is None:
+            return 2
     if args.dry_run:
         from microslip.pipeline.app import plan
 

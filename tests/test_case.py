@@ -237,3 +237,19 @@ def test_reserved_analysis_names_are_the_results_file_s_groups():
 
     assert set(RESERVED) == {schema.CASE, schema.GEOMETRY, schema.CONTACT_GRIDS,
                              schema.SURFACES, schema.REDUCTION}
+
+
+def test_an_unnamed_analysis_is_estimated_under_its_name(tmp_path):
+    """An [[analysis]] without a name is 'analysis<i>' everywhere: the estimate found it
+    under '<i>' and the run and dry run ended in StopIteration."""
+    from microslip.pipeline.app import plan
+    from microslip.pipeline.case.estimate import task_seconds
+
+    data = copy.deepcopy(GOOD)
+    del data["analysis"][0]["name"]
+    cases.check(data)
+    c = cases.Case(data, "t.toml")
+    (spec,) = c.analysis_specs
+    assert spec.name == "analysis0" and [s.analysis for s in cases.sizes(data)] == ["analysis0"]
+    assert task_seconds(data, spec) > 0
+    assert any(s.name.startswith("analysis0: curve 1") for s in plan.plan(c, tmp_path))

@@ -46,13 +46,16 @@ def _run_on_tmpfs(tmp_path: Path, size: str) -> tuple[subprocess.CompletedProces
     return done, str(out)
 
 
-def test_a_disk_that_fills_keeps_what_finished_in_one_line(tmp_path):
-    """The main job on a 700 kB disk (it writes ~1.1 MB): the run stops where the disk
+@pytest.mark.parametrize("size", ["300k", "700k"])
+def test_a_disk_that_fills_keeps_what_finished_in_one_line(tmp_path, size):
+    """The main job on a small disk (it writes ~1.1 MB): the run stops where the disk
     filled, says so in one line naming the folder and the space it had, exit 1; results.h5
-    is a valid partial file with the curves that finished; no temporary file, no lock."""
+    is a valid partial file with the curves that finished; no temporary file, no lock.
+    (At 300 kB HDF5 itself met the full disk in a flush: its state corrupt, closing the file
+    crashed the process; a write now stops before HDF5 would meet it.)"""
     if not _can_mount_tmpfs(tmp_path):
         pytest.skip("no user namespace with tmpfs mounts here")
-    done, out = _run_on_tmpfs(tmp_path, "700k")
+    done, out = _run_on_tmpfs(tmp_path, size)
     err = done.stderr
     lines = err.splitlines()
     assert "exit=1" in lines, err
@@ -61,7 +64,8 @@ def test_a_disk_that_fills_keeps_what_finished_in_one_line(tmp_path):
     assert f"{out}: no space left on its device;" in said[0] and "were free when the run " \
         "started" in said[0] and "keeps the" in said[0], said
     assert "[partial]  no space left on the device" in err  # show reads the file
-    assert " curve_000 " in err and "[complete]" in err  # something finished and was kept
+    if size == "700k":  # something finished and was kept
+        assert " curve_000 " in err and "[complete]" in err
     files = [x for x in lines if x.startswith(str(tmp_path / "disk"))]
     assert f"{out}/results.h5" in files
     stray = [f for f in files if f.endswith((".tmp", ".part", ".tmp.png", LOCK_NAME))]

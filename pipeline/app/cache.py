@@ -24,10 +24,11 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import os
 import sys
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,6 +36,7 @@ ENV = "MICROSLIP_CACHE"
 ENV_SIZE = "MICROSLIP_CACHE_SIZE"
 DEFAULT_SIZE = 10 * 10**9  # bytes: the models of a few full-scale studies
 KINDS = ("meshes", "models")
+PART_AGE_S = 3600.0  # a part file this recent may be another run's write in progress
 _UNITS = {"": 1, "B": 1, "KB": 10**3, "MB": 10**6, "GB": 10**9, "TB": 10**12,
           "KIB": 2**10, "MIB": 2**20, "GIB": 2**30, "TIB": 2**40}
 
@@ -63,7 +65,7 @@ def size_bytes(text: str) -> int:
         value = float(digits)
     except ValueError:
         value = -1.0
-    if unit not in _UNITS or not value >= 0:
+    if unit not in _UNITS or not (value >= 0 and math.isfinite(value)):
         raise CacheSettingError(f"{ENV_SIZE} = {text!r}: expected a size such as 10GB, 500MB "
                                 "or a number of bytes")
     return int(value * _UNITS[unit])
@@ -148,12 +150,14 @@ class SharedCache:
         return removed[0], removed[1]
 
     def clear(self) -> tuple[int, int]:
-        """Remove every kept file (and leftovers of interrupted writes); (files, bytes)."""
+        """Remove every kept file (and leftovers of interrupted writes, but not a write in
+        progress: a part file younger than PART_AGE_S); (files, bytes)."""
         removed = [0, 0]
+        recent = time.time() - PART_AGE_S
         for kind in KINDS:
             folder = self.root / kind
             for p in folder.iterdir() if folder.is_dir() else ():
-                if p.is_file():
+                if p.is_file() and not (p.suffix == ".part" and _mtime(p) > recent):
                     removed[1] += _size(p)
                     p.unlink(missing_ok=True)
                     removed[0] += 1
@@ -200,23 +204,9 @@ def kept_mesh(cache: SharedCache, key: str, build: Callable[[], object]
             cache.used([path])
             return mesh, path
     mesh = build()
-    with contextlib.suppress(OSError), _replacing(path) as tmp:
-        save_mesh(mesh, tmp)
+    with contextlib.suppress(OSError):  # a cache that cannot take it: the run goes on
+        save_mesh(mesh, path)
     return mesh, None
-
-
-@contextlib.contextmanager
-def _replacing(path: Path) -> Iterator[Path]:
-    """A temporary name in ``path``'s folder (this process' own) that becomes ``path`` when
-    the block ends, and is removed if it fails."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.part")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def built_mesh(table, cache: SharedCache | None) -> tuple[object, Path | None]:
@@ -227,6 +217,7 @@ def built_mesh(table, cache: SharedCache | None) -> tuple[object, Path | None]:
         return table.build(), None
     from .store import code_digest
 
-    code = code_digest(parts=("geometry",), leave_out=())
+    # the meshing code, and the declared contacts' (case.geometry.with_contacts)
+    code = code_digest(parts=("geometry", "pipeline/case/geometry.py"), leave_out=())
     key = mesh_key(table.model, dict(table.parameters), table.contacts, code)
     return kept_mesh(cache, key, table.build)

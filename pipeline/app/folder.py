@@ -16,6 +16,7 @@ not close).
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import os
 import shutil
 import socket
@@ -29,6 +30,8 @@ except ImportError:  # not a POSIX system: no lock (the folder is the user's to 
     fcntl = None
 
 LOCK_NAME = ".microslip-run.lock"
+#: flock's errors on file systems that do not lock (some network mounts): no lock then.
+UNLOCKABLE = (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS)
 #: Disk space kept back for closing the results file after the disk fills [bytes]: closing
 #: writes HDF5 metadata, kilobytes (a full tmpfs closed a 12-curve file within it).
 RESERVE_BYTES = 256 * 1024
@@ -72,7 +75,14 @@ class FolderLock:
     def __enter__(self) -> FolderLock:
         if fcntl is None:
             return self
-        fd = self._locked()
+        try:
+            fd = self._locked()
+        except OSError as err:
+            if err.errno in UNLOCKABLE:  # a file system without locks: run unguarded
+                self.path.unlink(missing_ok=True)
+                return self
+            raise FolderBusy(f"{self.out}: cannot hold the folder for the run ({LOCK_NAME}: "
+                             f"{err.strerror}); give another --out") from None
         self._header = (f"{os.getpid()} {socket.gethostname()} "
                         f"{_dt.datetime.now().isoformat(timespec='seconds')}\n").encode()
         try:
@@ -96,7 +106,10 @@ class FolderLock:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
+            except OSError as err:
+                if not isinstance(err, BlockingIOError):
+                    os.close(fd)
+                    raise
                 holder = os.pread(fd, 200, 0).split(b"\n")[0].decode(errors="replace")
                 os.close(fd)
                 pid, host, since = (holder.split(" ") + ["?", "?", "?"])[:3]

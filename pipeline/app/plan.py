@@ -108,8 +108,8 @@ def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None =
                                  "" if kernels_cached() else "and the contact kernels "
                                  "compiled once (first run: ~25-100 s more)")]
     data = case.data
-    shared = shared or SharedCache.from_environment()
     if "geometry" in data:
+        shared = shared or SharedCache.from_environment()
         mesh, kept = built_mesh(case.geometry_table, shared)
         imported = case.geometry_table.imported
         what = "mesh read" if imported else "Gmsh mesh"

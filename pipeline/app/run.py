@@ -42,6 +42,7 @@ from microslip.pipeline.case.specs import (
 )
 from microslip.pipeline.case.units import case_unit_lines
 from microslip.pipeline.draw import pictures
+from microslip.pipeline.draw.files import written
 from microslip.pipeline.draw.maps import EDGES
 from microslip.pipeline.friction import warm_up
 from microslip.pipeline.friction.harmonics import Harmonics
@@ -51,6 +52,7 @@ from microslip.pipeline.results.file import (
     ResultsWriter,
     is_disk_full,
     sampling_warning,
+    set_attrs,
 )
 from microslip.pipeline.solve.bifurcation import find_bifurcations
 from microslip.pipeline.solve.response import (
@@ -113,8 +115,9 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
     free = free_bytes(out)
     with FolderLock(out) as lock:  # FolderBusy: another run writes there
         try:
-            return _run_case(case, out, progress, cache, executor, lock,
-                             shared or SharedCache.from_environment())
+            if shared is None and "geometry" in case.data:
+                shared = SharedCache.from_environment()
+            return _run_case(case, out, progress, cache, executor, lock, shared)
         except OSError as err:
             if not is_disk_full(err):
                 raise
@@ -125,6 +128,10 @@ def disk_full_text(out: Path, free: int) -> str:
     """The one line of a run whose disk filled: where, what was free, what was kept."""
     kept = ""
     path = out / "results.h5"
+    if (out / "results.h5.tmp").is_file():  # the file could not be closed
+        return (f"{out}: no space left on its device ({size_text(free)} were free when the "
+                "run started); what finished is in results.h5.tmp, which could not be closed "
+                "(microslip show reads it): free space there, or give --out on another disk")
     if path.is_file():
         with h5py.File(path, "r") as f:
             curves = sum(1 for g in f.values() if isinstance(g, h5py.Group)
@@ -138,7 +145,7 @@ def disk_full_text(out: Path, free: int) -> str:
 
 def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
               executor: Serial | Distributed | None, lock: FolderLock,
-              shared: SharedCache) -> Path:
+              shared: SharedCache | None) -> Path:
     """run_case in the folder it holds."""
     store = CurveStore(out / "cache" / "curves" if cache else None)
     with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
@@ -212,8 +219,10 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
     except ValueError as err:  # a declared contact on a model known only once meshed
         raise InputError(str(err)) from None
     elapsed = time.perf_counter() - t
-    m.write_msh(out / "mesh.msh")
-    m.write(out / "mesh.vtu")
+    with written(out / "mesh.msh") as tmp:  # whole or not at all (a full disk)
+        m.write_msh(tmp)
+    with written(out / "mesh.vtu") as tmp:
+        m.write(tmp)
     source = (f"{table.file} ({table.units})" if table.imported else m.model)
     where = f" from the shared cache ({kept.parent})" if kept else ""
     progress(f"[geometry] {source}: {m.points.shape[0]} nodes, {m.element_summary()}, "
@@ -535,8 +544,7 @@ def _cached_curve(store: CurveStore, key: str, group, curve: str, what: str,
     if not store.load(key, group, curve):
         return None
     g = group[curve]
-    for k, v in identity.items():
-        g.attrs[k] = v
+    set_attrs(g, identity)
     status, message = str(g.attrs["status"]), str(g.attrs["message"])
     progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
              f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())

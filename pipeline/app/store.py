@@ -12,16 +12,15 @@ again); an interrupted one is computed again. The files are HDF5, safe to open.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
-import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import h5py
 
+from microslip.geometry.stored import written_whole
 from microslip.pipeline.results.file import signals_held
 
 #: Case tables that do not change what a curve computes.
@@ -108,22 +107,7 @@ class CurveStore:
         """Keep a written curve group (atomically: a partial file is never read)."""
         if self.folder is None:
             return
-        with self._replacing(key) as tmp, h5py.File(tmp, "w") as f:
-            group.file.copy(group, f, name="curve")
-
-    @contextlib.contextmanager
-    def _replacing(self, key: str) -> Iterator[Path]:
-        """A temporary file that becomes the stored ``key`` when the block ends, and is
-        removed if it fails (a full disk leaves no stray file)."""
-        assert self.folder is not None
-        self.folder.mkdir(parents=True, exist_ok=True)
-        tmp = self._path(key).with_suffix(".tmp")
-        try:
-            yield tmp
-            os.replace(tmp, self._path(key))
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
+        written_whole(self._path(key), lambda f: group.file.copy(group, f, name="curve"))
 
     def load_row(self, key: str) -> dict[str, Any] | None:
         """A stored row of numbers and texts (:meth:`save_row`), or None."""
@@ -144,10 +128,13 @@ class CurveStore:
         """Keep a row of numbers and texts (a sample of a study), atomically."""
         if self.folder is None:
             return
-        with self._replacing(key) as tmp, h5py.File(tmp, "w") as f:
+
+        def fill(f) -> None:
             g = f.create_group("row")
             for k, v in row.items():
                 g.attrs[k] = v
+
+        written_whole(self._path(key), fill)
 
     def has(self, key: str) -> bool:
         return self.folder is not None and self._path(key).is_file()

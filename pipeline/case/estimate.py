@@ -51,7 +51,7 @@ def sizes(data: dict) -> list[Size]:
     built, so check and run refuse what will not fit before any work."""
     out = []
     for i, a in enumerate(data.get("analysis", [])):
-        name = str(a.get("name", i))
+        name = specs.analysis_name(a, i)
         out.append(max((_size(name, v, a) for v in _variants(data, a)),
                        key=lambda s: s.nbytes))
     return out
@@ -110,7 +110,8 @@ def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None) 
     a sweep), an uncertainty sample (a sweep and its refined top); a time integration, or
     the loops, whole (they are one task). ``variant``: the case as that curve sees it
     (default: the largest of the analysis' curves)."""
-    a = next(x for i, x in enumerate(data["analysis"]) if str(x.get("name", i)) == spec.name)
+    a = next(x for i, x in enumerate(data["analysis"])
+             if specs.analysis_name(x, i) == spec.name)
     if isinstance(spec, specs.Loops):
         return LOOPS_S
     if isinstance(spec, specs.TimeIntegration):

@@ -333,11 +333,16 @@ def defaults(kind: str) -> dict[str, Any]:
     return out
 
 
+def analysis_name(table: Mapping[str, Any], index: int) -> str:
+    """The name of the ``index``-th [[analysis]] table: its own, or ``analysis<index>``."""
+    return str(table.get("name", f"analysis{index}"))
+
+
 def analysis(table: Mapping[str, Any], index: int = 0) -> Analysis:
     """The spec of a validated ``[[analysis]]`` table (``index``: its place, which names
     an unnamed analysis)."""
     cls = ANALYSES[table["type"]]
-    values: dict[str, Any] = {"name": str(table.get("name", f"analysis{index}")),
+    values: dict[str, Any] = {"name": analysis_name(table, index),
                               "given": dict(table)}
     for f in dataclasses.fields(cls):
         if f.name in table and f.name not in ("name", "given"):

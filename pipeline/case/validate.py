@@ -108,7 +108,7 @@ def _analysis_tables(data: dict, kinds: tuple[str, ...], out: list[str]) -> list
     for i, a in enumerate(items):
         if not isinstance(a, dict):
             continue
-        name = a.get("name", f"analysis{i}")
+        name = a.get("name", specs.analysis_name(a, i))
         if not (isinstance(name, str) and NAME.fullmatch(name)):
             out.append(f"analysis[{i}].name = {name!r}: expected letters, digits, '_', '-' "
                        "or '.', starting with a letter or digit (it names the analysis' "

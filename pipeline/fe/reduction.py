@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -50,6 +49,7 @@ from numpy.typing import NDArray
 
 from microslip.geometry.mesh import SurfaceContact
 from microslip.geometry.pairing import paired_contact
+from microslip.geometry.stored import written_whole
 
 from . import cyclic, fem, linalg
 from .fem import Damping, IntArray, Material, MeshLike
@@ -213,33 +213,38 @@ class ReducedModel:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         with h5py.File(path, "a") as f:
-            if group != "/" and group in f:
-                del f[group]
-            g = f.require_group(group)
-            for name in list(g):
-                del g[name]
-            for name in ("stiffness", "mass", "master_nodes", "master_coordinates",
-                         "mode_frequencies", "recovery_nodes", "recovery"):
-                g.create_dataset(name, data=np.asarray(getattr(self, name)))
-            pg = g.create_group("patches")
-            for name, nodes in self.patches.items():
-                pg.create_dataset(name, data=np.asarray(nodes, dtype=np.int64))
-            lg = g.create_group("loads")
-            for name, vector in self.loads.items():
-                lg.create_dataset(name, data=np.asarray(vector))
-            g.attrs["format_version"] = FORMAT_VERSION
-            g.attrs["body"] = self.body
-            g.attrs["method"] = self.method
-            g.attrs["n_modes"] = self.n_modes
-            g.attrs["nodal_diameter"] = -1 if self.nodal_diameter is None else self.nodal_diameter
-            g.attrs["sectors"] = -1 if self.sectors is None else self.sectors
-            g.attrs["key"] = self.key
-            spec = self.damping_spec
-            g.attrs["damping"] = json.dumps(
-                None if spec is None else [spec.rayleigh_alpha, spec.rayleigh_beta,
-                                           list(spec.modal_ratios)]
-            )
+            self.save_into(f, group)
         return path
+
+    def save_into(self, f: h5py.File, group: str = "/") -> None:
+        """Write into the open HDF5 file ``f`` (group ``group``), replacing what is
+        there."""
+        if group != "/" and group in f:
+            del f[group]
+        g = f.require_group(group)
+        for name in list(g):
+            del g[name]
+        for name in ("stiffness", "mass", "master_nodes", "master_coordinates",
+                     "mode_frequencies", "recovery_nodes", "recovery"):
+            g.create_dataset(name, data=np.asarray(getattr(self, name)))
+        pg = g.create_group("patches")
+        for name, nodes in self.patches.items():
+            pg.create_dataset(name, data=np.asarray(nodes, dtype=np.int64))
+        lg = g.create_group("loads")
+        for name, vector in self.loads.items():
+            lg.create_dataset(name, data=np.asarray(vector))
+        g.attrs["format_version"] = FORMAT_VERSION
+        g.attrs["body"] = self.body
+        g.attrs["method"] = self.method
+        g.attrs["n_modes"] = self.n_modes
+        g.attrs["nodal_diameter"] = -1 if self.nodal_diameter is None else self.nodal_diameter
+        g.attrs["sectors"] = -1 if self.sectors is None else self.sectors
+        g.attrs["key"] = self.key
+        spec = self.damping_spec
+        g.attrs["damping"] = json.dumps(
+            None if spec is None else [spec.rayleigh_alpha, spec.rayleigh_beta,
+                                       list(spec.modal_ratios)]
+        )
 
     @classmethod
     def load(cls, path: str | Path, group: str = "/") -> ReducedModel:
@@ -788,8 +793,8 @@ def reduce_body(
             except linalg.EigenSolverError as err:
                 raise ReductionError(_eigen_failure(spec, h, sector.n_free, backend,
                                                     boundary is not None, err)) from err
-            if path is not None:
-                _save_atomically(model, path)
+            if path is not None and not _kept(model, path):
+                path = None  # (the cache could not be written: the run goes on)
         out[h] = model
         if report is not None:
             report(h, model, path, cached, time.perf_counter() - t)
@@ -809,14 +814,17 @@ def _load(path: Path | None, damping: Damping | None) -> ReducedModel | None:
         return None
 
 
+def _kept(model: ReducedModel, path: Path) -> bool:
+    """Whether ``model`` was kept at ``path`` (a cache that cannot take it, full or
+    emptied meanwhile, only costs the next run the reduction)."""
+    try:
+        _save_atomically(model, path)
+    except OSError:
+        return False
+    return True
+
+
 def _save_atomically(model: ReducedModel, path: Path) -> None:
     """Write to a temporary name and rename: an interrupted run leaves no half-written model
     that a later run would take for a cache hit."""
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.part")  # runs share the cache folder
-    tmp.unlink(missing_ok=True)
-    try:
-        model.save(tmp)
-        tmp.replace(path)
-    except BaseException:  # (a full disk) no stray part file
-        tmp.unlink(missing_ok=True)
-        raise
+    written_whole(path, lambda f: model.save_into(f))

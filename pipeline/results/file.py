@@ -16,6 +16,7 @@ import json
 import os
 import platform
 import re
+import shutil
 import signal
 import threading
 from collections.abc import Callable, Iterator, Mapping
@@ -53,6 +54,12 @@ def _attr(value):
     return value
 
 
+def set_attrs(g: h5py.HLObject, attrs: Mapping) -> None:
+    """Attributes written as ``ResultsWriter.write_group`` writes them."""
+    for k, v in attrs.items():
+        g.attrs[k] = _attr(v)
+
+
 def attr_text(value) -> str:
     """An attribute as text (h5py gives bytes or str)."""
     return value.decode() if isinstance(value, bytes) else str(value)
@@ -81,8 +88,41 @@ def attr_table(attrs) -> dict:
 DISK_FULL = (errno.ENOSPC, errno.EDQUOT)
 
 
+#: Room a results-file write leaves free on its disk beyond twice its data [bytes]: HDF5
+#: writes metadata as it goes, and meeting a full disk mid-write corrupts its state (closing
+#: the file then fails, or crashes the process), so a write that would leave less stops
+#: before HDF5 starts it, as a full disk does (``_room``).
+DISK_MARGIN = 128 * 1024
+
+
 def is_disk_full(err: BaseException) -> bool:
-    return isinstance(err, OSError) and err.errno in DISK_FULL
+    """Whether ``err`` is a full disk or quota (h5py reports some as RuntimeError with the
+    C library's errno in its text)."""
+    if isinstance(err, OSError) and err.errno in DISK_FULL:
+        return True
+    text = str(err)
+    return isinstance(err, (OSError, RuntimeError)) and any(
+        f"errno = {n}," in text for n in DISK_FULL)
+
+
+def _room(h5: h5py.File, nbytes: int) -> None:
+    """OSError (ENOSPC) unless the disk of ``h5`` has room for ``nbytes`` of data (see
+    DISK_MARGIN)."""
+    folder = Path(h5.filename).parent
+    free = shutil.disk_usage(folder).free
+    if free < 2 * nbytes + DISK_MARGIN:
+        raise OSError(errno.ENOSPC, f"no space left on the device: {free:,} bytes free, "
+                      f"{nbytes:,} to write", h5.filename)
+
+
+def _nbytes(datasets: Mapping) -> int:
+    """The bytes of the arrays of a nested mapping of datasets."""
+    total = 0
+    for k, v in datasets.items():
+        if k == ATTRS:
+            continue
+        total += _nbytes(v) if isinstance(v, Mapping) else np.asarray(v).nbytes
+    return total
 
 
 class ResultsWriter:
@@ -113,6 +153,7 @@ class ResultsWriter:
         return self
 
     def analysis(self, name: str, attrs: Mapping) -> h5py.Group:
+        _room(self.file, 0)
         g = self.file.create_group(name)
         for k, v in attrs.items():
             g.attrs[k] = _attr(v)
@@ -123,6 +164,7 @@ class ResultsWriter:
     def write_group(parent: h5py.Group, name: str, datasets: Mapping, attrs: Mapping) -> None:
         """One curve: datasets (arrays, or nested mappings as subgroups) and attrs; whole
         or not at all (signals_held)."""
+        _room(parent.file, _nbytes(datasets))
         with signals_held():
             try:
                 g = parent.create_group(name)
@@ -135,6 +177,7 @@ class ResultsWriter:
                 raise
 
     def flush(self) -> None:
+        _room(self.file, 0)
         self.file.flush()
 
     def close(self, status: str, message: str = "") -> Path:
