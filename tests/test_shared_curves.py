@@ -1,33 +1,18 @@
 """A curve computed once and asked for by two analyses (the store is keyed by what a curve
 computes): each analysis stores it under its own identity, as a run without the store does."""
 
+from pathlib import Path
+
 import h5py
 
 from microslip.pipeline.cli import main
 
+CASES = Path(__file__).parents[1] / "cases"
 #: sdof_wall's model (Fig. 4-6), where frf_force's F = 0.1 N curve is frf_N0's N0 = 0.05 N
-#: one, and the performance curve's value 1 is the optimization curve's value 0.05.
-CASE = """
-title = "shared curves"
-[model]
-dofs = ["x"]
-mass = [1.0]
-stiffness = [1.0]
-damping = [0.02]
-[[contacts]]
-name = "wall"
-law = "A"
-kt = 3.0
-mu = 1.0
-n0 = 1.0
-u = { x = 1.0 }
-[[loads]]
-dof = "x"
-amplitude = 0.1
-harmonic = 1
-[harmonics]
-max = 1
-samples = 64
+#: one, and the performance curve's value 1 is the optimization curve's value 0.05; its
+#: period sampled more coarsely, its steps longer (quick; the sharing is what is tested).
+CASE = (CASES / "sdof_wall.toml").read_text().split("[[analysis]]")[0].replace(
+    "samples = 256", "samples = 64") + """
 [solver]
 max_step = 0.2
 [[analysis]]

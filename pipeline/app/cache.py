@@ -114,9 +114,10 @@ class SharedCache:
 
     def usage(self) -> dict[str, tuple[int, int]]:
         """kind -> (files, bytes)."""
+        files = self.files()
         out = {}
         for kind in KINDS:
-            found = [p for p in self.files() if p.parent.name == kind]
+            found = [p for p in files if p.parent.name == kind]
             out[kind] = (len(found), sum(_size(p) for p in found))
         return out
 

@@ -35,6 +35,8 @@ UNLOCKABLE = (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS)
 #: Disk space kept back for closing the results file after the disk fills [bytes]: closing
 #: writes HDF5 metadata, kilobytes (a full tmpfs closed a 12-curve file within it).
 RESERVE_BYTES = 256 * 1024
+
+
 class FolderBusy(RuntimeError):
     """Another run holds the folder; the message is one line naming it."""
 

@@ -52,10 +52,10 @@ MESH_S = 3.0
 PREVIEWS_S = 3.0
 
 
-#: The reference workload: the single-DOF Jenkins oscillator's FRF (harmonics 0-3, 64
-#: samples, 0.5..2.5 rad/s: 93 points) in one process, one BLAS thread; REFERENCE_S is its
-#: time on the two quiet cores the anchors were measured on [s] (medians of 5: 0.255-0.261
-#: s; with both cores busy with two other processes, 1.5-1.9 x that).
+#: The reference workload: the single-DOF Jenkins oscillator's FRF (``microslip demo``'s;
+#: harmonics 0-3, 64 samples, 0.5..2.5 rad/s: 93 points) in one process, one BLAS thread;
+#: REFERENCE_S is its time on the two quiet cores the anchors were measured on [s] (medians
+#: of 5: 0.255-0.261 s; with both cores busy with two other processes, 1.5-1.9 x that).
 REFERENCE = {"model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0], "damping": [0.02]},
              "contacts": [{"name": "wall", "law": "A", "kt": 3.0, "mu": 1.0, "n0": 0.05,
                            "u": {"x": 1.0}}],

@@ -126,13 +126,11 @@ def run_case(case: Case, out_dir: str | Path, progress: Progress = print,
 
 def disk_full_text(out: Path, free: int) -> str:
     """The one line of a run whose disk filled: where, what was free, what was kept."""
-    kept = ""
     path = out / "results.h5"
+    kept = ""
     if (out / "results.h5.tmp").is_file():  # the file could not be closed
-        return (f"{out}: no space left on its device ({size_text(free)} were free when the "
-                "run started); what finished is in results.h5.tmp, which could not be closed "
-                "(microslip show reads it): free space there, or give --out on another disk")
-    if path.is_file():
+        kept = "; what finished is in results.h5.tmp, which could not be closed (show reads it)"
+    elif path.is_file():
         with h5py.File(path, "r") as f:
             curves = sum(1 for g in f.values() if isinstance(g, h5py.Group)
                          for c in g.values() if isinstance(c, h5py.Group)

@@ -281,12 +281,11 @@ def connect(address: str, timeout: float = CONNECT_S) -> tuple[Any, str]:
     unreachable = (f"--scheduler {address}: cannot reach a Dask scheduler there in "
                    f"{timeout:g} s ({{}}); start one (dask scheduler) or give its address as "
                    "tcp://host:port")
-    refused = _refused(address, timeout)
-    if refused:  # said at once: Dask's own connect would retry until the timeout
-        return None, unreachable.format(refused)
-    other = _not_dask(address, timeout)
-    if other:  # Dask's client would wait for ever, or read a reply as a frame size
-        return None, (f"--scheduler {address}: {other}; give the address of a Dask "
+    kind, why = _probe(address, timeout)
+    if kind == "unreachable":  # said at once: Dask's own connect would retry until the timeout
+        return None, unreachable.format(why)
+    if kind:  # Dask's client would wait for ever, or read a reply as a frame size
+        return None, (f"--scheduler {address}: {why}; give the address of a Dask "
                       "scheduler (dask scheduler prints it: tcp://host:8786)")
     try:
         client = Client(address, timeout=f"{timeout}s")
@@ -299,67 +298,58 @@ def connect(address: str, timeout: float = CONNECT_S) -> tuple[Any, str]:
     return client, ""
 
 
-def _refused(address: str, timeout: float) -> str:
-    """Why a TCP scheduler address cannot be connected to (one phrase), or "" (also for
-    other protocols, which Dask checks itself)."""
-    import socket
-    from urllib.parse import urlsplit
-
-    parts = urlsplit(address if "://" in address else f"tcp://{address}")
-    if parts.scheme != "tcp":
-        return ""
-    try:
-        host, port = parts.hostname, parts.port
-    except ValueError:  # a port out of range or not a number
-        return "no valid port"
-    if not host or port is None:
-        return "no host:port"
-    try:
-        with socket.create_connection((host, port), timeout=timeout):
-            return ""
-    except OSError as err:
-        return err.strerror or type(err).__name__
-
-
 #: A Dask message's first 8 bytes are its size; a handshake is far below this [bytes].
 HANDSHAKE_BYTES = 1 << 26
 
 
-def _not_dask(address: str, timeout: float) -> str:
-    """Why the TCP service at ``address`` is not a Dask scheduler (one phrase), or "".
+def _probe(address: str, timeout: float) -> tuple[str, str]:
+    """(what is wrong with the TCP scheduler address, one phrase why): ("unreachable", ...)
+    when it cannot be connected to, ("not dask", ...) when the service there is not a Dask
+    scheduler, ("", "") when it greets as one (or the protocol is not TCP: Dask checks those
+    itself).
 
     A scheduler greets each connection with its handshake at once: a message whose first 8
     bytes are its size. A service that says nothing until asked (an HTTP server, a proxy
     that accepts any address) would keep Dask's client waiting past any timeout, and one
-    that answers what Dask sends is read as a frame of exabytes; so listen first, send
-    nothing, for ``timeout`` seconds."""
+    that answers what Dask sends is read as a frame of exabytes; so connect once and listen,
+    sending nothing, for ``timeout`` seconds."""
     import socket
     import struct
     from urllib.parse import urlsplit
 
     parts = urlsplit(address if "://" in address else f"tcp://{address}")
     if parts.scheme != "tcp":
-        return ""
+        return "", ""
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:  # a port out of range or not a number
+        return "unreachable", "no valid port"
+    if not host or port is None:
+        return "unreachable", "no host:port"
+    try:
+        sock = socket.create_connection((host, port), timeout=timeout)
+    except OSError as err:
+        return "unreachable", err.strerror or type(err).__name__
     head = b""
     deadline = time.monotonic() + timeout
-    try:
-        with socket.create_connection((parts.hostname, parts.port), timeout=timeout) as sock:
+    with sock:
+        try:
             while len(head) < 8 and time.monotonic() < deadline:
                 sock.settimeout(max(deadline - time.monotonic(), 1e-3))
                 chunk = sock.recv(8 - len(head))
                 if not chunk:
                     break
                 head += chunk
-    except TimeoutError:
-        pass
-    except OSError as err:
-        return f"the connection failed ({err.strerror or type(err).__name__})"
+        except TimeoutError:
+            pass
+        except OSError as err:
+            return "not dask", f"the connection failed ({err.strerror or type(err).__name__})"
     if not head:
-        return (f"a service listens there but said nothing in {timeout:g} s, as a Dask "
-                "scheduler would at once (an HTTP server or a proxy?)")
+        return "not dask", (f"a service listens there but said nothing in {timeout:g} s, as "
+                            "a Dask scheduler would at once (an HTTP server or a proxy?)")
     if len(head) < 8 or struct.unpack("Q", head)[0] > HANDSHAKE_BYTES:
-        return f"the service there is not a Dask scheduler (it began with {head!r})"
-    return ""
+        return "not dask", f"the service there is not a Dask scheduler (it began with {head!r})"
+    return "", ""
 
 
 def workers_ready(client) -> str:

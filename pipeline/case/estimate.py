@@ -117,10 +117,11 @@ def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None) 
     if isinstance(spec, specs.TimeIntegration):
         return _time_integration_seconds(data, spec)
     stability = bool(getattr(spec, "stability", False))
-    variants = [variant] if variant is not None else _variants(data, a)
-    t = max(_point(v, a, spec.name, stability) for v in variants)
+    sizes = [_point_sizes(v, a, spec.name) for v in (
+        [variant] if variant is not None else _variants(data, a))]
+    t = max(point_seconds(*p, stability=stability) for p in sizes)
     if isinstance(spec, specs.Frf):
-        solve = max(_point(v, a, spec.name, False) for v in variants)
+        solve = max(point_seconds(*p, stability=False) for p in sizes)
         maps = len(spec.maps) * (MAP_SOLVES * solve + MAP_DRAW_S * len(spec.map_types))
         return CURVE_POINTS * t + maps
     if isinstance(spec, specs.Peak):
@@ -132,15 +133,13 @@ def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None) 
     return 0.0
 
 
-def _point(data: dict, a: dict, name: str, stability: bool) -> float:
-    """point_seconds of one curve's case ``data``."""
-    h = harmonics_of(data)
-    unknowns = _size(name, data, a).unknowns
+def _point_sizes(data: dict, a: dict, name: str) -> tuple[int, int, tuple[int, int] | None]:
+    """(unknowns, samples, lumped) of one curve's case ``data``: point_seconds' sizes."""
     lumped = None
     if "assembly" not in data:
         shapes = _lumped_contacts(data)[1]
         lumped = (len(shapes), sum(c.components for c in shapes))
-    return point_seconds(unknowns, h.n_samples, lumped, stability)
+    return _size(name, data, a).unknowns, harmonics_of(data).n_samples, lumped
 
 
 def _time_integration_seconds(data: dict, spec: specs.TimeIntegration) -> float:

@@ -66,10 +66,12 @@ def faults(b: BodyNumbers) -> list[str]:
 def read_in(b: BodyNumbers, read: Units, other: Units) -> BodyNumbers:
     """The body's numbers had its file been read in ``other`` units instead of ``read``
     (a material given in the case is SI whatever the file's units)."""
-    scale = (lambda v, f: None if v is None else v * f) if b.from_file else (lambda v, f: v)
+    def scaled(value: float | None, factor: float) -> float | None:
+        return value * factor if b.from_file and value is not None else value
+
     return BodyNumbers(b.body, b.size * other.length / read.length,
-                       scale(b.modulus, other.stress / read.stress),
-                       scale(b.density, other.density / read.density), b.from_file)
+                       scaled(b.modulus, other.stress / read.stress),
+                       scaled(b.density, other.density / read.density), b.from_file)
 
 
 def unit_lines(bodies: list[BodyNumbers], units: str, given: bool, file: str

@@ -817,14 +817,9 @@ def _load(path: Path | None, damping: Damping | None) -> ReducedModel | None:
 def _kept(model: ReducedModel, path: Path) -> bool:
     """Whether ``model`` was kept at ``path`` (a cache that cannot take it, full or
     emptied meanwhile, only costs the next run the reduction)."""
-    try:
-        _save_atomically(model, path)
+    try:  # whole or not at all: a later run never takes a half-written model for a hit
+        written_whole(path, model.save_into)
     except OSError:
         return False
     return True
 
-
-def _save_atomically(model: ReducedModel, path: Path) -> None:
-    """Write to a temporary name and rename: an interrupted run leaves no half-written model
-    that a later run would take for a cache hit."""
-    written_whole(path, lambda f: model.save_into(f))
