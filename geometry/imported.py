@@ -4,9 +4,12 @@ Formats, by suffix: CalculiX/Abaqus ``.inp`` (``geometry.abaqus``: meshio loses 
 span element types), Nastran ``.bdf`` / ``.nas`` / ``.dat``, Gmsh ``.msh`` and everything
 else meshio reads (``.vtu``, ``.med``, ``.exo``, ...) through meshio. Solid elements: 4- and
 10-node tetrahedra, 8-, 20- and 27-node hexahedra, 6- and 15-node wedges. A mesh keeps their
-corners; the mid-edge nodes of the quadratic ones are the quadratic elements' edge DOFs
-(``[reduction] order = 2``), which sit at the midpoints of the straight edges:
-:attr:`ImportReport.midnode_offset` says how far the file's were from them.
+corners as nodes and the quadratic ones' mid-edge nodes as the geometry of their edges
+(``Mesh.curved_edges``, where a node lies off its straight edge's midpoint): the finite
+elements map each element through them, curved as the file says, at either field order;
+the quadratic elements' edge DOFs (``[reduction] order = 2``) are these nodes. A 27-node
+hexahedron's face and centre nodes are not kept (its geometry is the 20-node one's).
+:attr:`ImportReport.midnode_offset` says how far the file's mid nodes were from straight.
 
 Names the file gives carry over:
 
@@ -129,7 +132,8 @@ class ImportReport:
     elements: meshio cell type -> count of the solid elements read; midnode_offset: the
     largest distance of a quadratic element's mid node from its straight edge's midpoint,
     relative to that edge's length (0 for a linear mesh); dropped_sets: the file's node sets
-    left empty by dropping mid nodes (they held nothing else); skipped: element type -> count
+    left empty by dropping mid nodes (they held nothing else); curved_edges: how many edges
+    the mesh keeps curved; skipped: element type -> count
     of the elements that are not solids (surface, shell, beam elements of a deck: their
     nodes are node sets, they are not part of the model).
     """
@@ -138,6 +142,7 @@ class ImportReport:
     midnode_offset: float = 0.0
     dropped_sets: tuple[str, ...] = ()
     skipped: dict[str, int] = field(default_factory=dict)
+    curved_edges: int = 0
 
 
 @dataclass(frozen=True)
@@ -228,7 +233,7 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
         raise MeshImportError(f"{path}: node coordinates must be finite 3D points")
     groups = _element_groups(raw)
-    corners, offset = _corners(points, raw, solids, path)
+    corners, offset, mids = _corners(points, raw, solids, path)
     body_of = _bodies(groups, solids, raw, bodies, path)
 
     # keep the corner nodes only, in file order
@@ -251,19 +256,27 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
                  else elements.empty(s)) for s in shapes}
 
     node_sets, dropped = _node_sets(raw, groups, used, new)
+    length = (getattr(raw, "info", None) or {}).get("length", UNITS[units].length)  # (CAD)
+    curved, mid_xyz = _curved_edges(points, mids, new)
+    mid_xyz = mid_xyz * length
     parameters = {"file": Path(path).name, "units": units, "dropped_sets": list(dropped),
                   "materials": _body_materials(raw, solids, body_of, UNITS[units])}
 
-    def mesh_of(xyz: np.ndarray, cyclic: dict | None = None) -> Mesh:
+    def mesh_of(xyz: np.ndarray, cyclic: dict | None = None,
+                motion: np.ndarray | None = None) -> Mesh:
+        """The mesh on nodes ``xyz``; ``motion`` (4, 3): the affine map x -> [x, 1] @
+        motion that moved the nodes here from the previous mesh (the mid nodes follow)."""
+        nonlocal mid_xyz
+        if motion is not None:
+            mid_xyz = mid_xyz @ motion[:3] + motion[3]
         try:
             return Mesh(model=model, points=xyz, tetrahedra=cells["tetra"],
                         hexahedra=cells["hexahedron"], wedges=cells["wedge"],
                         bodies=body_index, node_sets=node_sets, cyclic=cyclic or {},
-                        parameters=parameters)
+                        parameters=parameters, curved_edges=curved, edge_nodes=mid_xyz)
         except MeshValidationError as exc:
             raise MeshImportError(f"{path}: {exc}") from None
 
-    length = (getattr(raw, "info", None) or {}).get("length", UNITS[units].length)  # (CAD)
     mesh = mesh_of(points[used] * length)
     for name, selection in (sets or {}).items():
         if name in node_sets:
@@ -280,7 +293,8 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
                                   "the region or its tolerance)")
     if sector is not None:  # (the mesh in the sector's frame holds the chosen sets too)
         rotation, origin = sector_frame(sector.axis, sector.origin)
-        mesh = mesh_of((mesh.points - origin) @ rotation.T)
+        mesh = mesh_of((mesh.points - origin) @ rotation.T, None,
+                       np.vstack([rotation.T, -origin @ rotation.T]))
         try:
             xyz, boundaries = cyclic_boundaries(mesh, sector)
         except SectorError as exc:
@@ -293,14 +307,14 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
         centre = centring(xyz, boundaries, sector.angle)
         parameters["frame"] = {"rotation": (centre @ rotation).tolist(),
                                "origin": origin.tolist(), "sectors": sector.sectors}
-        mesh = mesh_of(xyz @ centre.T, boundaries)
+        mesh = mesh_of(xyz @ centre.T, boundaries, np.vstack([centre.T, np.zeros(3)]))
     elif sets:
         mesh = mesh_of(mesh.points)  # with the chosen sets
     count = {b.type: 0 for _, b in solids}
     for _, b in solids:
         count[b.type] += len(b.data)
     skipped = dict((getattr(raw, "info", None) or {}).get("skipped", {}))
-    return ImportedMesh(mesh, ImportReport(count, offset, dropped, skipped))
+    return ImportedMesh(mesh, ImportReport(count, offset, dropped, skipped, len(curved)))
 
 
 # VTK cell type -> meshio type, of the solids an Ansys archive holds (a degenerate SOLID185 /
@@ -430,16 +444,20 @@ _DIM = {"vertex": 0, "line": 1, "line3": 1, "triangle": 2, "triangle6": 2, "quad
         "quad8": 2, "quad9": 2}
 
 
-def _corners(points: np.ndarray, raw, solids, path) -> tuple[dict[int, np.ndarray], float]:
-    """Block index -> (m, corners) positively oriented corner nodes; and the largest mid-node
-    offset from its straight edge's midpoint, relative to the edge length."""
-    out, offset = {}, 0.0
+def _corners(points: np.ndarray, raw, solids, path
+             ) -> tuple[dict[int, np.ndarray], float, list[np.ndarray]]:
+    """Block index -> (m, corners) positively oriented corner nodes; the largest mid-node
+    offset from its straight edge's midpoint, relative to the edge length; and per quadratic
+    block (k, 3) rows (corner a, corner b, mid node) of file node indices."""
+    out, offset, mids = {}, 0.0, []
     for k, (_, block) in enumerate(solids):
         shape = SOLID_TYPES[block.type]
         data = np.asarray(block.data, dtype=np.int64)
         c = data[:, : elements.SHAPES[shape]]
         if data.shape[1] > c.shape[1]:
             offset = max(offset, _midnode_offset(points, shape, c, data[:, c.shape[1]:]))
+            mids.append(_edge_mid_nodes(points, shape, c, data[:, c.shape[1]:], block.type,
+                                        path))
         jac = elements.corner_jacobians(points, shape, c)
         positive = (jac > 0).all(axis=1)
         negative = (jac < 0).all(axis=1)
@@ -451,7 +469,46 @@ def _corners(points: np.ndarray, raw, solids, path) -> tuple[dict[int, np.ndarra
                 f"{path}: {bad.size} {block.type} element(s) inverted or tangled (first: "
                 f"element {int(bad[0]) + 1} of that type in the file)")
         out[k] = c
-    return out, offset
+    return out, offset, mids
+
+
+def _edge_mid_nodes(points, shape, corners, extra, kind, path) -> np.ndarray:
+    """(m e, 3) rows (corner a, corner b, its mid node) of every edge of the elements: each
+    edge takes the mid node nearest its straight midpoint (order-free: readers order mid
+    nodes differently); MeshImportError if two edges of an element would take one node."""
+    edges = np.asarray(elements.EDGES[shape])
+    extra = extra[:, : len(edges)]  # a hexahedron27's face and centre nodes are not on edges
+    a, b = corners[:, edges[:, 0]], corners[:, edges[:, 1]]  # (m, e)
+    mid = 0.5 * (points[a] + points[b])
+    d = np.linalg.norm(points[extra][:, None, :, :] - mid[:, :, None, :], axis=3)  # (m, e, x)
+    pick = d.argmin(axis=2)
+    clash = np.flatnonzero((np.sort(pick, axis=1)[:, 1:] == np.sort(pick, axis=1)[:, :-1])
+                           .any(axis=1))
+    if clash.size:
+        raise MeshImportError(
+            f"{path}: the mid-edge nodes of {kind} element {int(clash[0]) + 1} (of that type "
+            "in the file) do not lie one near each edge (a distorted or mis-numbered element)")
+    node = np.take_along_axis(extra, pick, axis=1)
+    return np.stack([a.ravel(), b.ravel(), node.ravel()], axis=1)
+
+
+#: A mid node further than this (relative to its edge's length) from the straight edge's
+#: midpoint makes the edge curved; closer, it is rounding of a straight edge's midpoint.
+CURVED = 1e-6
+
+
+def _curved_edges(points, mids, new) -> tuple[np.ndarray, np.ndarray]:
+    """(c, 2) sorted corner pairs in the kept numbering and (c, 3) mid node positions (the
+    file's units) of the edges whose mid node lies off the straight midpoint."""
+    if not mids:
+        return np.empty((0, 2), dtype=np.int64), np.empty((0, 3))
+    rows = np.concatenate(mids)
+    pairs = np.sort(rows[:, :2], axis=1)
+    pairs, first = np.unique(pairs, axis=0, return_index=True)  # one node per edge
+    xyz = points[rows[first, 2]]
+    a, b = points[pairs[:, 0]], points[pairs[:, 1]]
+    off = np.linalg.norm(xyz - 0.5 * (a + b), axis=1) > CURVED * np.linalg.norm(b - a, axis=1)
+    return np.sort(new[pairs[off]], axis=1), xyz[off]
 
 
 def _midnode_offset(points, shape, corners, extra) -> float:

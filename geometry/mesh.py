@@ -249,6 +249,12 @@ class Mesh:
                 under "derived", e.g. CAD volumes and the damper's nominal mass)
     hexahedra:  (n_hex, 8) int64 corner node indices, wedges: (n_wedge, 6): the other
                 element shapes of an imported mesh (corner order: ``geometry.cells``)
+    curved_edges: (c, 2) int64 sorted corner pairs (a < b) of the element edges that are
+                curved, and edge_nodes: (c, 3) float64 their mid-edge node positions (m):
+                quadratic geometry (an imported deck's mid nodes, a curved arc's). Every
+                other edge is straight, its mid node halfway between its corners. The
+                finite elements map each element isoparametrically through these
+                (``fe.fem``), at either field order.
     """
 
     model: str
@@ -261,6 +267,8 @@ class Mesh:
     parameters: dict = field(default_factory=dict)
     hexahedra: np.ndarray = field(default_factory=lambda: elements.empty("hexahedron"))
     wedges: np.ndarray = field(default_factory=lambda: elements.empty("wedge"))
+    curved_edges: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    edge_nodes: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
 
     # ------------------------------------------------------------------ checks
     def __post_init__(self) -> None:
@@ -286,6 +294,7 @@ class Mesh:
                     f"(first: element {int(bad[0])})")
             object.__setattr__(self, name, arr)
         n = len(points)
+        self._check_curved_edges(n)
         object.__setattr__(self, "bodies", self._checked_bodies(self.element_count))
         object.__setattr__(self, "node_sets", self._checked_node_sets(n))
         self._check_cyclic()
@@ -294,6 +303,23 @@ class Mesh:
             json.dumps(self.parameters, sort_keys=True)
         except TypeError as exc:
             raise MeshValidationError(f"parameters are not JSON-serialisable: {exc}") from exc
+
+    def _check_curved_edges(self, n: int) -> None:
+        pairs = _index_array("curved_edges", self.curved_edges, 2).reshape(-1, 2)
+        xyz = np.asarray(self.edge_nodes, dtype=np.float64).reshape(-1, 3)
+        if len(xyz) != len(pairs):
+            raise MeshValidationError(f"edge_nodes: {len(xyz)} positions for "
+                                      f"{len(pairs)} curved edges")
+        if pairs.size and (pairs.min() < 0 or pairs.max() >= n
+                           or np.any(pairs[:, 0] >= pairs[:, 1])):
+            raise MeshValidationError("curved_edges: expected sorted node pairs (a < b) "
+                                      f"in [0, {n})")
+        if len(np.unique(pairs, axis=0)) != len(pairs):
+            raise MeshValidationError("curved_edges: an edge is listed twice")
+        if not np.all(np.isfinite(xyz)):
+            raise MeshValidationError("edge_nodes: non-finite coordinates")
+        object.__setattr__(self, "curved_edges", pairs)
+        object.__setattr__(self, "edge_nodes", _frozen(xyz))
 
     def _checked_bodies(self, n_elements: int) -> dict[str, np.ndarray]:
         if not self.bodies:
@@ -389,6 +415,11 @@ class Mesh:
         return " + ".join(f"{len(getattr(self, name))} {name}" for name in _FIELDS
                           if len(getattr(self, name))) or "no elements"
 
+    def mid_edge_points(self, pairs: np.ndarray) -> np.ndarray:
+        """(e, 3) positions (m) of the mid-edge nodes of edges ``pairs`` (e, 2) sorted node
+        pairs: the curved ones' given nodes, the straight ones' midpoints."""
+        return mid_edge_points(self.points, pairs, self.curved_edges, self.edge_nodes)
+
     @property
     def element_count(self) -> int:
         """Elements of every shape."""
@@ -474,6 +505,9 @@ class Mesh:
         for name in ("hexahedra", "wedges"):  # (absent from tetrahedral meshes' digests)
             if len(getattr(self, name)):
                 put(name, getattr(self, name))
+        if len(self.curved_edges):  # (absent from straight meshes' digests)
+            put("curved_edges", self.curved_edges)
+            put("edge_nodes", self.edge_nodes)
         for name in sorted(self.bodies):
             put("body/" + name, self.bodies[name])
         for name in sorted(self.node_sets):
@@ -560,6 +594,23 @@ class Mesh:
             return self.write_msh(path)
         meshio.write(path, self.to_meshio())
         return path
+
+
+def mid_edge_points(points: np.ndarray, pairs: np.ndarray, curved_edges: np.ndarray,
+                    edge_nodes: np.ndarray) -> np.ndarray:
+    """(e, 3) mid-edge node positions (m) of the edges ``pairs`` (e, 2) sorted node pairs:
+    ``edge_nodes[i]`` for ``curved_edges[i]``, the straight midpoint for the others."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    out = 0.5 * (points[pairs[:, 0]] + points[pairs[:, 1]])
+    if len(curved_edges) and len(pairs):
+        n = max(int(pairs.max()), int(curved_edges.max())) + 1
+        key = pairs[:, 0] * n + pairs[:, 1]
+        curved = curved_edges[:, 0] * n + curved_edges[:, 1]
+        order = np.argsort(curved)
+        at = np.minimum(np.searchsorted(curved, key, sorter=order), len(curved) - 1)
+        hit = curved[order[at]] == key
+        out[hit] = edge_nodes[order[at[hit]]]
+    return out
 
 
 def _vtk_order(shape: str, corners: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import elements
 from .mesh import Mesh
 
 # cell corners (VTK order) -> two wedges / six tetrahedra, positively oriented
@@ -75,22 +76,34 @@ def block(shape: str, size: tuple[float, float, float] = (1.0, 0.1, 0.1),
 
 def annulus(shape: str = "hexahedron", sectors: int = 12,
             cells: tuple[int, int, int] = (3, 4, 2), stretch: float = 0.0,
-            radii: tuple[float, float] = (0.1, 0.2), width: float = 0.02) -> Mesh:
+            radii: tuple[float, float] = (0.1, 0.2), width: float = 0.02,
+            curved: bool = False) -> Mesh:
     """One sector (theta in [-phi/2, phi/2]) of a ring r in ``radii``, z in [0, width], on an
     (nr, ntheta, nz) grid of cells in ``shape``; ``stretch`` > 0 moves the radial and axial
     grid lines more the nearer they are to the right face, so the two cyclic faces no longer
-    match. Body "ring"; node sets "ring/bore" (r = r0), "cyclic/left", "cyclic/right"."""
-    nr, nt, nz = cells
+    match; ``curved``: every edge's mid node on the ring (the image of its midpoint in the
+    grid's (r, theta, z) coordinates), the quadratic geometry a curved deck has. Body "ring";
+    node sets "ring/bore" (r = r0), "cyclic/left", "cyclic/right"."""
     P, hexes = grid((1.0, 1.0, 1.0), cells)
-    x, t, z = P.T  # unit cube coordinates
-    bend = stretch * t * x * (1 - x)  # 0 on the left face (t = 0) and on r0, r1
-    r = radii[0] + (radii[1] - radii[0]) * (x + bend)
-    theta = (t - 0.5) * 2 * np.pi / sectors
-    zz = width * (z + stretch * t * z * (1 - z))
-    points = np.stack([r * np.cos(theta), r * np.sin(theta), zz], axis=1)
+
+    def ring(q: np.ndarray) -> np.ndarray:
+        x, t, z = q.T  # unit cube coordinates
+        bend = stretch * t * x * (1 - x)  # 0 on the left face (t = 0) and on r0, r1
+        r = radii[0] + (radii[1] - radii[0]) * (x + bend)
+        theta = (t - 0.5) * 2 * np.pi / sectors
+        zz = width * (z + stretch * t * z * (1 - z))
+        return np.stack([r * np.cos(theta), r * np.sin(theta), zz], axis=1)
+
     tets, hexes, wedges = split_cells(shape, hexes)
     n = len(tets) + len(hexes) + len(wedges)
+    x, t = P[:, 0], P[:, 1]
     sets = {"ring/bore": np.flatnonzero(x < 1e-12), "cyclic/left": np.flatnonzero(t < 1e-12),
             "cyclic/right": np.flatnonzero(t > 1 - 1e-12)}
-    return Mesh("annulus", points, tets, {"ring": np.arange(n)}, node_sets=sets,
-                hexahedra=hexes, wedges=wedges)
+    edges = np.empty((0, 2), dtype=np.int64)
+    if curved:
+        shapes = {"tetra": tets, "hexahedron": hexes, "wedge": wedges}
+        edges = np.unique(np.concatenate([np.sort(c[:, elements.EDGES[k]].reshape(-1, 2),
+                                                  axis=1) for k, c in shapes.items()]), axis=0)
+    return Mesh("annulus", ring(P), tets, {"ring": np.arange(n)}, node_sets=sets,
+                hexahedra=hexes, wedges=wedges, curved_edges=edges,
+                edge_nodes=ring(P[edges].mean(axis=1)))

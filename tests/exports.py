@@ -1,5 +1,6 @@
 """Meshes written as other tools write them, for the import tests: a Mesh moved into another
-frame and unit, optionally quadratic (mid-edge nodes at the edge midpoints), to .inp, .bdf,
+frame and unit, optionally quadratic (mid-edge nodes where the mesh has them: its curved edges'
+nodes, the other edges' midpoints), to .inp, .bdf,
 .msh or any meshio format, with the bodies as element sets and the node sets as node sets
 (Gmsh: physical groups; Nastran: the property id of each body, no sets)."""
 
@@ -35,8 +36,8 @@ def write(mesh: Mesh, path: Path, *, scale: float = 1.0, rotation=None, origin=(
                     mids[i, e] = extra.setdefault(tuple(pair), len(points) + len(extra))
             blocks.append((QUADRATIC[shape], body, np.hstack([corners, mids])))
     if extra:
-        pairs = np.array(list(extra))
-        points = np.vstack([points, 0.5 * (points[pairs[:, 0]] + points[pairs[:, 1]])])
+        mid = mesh.mid_edge_points(np.array(list(extra)))
+        points = np.vstack([points, (mid @ R.T + np.asarray(origin)) / scale])
     fmt = FORMATS.get(Path(path).suffix, None)
     cells = [(t, c) for t, _, c in blocks]
     names = list(mesh.bodies)

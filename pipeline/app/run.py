@@ -201,11 +201,6 @@ def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
     return out / "results.h5"
 
 
-#: A mid-edge node further than this (relative to its edge) from the straight edge's midpoint
-#: is noted: the quadratic elements straighten curved edges.
-MIDNODE_NOTE = 1e-3
-
-
 def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
                   pictures: bool = True, cache: SharedCache | None = None):
     """Build (or read) the [geometry] of a case, a parametric model's mesh kept in the
@@ -239,11 +234,10 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
     if report is not None and report.dropped_sets:
         progress("[geometry] note: node sets of mid-side nodes only, so empty on the corner "
                  "mesh (name corner nodes instead): " + ", ".join(report.dropped_sets))
-    if report is not None and report.midnode_offset > MIDNODE_NOTE:
-        progress(f"[geometry] note: the file's mid-edge nodes lie up to "
-                 f"{100 * report.midnode_offset:.2g} % of an edge off its "
-                 "straight midpoint; the quadratic elements have straight edges (refine the "
-                 "mesh where curvature matters)")
+    if report is not None and report.curved_edges:
+        progress(f"[geometry] {report.curved_edges} curved edges kept as the file has them "
+                 f"(mid-edge nodes up to {100 * report.midnode_offset:.2g} % of an edge off "
+                 "straight)")
     if pictures:
         from microslip.pipeline.draw.previews import MeshView
 

@@ -19,12 +19,14 @@ lie outside the element; test_elements checks ours).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import skfem as fe
+from numpy import ndarray
 from skfem.element.element_h1 import ElementH1
 from skfem.io.meshio import INV_HEX_MAPPING
+from skfem.mapping import MappingIsoparametric
 from skfem.quadrature import get_quadrature_line, get_quadrature_tri
 from skfem.refdom import RefWedge
 
@@ -92,6 +94,25 @@ def wedge_quadrature(degree: int) -> tuple[np.ndarray, np.ndarray]:
     return points, np.repeat(Wt, Xl.shape[1]) * np.tile(Wl, Xt.shape[1])
 
 
+@dataclass(repr=False)
+class MeshHexS2(fe.MeshHex1):
+    """Hexahedra whose geometry is the 20-node serendipity map (corners and mid-edge nodes:
+    ``doflocs`` holds the vertices, then one node per edge in the mesh's edge order)."""
+
+    doflocs: ndarray = field(default_factory=lambda: fe.MeshHex1().doflocs)
+    elem: type = fe.ElementHexS2
+    affine: bool = False
+
+
+@dataclass(repr=False)
+class MeshWedgeS2(fe.MeshWedge1):
+    """Wedges whose geometry is the 15-node serendipity map (as :class:`MeshHexS2`)."""
+
+    doflocs: ndarray = field(default_factory=lambda: fe.MeshWedge1().doflocs)
+    elem: type = ElementWedgeS2
+    affine: bool = False
+
+
 @dataclass(frozen=True)
 class Shape:
     """How one solid shape is assembled: scikit-fem mesh class, the permutation from the
@@ -103,23 +124,33 @@ class Shape:
     linear: type
     quadratic: type
     degrees: dict[int, tuple[int, int]]
+    curved: type
+
+    def curved_mapping(self, mesh: fe.Mesh, mid_edge: np.ndarray) -> MappingIsoparametric:
+        """The isoparametric map of ``mesh``'s elements through their quadratic geometry:
+        ``mid_edge`` (n_edges, 3) [m] the mid-edge node of each of ``mesh.edges``."""
+        geometry = self.curved(np.hstack([mesh.doflocs, np.asarray(mid_edge).T]), mesh.t)
+        return MappingIsoparametric(geometry, geometry.elem(), geometry.bndelem)
 
     def element(self, order: int) -> fe.ElementVector:
         """The vector (3-component) element of ``order`` (1 or 2)."""
         return fe.ElementVector(self.quadratic() if order == 2 else self.linear())
 
-    def basis(self, mesh: fe.Mesh, order: int, degree: int) -> fe.CellBasis:
-        """Basis of ``order`` on a scikit-fem mesh of this shape, integrating ``degree``."""
+    def basis(self, mesh: fe.Mesh, order: int, degree: int,
+              mapping: MappingIsoparametric | None = None) -> fe.CellBasis:
+        """Basis of ``order`` on a scikit-fem mesh of this shape, integrating ``degree``;
+        through ``mapping`` (the curved geometry's) if given, else the corner map."""
         if self.mesh is fe.MeshWedge1:
-            return fe.Basis(mesh, self.element(order), quadrature=wedge_quadrature(degree))
-        return fe.Basis(mesh, self.element(order), intorder=degree)
+            return fe.Basis(mesh, self.element(order), mapping=mapping,
+                            quadrature=wedge_quadrature(degree))
+        return fe.Basis(mesh, self.element(order), mapping=mapping, intorder=degree)
 
 
 SHAPES = {
     "tetra": Shape(fe.MeshTet1, (0, 1, 2, 3), fe.ElementTetP1, fe.ElementTetP2,
-                   {1: (0, 2), 2: (2, 4)}),
+                   {1: (0, 2), 2: (2, 4)}, fe.MeshTet2),
     "hexahedron": Shape(fe.MeshHex1, tuple(INV_HEX_MAPPING[:8]), fe.ElementHex1,
-                        fe.ElementHexS2, {1: (2, 2), 2: (4, 4)}),
+                        fe.ElementHexS2, {1: (2, 2), 2: (4, 4)}, MeshHexS2),
     "wedge": Shape(fe.MeshWedge1, (0, 1, 2, 3, 4, 5), fe.ElementWedge1, ElementWedgeS2,
-                   {1: (2, 2), 2: (4, 4)}),
+                   {1: (2, 2), 2: (4, 4)}, MeshWedgeS2),
 }

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
@@ -35,6 +35,7 @@ from skfem.helpers import dot
 from skfem.models.elasticity import linear_elasticity
 
 from microslip.geometry import elements as geometry_elements
+from microslip.geometry.mesh import mid_edge_points
 
 from . import elements
 
@@ -110,6 +111,8 @@ class BodyModel:
         shape (mesh order), from which the scikit-fem bases (same DOF numbering) are
         rebuilt for loads.
     stiffness, mass: (N, N) CSR [N/m], [kg].
+    curved_edges: (c, 2) global vertex pairs of the body's curved edges, edge_nodes: (c, 3)
+        their mid-edge node positions [m] (the mesh's, for the loads' bases).
     """
 
     body: str
@@ -125,6 +128,8 @@ class BodyModel:
     cells: Mapping[str, IntArray]
     stiffness: sp.csr_matrix
     mass: sp.csr_matrix
+    curved_edges: IntArray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    edge_nodes: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
 
     @property
     def n_dofs(self) -> int:
@@ -238,18 +243,22 @@ class _Block:
     shape: str
     mesh: fe.Mesh
     dof_map: IntArray
+    mapping: Any = None  # the curved elements' isoparametric map (None: the corner map)
 
     def basis(self, order: int, degree: int) -> fe.CellBasis:
-        return elements.SHAPES[self.shape].basis(self.mesh, order, degree)
+        return elements.SHAPES[self.shape].basis(self.mesh, order, degree, self.mapping)
 
 
-def _blocks(points: FloatArray, cells: Mapping[str, IntArray], order: int
+def _blocks(points: FloatArray, cells: Mapping[str, IntArray], order: int,
+            curved: tuple[IntArray, FloatArray] | None = None
             ) -> tuple[IntArray, IntArray, list[_Block]]:
     """(vertices (n_v,), edges (n_e, 2) sorted global vertex pairs, blocks) of a body.
 
     Vertex i's DOFs are 3 i + (0, 1, 2); with order 2, edge e's are 3 (n_v + e) + (0, 1, 2)
     (scikit-fem's numbering when the body has one shape). Edges are numbered as the first
-    block that has them.
+    block that has them. ``curved``: (pairs (c, 2), mid-edge nodes (c, 3) [m]) of the
+    mesh's curved edges; a block with one of them maps every element through its quadratic
+    geometry (straight edges' mid nodes at their midpoints).
     """
     nodes = np.unique(np.concatenate([np.asarray(c).ravel() for c in cells.values()]))
     key_of: dict[tuple[int, int], int] = {}
@@ -267,7 +276,13 @@ def _blocks(points: FloatArray, cells: Mapping[str, IntArray], order: int
                               for a, b in pairs], dtype=np.int64)
             dof_map = np.concatenate([dof_map, (3 * (len(nodes) + index[:, None])
                                                 + np.arange(3)).ravel()])
-        blocks.append(_Block(shape, skm, dof_map.astype(np.int64)))
+        mapping = None
+        if curved is not None and len(curved[0]):
+            pairs = np.sort(nodes[used[skm.edges.T]], axis=1)
+            mid = mid_edge_points(points, pairs, *curved)
+            if np.abs(mid - points[pairs].mean(axis=1)).max() > 0.0:
+                mapping = kind.curved_mapping(skm, mid)
+        blocks.append(_Block(shape, skm, dof_map.astype(np.int64), mapping))
     edges = np.array(list(key_of), dtype=np.int64).reshape(-1, 2)
     return nodes, nodes[edges] if len(edges) else edges, blocks
 
@@ -297,7 +312,8 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
     if not cells:
         raise ValueError(f"body={body!r} has no elements")
     points = np.asarray(mesh.points, dtype=np.float64)
-    nodes, edges, blocks = _blocks(points, cells, order)
+    curved = _body_curved_edges(mesh, cells)
+    nodes, edges, blocks = _blocks(points, cells, order, curved)
     n = 3 * (len(nodes) + (len(edges) if order == 2 else 0))
     k_parts, m_parts = [], []
     for block in blocks:
@@ -325,7 +341,22 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
         cells={shape: np.asarray(c, dtype=np.int64) for shape, c in cells.items()},
         stiffness=K,
         mass=M,
+        curved_edges=curved[0],
+        edge_nodes=curved[1],
     )
+
+
+def _body_curved_edges(mesh: MeshLike, cells: Mapping[str, IntArray]
+                       ) -> tuple[IntArray, FloatArray]:
+    """(pairs (c, 2), mid-edge nodes (c, 3) [m]) of the mesh's curved edges among the
+    corners of ``cells`` (a body's)."""
+    pairs = np.asarray(getattr(mesh, "curved_edges", np.empty((0, 2))), dtype=np.int64)
+    xyz = np.asarray(getattr(mesh, "edge_nodes", np.empty((0, 3))), dtype=np.float64)
+    if not len(pairs):
+        return pairs.reshape(0, 2), xyz.reshape(0, 3)
+    corners = np.unique(np.concatenate([np.asarray(c).ravel() for c in cells.values()]))
+    inside = np.isin(pairs, corners).all(axis=1)
+    return pairs[inside], xyz[inside]
 
 
 # --- loads ---------------------------------------------------------------------------------
@@ -357,7 +388,8 @@ def centrifugal_load(body: BodyModel) -> FloatArray:
     # The same vertices, edges and blocks as in ``assemble``: the same DOF numbering.
     points = np.zeros((int(body.nodes[-1]) + 1, 3))
     points[body.nodes] = body.points
-    _, _, blocks = _blocks(points, body.cells, body.order)
+    _, _, blocks = _blocks(points, body.cells, body.order,
+                           (body.curved_edges, body.edge_nodes))
     f = np.zeros(body.n_dofs)
     for block in blocks:
         part = _centrifugal_form.assemble(block.basis(body.order, body.order + 1),
