@@ -17,7 +17,14 @@ Previews: microslip.pipeline.draw.previews.render_previews(mesh, out_dir) (pyvis
 
 from .blisk import BliskParameters, blisk_sector
 from .full_disk import disk_node_map, full_disk
-from .mesh import ContactPatch, CyclicBoundary, Mesh, MeshValidationError, rotation_z
+from .mesh import (
+    ContactPatch,
+    CyclicBoundary,
+    Mesh,
+    MeshValidationError,
+    Support,
+    rotation_z,
+)
 from .params import GeometryBuildError, GeometryParameterError
 from .quality import sicn
 from .root_joint import RootJointParameters, root_joint
@@ -75,6 +82,7 @@ __all__ = [
     "BliskParameters",
     "ContactPatch",
     "CyclicBoundary",
+    "Support",
     "GeometryBuildError",
     "GeometryParameterError",
     "Mesh",

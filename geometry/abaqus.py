@@ -21,7 +21,14 @@ reader keeps the keywords a model needs and follows Abaqus' rules for them:
   "file"`` (``info["materials"]``: name -> (E, nu, rho); ``info["element_materials"]``: per
   cell block, each element's material name or "").
 
-Everything else (steps, loads, boundary conditions) is skipped. It returns a meshio.Mesh,
+* ``*BOUNDARY`` (data lines ``node or node set, first DOF[, last DOF[, 0]]``, or ``set,
+  ENCASTRE / PINNED / XSYMM ...``) as supports: the translations held (``info["boundary"]``:
+  (node or set, held DOFs 1-3, line)); a non-zero magnitude is a prescribed motion, a load,
+  and refused; rotational DOFs (4-6) mean nothing on solid nodes and are counted
+  (``info["rotations"]``); ``*TRANSFORM`` (``NSET=``, ``TYPE=R`` or ``C``: two points) as the
+  local frame of its set's supports (``info["transforms"]``: set -> (type, a, b)).
+
+Everything else (steps, loads) is skipped. It returns a meshio.Mesh,
 so the importer treats every format alike. Tested on decks meshio and Gmsh write.
 """
 
@@ -88,6 +95,9 @@ def read(path: str | Path):
     elsets: dict[str, list] = {}
     materials: dict[str, list[float]] = {}  # name -> [E, nu, rho] (nan: not given)
     sections: list[tuple[str, str]] = []  # (ELSET, MATERIAL)
+    boundary: list[tuple[int | str, tuple[int, ...], str]] = []  # (node or set, DOFs, where)
+    transforms: dict[str, tuple[str, list[float], list[float]]] = {}
+    rotations = 0
     # names are case-insensitive in a deck: each keeps its first spelling
     spelled: dict[tuple[str, str], str] = {}
 
@@ -122,6 +132,13 @@ def read(path: str | Path):
                 materials.setdefault(current, [np.nan, np.nan, np.nan])
             elif keyword == "*SOLID SECTION":
                 sections.append((params.get("ELSET", ""), params.get("MATERIAL", "")))
+            elif keyword == "*BOUNDARY" and params.get("TYPE", "DISPLACEMENT").upper() != \
+                    "DISPLACEMENT":
+                raise DeckError(f"{where}:{number}: *BOUNDARY, TYPE={params['TYPE']}: only "
+                                "supports (zero displacements) are read")
+            elif keyword == "*TRANSFORM" and params.get("TYPE", "R").upper() not in ("R", "C"):
+                raise DeckError(f"{where}:{number}: *TRANSFORM, TYPE={params['TYPE']}: only "
+                                "TYPE=R (rectangular) and TYPE=C (cylindrical) are read")
             pending = []
             continue
         try:
@@ -147,6 +164,20 @@ def read(path: str | Path):
                 materials[current][:2] = [float(values[0]), float(values[1])]
             elif keyword == "*DENSITY" and current and np.isnan(materials[current][2]):
                 materials[current][2] = float(values[0])
+            elif keyword == "*BOUNDARY":
+                dofs = _held(values, f"{where}:{number}")
+                rotations += sum(d > 3 for d in dofs)
+                target = int(values[0]) if _is_int(values[0]) else name_of("n", values[0])
+                boundary.append((target, tuple(d for d in dofs if d <= 3),
+                                 f"{where}:{number}"))
+            elif keyword == "*TRANSFORM":
+                name = params.get("NSET")
+                if not name:
+                    raise DeckError(f"{where}:{number}: *TRANSFORM without NSET=")
+                numbers = [float(v) for v in values[:6]]
+                if len(numbers) != 6:
+                    raise IndexError
+                transforms[name] = (params.get("TYPE", "R").upper(), numbers[:3], numbers[3:])
             elif keyword in ("*NSET", "*ELSET"):
                 target = (nsets if keyword == "*NSET" else elsets)[params[keyword[1:]]]
                 if "GENERATE" in params:
@@ -155,6 +186,8 @@ def read(path: str | Path):
                 else:
                     target.extend(int(v) if _is_int(v) else name_of(keyword[1].lower(), v)
                                   for v in values)
+        except DeckError:
+            raise
         except (ValueError, IndexError):
             raise DeckError(f"{where}:{number}: cannot read {keyword} data line "
                             f"{line[:60]!r}") from None
@@ -204,10 +237,39 @@ def read(path: str | Path):
                 if e in where_is:
                     k, i = where_is[e]
                     element_materials[k][i] = name
+    held = [(sorted(index[n] for n in ([t] if isinstance(t, int) else
+                                       _members(t, nsets, path)) if n in index), dofs, at)
+            for t, dofs, at in boundary if dofs]
     return meshio.Mesh(np.array(xyz, dtype=np.float64), cells, point_sets=point_sets,
                        cell_sets=cell_sets, info={
                            "skipped": skipped, "element_materials": element_materials,
-                           "materials": {n: tuple(v) for n, v in materials.items()}})
+                           "materials": {n: tuple(v) for n, v in materials.items()},
+                           "boundary": held, "rotations": rotations,
+                           "transforms": {n: (t, a, b, point_sets.get(n, np.empty(0, int)))
+                                          for n, (t, a, b) in transforms.items()}})
+
+
+#: Abaqus' named boundary types -> the DOFs they hold (1-3 translations, 4-6 rotations)
+_NAMED = {"ENCASTRE": (1, 2, 3, 4, 5, 6), "PINNED": (1, 2, 3), "XSYMM": (1, 5, 6),
+          "YSYMM": (2, 4, 6), "ZSYMM": (3, 4, 5), "XASYMM": (2, 3, 4), "YASYMM": (1, 3, 5),
+          "ZASYMM": (1, 2, 6)}
+
+
+def _held(values: list[str], where: str) -> tuple[int, ...]:
+    """The DOFs a *BOUNDARY data line holds; DeckError for a non-zero magnitude or a DOF
+    beyond the structural ones."""
+    if len(values) == 2 and values[1].upper() in _NAMED:
+        return _NAMED[values[1].upper()]
+    first = int(values[1])
+    last = int(values[2]) if len(values) > 2 and values[2] else first
+    if len(values) > 3 and float(values[3]) != 0.0:
+        raise DeckError(f"{where}: *BOUNDARY prescribes {values[3]} on DOF {first}-{last}: "
+                        "a non-zero displacement is a load, not a support; only supports "
+                        "(zero) are read")
+    if not 1 <= first <= last <= 6:
+        raise DeckError(f"{where}: *BOUNDARY DOFs {first}-{last}: solids have DOFs 1-3 "
+                        "(translations); only those are supports")
+    return tuple(range(first, last + 1))
 
 
 def _is_int(v: str) -> bool:

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from . import abaqus, cad, elements, materials
-from .mesh import Mesh, MeshValidationError
+from .mesh import FRAMES, Mesh, MeshValidationError, Support
 from .params import GeometryBuildError
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 
@@ -259,6 +259,7 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     length = (getattr(raw, "info", None) or {}).get("length", UNITS[units].length)  # (CAD)
     curved, mid_xyz = _curved_edges(points, mids, new)
     mid_xyz = mid_xyz * length
+    supports = _deck_supports(raw, used, new, length)
     parameters = {"file": Path(path).name, "units": units, "dropped_sets": list(dropped),
                   "materials": _body_materials(raw, solids, body_of, UNITS[units])}
 
@@ -266,14 +267,16 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
                 motion: np.ndarray | None = None) -> Mesh:
         """The mesh on nodes ``xyz``; ``motion`` (4, 3): the affine map x -> [x, 1] @
         motion that moved the nodes here from the previous mesh (the mid nodes follow)."""
-        nonlocal mid_xyz
+        nonlocal mid_xyz, supports
         if motion is not None:
             mid_xyz = mid_xyz @ motion[:3] + motion[3]
+            supports = {n: s.moved(motion[:3].T, motion[3]) for n, s in supports.items()}
         try:
             return Mesh(model=model, points=xyz, tetrahedra=cells["tetra"],
                         hexahedra=cells["hexahedron"], wedges=cells["wedge"],
                         bodies=body_index, node_sets=node_sets, cyclic=cyclic or {},
-                        parameters=parameters, curved_edges=curved, edge_nodes=mid_xyz)
+                        parameters=parameters, curved_edges=curved, edge_nodes=mid_xyz,
+                        supports=supports)
         except MeshValidationError as exc:
             raise MeshImportError(f"{path}: {exc}") from None
 
@@ -470,6 +473,52 @@ def _corners(points: np.ndarray, raw, solids, path
                 f"element {int(bad[0]) + 1} of that type in the file)")
         out[k] = c
     return out, offset, mids
+
+
+def _deck_supports(raw, used: np.ndarray, new: np.ndarray, length: float
+                   ) -> dict[str, Support]:
+    """The deck's supports (``*BOUNDARY``, in the frames of ``*TRANSFORM``) on the corner
+    nodes kept, one Support per frame and held directions: "boundary/<frame>/<held>"."""
+    info = getattr(raw, "info", None) or {}
+    held = np.zeros((len(raw.points), 3), dtype=bool)
+    for nodes, dofs, _ in info.get("boundary", []):
+        for d in dofs:
+            held[np.asarray(nodes, dtype=np.int64), d - 1] = True
+    frame_of = np.full(len(raw.points), -1)
+    frames = []
+    for name, (kind, a, b, nodes) in info.get("transforms", {}).items():
+        frames.append((name, *_transform(kind, np.asarray(a, float), np.asarray(b, float))))
+        frame_of[np.asarray(nodes, dtype=np.int64)] = len(frames) - 1
+    out = {}
+    rows = np.flatnonzero(held.any(axis=1) & used)
+    groups = frame_of[rows] * 8 + held[rows] @ np.array([1, 2, 4])
+    for g in np.unique(groups):
+        nodes = rows[groups == g]
+        mask = held[nodes[0]]
+        f = int(frame_of[nodes[0]])
+        if f < 0:
+            name, frame, axes, origin = "global", "global", np.eye(3), np.zeros(3)
+        else:
+            name, frame, axes, origin = frames[f]
+        letters = "".join(c for c, h in zip(FRAMES[frame], mask, strict=True) if h)
+        out[f"boundary/{name}/{letters}"] = Support(new[nodes], mask, frame, axes,
+                                                    origin * length)
+    return out
+
+
+def _transform(kind: str, a: np.ndarray, b: np.ndarray) -> tuple[str, np.ndarray, np.ndarray]:
+    """(frame, axes (3, 3) rows, origin) of a ``*TRANSFORM``: TYPE=R, local x along a, y in
+    the plane of a and b; TYPE=C, the axis from point a to point b (local r, theta, z)."""
+    if kind == "R":
+        x = a / np.linalg.norm(a)
+        y = b - (b @ x) * x
+        y = y / np.linalg.norm(y)
+        return "rectangular", np.array([x, y, np.cross(x, y)]), np.zeros(3)
+    z = (b - a) / np.linalg.norm(b - a)
+    e = np.eye(3)[int(np.argmin(np.abs(z)))]
+    x = e - (e @ z) * z
+    x = x / np.linalg.norm(x)
+    return "cylindrical", np.array([x, np.cross(z, x), z]), a
 
 
 def _edge_mid_nodes(points, shape, corners, extra, kind, path) -> np.ndarray:

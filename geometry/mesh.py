@@ -230,6 +230,77 @@ class SurfaceContact:
         object.__setattr__(self, "tolerance", float(self.tolerance))
 
 
+#: The frames a support's directions are given in, with the names of their directions
+FRAMES = {"global": ("x", "y", "z"), "rectangular": ("x", "y", "z"),
+          "cylindrical": ("r", "theta", "z")}
+
+
+@dataclass(frozen=True)
+class Support:
+    """Nodes of one body held (zero displacement) in some directions of a frame: a deck's
+    ``*BOUNDARY`` or a case's support.
+
+    nodes: (k,) int64 node indices; held: (3,) bool, which of the frame's three directions
+    are held; frame: "global" (x, y, z), "rectangular" (the rows of ``axes`` (3, 3): the
+    local x, y, z unit vectors) or "cylindrical" (local r, theta, z about the axis through
+    ``origin`` (3,) [m] along ``axes[2]``; theta = z x r).
+    """
+
+    nodes: np.ndarray
+    held: np.ndarray
+    frame: str = "global"
+    axes: np.ndarray = field(default_factory=lambda: np.eye(3))
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        nodes = np.unique(_index_array("Support.nodes", self.nodes, 1))
+        held = np.asarray(self.held, dtype=bool).reshape(-1)
+        if held.shape != (3,) or not held.any():
+            raise MeshValidationError(f"Support.held = {held.tolist()}: three flags, one "
+                                      "at least set")
+        if self.frame not in FRAMES:
+            raise MeshValidationError(f"Support.frame = {self.frame!r}: expected one of "
+                                      f"{sorted(FRAMES)}")
+        axes = np.asarray(self.axes, dtype=np.float64).reshape(3, 3)
+        if not np.allclose(axes @ axes.T, np.eye(3), atol=1e-9):
+            raise MeshValidationError("Support.axes: rows must be orthonormal unit vectors")
+        object.__setattr__(self, "nodes", nodes)
+        object.__setattr__(self, "held", _frozen(held))
+        object.__setattr__(self, "axes", _frozen(axes))
+        object.__setattr__(self, "origin", _frozen(np.asarray(self.origin, float).reshape(3)))
+
+    def held_directions(self, xyz: np.ndarray) -> np.ndarray:
+        """(k, m, 3) the unit vectors held at points ``xyz`` (k, 3) [m] (m held directions);
+        ValueError for a point on a cylindrical frame's axis (no radial direction there)."""
+        xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        if self.frame != "cylindrical":
+            return np.broadcast_to(self.axes[self.held], (len(xyz), int(self.held.sum()), 3))
+        axis = self.axes[2]
+        d = xyz - self.origin
+        radial = d - np.outer(d @ axis, axis)
+        r = np.linalg.norm(radial, axis=1)
+        if np.any(r <= 1e-12 * max(1.0, float(np.abs(d).max(initial=0.0)))):
+            raise ValueError("a support in a cylindrical frame holds a node on its axis, "
+                             "where the radial direction is undefined")
+        radial = radial / r[:, None]
+        frames = np.stack([radial, np.cross(axis, radial), np.broadcast_to(axis, xyz.shape)],
+                          axis=1)
+        return frames[:, self.held]
+
+    def moved(self, rotation: np.ndarray, shift: np.ndarray) -> Support:
+        """The support after the mesh moved by x -> rotation x + shift."""
+        rotation = np.asarray(rotation)
+        return Support(self.nodes, self.held, self.frame, self.axes @ rotation.T,
+                       rotation @ self.origin + np.asarray(shift))
+
+    def describe(self) -> str:
+        """"held in x, z" / "held in r (cylindrical about (0, 0, 1))"."""
+        names = [n for n, h in zip(FRAMES[self.frame], self.held, strict=True) if h]
+        where = {"global": "", "rectangular": " of a local frame",
+                 "cylindrical": f" (cylindrical about {np.round(self.axes[2], 4).tolist()})"}
+        return f"{len(self.nodes)} nodes held in {', '.join(names)}{where[self.frame]}"
+
+
 @dataclass(frozen=True)
 class Mesh:
     """Solid mesh of one model with bodies, named sets, cyclic faces, contacts.
@@ -255,6 +326,8 @@ class Mesh:
                 other edge is straight, its mid node halfway between its corners. The
                 finite elements map each element isoparametrically through these
                 (``fe.fem``), at either field order.
+    supports:   name -> :class:`Support`: the nodes the file holds (an imported deck's
+                ``*BOUNDARY``), each within one body
     """
 
     model: str
@@ -269,6 +342,7 @@ class Mesh:
     wedges: np.ndarray = field(default_factory=lambda: elements.empty("wedge"))
     curved_edges: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
     edge_nodes: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+    supports: dict[str, Support] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ checks
     def __post_init__(self) -> None:
@@ -299,6 +373,9 @@ class Mesh:
         object.__setattr__(self, "node_sets", self._checked_node_sets(n))
         self._check_cyclic()
         self._check_contacts()
+        for name, support in self.supports.items():
+            if support.nodes.size and support.nodes.max() >= n:
+                raise MeshValidationError(f"supports[{name!r}]: indices outside [0, {n})")
         try:
             json.dumps(self.parameters, sort_keys=True)
         except TypeError as exc:
@@ -529,6 +606,11 @@ class Mesh:
             put("a", p.nodes_a)
             put("b", p.nodes_b)
             put("n", p.normal)
+        for name in sorted(self.supports):
+            sup = self.supports[name]
+            put(f"support/{name}/{sup.frame}", sup.nodes)
+            put("held", sup.held.astype(np.int8))
+            put("frame", np.concatenate([sup.axes.ravel(), sup.origin]))
         put(json.dumps(self.parameters, sort_keys=True))
         return h.hexdigest()
 

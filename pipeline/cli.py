@@ -347,6 +347,7 @@ def check(argv: list[str]) -> int:
     from pathlib import Path
 
     from microslip.pipeline.case import CaseError, load, notes, sizes
+    from microslip.pipeline.case.geometry import imported_contents
     from microslip.pipeline.case.units import case_unit_lines
 
     parser = argparse.ArgumentParser(prog="microslip check", description=check.__doc__)
@@ -361,6 +362,8 @@ def check(argv: list[str]) -> int:
             print(f"{path}: ok ({len(c.analyses)} analyses: "
                   f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)}{size})")
             units, implausible = case_unit_lines(c.data)
+            for line in imported_contents(c.data):
+                print(f"{path}: {line}")
             for note in (*c.renamed, *units, *notes(c.data)):
                 print(f"{path}: note: {note}")
             for line in implausible:

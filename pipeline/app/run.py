@@ -31,6 +31,7 @@ from microslip.pipeline.case import (
     settings,
     task_seconds,
 )
+from microslip.pipeline.case.geometry import contents_lines
 from microslip.pipeline.case.specs import (
     Analysis,
     Dti,
@@ -228,6 +229,9 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
                      f"beyond {c.set_b} (up to {dropped[1]:.3g} m) and touch nothing (trim the "
                      "set, or raise the contact's tolerance if they should touch)")
     report = table.read().report if table.imported else None
+    if table.imported:
+        for line in contents_lines(m):
+            progress(f"[geometry] {line}")
     if report is not None and report.skipped:
         progress("[geometry] note: not solids, so not part of the model (their nodes are node "
                  "sets): " + ", ".join(f"{n} {t}" for t, n in sorted(report.skipped.items())))

@@ -201,6 +201,36 @@ class GeometryTable:
         return int(value) if is_int(value) and value >= 3 else None
 
 
+#: How many names a listing shows before "... and N more"
+LISTED = 40
+
+
+def contents_lines(mesh: geometry.Mesh) -> list[str]:
+    """What an imported mesh holds, by the names a case uses: its bodies (element count),
+    node sets (node count) and supports."""
+
+    def listing(items: list[str]) -> str:
+        more = f" ... and {len(items) - LISTED} more" if len(items) > LISTED else ""
+        return ", ".join(items[:LISTED]) + more if items else "none"
+
+    bodies = [f"{b} ({len(mesh.bodies[b])} elements)" for b in sorted(mesh.bodies)]
+    sets = [f"{n} ({len(mesh.node_sets[n])})" for n in sorted(mesh.node_sets)]
+    lines = [f"bodies: {listing(bodies)}", f"node sets: {listing(sets)}"]
+    for name, support in sorted(mesh.supports.items()):
+        lines.append(f"support {name} (the file's): {support.describe()}")
+    return lines
+
+
+def imported_contents(data: Mapping[str, Any]) -> list[str]:
+    """``contents_lines`` of a valid case's imported mesh, each naming the file (none for a
+    parametric model)."""
+    geo = data.get("geometry")
+    if not (isinstance(geo, Mapping) and geo.get("model") == "import"):
+        return []
+    table = GeometryTable.of(geo)
+    return [f"{Path(table.file).name}: {line}" for line in contents_lines(table.build())]
+
+
 def _selection(t: Mapping[str, Any]) -> Selection:
     def point(v) -> tuple[float, ...]:
         return tuple(float(x) for x in v)

@@ -20,7 +20,9 @@ The table (all keys optional but one of ``nodal_diameters`` or
     modal_ratios = 0.001             # models (no re-reduction): zeta (one, or per mode) and/or
     rayleigh_alpha = 0.0             # C = alpha M + beta K  [1/s], [s]
     [reduction.bodies.<body>]        # per body: material, damping, modes, clamped, masters,
-                                     # recovery
+                                     # recovery, supports:
+    supports = [{ set = "hub", held = ["z"] },                             # x, y, z
+                { set = "rim", held = ["r", "theta"], frame = "cylindrical" }]  # about +z
     [reduction.contact_stiffness.<patch>]  # normal, tangential per unit area [N/m^3]
 
 Conventions from the geometry models' node-set names: a body is clamped on ``<body>/bore``
@@ -32,6 +34,11 @@ Without ``f_max``, the cyclic bodies choose their modes by their own 10th fixed-
 frequency and the other bodies (the free damper, whose fixed-interface modes are all far above
 the disk's) get as f_max the highest frequency the cyclic bodies resolve: the damper keeps a
 few modes instead of every mode below 4x its own 10th (249 for the default blisk's damper).
+
+Supports hold a node set's nodes in some directions only: of the model frame ("global", x, y,
+z) or cylindrical about the model's +z axis (the disk axis of a cyclic model: r, theta, z).
+An imported deck's own supports (``*BOUNDARY``, ``Mesh.supports``) hold its bodies too, beside
+``clamped`` and the case's supports. A supported node cannot be a master.
 
 Reduced models are cached in ``<out>/models/cb-<hash>.h5``: a re-run reuses every body and ND
 whose mesh, material, constraints, masters and mode selection have not changed.
@@ -45,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from microslip.geometry.mesh import ContactPatch
+from microslip.geometry.mesh import ContactPatch, Support
 from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
 from microslip.pipeline.fe.fem import Damping, Material
@@ -58,7 +65,10 @@ STEEL = Material(2.0e11, 0.3, 7850.0)
 FROM_FILE = "file"  # material = "file": each body's from the imported deck's cards
 KEYS = {"nodal_diameters", "engine_order", "harmonics", "order", "modes", "cutoff", "f_max",
         "backend", "material", "damping", "bodies", "contact_stiffness"}
-BODY_KEYS = {"material", "damping", "modes", "clamped", "masters", "recovery"}
+BODY_KEYS = {"material", "damping", "modes", "clamped", "masters", "recovery", "supports"}
+SUPPORT_KEYS = {"set", "held", "frame"}
+#: a case's support frames, with their directions' names
+SUPPORT_FRAMES = {"global": ("x", "y", "z"), "cylindrical": ("r", "theta", "z")}
 DAMPING_KEYS = {"rayleigh_alpha", "rayleigh_beta", "modal_ratios"}
 MATERIAL_KEYS = {"youngs_modulus", "poisson_ratio", "density"}
 STIFFNESS_KEYS = {"normal", "tangential"}
@@ -139,6 +149,7 @@ def check(red: Any, data: Mapping[str, Any], out: list[str],
             if k in b and not (isinstance(b[k], list) and all(isinstance(s, str)
                                                               for s in b[k])):
                 out.append(f"{pre}.{k} = {b[k]!r}: expected a list of node-set names")
+        _check_supports(pre, b.get("supports", []), out)
     for name, s in _table_of(red, "contact_stiffness", out).items():
         pre = f"reduction.contact_stiffness.{name}"
         if not isinstance(s, dict) or set(s) != STIFFNESS_KEYS:
@@ -150,6 +161,32 @@ def check(red: Any, data: Mapping[str, Any], out: list[str],
                 out.append(f"{pre}.{k} = {s[k]!r}: expected a stiffness per area > 0 [N/m^3]")
 
 
+def _check_supports(pre: str, supports: Any, out: list[str]) -> None:
+    """One line per fault of a body's ``supports`` list."""
+    if not isinstance(supports, list):
+        out.append(f"{pre}.supports = {supports!r}: expected a list of tables {{ set = "
+                   "\"<node set>\", held = [\"x\", ...], frame = \"global\" }")
+        return
+    for i, item in enumerate(supports):
+        where = f"{pre}.supports[{i}]"
+        if not isinstance(item, dict):
+            out.append(f"{where} = {item!r}: expected a table with set, held (and frame)")
+            continue
+        unknown_keys(f"{where}.", item, SUPPORT_KEYS, out)
+        if not isinstance(item.get("set"), str):
+            out.append(f"{where}.set = {item.get('set')!r}: expected a node-set name")
+        frame = item.get("frame", "global")
+        if frame not in SUPPORT_FRAMES:
+            out.append(f"{where}.frame = {frame!r}: expected one of {list(SUPPORT_FRAMES)}")
+            continue
+        names = SUPPORT_FRAMES[frame]
+        held = item.get("held")
+        if not (isinstance(held, list) and held and all(h in names for h in held)
+                and len(set(held)) == len(held)):
+            out.append(f"{where}.held = {held!r}: expected a non-empty list of distinct "
+                       f"directions of the {frame} frame, among {list(names)}")
+
+
 def names_faults(mesh: Any, red: Any, out: list[str]) -> None:
     """The fault (one line) of a body, node set or patch the [reduction] table names, or its
     conventions need, that ``mesh`` lacks (an imported mesh is read at check time)."""
@@ -159,8 +196,8 @@ def names_faults(mesh: Any, red: Any, out: list[str]) -> None:
                 out.append(f"reduction.bodies.{spec.body}.masters: body {spec.body!r} has no "
                            "master node (no contact, excitation or response set); name its "
                            f"interface node sets; node sets: {sorted(mesh.node_sets)}")
-    except ValueError as exc:
-        out.append(f"reduction: {exc}")
+    except ValueError as exc:  # (a message naming its key already says where)
+        out.append(str(exc) if str(exc).startswith("reduction") else f"reduction: {exc}")
 
 
 def _table_of(red: Mapping[str, Any], key: str, out: list[str]) -> dict:
@@ -247,6 +284,7 @@ class BodyTable:
     clamped: tuple[str, ...] | None = None
     masters: tuple[str, ...] | None = None
     recovery: tuple[str, ...] | None = None
+    supports: tuple[tuple[str, tuple[str, ...], str], ...] = ()  # (set, held, frame)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -281,6 +319,8 @@ class ReductionTable:
                 material=material(b["material"], base) if "material" in b else None,
                 damping=damping(b.get("damping")), damping_given="damping" in b,
                 modes=b.get("modes"),
+                supports=tuple((t["set"], tuple(t["held"]), t.get("frame", "global"))
+                               for t in b.get("supports", [])),
                 **{k: tuple(b[k]) for k in ("clamped", "masters", "recovery") if k in b})
         return cls(
             nodal_diameters=None if "nodal_diameters" not in table else tuple(
@@ -359,6 +399,7 @@ def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: boo
             recovery_sets=_sets(b.recovery, mesh, body, _RECOVERY_SETS),
             recovery_surface=surfaces,
             clamped_sets=_sets(b.clamped, mesh, body, _CLAMP_SETS),
+            supports=body_supports(mesh, body, b.supports),
             n_modes=b.modes if b.modes is not None else red.modes,
             cutoff=red.cutoff,
             f_max=red.f_max,
@@ -369,6 +410,31 @@ def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: boo
         raise ValueError(f"reduction.bodies: {unknown} are not bodies of this mesh; it has "
                          f"{sorted(mesh.bodies)}")
     return specs
+
+
+def body_supports(mesh: Any, body: str,
+                  given: Sequence[tuple[str, tuple[str, ...], str]] = ()) -> tuple[Support, ...]:
+    """The supports of ``body``: the mesh's own (a deck's ``*BOUNDARY``) on its nodes, then
+    the case's (set, held directions, frame) on the set's nodes in the body; ValueError
+    naming a set the mesh lacks or one with no node in the body."""
+    nodes = mesh.body_nodes(body)
+    out = []
+    for support in getattr(mesh, "supports", {}).values():
+        inside = np.intersect1d(support.nodes, nodes)
+        if inside.size:
+            out.append(Support(inside, support.held, support.frame, support.axes,
+                               support.origin))
+    for i, (name, held, frame) in enumerate(given):
+        where = f"reduction.bodies.{body}.supports[{i}].set = {name!r}"
+        if name not in mesh.node_sets:
+            raise ValueError(f"{where}: no such node set; node sets: "
+                             f"{sorted(mesh.node_sets)}")
+        inside = np.intersect1d(mesh.node_sets[name], nodes)
+        if not inside.size:
+            raise ValueError(f"{where}: none of its nodes is in body {body!r}")
+        flags = [d in held for d in SUPPORT_FRAMES[frame]]
+        out.append(Support(inside, np.array(flags), frame))
+    return tuple(out)
 
 
 def patch_stiffnesses(mesh: Any, specs: Sequence[BodySpec],

@@ -207,12 +207,15 @@ def _facet_weights(body: BodyModel, surface: Any, where: Any
 class SectorModel:
     """Matrices of one body with constraints (and cyclic symmetry at one ND) applied.
 
-    stiffness, mass: (n_f, n_f) CSR over the free DOFs; float64, or complex128 Hermitian for
-    0 < h < Ns/2.
-    free_dofs: (n_f,) body DOF index of each free coordinate.
+    stiffness, mass: (n_f, n_f) CSR over the free coordinates; float64, or complex128
+    Hermitian for 0 < h < Ns/2.
+    free_dofs: (n_f,) sorted, the body DOF each free coordinate stands for (a node held in
+    some directions of a local frame keeps its free directions as coordinates, standing for
+    the first of its DOFs).
     expansion: (N, n_f) CSR P_h, u_body = P_h u_free.
     nodal_diameter, sectors: None for a body without cyclic symmetry (e.g. the damper).
-    clamped_nodes: global node indices held fixed.
+    clamped_nodes: global node indices held fixed; supports: the nodes held in some
+    directions (``geometry.mesh.Support``).
     """
 
     body: BodyModel
@@ -223,6 +226,7 @@ class SectorModel:
     nodal_diameter: int | None
     sectors: int | None
     clamped_nodes: IntArray
+    supports: tuple[Any, ...] = ()
 
     @property
     def n_free(self) -> int:
@@ -251,61 +255,100 @@ class SectorModel:
         return pos_c
 
 
+def held_triples(body: BodyModel, supports: Sequence[Any]) -> dict[int, np.ndarray]:
+    """First DOF of each DOF triple a support holds -> (m, 3) the unit vectors held there
+    (every support's, at the vertex or the mid-edge point; an edge is held where both its
+    ends are, on the body's surface, as ``BodyModel.set_dofs`` holds a clamped set's)."""
+    from microslip.geometry.mesh import mid_edge_points
+
+    points = np.zeros((int(body.nodes[-1]) + 1, 3))
+    points[body.nodes] = body.points
+    held: dict[int, list[np.ndarray]] = {}
+    for support in supports:
+        nodes = np.intersect1d(support.nodes, body.nodes)
+        triples = [body.dofs_of_nodes(nodes, "supported nodes")]
+        xyz = [points[nodes]]
+        if len(body.edge_dofs):
+            edges = body.set_edges(nodes)
+            triples.append(body.edge_dofs[edges])
+            xyz.append(mid_edge_points(points, body.edges[edges], body.curved_edges,
+                                       body.edge_nodes))
+        vectors = support.held_directions(np.concatenate(xyz))
+        for triple, v in zip(np.concatenate(triples), vectors, strict=True):
+            held.setdefault(int(triple[0]), []).append(v)
+    return {k: np.concatenate(v) for k, v in held.items()}
+
+
+def _kept_directions(held: np.ndarray) -> np.ndarray:
+    """(3 - rank, 3) orthonormal rows spanning what the held vectors (m, 3) leave free."""
+    _, sigma, vt = np.linalg.svd(held)
+    return vt[int((sigma > 1e-9).sum()):]
+
+
+def _supported_basis(body: BodyModel, removed: np.ndarray, supports: Sequence[Any]
+                     ) -> tuple[sp.csr_matrix, IntArray, dict[int, np.ndarray]]:
+    """(B (N, n_q) CSR, owner (n_q,), kept): u_body = B q over the DOFs not ``removed``, a
+    supported triple's coordinates its free directions; owner: the body DOF each column
+    stands for (sorted); kept: first DOF of a supported triple -> its free directions."""
+    N = body.n_dofs
+    kept = {k: _kept_directions(v) for k, v in held_triples(body, supports).items()
+            if not removed[k]}
+    plain = ~removed
+    for k in kept:
+        plain[k:k + 3] = False
+    rows, vals = [np.flatnonzero(plain)], [np.ones(int(plain.sum()))]
+    owner = [rows[0]]
+    for k, directions in kept.items():
+        for j, d in enumerate(directions):
+            rows.append(k + np.arange(3))
+            vals.append(d)
+            owner.append(np.full(3, k + j))
+    owner_of_entry = np.concatenate(owner)
+    column_owner = np.unique(owner_of_entry)
+    columns = np.searchsorted(column_owner, owner_of_entry)
+    B = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), columns)),
+                      shape=(N, len(column_owner)))
+    return B, column_owner.astype(np.int64), kept
+
+
 def sector_model(
     body: BodyModel,
     clamped_nodes: Sequence[int] | IntArray = (),
     boundary: Any = None,
     nodal_diameter: int = 0,
+    supports: Sequence[Any] = (),
 ) -> SectorModel:
-    """Apply clamps and (if ``boundary`` is a CyclicBoundary) the ND-h cyclic condition."""
+    """Apply clamps, supports (``geometry.mesh.Support``: nodes held in some directions) and
+    (if ``boundary`` is a CyclicBoundary) the ND-h cyclic condition.
+
+    u_body = P q: a supported node's DOFs are the combinations of its free directions; the
+    slave face's DOFs follow the master's (their supports then project them on their own
+    free directions; a clamped slave DOF stays zero)."""
     clamped_nodes = np.unique(np.asarray(clamped_nodes, dtype=np.int64))
     clamped = body.set_dofs(clamped_nodes, "clamped nodes") if clamped_nodes.size else None
     N = body.n_dofs
     removed = np.zeros(N, dtype=bool)
     if clamped is not None:
         removed[clamped] = True
-    rows, cols, vals = [], [], []
-    if boundary is not None:
+    B, owner, kept = _supported_basis(body, removed, supports)
+    dtype: type = np.float64
+    if boundary is None:
+        P, sectors = B, None
+    else:
         sectors = int(boundary.sectors)
         check_nodal_diameter(nodal_diameter, sectors)
         check_boundary(body, boundary)
         tie = face_tie(body, boundary)
-        removed[tie.slave.ravel()] = True
-    else:
-        sectors = None
-    free = np.flatnonzero(~removed).astype(np.int64)
-    index = np.full(N, -1, dtype=np.int64)
-    index[free] = np.arange(len(free))
-    rows.append(free)
-    cols.append(np.arange(len(free)))
-    vals.append(np.ones(len(free)))
-    dtype: type = np.float64
-    if boundary is not None:
-        sign = 1 if tie.slave_is_right else -1
         T = phase(nodal_diameter, sectors) * rotation_z(2.0 * np.pi / sectors)
-        if sign < 0:  # the left face follows the right: the inverse rotation and phase
+        if not tie.slave_is_right:  # the left face follows the right: the inverse
             T = np.conj(phase(nodal_diameter, sectors)) * rotation_z(-2.0 * np.pi / sectors)
         dtype = np.complex128 if np.iscomplexobj(T) else np.float64
-        # u_S[a] = sum_b T[a, b] sum_j W[., j] u_M[j, b]; a clamped master DOF contributes
-        # nothing, a clamped slave DOF stays zero.
-        W = tie.weights.tocoo()
-        held = np.zeros(N, dtype=bool)
-        if clamped is not None:
-            held[clamped] = True
-        for a in range(3):
-            for b in range(3):
-                if T[a, b] == 0:
-                    continue
-                c = index[tie.master[W.col, b]]
-                r = tie.slave[W.row, a]
-                keep = (c >= 0) & ~held[r]
-                rows.append(r[keep])
-                cols.append(c[keep])
-                vals.append(T[a, b] * W.data[keep])
-    P = sp.csr_matrix(
-        (np.concatenate(vals).astype(dtype), (np.concatenate(rows), np.concatenate(cols))),
-        shape=(N, len(free)),
-    )
+        P = _tied(B, tie, T, removed, kept, N)
+        slave = np.zeros(N, dtype=bool)
+        slave[tie.slave.ravel()] = True
+        keep = ~slave[owner]
+        P, owner = P[:, np.flatnonzero(keep)], owner[keep]
+    P = sp.csr_matrix(P, dtype=dtype)
     PH = P.conj().T.tocsr()
     K = (PH @ body.stiffness @ P).tocsr()
     M = (PH @ body.mass @ P).tocsr()
@@ -315,12 +358,47 @@ def sector_model(
         body=body,
         stiffness=K,
         mass=M,
-        free_dofs=free,
+        free_dofs=owner,
         expansion=P,
         nodal_diameter=int(nodal_diameter) if boundary is not None else None,
         sectors=sectors,
         clamped_nodes=clamped_nodes,
+        supports=tuple(supports),
     )
+
+
+def _tied(B: sp.csr_matrix, tie: FaceTie, T: np.ndarray, removed: np.ndarray,
+          kept: dict[int, np.ndarray], N: int) -> sp.csr_matrix:
+    """P = D B + Pi G B: the non-slave rows of B, and each slave DOF the master's
+    displacement interpolated and turned (G: u_S[a] = sum_b T[a, b] sum_j W[., j] u_M[j, b]),
+    projected on the slave's own free directions (Pi: zero for a clamped slave DOF)."""
+    W = tie.weights.tocoo()
+    rows, cols, vals = [], [], []
+    for a in range(3):
+        for b in range(3):
+            if T[a, b] != 0:
+                rows.append(tie.slave[W.row, a])
+                cols.append(tie.master[W.col, b])
+                vals.append(T[a, b] * W.data)
+    G = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(N, N))
+    slave = np.zeros(N, dtype=bool)
+    slave[tie.slave.ravel()] = True
+    plain = slave & ~removed
+    r, c, v = [], [], []
+    for k, directions in kept.items():
+        if slave[k]:  # the projection on the slave's free directions
+            plain[k:k + 3] = False
+            r.append(np.repeat(k + np.arange(3), 3))
+            c.append(np.tile(k + np.arange(3), 3))
+            v.append((directions.T @ directions).ravel())
+    r.append(np.flatnonzero(plain))
+    c.append(r[-1])
+    v.append(np.ones(len(r[-1])))
+    Pi = sp.csr_matrix((np.concatenate(v), (np.concatenate(r), np.concatenate(c))),
+                       shape=(N, N))
+    D = sp.diags((~slave).astype(float))
+    return (D @ B + Pi @ (G @ B)).tocsr()
 
 
 # --- full disk: for pictures and for checking the sector model -----------------------------

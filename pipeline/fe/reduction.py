@@ -41,6 +41,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -310,15 +311,16 @@ def reduction_key(
     body = model.body
     return _key(body.mesh_hash, body.body, body.order, body.material, model.clamped_nodes,
                 model.nodal_diameter, method, master_nodes, n_modes, recovery_nodes, patches,
-                cutoff, f_max, loads)
+                cutoff, f_max, loads, model.supports)
 
 
 def _key(mesh_hash: str, body: str, order: int, material: Material, clamped: IntArray,
          nodal_diameter: int | None, method: str, master_nodes: IntArray, n_modes: int | str,
          recovery_nodes: IntArray, patches: Mapping[str, IntArray] | None,
          cutoff: float = CUTOFF, f_max: float | None = None,
-         loads: Iterable[str] = ()) -> str:
+         loads: Iterable[str] = (), supports: Sequence[Any] = ()) -> str:
     return _hash({
+        "supports": [_support_digest(s) for s in supports],
         "format": FORMAT_VERSION,
         "mesh": mesh_hash,
         "body": body,
@@ -632,6 +634,7 @@ class BodySpec:
     """What to reduce for one body of a mesh.
 
     master_sets / recovery_sets / clamped_sets: node-set names (see the geometry models).
+    supports: nodes held in some directions (``geometry.mesh.Support``: a deck's, a case's).
     recovery_surface: also recover the vertices of the body's outer surface (what a
     picture of the deformed body draws).
     patches: contact-patch names whose nodes in this body are masters.
@@ -646,6 +649,7 @@ class BodySpec:
     recovery_sets: tuple[str, ...] = ()
     recovery_surface: bool = False
     clamped_sets: tuple[str, ...] = ()
+    supports: tuple[Any, ...] = ()
     n_modes: int | str = DEFAULT_MODES
     cutoff: float = CUTOFF
     f_max: float | None = None
@@ -694,8 +698,10 @@ def spec_nodes(mesh: MeshLike, spec: BodySpec) -> tuple[IntArray, dict, IntArray
                          "its own, no node set named): name its interface nodes")
     cyc = mesh.cyclic.get(spec.body)
     follow = () if cyc is None else (cyc.right if cyc.slave_is_right else cyc.left)
+    supported = (np.unique(np.concatenate([s.nodes for s in spec.supports]))
+                 if spec.supports else np.empty(0, np.int64))
     for what, nodes in (("clamped", clamped), ("on the cyclic face that follows the other",
-                                               follow)):
+                                               follow), ("held by a support", supported)):
         bad = np.intersect1d(master_nodes, nodes)
         if len(bad):
             raise ValueError(f"{where}: {len(bad)} node(s) of body {spec.body!r} are {what} "
@@ -715,8 +721,16 @@ def _path(cache_dir: str | Path, mesh: MeshLike, spec: BodySpec, master_nodes: I
           nodal_diameter: int | None) -> Path:
     key = _key(mesh.content_hash, spec.body, spec.order, spec.material, clamped,
                nodal_diameter, "craig-bampton", master_nodes, spec.n_modes, recovery, patches,
-               spec.cutoff, spec.f_max, _body_load_names(nodal_diameter))
+               spec.cutoff, spec.f_max, _body_load_names(nodal_diameter), spec.supports)
     return Path(cache_dir) / f"cb-{key[:32]}.h5"
+
+
+def _support_digest(support: Any) -> str:
+    """A support's identity: its nodes, held directions and frame."""
+    return hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in (
+        np.asarray(support.nodes, np.int64), np.asarray(support.held, np.int8),
+        np.asarray(support.axes, float), np.asarray(support.origin, float)))
+        + support.frame.encode()).hexdigest()
 
 
 def _body_load_names(nodal_diameter: int | None) -> tuple[str, ...]:
@@ -783,7 +797,7 @@ def reduce_body(
         if not cached:
             if body_model is None:
                 body_model = fem.assemble(mesh, spec.body, spec.material, spec.order)
-            sector = cyclic.sector_model(body_model, clamped, boundary, h)
+            sector = cyclic.sector_model(body_model, clamped, boundary, h, spec.supports)
             names = _body_load_names(h if boundary is not None else None)
             loads = {CENTRIFUGAL: fem.centrifugal_load(body_model)} if names else None
             try:

@@ -1,0 +1,230 @@
+"""Supports that hold some directions only: against the same model with the held DOFs
+eliminated by hand, a local frame against the model turned into it, a cylindrical support
+on a cyclic sector against the full ring it is a sector of, and a deck's *BOUNDARY and
+*TRANSFORM read as supports (or refused in one line)."""
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+from scipy.spatial import cKDTree
+
+from microslip.geometry import full_disk
+from microslip.geometry.imported import MeshImportError, import_mesh
+from microslip.geometry.mesh import CyclicBoundary, Mesh, Support, rotation_z
+from microslip.geometry.structured import annulus, block
+from microslip.pipeline.fe import cyclic, fem
+
+STEEL = fem.Material(2.0e11, 0.3, 7850.0)
+
+
+def _eigenvalues(K, M) -> np.ndarray:
+    return sla.eigh(K.toarray(), M.toarray(), eigvals_only=True)
+
+
+@pytest.fixture(scope="module")
+def beam():
+    mesh = block("hexahedron", (0.2, 0.02, 0.02), (6, 2, 2))
+    return mesh, fem.assemble(mesh, "block", STEEL)
+
+
+def test_held_directions_are_the_dofs_eliminated_by_hand(beam):
+    mesh, body = beam
+    clamp = mesh.node_sets["block/clamp"]
+    held = np.array([True, False, True])  # x and z held, y free
+    model = cyclic.sector_model(body, supports=[Support(clamp, held)])
+    # by hand: the x and z DOFs of the face's vertices and of its edges' mid nodes
+    drop = np.concatenate([body.dofs_of_nodes(clamp)[:, held].ravel(),
+                           body.edge_dofs[body.set_edges(clamp)][:, held].ravel()])
+    keep = np.setdiff1d(np.arange(body.n_dofs), drop)
+    expected = _eigenvalues(body.stiffness[keep][:, keep], body.mass[keep][:, keep])
+    # the same matrices up to the order of the coordinates: round-off only
+    np.testing.assert_allclose(_eigenvalues(model.stiffness, model.mass), expected,
+                               rtol=1e-9, atol=1e-6 * expected.max())
+    # one rigid mode, the slide along y (free on the face); x and z held leave no other
+    assert abs(expected[0]) < 1e-6 * expected[1] and expected[1] > 1.0
+    assert model.n_free == len(keep)
+
+
+def test_a_local_frame_is_the_model_turned_into_it(beam):
+    mesh, body = beam
+    clamp = mesh.node_sets["block/clamp"]
+    turn = sla.expm(np.cross(np.eye(3), [0.3, -0.5, 0.8]))  # a rotation (3, 3)
+    moved = Mesh("block", mesh.points @ turn.T, mesh.tetrahedra, mesh.bodies,
+                 node_sets=mesh.node_sets, hexahedra=mesh.hexahedra)
+    turned = fem.assemble(moved, "block", STEEL)
+    held = np.array([False, True, True])
+    plain = cyclic.sector_model(body, supports=[Support(clamp, held)])
+    local = cyclic.sector_model(turned, supports=[Support(clamp, held, "rectangular",
+                                                          axes=turn.T)])
+    a, b = (_eigenvalues(m.stiffness, m.mass) for m in (plain, local))
+    np.testing.assert_allclose(b[3:], a[3:], rtol=1e-8)  # (one rigid mode: sliding in x)
+
+
+def _ring_sector(sectors: int) -> Mesh:
+    """A ring sector with its cyclic faces paired (right = R(phi) left)."""
+    ring = annulus("hexahedron", sectors, cells=(2, 3, 1), radii=(0.1, 0.14), width=0.02)
+    left, right = ring.node_sets["cyclic/left"], ring.node_sets["cyclic/right"]
+    image = ring.points[left] @ rotation_z(2 * np.pi / sectors).T
+    _, order = cKDTree(ring.points[right]).query(image)
+    boundary = CyclicBoundary(left, right[order], sectors)
+    return Mesh("annulus", ring.points, ring.tetrahedra, ring.bodies,
+                node_sets=ring.node_sets, cyclic={"ring": boundary}, hexahedra=ring.hexahedra)
+
+
+def test_a_cylindrical_support_on_a_sector_is_the_full_ring_held_radially():
+    """The bore held radially only (free to turn and to slide along the axis): the sector's
+    spectra over every nodal diameter are the full ring's."""
+    sectors = 6
+    sector = _ring_sector(sectors)
+    disk = full_disk(sector)
+    radial = np.array([True, False, False])
+    body = fem.assemble(sector, "ring", STEEL)
+    found = []
+    for h in range(sectors // 2 + 1):
+        model = cyclic.sector_model(body, (), sector.cyclic["ring"], h,
+                                    [Support(sector.node_sets["ring/bore"], radial,
+                                             "cylindrical")])
+        lam = _eigenvalues(model.stiffness, model.mass)
+        found += list(lam) * (1 if h in (0, sectors // 2) else 2)  # +-h: a pair
+    bore = np.unique(np.concatenate([v for k, v in disk.node_sets.items()
+                                     if k.startswith("ring/bore")]))
+    whole = fem.assemble(disk, "ring", STEEL)
+    full = cyclic.sector_model(whole, supports=[Support(bore, radial, "cylindrical")])
+    expected = _eigenvalues(full.stiffness, full.mass)
+    found = np.sort(found)
+    assert len(found) == len(expected)
+    # two rigid modes (the turn about the axis, the slide along it), then the same spectrum
+    assert np.abs(expected[:2]).max() < 1e-6 * expected[2]
+    np.testing.assert_allclose(found[2:], expected[2:], rtol=1e-8)
+
+
+DECK = """*NODE, NSET=ALL
+{nodes}
+*ELEMENT, TYPE=C3D8, ELSET=BLOCK
+{elements}
+*NSET, NSET=END
+{end}
+*TRANSFORM, NSET=END, TYPE=C
+0., 0., 0., 0., 0., 1.
+*BOUNDARY
+END, 1, 1
+*BOUNDARY
+{corner}, 2, 3, 0.
+{tail}
+"""
+
+
+def _deck(tmp_path, tail: str = "", mesh=None):
+    mesh = mesh or block("hexahedron", (0.2, 0.02, 0.02), (4, 1, 1))
+    nodes = "\n".join(f"{i + 1}, {x!r}, {y!r}, {z!r}" for i, (x, y, z) in
+                      enumerate(mesh.points.tolist()))
+    elements = "\n".join(f"{i + 1}, " + ", ".join(str(n + 1) for n in row)
+                         for i, row in enumerate(mesh.hexahedra))
+    end = ", ".join(str(n + 1) for n in mesh.node_sets["block/tip"])
+    corner = int(mesh.node_sets["block/clamp"][0]) + 1
+    path = tmp_path / "deck.inp"
+    path.write_text(DECK.format(nodes=nodes, elements=elements, end=end, corner=corner,
+                                tail=tail))
+    return path, mesh, corner - 1
+
+
+def test_a_decks_boundary_is_read_as_supports(tmp_path):
+    path, mesh, corner = _deck(tmp_path, "*BOUNDARY\nEND, ENCASTRE\n*STEP\n*STATIC\n*END STEP")
+    read = import_mesh(path).mesh
+    supports = read.supports
+    # END: radial (in its cylindrical frame about z) and then everything (ENCASTRE's
+    # translations); the corner: y and z of the global frame
+    tip = set(mesh.node_sets["block/tip"].tolist())
+    by_name = {n: (set(s.nodes.tolist()), s.held.tolist(), s.frame) for n, s in
+               supports.items()}
+    assert by_name == {"boundary/END/rthetaz": (tip, [True, True, True], "cylindrical"),
+                       "boundary/global/yz": ({corner}, [False, True, True], "global")}
+    assert np.allclose(supports["boundary/END/rthetaz"].axes[2], [0, 0, 1])
+
+
+@pytest.mark.parametrize(("tail", "words"), [
+    ("*BOUNDARY\nEND, 2, 2, 0.001", "non-zero displacement is a load"),
+    ("*BOUNDARY\nEND, 11, 11", "solids have DOFs 1-3"),
+    ("*BOUNDARY, TYPE=VELOCITY\nEND, 1, 1", "only supports"),
+    ("*TRANSFORM, NSET=END, TYPE=S\n1, 0, 0, 0, 1, 0", "TYPE=R (rectangular)"),
+])
+def test_what_a_support_cannot_be_is_one_line(tmp_path, tail, words):
+    path, _, _ = _deck(tmp_path, tail)
+    with pytest.raises(MeshImportError) as err:
+        import_mesh(path)
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def _imported_case() -> dict:
+    import tomllib
+    from pathlib import Path
+
+    cases = Path(__file__).parent.parent / "cases"
+    data = tomllib.loads((cases / "imported_blade.toml").read_text())
+    data["geometry"]["file"] = str(cases / "imported_blade.inp")
+    return data
+
+
+@pytest.mark.parametrize(("supports", "words"), [
+    ([{"set": "TIP", "held": ["r"]}], "among ['x', 'y', 'z']"),
+    ([{"set": "TIP", "held": ["x"], "frame": "polar"}], "expected one of ['global', "),
+    ([{"set": "TIP", "held": []}], "non-empty list"),
+    ([{"set": "TIP", "held": ["x"], "axis": [0, 0, 1]}], "axis: unknown key"),
+    ("TIP", "expected a list of tables"),
+])
+def test_a_bad_support_in_a_case_is_one_line(supports, words):
+    from case_helpers import case_faults
+
+    def mutate(data):
+        data["reduction"]["bodies"]["BLADE"]["supports"] = supports
+
+    faults = case_faults(_imported_case(), mutate)
+    assert len(faults) == 1 and words in faults[0], faults
+
+
+def test_a_support_on_a_master_or_a_missing_set_is_one_line():
+    from case_helpers import case_faults
+
+    def on_master(data):
+        data["reduction"]["bodies"]["BLADE"]["supports"] = [{"set": "TIP", "held": ["x"]}]
+
+    def missing(data):
+        data["reduction"]["bodies"]["BLADE"]["supports"] = [{"set": "HUB", "held": ["x"]}]
+
+    (fault,) = case_faults(_imported_case(), on_master)
+    assert "held by a support" in fault and "masters need DOFs of their own" in fault
+    (fault,) = case_faults(_imported_case(), missing)
+    assert fault.startswith("reduction.bodies.BLADE.supports[0].set = 'HUB': no such node set")
+
+
+def test_a_reduced_body_keeps_its_supports_and_its_cache_key_tells_them_apart(beam, tmp_path):
+    """Craig-Bampton on a beam held at one end in y and z only (free to slide along x): its
+    first frequencies against the unreduced supported model's; the cache keeps the two
+    support choices apart."""
+    from microslip.pipeline.fe import reduction
+
+    mesh, body = beam
+    clamp = mesh.node_sets["block/clamp"]
+    specs = {held: reduction.BodySpec("block", STEEL, master_sets=("block/tip",),
+                                      supports=(Support(clamp, np.array(held)),), n_modes=20)
+             for held in ((False, True, True), (True, True, True))}
+    for held, spec in specs.items():
+        (model,) = reduction.reduce_body(mesh, spec, cache_dir=tmp_path).values()
+        exact = _eigenvalues(*(m for m in (lambda s: (s.stiffness, s.mass))(
+            cyclic.sector_model(body, supports=spec.supports))))
+        reduced = sla.eigh(model.stiffness, model.mass, eigvals_only=True)
+        # held in y and z only, the end face slides along x and turns about y and z
+        rigid = 3 if not held[0] else 0
+        assert np.abs(exact[:rigid]).max(initial=0) < 1e-9 * exact[rigid]
+        assert np.abs(reduced[:rigid]).max(initial=0) < 1e-9 * exact[rigid]
+        # the first four elastic modes: Craig-Bampton's truncation to 20 fixed-interface
+        # modes on this coarse beam costs up to 5.5e-4 (measured; 40 modes 6e-5)
+        np.testing.assert_allclose(reduced[rigid:rigid + 4], exact[rigid:rigid + 4],
+                                   rtol=1e-3)
+    # held in every direction is clamped: the same reduced model as clamped_sets gives
+    clamped = reduction.BodySpec("block", STEEL, master_sets=("block/tip",),
+                                 clamped_sets=("block/clamp",), n_modes=20)
+    a, b = (sla.eigh(m.stiffness, m.mass, eigvals_only=True) for m in (
+        model, *reduction.reduce_body(mesh, clamped).values()))
+    np.testing.assert_allclose(a, b, rtol=1e-9)
+    assert len(list(tmp_path.glob("cb-*.h5"))) == 2
