@@ -103,6 +103,7 @@ def _demo_estimate(harmonics: int, samples: int) -> tuple[float, str]:
 
 
 INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), for every command
+MAX_THREADS = 256  # --threads at most (a sanity bound: no machine here has more cores)
 TERMINATED = 143  # SIGTERM during `run` (128 + SIGTERM, what a shell reports for a kill)
 BROKEN_PIPE = 141  # stdout closed early, e.g. `| head` (128 + SIGPIPE, as for other tools)
 
@@ -185,6 +186,7 @@ def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
     from microslip.pipeline.app.folder import FolderBusy, NoSpace
     from microslip.pipeline.app.run import run_case
+    from microslip.pipeline.app.tasks import BLAS_THREADS
     from microslip.pipeline.case import InputError
 
     parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
@@ -207,7 +209,16 @@ def run(argv: list[str]) -> int:
                         help="run the independent curves on the Dask cluster whose scheduler "
                         "is at ADDRESS (e.g. tcp://host:8786; its workers need microslip "
                         "installed as here)")
+    parser.add_argument("--threads", type=int, default=BLAS_THREADS, metavar="N",
+                        help="BLAS (and contact-kernel) threads of every stage, in this "
+                        f"process and on each worker (default {BLAS_THREADS}: fastest here "
+                        "and the same numbers everywhere; more threads help a single large "
+                        "factorization on an idle machine)")
     args = parser.parse_args(argv)
+    if not 1 <= args.threads <= MAX_THREADS:
+        print(f"microslip run: --threads {args.threads}: must be an integer in "
+              f"[1, {MAX_THREADS}]", file=sys.stderr)
+        return 2
     c = _load_case("run", args.case)
     if c is None:
         return 2
@@ -236,6 +247,7 @@ def run(argv: list[str]) -> int:
     if fault:  # an unreachable scheduler, workers without microslip
         print(f"microslip run: {fault}", file=sys.stderr)
         return 2
+    executor.threads = args.threads
     t = time.perf_counter()
     with _sigterm_as_interrupt() as received, contextlib.closing(executor):
         try:

@@ -151,6 +151,34 @@ def test_run_out_naming_a_file(tmp_path, case, no_run, capsys):
                   "give a writable folder"
 
 
+@pytest.mark.parametrize("threads", ["0", "-2", "1000"])
+def test_run_threads_out_of_range(case, no_run, capsys, threads):
+    assert main(["run", str(case), "--threads", threads]) == 2
+    msg = one_line(capsys.readouterr().err)
+    assert msg == f"microslip run: --threads {threads}: must be an integer in [1, 256]"
+
+
+def test_threads_reach_every_task():
+    """The BLAS threads a task computes with are the executor's (``--threads``)."""
+    from microslip.pipeline.app.tasks import Serial, Task
+
+    seen = []
+    task = Task(_blas_threads, (seen,))
+    for threads in (1, 2):
+        list(Serial(threads).run([task], None, print))
+    assert seen == [1, 2]
+
+
+def _blas_threads(models, seen, progress, live):
+    from threadpoolctl import threadpool_info
+
+    from microslip.pipeline.app.tasks import Outcome
+
+    seen.append(max((i["num_threads"] for i in threadpool_info()
+                     if i["user_api"] == "blas"), default=0))
+    return Outcome({}, {}, "complete")
+
+
 @pytest.mark.skipif(os.geteuid() == 0, reason="root writes in any folder")
 def test_run_out_unwritable_folder(tmp_path, case, no_run, capsys):
     locked = tmp_path / "locked"

@@ -6,6 +6,7 @@ saving the branch computed so far; the results file is then marked partial.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from collections.abc import Callable
@@ -72,7 +73,7 @@ from .models import AssemblyModels, LumpedModels
 from .progress import time_left
 from .solutions import map_groups, map_solutions, response_at, sampling_change
 from .store import CurveStore, draw_once
-from .tasks import BLAS_THREADS, Distributed, Outcome, Serial, Task
+from .tasks import Distributed, Outcome, Serial, Task
 from .uncertainty import run_uncertainty
 
 if TYPE_CHECKING:
@@ -142,14 +143,33 @@ def disk_full_text(out: Path, free: int) -> str:
             f"disk{kept}")
 
 
+@contextlib.contextmanager
+def numba_threads(threads: int):
+    """The contact kernels' numba threads at most ``threads`` for the block (numba's own
+    default is every core)."""
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
+
 def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
               executor: Serial | Distributed | None, lock: FolderLock,
               shared: SharedCache | None) -> Path:
     """run_case in the folder it holds."""
     store = CurveStore(out / "cache" / "curves" if cache else None)
-    with ResultsWriter(out / "results.h5", title=case.title, source=case.source,
-                       case_hash=case.content_hash, case=case.data,
-                       on_disk_full=lock.release_reserve) as writer:
+    executor = executor or Serial()
+    # every stage, the reduction's factorizations included, with the run's BLAS threads
+    # (``--threads``): the same numbers here as on any worker
+    with ThreadpoolController().limit(limits=executor.threads, user_api="blas"), \
+            numba_threads(executor.threads), \
+            ResultsWriter(out / "results.h5", title=case.title, source=case.source,
+                          case_hash=case.content_hash, case=case.data,
+                          on_disk_full=lock.release_reserve) as writer:
         stopped = ""
         models: LumpedModels | AssemblyModels = LumpedModels()
         if "geometry" in case.data:
@@ -168,10 +188,7 @@ def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
                 if "assembly" in case.data:
                     models = AssemblyModels(m, result)
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
-        run = Run(writer, out, progress, models, store, executor or Serial())
-        # what the analyses compute here (linear limits and levels, maps' solutions, curves
-        # run serially) with the tasks' BLAS threads: the same numbers as on any worker
-        blas = ThreadpoolController()
+        run = Run(writer, out, progress, models, store, executor)
         for spec in case.analysis_specs:
             name = spec.name
             t = time.perf_counter()
@@ -180,8 +197,7 @@ def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
             if spec.type in ("frf", "peak", "uncertainty", "loops") and (case.contacts_enabled()
                                                           or "assembly" in case.data):
                 warm_up(progress)  # says so when a first run compiles the contact kernels
-            with blas.limit(limits=BLAS_THREADS, user_api="blas"):  # as every task's
-                status, message = RUNNERS[spec.type](case, spec, group, run)
+            status, message = RUNNERS[spec.type](case, spec, group, run)
             group.attrs["status"] = status
             group.attrs["message"] = message
             group.attrs["elapsed_s"] = time.perf_counter() - t

@@ -49,11 +49,12 @@ HEARTBEAT_S = 30.0
 #: How often the client looks for finished tasks while it waits [s] (Dask's own
 #: as_completed polls as often).
 POLL_S = 0.1
-#: BLAS threads of a task, wherever it runs. One: the same numbers serially and on any
-#: worker (OpenBLAS' LU rounds differently with its thread count: 1e-10 on blisk_quick's
-#: curves, a point's dissipation at a stick/slip kink apart), and faster at these sizes
-#: (blisk_quick's three-curve family serially: 12.2 s at one thread, 22.9 s at two on two
-#: cores); the parallelism is the tasks'.
+#: BLAS threads of every stage of a run by default (``--threads``), wherever it runs. One:
+#: the same numbers serially and on any worker (OpenBLAS' LU rounds differently with its
+#: thread count: 1e-10 on blisk_quick's curves, a point's dissipation at a stick/slip kink
+#: apart), and faster at these sizes (blisk_quick's three-curve family serially: 12.2 s at
+#: one thread, 22.9 s at two on two cores; a loaded machine's factorization 0.05 s at one,
+#: 22 s at the default); the parallelism is the tasks'.
 BLAS_THREADS = 1
 #: Starting a local cluster of two workers and loading microslip and the compiled kernels
 #: into each takes ~5 s here (1.3 s for the processes, 3.6 s for the imports). By default
@@ -93,21 +94,25 @@ class Task:
     label: str = ""
     estimate: float = 0.0
 
-    def run(self, models: Any, progress: Progress, live: bool, blas: Any = None) -> Outcome:
-        """The outcome, computed with BLAS_THREADS and timed. ``blas``: this process'
-        ``threadpoolctl.ThreadpoolController`` (its scan of the loaded libraries takes
-        3 ms, half a cluster's cost per task: made once by the caller), or None."""
+    def run(self, models: Any, progress: Progress, live: bool, blas: Any = None,
+            threads: int = BLAS_THREADS) -> Outcome:
+        """The outcome, computed with ``threads`` BLAS threads and timed. ``blas``: this
+        process' ``threadpoolctl.ThreadpoolController`` (its scan of the loaded libraries
+        takes 3 ms, half a cluster's cost per task: made once by the caller), or None."""
         from threadpoolctl import ThreadpoolController
 
         t = time.perf_counter()
-        with (blas or ThreadpoolController()).limit(limits=BLAS_THREADS, user_api="blas"):
+        with (blas or ThreadpoolController()).limit(limits=threads, user_api="blas"):
             outcome = self.function(models, *self.args, progress=progress, live=live)
         return replace(outcome, seconds=time.perf_counter() - t)
 
 
+@dataclass
 class Serial:
-    """Every task in this process, in order (``--workers 0``)."""
+    """Every task in this process, in order (``--workers 0``), with ``threads`` BLAS
+    threads."""
 
+    threads: int = BLAS_THREADS
     workers = 0
 
     def run(self, tasks: Sequence[Task], models: Any, progress: Progress, what: str = "",
@@ -116,7 +121,7 @@ class Serial:
 
         blas = ThreadpoolController()
         for i, task in enumerate(tasks):
-            yield i, task.run(models, progress, live=True, blas=blas)
+            yield i, task.run(models, progress, live=True, blas=blas, threads=self.threads)
 
     def close(self) -> None:
         pass
@@ -132,6 +137,7 @@ class Distributed:
     address: str = ""
     worth_s: float = 0.0
     heartbeat_s: float = HEARTBEAT_S
+    threads: int = BLAS_THREADS  # BLAS threads of each task, on every worker
     client: Any = None
     _cluster: Any = None
     _announced: bool = False
@@ -145,7 +151,7 @@ class Distributed:
         outstanding tasks and is raised again."""
         if self.client is None and (len(tasks) < 2 or
                                     sum(t.estimate for t in tasks) < self.worth_s):
-            yield from Serial().run(tasks, models, progress)
+            yield from Serial(self.threads).run(tasks, models, progress)
             return
         from distributed import as_completed
 
@@ -153,7 +159,8 @@ class Distributed:
 
         client = self._client(progress)
         name = self._push(models)
-        futures = [client.submit(remote, t, name, pure=False, retries=0) for t in tasks]
+        futures = [client.submit(remote, t, name, self.threads, pure=False, retries=0)
+                   for t in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
         # results gathered in the background as tasks finish (one callback per future, not
         # a wait over every pending one per finished task: 10,000 samples stay linear)

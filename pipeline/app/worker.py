@@ -35,8 +35,9 @@ class Models(WorkerPlugin):
         retain_freed_memory()
 
 
-def remote(task, name: str):
-    """Run ``task`` (a ``tasks.Task``) on this worker with the models pushed as ``name``;
+def remote(task, name: str, threads: int = 1):
+    """Run ``task`` (a ``tasks.Task``) on this worker with the models pushed as ``name`` and
+    ``threads`` BLAS threads (the run's ``--threads``);
     its outcome, carrying every line the task gave (the client prints them). The contact
     kernels' numba threads are the worker's threads (one by default): numba's own default,
     every core, made N workers on N cores run 2N threads (the blisk's damper-mass family
@@ -50,7 +51,8 @@ def remote(task, name: str):
     numba.set_num_threads(min(worker.state.nthreads, numba.config.NUMBA_NUM_THREADS))
     if plugin.blas is None:  # the libraries a task's imports load are loaded by now
         plugin.blas = ThreadpoolController()
-    outcome = task.run(plugin.models, lines.append, live=False, blas=plugin.blas)
+    outcome = task.run(plugin.models, lines.append, live=False, blas=plugin.blas,
+                       threads=threads)
     return replace(outcome, lines=(*lines, *outcome.lines))
 
 
