@@ -16,7 +16,8 @@ reader keeps the keywords a model needs and follows Abaqus' rules for them:
   model: their nodes join their ELSET's node set, and their count is reported
   (``info["skipped"]``).
 
-* ``*MATERIAL`` (``NAME=``) with ``*ELASTIC`` (isotropic: E, nu) and ``*DENSITY``, and
+* ``*MATERIAL`` (``NAME=``) with ``*ELASTIC`` (``TYPE=ISO``, CalculiX's default, or
+  ``ISOTROPIC``: E, nu; another type is named as the material's fault) and ``*DENSITY``, and
   ``*SOLID SECTION`` (``ELSET=``, ``MATERIAL=``): each element's material, for ``material =
   "file"`` (``info["materials"]``: name -> (E, nu, rho); ``info["element_materials"]``: per
   cell block, each element's material name or "").
@@ -27,6 +28,10 @@ reader keeps the keywords a model needs and follows Abaqus' rules for them:
   and refused; rotational DOFs (4-6) mean nothing on solid nodes and are counted
   (``info["rotations"]``); ``*TRANSFORM`` (``NSET=``, ``TYPE=R`` or ``C``: two points) as the
   local frame of its set's supports (``info["transforms"]``: set -> (type, a, b)).
+
+* ``*SURFACE`` (``NAME=``; ``TYPE=ELEMENT``, the default: data lines ``element or element
+  set, S1..S6`` in Abaqus' face numbering; ``TYPE=NODE``: nodes or node sets) as a node set of
+  that name (of the faces' nodes): what contacts, loads and outputs name.
 
 Everything else (steps, loads) is skipped. It returns a meshio.Mesh,
 so the importer treats every format alike. Tested on decks meshio and Gmsh write.
@@ -98,6 +103,8 @@ def read(path: str | Path):
     boundary: list[tuple[int | str, tuple[int, ...], str]] = []  # (node or set, DOFs, where)
     transforms: dict[str, tuple[str, list[float], list[float]]] = {}
     rotations = 0
+    elastic_types: dict[str, str] = {}  # material -> its *ELASTIC TYPE, if not isotropic
+    surfaces: dict[str, list[tuple[int | str, str]]] = {}  # name -> (element or set, face)
     # names are case-insensitive in a deck: each keeps its first spelling
     spelled: dict[tuple[str, str], str] = {}
 
@@ -136,6 +143,15 @@ def read(path: str | Path):
                     "DISPLACEMENT":
                 raise DeckError(f"{where}:{number}: *BOUNDARY, TYPE={params['TYPE']}: only "
                                 "supports (zero displacements) are read")
+            elif keyword == "*SURFACE":
+                if not params.get("NAME"):
+                    raise DeckError(f"{where}:{number}: *SURFACE without NAME=")
+                kind = params.get("TYPE", "ELEMENT").upper()
+                if kind not in ("ELEMENT", "NODE"):
+                    raise DeckError(f"{where}:{number}: *SURFACE, TYPE={kind}: only TYPE="
+                                    "ELEMENT (element faces) and TYPE=NODE are read")
+                params["NAME"] = name_of("s", params["NAME"])
+                surfaces.setdefault(params["NAME"], [])
             elif keyword == "*TRANSFORM" and params.get("TYPE", "R").upper() not in ("R", "C"):
                 raise DeckError(f"{where}:{number}: *TRANSFORM, TYPE={params['TYPE']}: only "
                                 "TYPE=R (rectangular) and TYPE=C (cylindrical) are read")
@@ -159,8 +175,10 @@ def read(path: str | Path):
                 if "ELSET" in params:
                     elsets.setdefault(params["ELSET"], []).append(pending[0])
                 pending = []
-            elif keyword == "*ELASTIC" and current and params.get("TYPE", "ISOTROPIC") \
-                    .upper() == "ISOTROPIC" and np.isnan(materials[current][0]):
+            elif keyword == "*ELASTIC" and current and params.get("TYPE", "ISO").upper() \
+                    not in ("ISO", "ISOTROPIC"):
+                elastic_types[current] = params["TYPE"].upper()
+            elif keyword == "*ELASTIC" and current and np.isnan(materials[current][0]):
                 materials[current][:2] = [float(values[0]), float(values[1])]
             elif keyword == "*DENSITY" and current and np.isnan(materials[current][2]):
                 materials[current][2] = float(values[0])
@@ -170,6 +188,13 @@ def read(path: str | Path):
                 target = int(values[0]) if _is_int(values[0]) else name_of("n", values[0])
                 boundary.append((target, tuple(d for d in dofs if d <= 3),
                                  f"{where}:{number}"))
+            elif keyword == "*SURFACE":
+                face = values[1].upper() if len(values) > 1 else ""
+                if params.get("TYPE", "ELEMENT").upper() == "ELEMENT" and face not in _FACES:
+                    raise DeckError(f"{where}:{number}: *SURFACE face {face or '?'}: solid "
+                                    "element faces are S1-S6")
+                target = int(values[0]) if _is_int(values[0]) else values[0]
+                surfaces[params["NAME"]].append((target, face))
             elif keyword == "*TRANSFORM":
                 name = params.get("NSET")
                 if not name:
@@ -237,13 +262,20 @@ def read(path: str | Path):
                 if e in where_is:
                     k, i = where_is[e]
                     element_materials[k][i] = name
+    for name, faces in surfaces.items():
+        nodes = _surface_nodes(faces, blocks, where_is, elsets, nsets, spelled, path)
+        key = name if name not in point_sets else f"surface/{name}"
+        point_sets[key] = np.unique([index[n] for n in nodes if n in index]).astype(np.int64)
     held = [(sorted(index[n] for n in ([t] if isinstance(t, int) else
                                        _members(t, nsets, path)) if n in index), dofs, at)
             for t, dofs, at in boundary if dofs]
     return meshio.Mesh(np.array(xyz, dtype=np.float64), cells, point_sets=point_sets,
                        cell_sets=cell_sets, info={
                            "skipped": skipped, "element_materials": element_materials,
-                           "materials": {n: tuple(v) for n, v in materials.items()},
+                           "materials": {n: (f"*ELASTIC, TYPE={elastic_types[n]}: only "
+                                             "isotropic elasticity is modelled"
+                                             if n in elastic_types else tuple(v))
+                                         for n, v in materials.items()},
                            "boundary": held, "rotations": rotations,
                            "transforms": {n: (t, a, b, point_sets.get(n, np.empty(0, int)))
                                           for n, (t, a, b) in transforms.items()}})
@@ -270,6 +302,53 @@ def _held(values: list[str], where: str) -> tuple[int, ...]:
         raise DeckError(f"{where}: *BOUNDARY DOFs {first}-{last}: solids have DOFs 1-3 "
                         "(translations); only those are supports")
     return tuple(range(first, last + 1))
+
+
+#: Abaqus' face numbering of the solids (1-based corners of each face S1, S2, ...)
+_FACE_CORNERS = {
+    "tetra": [(1, 2, 3), (1, 4, 2), (2, 4, 3), (3, 4, 1)],
+    "hexahedron": [(1, 2, 3, 4), (5, 8, 7, 6), (1, 5, 6, 2), (2, 6, 7, 3), (3, 7, 8, 4),
+                   (4, 8, 5, 1)],
+    "wedge": [(1, 2, 3), (4, 6, 5), (1, 4, 5, 2), (2, 5, 6, 3), (3, 6, 4, 1)],
+}
+_FACES = {f"S{i}" for i in range(1, 7)}
+_SHAPE = {"tetra": "tetra", "tetra10": "tetra", "hexahedron": "hexahedron",
+          "hexahedron20": "hexahedron", "hexahedron27": "hexahedron", "wedge": "wedge",
+          "wedge15": "wedge"}
+
+
+def _surface_nodes(faces, blocks, where_is, elsets, nsets, spelled, path) -> list[int]:
+    """The node ids of a *SURFACE's faces (its corners; a quadratic face's mid nodes are
+    dropped with the other mid nodes) or nodes."""
+    out: list[int] = []
+    for target, face in faces:
+        if not face:  # TYPE=NODE: a node or a node set
+            if isinstance(target, int):
+                out.append(target)
+                continue
+            name = spelled.get(("n", target.upper()), target)
+            if name not in nsets:
+                raise DeckError(f"{path}: *SURFACE names {target!r}, which is no node set")
+            out += _members(name, nsets, path)
+            continue
+        if isinstance(target, int):
+            members = [target]
+        else:
+            name = spelled.get(("e", target.upper()), target)
+            if name not in elsets:
+                raise DeckError(f"{path}: *SURFACE names {target!r}, which is no element set")
+            members = _members(name, elsets, path)
+        for e in members:
+            if e not in where_is:
+                continue  # (not a solid)
+            k, i = where_is[e]
+            kind = _SHAPE[blocks[k][0]]
+            corners = _FACE_CORNERS[kind]
+            if int(face[1:]) > len(corners):
+                raise DeckError(f"{path}: *SURFACE face {face} of element {e}: a {kind} "
+                                f"has faces S1-S{len(corners)}")
+            out += [blocks[k][2][i][c - 1] for c in corners[int(face[1:]) - 1]]
+    return out
 
 
 def _is_int(v: str) -> bool:

@@ -593,12 +593,17 @@ def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]
         # counts once, by its last name: the explicit sets come after the element cards
         distinct = {_key(g): n for n, g in solid_groups.items()}
         unique = {n: solid_groups[n] for n in distinct.values()}
-        chosen = {n: g for n, g in unique.items()
-                  if all(_disjoint(g, h) for m, h in unique.items() if m != n)}
-        if sum(sizes[n] for n in chosen) != total:
-            raise MeshImportError(
-                f"{path}: its element groups overlap or leave elements out, so the bodies are "
-                f"not clear; name them in geometry.bodies (element groups: {listing})")
+        # the finest partition of bodies in contact, else the coarsest (a deck's extra
+        # element sets, for loads or surfaces, beside its parts)
+        covering = [c for c in (_finest_partition(unique, sizes),
+                                _largest_first(unique, sizes))
+                    if sum(sizes[n] for n in c) == total]
+        chosen = next((c for c in covering if not _share_nodes(c, solids)), None) or \
+            (covering[-1] if covering else {})
+        if not covering:
+            raise MeshImportError(f"{path}: {_why_unclear(unique, total)}, so the bodies are "
+                                  f"not clear; name them in geometry.bodies, e.g. bodies = "
+                                  f"{{ blade = \"<group>\" }} (element groups: {listing})")
     covered = sum(sum(len(v) for v in g.values()) for g in chosen.values())
     if covered != total or any(not _disjoint(g, h) for n, g in chosen.items()
                                for m, h in chosen.items() if n < m):
@@ -619,6 +624,56 @@ def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]
                     "carry distinct, coincident nodes (or make them one body: name a group "
                     "holding both in geometry.bodies)")
     return chosen
+
+
+def _finest_partition(groups: dict[str, dict[int, np.ndarray]], sizes: dict[str, int]
+                      ) -> dict[str, dict[int, np.ndarray]]:
+    """The groups left when the largest of those that overlap another is dropped, until none
+    overlaps: a group of every element (Abaqus' EALL) beside the parts gives way to them."""
+    left = dict(groups)
+    while True:
+        overlapping = [n for n in left if any(not _disjoint(left[n], left[m])
+                                              for m in left if m != n)]
+        if not overlapping:
+            return left
+        del left[max(overlapping, key=lambda n: (sizes[n], n))]
+
+
+def _largest_first(groups: dict[str, dict[int, np.ndarray]], sizes: dict[str, int]
+                   ) -> dict[str, dict[int, np.ndarray]]:
+    """The groups taken largest first, each disjoint from those taken."""
+    taken: dict[str, dict[int, np.ndarray]] = {}
+    for n in sorted(groups, key=lambda n: (-sizes[n], n)):
+        if all(_disjoint(groups[n], g) for g in taken.values()):
+            taken[n] = groups[n]
+    return taken
+
+
+def _share_nodes(groups: dict[str, dict[int, np.ndarray]], solids) -> bool:
+    """Whether two of the groups share a node."""
+    seen: set[int] = set()
+    for g in groups.values():
+        nodes = set(np.concatenate([np.asarray(solids[k][1].data)[idx].ravel()
+                                    for k, idx in g.items()]).tolist())
+        if nodes & seen:
+            return True
+        seen |= nodes
+    return False
+
+
+def _why_unclear(groups: dict[str, dict[int, np.ndarray]], total: int) -> str:
+    """Why the element groups are not the bodies: the first pair that overlaps (how many
+    elements in both), or how many elements no group holds."""
+    names = sorted(groups)
+    for i, n in enumerate(names):
+        for m in names[i + 1:]:
+            both = sum(np.intersect1d(groups[n][k], groups[m][k]).size
+                       for k in groups[n].keys() & groups[m].keys())
+            if both:
+                return (f"element groups {n!r} and {m!r} overlap ({both} elements in both: a "
+                        "group of all elements, or a material beside a part?)")
+    held = sum(sum(len(v) for v in g.values()) for g in groups.values())
+    return f"{total - held} of its {total} solid elements are in no element group"
 
 
 def _key(g: dict[int, np.ndarray]) -> tuple:

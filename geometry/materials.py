@@ -6,8 +6,9 @@
   Nastran does) and ``PSOLID`` (PID, MID), in free (commas), small (8 columns) and large
   (``MAT1*``, 16 columns) field format; reals in Nastran's forms (``7.85-9``, ``2.1+5``).
 * Ansys archives: ``MPDATA`` of EX, PRXY (or NUXY) and DENS per material number, as
-  CDWRITE writes them (``MPDATA,R5.0, 1,EX  ,  1, 1,  2.1E+11,``) or as typed
-  (``MPDATA,EX,1,,2.1E11``).
+  CDWRITE writes them (``MPDATA,R5.0, 1,EX  ,  1, 1,  2.1E+11,``), as Workbench writes them
+  (``MPDATA,UNBL,16,EX,1,1,2.1E+11``) or as typed (``MPDATA,EX,1,,2.1E11``): the label is
+  the first field that names a property, then material, location and value.
 
 Each returns material key -> (E, nu, rho) (nan where the deck gives none).
 """
@@ -73,17 +74,23 @@ def nastran(path: str | Path) -> dict[int, tuple[float, float, float]]:
     return {pid: mat1[mid] for pid, mid in psolid.items() if mid in mat1}
 
 
+#: MPDATA property labels (the elastic and density ones, and those beside them in a deck)
+_ANSYS_LABELS = {"EX", "EY", "EZ", "PRXY", "PRYZ", "PRXZ", "NUXY", "NUYZ", "NUXZ", "GXY",
+                 "GYZ", "GXZ", "DENS", "ALPX", "ALPY", "ALPZ", "KXX", "KYY", "KZZ", "C", "MU",
+                 "DAMP", "REFT", "CTEX", "CTEY", "CTEZ", "THSX", "THSY", "THSZ", "ENTH"}
+
+
 def ansys(path: str | Path) -> dict[int, tuple[float, float, float]]:
     """Material number -> (E, nu, rho) from MPDATA cards."""
     found: dict[int, dict[str, float]] = {}
     for line in Path(path).read_text(errors="replace").splitlines():
         if not line.upper().startswith("MPDATA"):
             continue
-        f = [v.strip() for v in line.split(",")]
-        if len(f) > 6 and f[1].upper().startswith("R"):  # CDWRITE: MPDATA,R5.0,len,LAB,MAT,LOC,V
-            label, mat, value = f[3].upper(), f[4], f[6]
-        else:  # MPDATA,LAB,MAT,LOC,V
-            label, mat, value = f[1].upper(), f[2], f[4] if len(f) > 4 else ""
+        f = [v.strip() for v in line.split(",")] + [""] * 4
+        at = next((i for i, v in enumerate(f[1:4], 1) if v.upper() in _ANSYS_LABELS), None)
+        if at is None:
+            continue
+        label, mat, value = f[at].upper(), f[at + 1], f[at + 3]
         if label in ("EX", "PRXY", "NUXY", "DENS") and mat:
             found.setdefault(int(mat), {}).setdefault(label, _real(value))
     out = {}

@@ -228,3 +228,23 @@ def test_a_reduced_body_keeps_its_supports_and_its_cache_key_tells_them_apart(be
         model, *reduction.reduce_body(mesh, clamped).values()))
     np.testing.assert_allclose(a, b, rtol=1e-9)
     assert len(list(tmp_path.glob("cb-*.h5"))) == 2
+
+
+def test_a_decks_surfaces_are_node_sets_of_their_faces(tmp_path):
+    """*SURFACE by element faces (Abaqus' S1-S6) and by nodes: node sets of those names."""
+    tail = ("*ELSET, ELSET=LAST\n4\n*SURFACE, NAME=TipFace\nLAST, S4\n"
+            "*SURFACE, NAME=BOTTOM, TYPE=ELEMENT\n1, S1\n2, S1\n"
+            "*SURFACE, NAME=ENDS, TYPE=NODE\nEND\n")
+    path, mesh, _ = _deck(tmp_path, tail)
+    sets = import_mesh(path).mesh.node_sets
+    tip = mesh.node_sets["block/tip"]
+    np.testing.assert_array_equal(sets["TipFace"], tip)  # the face x = L of element 4
+    np.testing.assert_array_equal(sets["ENDS"], tip)
+    bottom = np.flatnonzero((mesh.points[:, 2] < 1e-12) & (mesh.points[:, 0] < 0.1 + 1e-12))
+    np.testing.assert_array_equal(sets["BOTTOM"], bottom)  # z = 0 under elements 1 and 2
+
+
+def test_a_surface_face_a_solid_lacks_is_one_line(tmp_path):
+    path, _, _ = _deck(tmp_path, "*SURFACE, NAME=S\n1, SPOS\n")
+    with pytest.raises(MeshImportError, match="solid element faces are S1-S6"):
+        import_mesh(path)
