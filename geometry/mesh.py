@@ -73,6 +73,8 @@ class CyclicBoundary:
     matching: False for faces meshed independently: ``left`` (k,) and ``right`` (k',) are
              then just each face's nodes, and the finer face follows the other by
              interpolation (``fe.cyclic``); the image of one face lies on the other
+    A sector that contains the axis has its axis nodes on both faces, each its own image
+    (``left[i] == right[i]``; matching faces only).
     """
 
     left: np.ndarray
@@ -89,8 +91,11 @@ class CyclicBoundary:
             )
         if int(self.sectors) < 3:
             raise MeshValidationError(f"CyclicBoundary.sectors = {self.sectors}, must be >= 3")
-        if np.intersect1d(left, right).size:
-            raise MeshValidationError("CyclicBoundary: a node is on both left and right faces")
+        both = np.intersect1d(left, right)
+        if both.size and not (self.matching and np.array_equal(
+                np.sort(left[left == right]) if len(left) == len(right) else both, both)):
+            raise MeshValidationError("CyclicBoundary: a node is on both left and right faces "
+                                      "but not its own image (only a node on the axis is)")
         object.__setattr__(self, "left", left)
         object.__setattr__(self, "right", right)
         object.__setattr__(self, "sectors", int(self.sectors))

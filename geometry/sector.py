@@ -80,10 +80,12 @@ def planar_faces(mesh: Mesh, body: str, angle: float, tol: float
     theta_f = np.arctan2(centre[:, 1], centre[:, 0])
     theta = np.arctan2(p[..., 1], p[..., 0])
     off = np.abs(np.sin(theta - theta_f[:, None])) * radius  # distance to that plane
-    on_plane = np.flatnonzero((off.max(axis=1) <= tol) & (radius.min(axis=1) > tol))
+    # (a facet touching the axis, in a sector that contains it, lies on its plane too)
+    reach = np.hypot(centre[:, 0], centre[:, 1])
+    on_plane = np.flatnonzero((off.max(axis=1) <= tol) & (reach > tol))
     if not on_plane.size:
         return None
-    spread = 4.0 * tol / radius[on_plane].min()  # the angular scatter of one plane's facets
+    spread = 4.0 * tol / reach[on_plane].min()  # the angular scatter of one plane's facets
     order = on_plane[np.argsort(theta_f[on_plane])]
     angles = theta_f[order]
     gaps = np.diff(np.concatenate([angles, angles[:1] + 2 * np.pi]))

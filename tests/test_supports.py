@@ -248,3 +248,92 @@ def test_a_surface_face_a_solid_lacks_is_one_line(tmp_path):
     path, _, _ = _deck(tmp_path, "*SURFACE, NAME=S\n1, SPOS\n")
     with pytest.raises(MeshImportError, match="solid element faces are S1-S6"):
         import_mesh(path)
+
+
+def _pie(sectors: int, copies: int, rings: int = 2, per_sector: int = 2,
+         radius: float = 0.1, width: float = 0.02) -> Mesh:
+    """``copies`` sectors of a disk through its axis (wedges round the axis, hexahedra
+    outside; one layer): a sector (copies = 1, theta in [-phi/2, phi/2], cyclic faces
+    paired, the axis nodes on both) or the whole disk (copies = sectors, closed)."""
+    phi = 2 * np.pi / sectors
+    nt = per_sector * copies
+    whole = copies == sectors
+    columns = nt if whole else nt + 1
+    theta = -phi / 2 + phi / per_sector * np.arange(columns)
+    r = radius * np.arange(1, rings + 1) / rings
+    points, index = [], {}
+    for k, z in enumerate((0.0, width)):
+        index[("axis", k)] = len(points)
+        points.append((0.0, 0.0, z))
+        for i in range(rings):
+            for j in range(columns):
+                index[(i, j, k)] = len(points)
+                points.append((r[i] * np.cos(theta[j]), r[i] * np.sin(theta[j]), z))
+
+    def node(i, j, k):
+        return index[("axis", k)] if i < 0 else index[(i, j % columns, k)]
+
+    wedges, hexes = [], []
+    for j in range(nt):
+        wedges.append([node(-1, j, k) if c == 0 else node(0, j + c - 1, k)
+                       for k in (0, 1) for c in (0, 1, 2)])
+        for i in range(rings - 1):
+            hexes.append([node(a, b, k) for k in (0, 1)
+                          for a, b in ((i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1))])
+    rim = np.array(sorted(node(rings - 1, j, k) for j in range(columns) for k in (0, 1)))
+    cyclic_faces = {}
+    if not whole:
+        left = [node(i, 0, k) for k in (0, 1) for i in range(-1, rings)]
+        right = [node(i, nt, k) if i >= 0 else node(-1, 0, k) for k in (0, 1)
+                 for i in range(-1, rings)]
+        cyclic_faces = {"disk": CyclicBoundary(left, right, sectors)}
+    cells = len(wedges) + len(hexes)
+    return Mesh("pie", np.array(points), np.empty((0, 4), np.int64),
+                {"disk": np.arange(cells)}, node_sets={"disk/rim": rim},
+                cyclic=cyclic_faces, hexahedra=np.array(hexes), wedges=np.array(wedges))
+
+
+@pytest.mark.parametrize("sectors", [5, 6])
+def test_a_sector_through_the_axis_is_its_whole_disk(sectors):
+    """The axis nodes (and the edges along the axis) on both cyclic faces, each its own
+    image: at ND h they keep what u = exp(i h phi) R(phi) u leaves (the axial motion at ND 0,
+    the circular in-plane motion at ND 1, nothing beyond). The sector's spectra over every
+    ND are the whole disk's, an odd and an even sector count."""
+    sector, disk = _pie(sectors, 1), _pie(sectors, sectors)
+    body = fem.assemble(sector, "disk", STEEL)
+    found = []
+    for h in range(sectors // 2 + 1):
+        model = cyclic.sector_model(body, sector.node_sets["disk/rim"],
+                                    sector.cyclic["disk"], h)
+        lam = _eigenvalues(model.stiffness, model.mass)
+        found += list(lam) * (1 if h in (0, sectors / 2) else 2)  # +-h: a pair
+    whole = fem.assemble(disk, "disk", STEEL)
+    full = cyclic.sector_model(whole, disk.node_sets["disk/rim"])
+    expected = _eigenvalues(full.stiffness, full.mass)
+    assert len(found) == len(expected)
+    np.testing.assert_allclose(np.sort(found), expected, rtol=1e-8)
+
+
+def test_a_deck_of_a_sector_through_the_axis_finds_its_faces(tmp_path):
+    """Imported with [geometry.sector] only: the faces found on their planes, the axis nodes
+    on both, and the same spectra as the sector built here."""
+    from exports import write
+
+    from microslip.geometry.sector import SectorSpec
+
+    sector = _pie(6, 1)
+    bare = Mesh("pie", sector.points, sector.tetrahedra, sector.bodies,
+                node_sets=sector.node_sets, hexahedra=sector.hexahedra, wedges=sector.wedges)
+    read = import_mesh(write(bare, tmp_path / "pie.inp"), bodies={"disk": "disk"},
+                       sector=SectorSpec(6)).mesh
+    faces = read.cyclic["disk"]
+    on_axis = np.hypot(*read.points[:, :2].T) < 1e-12
+    assert on_axis.sum() == 2 and set(np.flatnonzero(on_axis)) <= set(faces.left) & set(
+        faces.right)
+    spectra = []
+    for mesh in (sector, read):
+        body = fem.assemble(mesh, "disk", STEEL)
+        rim = np.flatnonzero(np.hypot(*mesh.points[:, :2].T) > 0.1 - 1e-9)
+        spectra.append(np.concatenate([_eigenvalues(m.stiffness, m.mass) for m in (
+            cyclic.sector_model(body, rim, mesh.cyclic["disk"], h) for h in range(4))]))
+    np.testing.assert_allclose(np.sort(spectra[1]), np.sort(spectra[0]), rtol=1e-9)

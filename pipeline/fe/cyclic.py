@@ -95,8 +95,9 @@ def nodal_diameters(harmonics: Iterable[int], engine_order: int, sectors: int) -
 
 
 def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
-    """Validate a CyclicBoundary against the body: faces in the body and disjoint; matching
-    faces' pairs rotated images (the comparison only checks the given pairing)."""
+    """Validate a CyclicBoundary against the body: faces in the body and disjoint but for the
+    axis nodes (each its own image); matching faces' pairs rotated images (the comparison
+    only checks the given pairing)."""
     left = np.asarray(boundary.left, dtype=np.int64)
     right = np.asarray(boundary.right, dtype=np.int64)
     _check_sectors(boundary.sectors)
@@ -104,8 +105,11 @@ def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
         raise ValueError(
             f"cyclic boundary: left {left.shape} and right {right.shape} must be equal 1-D shapes"
         )
-    if np.intersect1d(left, right).size:
-        raise ValueError("cyclic boundary: a node is on both faces (a node on the axis?)")
+    both = np.intersect1d(left, right)
+    if both.size and not (boundary.matching and np.array_equal(
+            np.sort(left[left == right]), both)):
+        raise ValueError("cyclic boundary: a node is on both faces but not its own image "
+                         "(only a node on the axis is)")
     pl = body.points[body.local_nodes(left, "cyclic boundary left")]
     pr = body.points[body.local_nodes(right, "cyclic boundary right")]
     if not boundary.matching:
@@ -285,14 +289,20 @@ def _kept_directions(held: np.ndarray) -> np.ndarray:
     return vt[int((sigma > 1e-9).sum()):]
 
 
-def _supported_basis(body: BodyModel, removed: np.ndarray, supports: Sequence[Any]
+def _supported_basis(body: BodyModel, removed: np.ndarray, supports: Sequence[Any],
+                     on_axis: dict[int, np.ndarray] | None = None
                      ) -> tuple[sp.csr_matrix, IntArray, dict[int, np.ndarray]]:
     """(B (N, n_q) CSR, owner (n_q,), kept): u_body = B q over the DOFs not ``removed``, a
     supported triple's coordinates its free directions; owner: the body DOF each column
-    stands for (sorted); kept: first DOF of a supported triple -> its free directions."""
+    stands for (sorted); kept: first DOF of a supported triple -> its free directions
+    (rows). ``on_axis``: first DOF of a triple on a sector's axis -> the (complex)
+    directions its nodal diameter leaves it (kept as they are: no support holds more)."""
     N = body.n_dofs
     kept = {k: _kept_directions(v) for k, v in held_triples(body, supports).items()
             if not removed[k]}
+    for k, directions in (on_axis or {}).items():
+        if not removed[k]:
+            kept[k] = directions
     plain = ~removed
     for k in kept:
         plain[k:k + 3] = False
@@ -307,7 +317,8 @@ def _supported_basis(body: BodyModel, removed: np.ndarray, supports: Sequence[An
     column_owner = np.unique(owner_of_entry)
     columns = np.searchsorted(column_owner, owner_of_entry)
     B = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), columns)),
-                      shape=(N, len(column_owner)))
+                      shape=(N, len(column_owner)),
+                      dtype=np.result_type(*vals) if vals else np.float64)
     return B, column_owner.astype(np.int64), kept
 
 
@@ -330,19 +341,22 @@ def sector_model(
     removed = np.zeros(N, dtype=bool)
     if clamped is not None:
         removed[clamped] = True
-    B, owner, kept = _supported_basis(body, removed, supports)
     dtype: type = np.float64
     if boundary is None:
+        B, owner, kept = _supported_basis(body, removed, supports)
         P, sectors = B, None
     else:
         sectors = int(boundary.sectors)
         check_nodal_diameter(nodal_diameter, sectors)
         check_boundary(body, boundary)
-        tie = face_tie(body, boundary)
+        tie, axis = _axis_apart(face_tie(body, boundary))
         T = phase(nodal_diameter, sectors) * rotation_z(2.0 * np.pi / sectors)
         if not tie.slave_is_right:  # the left face follows the right: the inverse
             T = np.conj(phase(nodal_diameter, sectors)) * rotation_z(-2.0 * np.pi / sectors)
         dtype = np.complex128 if np.iscomplexobj(T) else np.float64
+        free_on_axis = _kept_directions(np.eye(3) - T).conj()  # u = T u on the axis
+        B, owner, kept = _supported_basis(body, removed, supports,
+                                          {int(k): free_on_axis for k in axis[:, 0]})
         P = _tied(B, tie, T, removed, kept, N)
         slave = np.zeros(N, dtype=bool)
         slave[tie.slave.ravel()] = True
@@ -365,6 +379,19 @@ def sector_model(
         clamped_nodes=clamped_nodes,
         supports=tuple(supports),
     )
+
+
+def _axis_apart(tie: FaceTie) -> tuple[FaceTie, IntArray]:
+    """(the tie without the DOF triples that are their own image, those triples (k, 3)): a
+    sector containing the axis has its axis nodes (and edges along it) on both faces."""
+    if not tie.slave_is_right or tie.weights.shape[0] != tie.weights.shape[1]:
+        return tie, np.empty((0, 3), dtype=np.int64)  # (interpolated faces: none on it)
+    own = tie.slave[:, 0] == tie.master[:, 0]
+    if not own.any():
+        return tie, np.empty((0, 3), dtype=np.int64)
+    rest = np.flatnonzero(~own)
+    return (FaceTie(tie.slave[rest], tie.master[rest], sp.identity(len(rest), format="csr"),
+                    True), tie.slave[own])
 
 
 def _tied(B: sp.csr_matrix, tie: FaceTie, T: np.ndarray, removed: np.ndarray,
