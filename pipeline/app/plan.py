@@ -31,7 +31,7 @@ from microslip.pipeline.case.estimate import (
     START_S,
     analysis_seconds,
 )
-from microslip.pipeline.case.specs import Frf, Peak, Uncertainty
+from microslip.pipeline.case.specs import Frf, Modes, Peak, Uncertainty
 from microslip.pipeline.friction import kernels_cached
 from microslip.pipeline.solve.memory import memory_text
 
@@ -48,6 +48,8 @@ REDUCTION_S_PER_KNODE = 10.0
 COMPLEX_ND = 1.5
 SOLID_ELEMENTS = 2.0
 LINEAR_S = 10.0
+#: The unreduced bodies' lowest modes (a ``modes`` analysis) against their reduction [-]
+MODES_SHARE = 0.5
 MESH_S = 3.0
 PREVIEWS_S = 3.0
 
@@ -90,13 +92,15 @@ def machine_factor(repeat: int = 3) -> float:
 
 @dataclass(frozen=True)
 class Stage:
-    """One step of a run: ``cached`` ones are read, the others run for ~``seconds``."""
+    """One step of a run: ``cached`` ones are read, the others run for ~``seconds``;
+    ``work``: its seconds were it computed (a reduction's, which the modes scale with)."""
 
     name: str
     cached: bool
     seconds: float = 0.0
     nbytes: int = 0
     detail: str = ""
+    work: float = 0.0
 
 
 def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None = None
@@ -108,6 +112,7 @@ def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None =
                                  "" if kernels_cached() else "and the contact kernels "
                                  "compiled once (first run: ~25-100 s more)")]
     data = case.data
+    reduction_stages: list[Stage] = []
     if "geometry" in data:
         shared = shared or SharedCache.from_environment()
         mesh, kept = built_mesh(case.geometry_table, shared)
@@ -119,8 +124,9 @@ def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None =
                             + ("mesh from the shared cache" if kept else "every run")))
         if "reduction" in data:
             orders = harmonics(case).orders if "harmonics" in data else None
-            stages += _reduction(mesh, case.reduction_table, shared.models, orders,
-                                 case.draws_shapes)
+            reduction_stages = _reduction(mesh, case.reduction_table, shared.models, orders,
+                                          case.draws_shapes)
+            stages += reduction_stages
     store = CurveStore(out / "cache" / "curves" if cache else None)
     by_name = {s.analysis: s for s in sizes(data)}
     from .run import frf_key
@@ -134,6 +140,10 @@ def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None =
             stages.append(_samples(case, spec, store, nbytes, unknowns))
             continue
         pictures = analysis_seconds(data, spec)
+        if isinstance(spec, Modes):
+            stages.append(Stage(f"{name}: modes", False, pictures + MODES_SHARE * sum(
+                s.work for s in reduction_stages), 0, "the unreduced bodies, every run"))
+            continue
         if not isinstance(spec, (Frf, Peak)):
             stages.append(Stage(f"{name}: {spec.type}", False,
                                 task_seconds(data, spec) + pictures, nbytes,
@@ -200,16 +210,16 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
                 if not cyclic_cached:  # its modes follow the cyclic bodies' reduced models
                     stages.append(Stage(f"reduction: {spec.body}", False, seconds, 0,
                                         "after the cyclic bodies (its mode count follows "
-                                        "theirs)"))
+                                        "theirs)", seconds))
                     continue
                 spec = _with_reference(spec, mesh, red, nds, cache, surfaces)
             path = reduction.model_path(mesh, spec, h, cache)
             cached = path.is_file()
             cyclic_cached = cyclic_cached and (cached or not is_cyclic)
             where = f"{spec.body} ND {h}" if is_cyclic else spec.body
-            stages.append(Stage(f"reduction: {where}", cached, 0.0 if cached else
-                                seconds * (COMPLEX_ND if complex_nd else 1.0), 0,
-                                f"{nodes} vertex nodes, P{spec.order}"))
+            work = seconds * (COMPLEX_ND if complex_nd else 1.0)
+            stages.append(Stage(f"reduction: {where}", cached, 0.0 if cached else work, 0,
+                                f"{nodes} vertex nodes, P{spec.order}", work))
     return stages
 
 

@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import h5py
 import numpy as np
@@ -38,6 +38,7 @@ from microslip.pipeline.case.specs import (
     Dti,
     Frf,
     Loops,
+    Modes,
     Peak,
     TimeIntegration,
     Transient,
@@ -95,6 +96,7 @@ class Run:
     models: LumpedModels | AssemblyModels
     store: CurveStore
     executor: Serial | Distributed
+    structure: tuple[Any, Any] | None = None  # (mesh, StructureResult) of a reduced case
 
 
 class StageFailed(RuntimeError):
@@ -172,6 +174,7 @@ def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
                           on_disk_full=lock.release_reserve) as writer:
         stopped = ""
         models: LumpedModels | AssemblyModels = LumpedModels()
+        structure = None
         if "geometry" in case.data:
             t = time.perf_counter()
             m = mesh_geometry(case.geometry_table, out, progress, pictures=False,
@@ -185,10 +188,11 @@ def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
                 except StageFailed as err:  # numerical: said, kept in the file, exit 1
                     progress(f"[reduction] failed: {err}")
                     return writer.close("failed", str(err))
+                structure = (m, result)
                 if "assembly" in case.data:
                     models = AssemblyModels(m, result)
         unfinished: list[tuple[str, str, str]] = []  # (name, status, why) not complete
-        run = Run(writer, out, progress, models, store, executor)
+        run = Run(writer, out, progress, models, store, executor, structure)
         for spec in case.analysis_specs:
             name = spec.name
             t = time.perf_counter()
@@ -1010,5 +1014,48 @@ def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
 
 #: One runner per analysis type: (case, its spec, its results group, the run's shared
 #: parts) -> (status, message).
+def run_modes(case: Case, spec: Modes, group: h5py.Group, run: Run) -> tuple[str, str]:
+    """The lowest modes of every reduced body, unreduced (held as its reduction holds it)
+    and reduced, per nodal diameter (``fe.modes``): results.h5 <name>/<body>/nd<h> (a body
+    without cyclic symmetry: <body>/body) and the picture of the reduction's error."""
+    from microslip.pipeline.case.reduction import body_specs
+    from microslip.pipeline.fe import fem
+    from microslip.pipeline.fe.modes import body_modes
+
+    mesh, result = run.structure
+    red = case.reduction_table
+    bodies = {b.body: b for b in body_specs(mesh, red)}
+    worst = 0.0
+    for name, models in result.models.items():
+        body = bodies[name]
+        assembled = fem.assemble(mesh, name, body.material, body.order)
+        is_cyclic = name in mesh.cyclic
+        parent = group.create_group(name)
+        for h, model in (models.items() if is_cyclic else list(models.items())[:1]):
+            t = time.perf_counter()
+            found = body_modes(mesh, body, model, spec.count, h if is_cyclic else None,
+                               spec.shapes, None if red.backend == "auto" else red.backend,
+                               assembled)
+            error = found.relative_error
+            worst = max(worst, float(np.abs(error).max(initial=0.0)))
+            data = {"frequencies_hz": found.frequencies_hz, "reduced_hz": found.reduced_hz,
+                    "relative_error": error, "nodes": found.nodes}
+            if found.shapes is not None:
+                data["shapes"] = found.shapes.astype(np.complex64 if np.iscomplexobj(
+                    found.shapes) else np.float32)
+            where = schema.nodal_diameter(h) if is_cyclic else "body"
+            run.writer.write_group(parent, where, data, {
+                "n_free": found.n_free, "seconds": time.perf_counter() - t,
+                "reduced_modes": model.n_modes, "master_dofs": 3 * len(model.master_nodes)})
+            run.progress(f"[{spec.name}] {name}" + (f" ND {h}" if is_cyclic else "")
+                         + f" ({found.n_free} DOFs, {time.perf_counter() - t:.1f} s): f [Hz] "
+                         + " ".join(f"{x:.6g}" for x in found.frequencies_hz[:6])
+                         + f"; reduced model's error at most "
+                         f"{float(np.abs(error).max(initial=0.0)):.2g}")
+    _draw(pictures.modes, group, spec, run)
+    return "complete", f"(the reduced models' frequency error at most {worst:.2g})"
+
+
 RUNNERS = {"frf": run_frf, "peak": run_peak, "uncertainty": run_uncertainty,
-           "loops": run_loops, "dti": run_dti, "transient": run_transient}
+           "loops": run_loops, "dti": run_dti, "transient": run_transient,
+           "modes": run_modes}

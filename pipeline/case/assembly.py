@@ -62,7 +62,7 @@ LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase", "spread"
 OUTPUT_KEYS = {"name", "node_set", "direction"}
 #: Parameters an assembly case's analyses may sweep.
 PARAMETERS = ("frequency", "excitation", "mass")
-ANALYSES = ("frf", "peak", "uncertainty")
+ANALYSES = ("frf", "peak", "uncertainty", "modes")
 
 
 def output_names(data: Mapping[str, Any]) -> list[str]:

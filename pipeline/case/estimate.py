@@ -41,7 +41,8 @@ class Size:
     detail: str = ""  # what sets the size (for a refusal)
 
     def __str__(self) -> str:
-        what = f"{self.unknowns:,} unknowns" if self.unknowns else "no unknowns (prescribed motion)"
+        what = (f"{self.unknowns:,} unknowns" if self.unknowns else
+                f"no unknowns ({self.detail or 'prescribed motion'})")
         return f"{self.analysis}, {what}, {memory_text(self.nbytes)}"
 
 
@@ -114,6 +115,8 @@ def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None) 
              if specs.analysis_name(x, i) == spec.name)
     if isinstance(spec, specs.Loops):
         return LOOPS_S
+    if isinstance(spec, specs.Modes):  # the bodies' eigen-solves: app.plan estimates them
+        return 0.0
     if isinstance(spec, specs.TimeIntegration):
         return _time_integration_seconds(data, spec)
     stability = bool(getattr(spec, "stability", False))
@@ -191,6 +194,8 @@ def _variants(data: dict, a: dict) -> list[dict]:
 
 def _size(name: str, data: dict, a: dict) -> Size:
     kind = a.get("type")
+    if kind == "modes":  # sparse factorizations like the reduction's, no balance
+        return Size(name, 0, 0, "eigen-solves of the unreduced bodies")
     if kind in ("dti", "transient"):  # a handful of dense DOF x DOF matrices
         n = len(data["model"]["dofs"])
         return Size(name, n, 8 * 8 * n * n, f"{n} DOFs, time integration")

@@ -204,6 +204,18 @@ class Loops(Analysis):
 
 
 @dataclass(frozen=True, kw_only=True)
+class Modes(Analysis):
+    """The lowest ``count`` natural frequencies of every body of a reduced case, unreduced
+    (held as the reduction holds it, at each nodal diameter reduced) and reduced (its
+    Craig-Bampton model, masters free), and the reduction's error on each; ``shapes``: the
+    unreduced mode shapes kept in results.h5 (vertex displacements)."""
+
+    type: ClassVar[str] = "modes"
+    count: int = 10
+    shapes: bool = True
+
+
+@dataclass(frozen=True, kw_only=True)
 class TimeIntegration(Analysis):
     """The load steps of a time integration: the static loads ramped over ``ramp_time``
     (s), held ``settle_time``; the harmonic loads ramped over ``ramp_periods`` periods;
@@ -311,7 +323,8 @@ class LoadTable:
 
 
 ANALYSES: dict[str, type[Analysis]] = {cls.type: cls for cls in (Frf, Peak, Uncertainty,
-                                                                   Loops, Dti, Transient)}
+                                                                   Loops, Dti, Transient,
+                                                                   Modes)}
 
 
 def keys(kind: str) -> set[str]:

@@ -51,6 +51,15 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
     if "geometry" in data and "model" not in data and "analysis" not in data:
         _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
         return  # a mesh (and reduction) case
+    if "reduction" in data and "model" not in data:  # reduced bodies on their own: modes
+        _harmonics(data.get("harmonics", {}), out)
+        for i, a in _analysis_tables(data, ("modes",), out):
+            if isinstance(a, dict) and a.get("type") != "modes":
+                out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: a case of "
+                           "reduced bodies without [assembly] runs ['modes']")
+                continue
+            _analysis(i, a, data, set(), set(), out)
+        return
     model = data.get("model")
     if not isinstance(model, dict):
         out.append("[model]: missing; give dofs, mass, stiffness (and damping)")
@@ -88,6 +97,9 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
         for i, a in _analysis_tables(data, tuple(specs.ANALYSES), out):
             _analysis(i, a, data, seen, names, out)
 
+
+#: modes per body and nodal diameter at most (a modal answer, not a spectrum)
+MAX_MODES = 200
 
 #: Top-level groups of results.h5 that are not analyses (``results.schema``'s, which this
 #: stage does not import; a test holds them equal): an analysis may not take their name.
@@ -499,6 +511,15 @@ def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
             out.append(f"{pre}.scale = {a.get('scale')!r}: expected 'all' (the amplitudes "
                        "multiply the whole motion) or 'v' (only the normal motion)")
         samples_rule(f"{pre}.samples", a["samples"], 1, out)  # the loops keep orders 0, 1
+    if kind == "modes":
+        if "reduction" not in data:
+            out.append(f"{pre}: the modes of reduced bodies need [geometry] and [reduction]")
+        if not (is_int(a["count"]) and 1 <= a["count"] <= MAX_MODES):
+            out.append(f"{pre}.count = {a['count']!r}: expected an integer in [1, "
+                       f"{MAX_MODES}] (modes per body and nodal diameter)")
+        if not isinstance(a["shapes"], bool):
+            out.append(f"{pre}.shapes = {a['shapes']!r}: expected true or false (keep the "
+                       "mode shapes in results.h5)")
     if kind == "transient":
         number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
         for k in ("ramp_time", "settle_time"):

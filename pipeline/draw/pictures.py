@@ -443,6 +443,19 @@ def loops(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> 
     return [path]
 
 
+def modes(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
+    """The reduced models' frequency error on each mode of every body and nodal diameter."""
+    rows = []
+    for body, b in g.items():
+        for where, m in b.items():
+            rows.append({"label": body + ("" if where == "body" else f" ND {where[2:]}"),
+                         "frequencies_hz": m["frequencies_hz"][()],
+                         "relative_error": m["relative_error"][()]})
+    path = out / f"{name}.png"
+    plots.mode_errors(path, f"{name}: the reduced models against the unreduced bodies", rows)
+    return [path]
+
+
 def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """Steady responses by time integration as markers over the FRF they are compared with
     (the analysis ``compare`` names), per output; the static contact forces likewise."""
@@ -541,7 +554,7 @@ def uncertainty(g: h5py.Group, name: str, out: Path, options: Options = Options(
 #: Every analysis type's pictures: ``run`` draws them once an analysis is written, ``render``
 #: again from a finished file. A new analysis type registers its drawer here.
 DRAWERS = {"frf": frf, "peak": peak, "uncertainty": uncertainty, "loops": loops, "dti": dti,
-           "transient": transient,
+           "transient": transient, "modes": modes,
            "geometry": previews.geometry_previews}
 
 

@@ -173,6 +173,26 @@ def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: 
     return _save(fig, path)
 
 
+def mode_errors(path: Path, title: str, rows: Sequence[dict]) -> Figure:
+    """Per body and nodal diameter (one line each, ``rows``: label, frequencies_hz,
+    relative_error): the reduced model's relative frequency error against the unreduced
+    mode's frequency, on log axes (a rigid mode, 0 Hz, is left out)."""
+    fig = _figure((7, 5))
+    ax = fig.add_subplot()
+    for row in rows:
+        f, e = np.asarray(row["frequencies_hz"]), np.abs(np.asarray(row["relative_error"]))
+        ok = f > 0
+        ax.plot(f[ok], np.maximum(e[ok], 1e-16), "o-", ms=4, label=row["label"])
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("natural frequency of the unreduced body [Hz]")
+    ax.set_ylabel("reduced model's relative frequency error")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, ncol=2)
+    return _save(fig, path)
+
+
 def loops(path: Path, title: str, loops_: Sequence[dict], *, two_d: bool) -> Figure:
     """Hysteresis loops T(u) (1D) or force trajectories (T_x, T_y) with the Coulomb
     circle of the largest normal load (2D, dotted)."""

@@ -289,6 +289,15 @@ LAYOUT = group(
                 data("u", "(a, dim, samples) m"), data("v", "(a, samples) m"),
                 data("T", "(a, dim, samples) N"), data("N", "(a, samples) N"),
                 data("dissipation", "(a,) J/cycle"), data("state", "(a,) over the loop")),
+          group("<body>/nd<h> (or <body>/body)", "(modes) one body at one nodal diameter "
+                "(a body without cyclic symmetry: body)",
+                ("n_free", "seconds", "reduced_modes", "master_dofs"),
+                data("frequencies_hz", "(k,) Hz, of the unreduced body held as reduced"),
+                data("reduced_hz", "(k,) Hz, of its reduced model, masters free"),
+                data("relative_error", "(k,) reduced_hz / frequencies_hz - 1"),
+                data("nodes", "(n_v,) the body's vertices (mesh indices)"),
+                data("shapes", "(k, n_v, 3) the vertices' displacements per mode, mass-"
+                     "normalised (complex at 0 < h < Ns/2; shapes = true)")),
           group("curve_NNN", "(dti) the time integration",
                 ("label", *_RUN, "outputs", "steps_per_period", "measure"),
                 data("omega", "(n,) rad/s"),
