@@ -291,3 +291,30 @@ def test_reduction_lines_count_models_and_show_the_time_left():
     assert lines[0].startswith("[reduction] blisk ND 0 (1/3, ~20 s left): 12 master DOFs")
     assert lines[1].startswith("[reduction] blisk ND 3 (2/3, ~10 s left): ")
     assert lines[2].startswith("[reduction] damper (3/3): 12 master DOFs + 4 modes, from cache")
+
+
+@pytest.mark.parametrize("law", ["A", "B"])
+def test_a_curve_without_a_start_point_fails_in_one_line_and_the_run_goes_on(tmp_path, law):
+    """A tolerance no Newton meets: no start point, coupled (law A's static forces) or
+    uncoupled (law B's N0); the curve is failed with 0 points, written, never a traceback,
+    and the next analysis still runs."""
+    import copy
+
+    import h5py
+
+    data = copy.deepcopy(SDOF)
+    data["contacts"][0] |= {"law": law} | ({"kn": 3.0, "v": {"x": 1.0}} if law == "B" else {})
+    data["solver"] = {"tol": 1e-30, "max_iter": 1}
+    data["analysis"] = [{"name": "none", "type": "frf", "start": 0.5, "stop": 2.5},
+                        {"name": "loops", "type": "loops", "contact": "wall",
+                         "u": [0.1, 0.0], "amplitudes": [1.0]} | (
+                            {"v": [0.0, 0.0]} if law == "B" else {})]
+    lines: list[str] = []
+    path = run_case(cases.Case(data, "none.toml"), tmp_path, progress=lines.append)
+    with h5py.File(path) as f:
+        curve = f["none/curve_000"]
+        assert curve.attrs["status"] == "failed" and len(curve["omega"]) == 0
+        assert f["loops"].attrs["status"] == "complete"
+        assert f.attrs["status"] == "partial"
+    failed = [line for line in lines if "0 points, failed" in line]
+    assert len(failed) == 1 and "found no start" in failed[0]

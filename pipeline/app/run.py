@@ -415,11 +415,13 @@ def _contact_data(r: Response, per_point: list) -> dict:
     for ci, c in enumerate(r.model.contacts):
         rows = [contacts[ci] for contacts in per_point]
         el = c.elements
-        if el.coupled and r.model.harmonics.has_static:
-            static = np.array([x.forces[:, :, 0].ravel() for x in rows])
+        if el.coupled and r.model.harmonics.has_static:  # (no point: a curve without start)
+            static = np.array([x.forces[:, :, 0].ravel() for x in rows],
+                              dtype=float).reshape(len(rows), el.size * el.n_components)
         elif el.variable_normal:
             # uncoupled: the static forces assumed a priori, N0 (T0 not modelled: NaN)
-            n0 = np.array([el.n0 * r.point(i).preload for i in range(len(r))])
+            n0 = np.array([el.n0 * r.point(i).preload for i in range(len(r))],
+                          dtype=float).reshape(len(r), el.size)
             static = np.concatenate([np.full((len(r), el.size * el.dim), np.nan), n0], axis=1)
         else:
             static = np.zeros((len(r), 0))
@@ -597,6 +599,8 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
               progress=ticker(progress, which, start, stop) if live else None)
     elapsed = time.perf_counter() - t
     b = r.branch
+    if not len(r) and b.status == "stopped":  # no start point: nothing of the curve
+        b.status = "failed"
     coef = r.coefficients(idx) if len(r) else np.zeros((0, len(idx), hb.harmonics.n_coeffs))
     amp = hb.harmonics.peak(coef) if len(r) else np.zeros((0, len(idx)))
     shown = response_measure(hb.harmonics, coef, measure) if len(r) else amp
