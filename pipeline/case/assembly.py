@@ -8,7 +8,8 @@ centrifugal = ["damper"]     # bodies under centrifugal load (default: none)
 mass_bodies = ["damper"]     # bodies the mass multiplier scales (default: the non-cyclic ones)
 mass_multiplier = 1.0        # their mass as a multiple of the meshed one (analyses may sweep it)
 excitation = 1.0             # multiplier of every load (a family over it: excitation levels)
-static_anchor = 1e-3         # order-0 spring on each pair's mean tangential slip, x kt (0: none)
+static_anchor = 1e-3         # order-0 spring on the mean tangential slip of each pair touching a
+                             # free body (a rigid mode: a damper), x kt (0: none)
 [[assembly.contacts]]        # one per patch: a contact element per node pair
 patch = "damper_left"        # a model's patch, or a contact of [geometry.contacts]
 mu = 0.5
