@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import abaqus, cad, elements, materials
+from . import abaqus, cad, deck_supports, elements, materials
 from .mesh import FRAMES, Mesh, MeshValidationError, Support
 from .params import GeometryBuildError
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
@@ -186,8 +186,12 @@ def read(path: str | Path, length: float = 1.0, size: float | None = None,
             raw = meshio.read(path, file_format=fmt)
             if fmt == "nastran":  # each element's property id names its material
                 raw.info = {"element_materials": raw.cell_data.get("nastran:ref"),
-                            "materials": _cards(materials.nastran, path)}
+                            "materials": _cards(materials.nastran, path),
+                            "boundary": _held_nodes(deck_supports.nastran, path,
+                                                    getattr(raw, "points_id", None))}
             return raw
+    except deck_supports.SupportError as exc:
+        raise MeshImportError(str(exc)) from None
     except (Exception, SystemExit) as exc:  # anything from KeyError to IndexError
         text = said.getvalue() if isinstance(exc, SystemExit) else str(exc) or said.getvalue()
         lines = [x for x in text.strip().splitlines() if x.strip()]
@@ -370,10 +374,25 @@ def _ansys_archive(path: Path):
                  for name, members in archive.element_components.items()}
     for m in np.unique(mats):
         cell_sets[f"mat{int(m)}"] = [np.flatnonzero(cm == m) for cm in cell_mats]
+    try:
+        held = _held_nodes(deck_supports.ansys, path, numbers)
+    except deck_supports.SupportError as exc:
+        raise MeshImportError(str(exc)) from None
     return meshio.Mesh(np.asarray(grid.points, dtype=np.float64), cells,
                        point_sets=point_sets, cell_sets=cell_sets,
                        info={"element_materials": cell_mats,
-                             "materials": _cards(materials.ansys, path)})
+                             "materials": _cards(materials.ansys, path), "boundary": held})
+
+
+def _held_nodes(reader, path: Path, ids) -> list[tuple[list[int], tuple[int, ...], str]]:
+    """A deck's supports (``geometry.deck_supports``) on the file's node indices (``ids``:
+    each point's number in the file); a support of a node the mesh lacks holds nothing."""
+    found = reader(path)
+    if not found or ids is None:
+        return []
+    index = {int(n): i for i, n in enumerate(np.asarray(ids))}
+    return [([index[n] for n in nodes if n in index], dofs, where)
+            for nodes, dofs, where in found]
 
 
 def _cards(reader, path: Path) -> dict | str:

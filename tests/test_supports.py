@@ -337,3 +337,49 @@ def test_a_deck_of_a_sector_through_the_axis_finds_its_faces(tmp_path):
         spectra.append(np.concatenate([_eigenvalues(m.stiffness, m.mass) for m in (
             cyclic.sector_model(body, rim, mesh.cyclic["disk"], h) for h in range(4))]))
     np.testing.assert_allclose(np.sort(spectra[1]), np.sort(spectra[0]), rtol=1e-9)
+
+
+def _with_cards(path, cards: str, before: str | None = None):
+    """The deck at ``path`` with ``cards`` added (before the line starting ``before``)."""
+    text = path.read_text()
+    at = text.find(f"\n{before}") + 1 if before and f"\n{before}" in text else len(text)
+    path.write_text(text[:at] + cards + text[at:])
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".bdf", ".cdb"])
+def test_nastran_spc_and_ansys_d_are_supports(tmp_path, suffix):
+    from exports import write
+
+    mesh = block("hexahedron", (0.2, 0.02, 0.02), (4, 1, 1))
+    clamp = mesh.node_sets["block/clamp"] + 1  # the writers number nodes from 1
+    bodies = {"block": {".bdf": "pid1", ".cdb": "mat1"}[suffix]}
+    path = write(mesh, tmp_path / f"deck{suffix}")
+    if suffix == ".bdf":
+        ids = ",".join(str(i) for i in clamp)
+        cards = f"SPC1,1,12,{ids}\nSPC,1,{clamp[0]},3,0.0\n"
+        _with_cards(path, cards, "ENDDATA")
+    else:
+        cards = "".join(f"D,{i},UX,0.0\nD,{i},UY,0.0\n" for i in clamp) + f"D,{clamp[0]},UZ,0\n"
+        _with_cards(path, cards)
+    supports = import_mesh(path, bodies=bodies).mesh.supports
+    found = {tuple(s.held.tolist()): set(s.nodes.tolist()) for s in supports.values()}
+    corner = int(clamp[0]) - 1
+    assert found == {(True, True, False): set(mesh.node_sets["block/clamp"].tolist()) - {corner},
+                     (True, True, True): {corner}}
+
+
+@pytest.mark.parametrize(("suffix", "cards", "words"), [
+    (".bdf", "SPC,1,1,1,0.5\n", "a non-zero displacement is a load"),
+    (".bdf", "SPCD,1,1,1,0.5\n", "a prescribed displacement is a load"),
+    (".cdb", "D,1,UX,0.5\n", "a non-zero displacement is a load"),
+    (".cdb", "D,1,TEMP,0.0\n", "only UX, UY, UZ, ALL"),
+])
+def test_a_deck_support_that_is_a_load_is_one_line(tmp_path, suffix, cards, words):
+    from exports import write
+
+    path = write(block("hexahedron", (0.2, 0.02, 0.02), (4, 1, 1)), tmp_path / f"d{suffix}")
+    _with_cards(path, cards, "ENDDATA" if suffix == ".bdf" else None)
+    with pytest.raises(MeshImportError) as err:
+        import_mesh(path, bodies={"block": {".bdf": "pid1", ".cdb": "mat1"}[suffix]})
+    assert words in str(err.value) and "\n" not in str(err.value)
