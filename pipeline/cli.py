@@ -376,6 +376,15 @@ def check(argv: list[str]) -> int:
             units, implausible = case_unit_lines(c.data)
             for line in imported_contents(c.data):
                 print(f"{path}: {line}")
+            if imported_contents(c.data) and "reduction" in c.data:
+                from microslip.pipeline.app.plan import reduction_estimate
+                from microslip.pipeline.solve.memory import memory_text
+
+                seconds, nbytes = reduction_estimate(c.geometry_table.build(),
+                                                     c.reduction_table)
+                print(f"{path}: reduction ~{seconds:.0f} s (two quiet cores) and "
+                      f"{memory_text(nbytes)} peak memory in one process, none cached (rough: "
+                      "within about 2x; `run --dry-run` says what the caches hold)")
             for note in (*c.renamed, *units, *notes(c.data)):
                 print(f"{path}: note: {note}")
             for line in implausible:

@@ -47,6 +47,25 @@ from .store import CurveStore
 REDUCTION_S_PER_KNODE = 10.0
 COMPLEX_ND = 1.5
 SOLID_ELEMENTS = 2.0
+#: Peak memory of a Craig-Bampton model of n DOFs and m master nodes (imported blocks of
+#: 5k-220k DOFs in tetrahedra and hexahedra, both orders, measured as the run's peak
+#: resident size): the process itself, PROCESS_BYTES, plus per DOF the sparse factor's
+#: FACTOR_BYTES x (n / 1e5)^FILL_GROWTH (SOLID_ELEMENTS_MEMORY x that for hexahedra and
+#: wedges: denser rows) and the dense columns, COLUMN_BYTES per master DOF and mode.
+PROCESS_BYTES = 0.45e9
+FACTOR_BYTES = 17e3
+FILL_GROWTH = 0.15
+SOLID_ELEMENTS_MEMORY = 1.3
+COLUMN_BYTES = 24.0
+#: The fixed-interface modes "auto" keeps, for the estimates: at least AUTO_MODES (the shipped
+#: bodies: 20-80), more with many masters (their fixed interface stiffens the body, so its
+#: 10th frequency, and the cut-off above it, rise: 664 modes for 935 master nodes)
+AUTO_MODES = 60
+AUTO_MODES_PER_MASTER = 0.7
+#: The dense work of a reduction with c = 3 m + modes columns (the static and fixed-interface
+#: modes, their orthogonalization and the reduced matrices): this x n c^2 [s] (an imported
+#: block of 60k DOFs: 483 s with 2805 master DOFs and 664 modes, 70 s with 198 and 54)
+DENSE_S = 5.7e-10
 LINEAR_S = 10.0
 #: The unreduced bodies' lowest modes (a ``modes`` analysis) against their reduction [-]
 MODES_SHARE = 0.5
@@ -204,11 +223,14 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
             seconds *= SOLID_ELEMENTS
         is_cyclic = spec.body in mesh.cyclic
         sectors = mesh.cyclic[spec.body].sectors if is_cyclic else 0
+        n, columns = _reduction_size(mesh, spec)
+        nbytes = _reduction_bytes(mesh, spec, n, columns)
+        seconds += DENSE_S * n * columns**2
         for h in (nds if is_cyclic else (None,)):
             complex_nd = is_cyclic and 0 < h < sectors / 2
             if not is_cyclic and spec.f_max is None and spec.n_modes == "auto":
                 if not cyclic_cached:  # its modes follow the cyclic bodies' reduced models
-                    stages.append(Stage(f"reduction: {spec.body}", False, seconds, 0,
+                    stages.append(Stage(f"reduction: {spec.body}", False, seconds, nbytes,
                                         "after the cyclic bodies (its mode count follows "
                                         "theirs)", seconds))
                     continue
@@ -218,9 +240,44 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
             cyclic_cached = cyclic_cached and (cached or not is_cyclic)
             where = f"{spec.body} ND {h}" if is_cyclic else spec.body
             work = seconds * (COMPLEX_ND if complex_nd else 1.0)
-            stages.append(Stage(f"reduction: {where}", cached, 0.0 if cached else work, 0,
+            stages.append(Stage(f"reduction: {where}", cached, 0.0 if cached else work,
+                                0 if cached else int(nbytes * (2 if complex_nd else 1)),
                                 f"{nodes} vertex nodes, P{spec.order}", work))
     return stages
+
+
+def reduction_estimate(mesh, red, orders=None) -> tuple[float, float]:
+    """(seconds on the reference machine, peak bytes) of reducing every body of ``mesh`` as
+    ``red`` says, none cached (``check``'s line)."""
+    stages = _reduction(mesh, red, Path("/nonexistent-cache"), orders)
+    return sum(s.work for s in stages), max((s.nbytes for s in stages), default=0)
+
+
+def _reduction_size(mesh, spec) -> tuple[int, int]:
+    """(DOFs of the body, columns of its reduction basis: 3 x master nodes + modes, "auto"
+    as AUTO_MODES and AUTO_MODES_PER_MASTER say)."""
+    from microslip.geometry import elements
+    from microslip.pipeline.fe import reduction
+
+    cells = mesh.body_cells(spec.body)
+    edges = 0
+    if spec.order == 2:
+        pairs = np.concatenate([np.sort(c[:, elements.EDGES[k]].reshape(-1, 2), axis=1)
+                                for k, c in cells.items()])
+        edges = len(np.unique(pairs, axis=0))
+    masters = reduction.spec_nodes(mesh, spec)[0].size
+    modes = (spec.n_modes if isinstance(spec.n_modes, int)
+             else max(AUTO_MODES, int(AUTO_MODES_PER_MASTER * masters)))
+    return 3 * (mesh.body_nodes(spec.body).size + edges), 3 * masters + modes
+
+
+def _reduction_bytes(mesh, spec, n: int, columns: int) -> float:
+    """Peak memory [bytes] of one body's Craig-Bampton reduction of ``n`` DOFs and
+    ``columns`` basis columns (the anchors above), real; a complex nodal diameter doubles
+    it."""
+    solid = SOLID_ELEMENTS_MEMORY if set(mesh.body_cells(spec.body)) - {"tetra"} else 1.0
+    per_dof = FACTOR_BYTES * solid * (n / 1e5) ** FILL_GROWTH + COLUMN_BYTES * columns
+    return PROCESS_BYTES + n * per_dof
 
 
 def _with_reference(spec, mesh, red, nds, cache: Path, surfaces: bool = False):
