@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .materials import _nastran_cards, _real
+from .materials import nastran_cards, nastran_real
 
 
 class SupportError(ValueError):
@@ -35,7 +35,7 @@ def nastran(path: str | Path) -> list[tuple[list[int], tuple[int, ...], str]]:
     """The SPC and SPC1 cards of a Nastran deck (see the module)."""
     out: list[tuple[list[int], tuple[int, ...], str]] = []
     frames: dict[int, str] = {}
-    for name, f in _nastran_cards(Path(path)):
+    for name, f in nastran_cards(Path(path)):
         f = [v.strip() for v in f]
         if name == "GRID" and len(f) > 5:
             frames[int(f[0])] = f[5]
@@ -56,7 +56,7 @@ def nastran(path: str | Path) -> list[tuple[list[int], tuple[int, ...], str]]:
                 if not f[j]:
                     continue
                 card = f"SPC {f[0]} {f[j]} {f[j + 1]}"
-                if j + 2 < len(f) and f[j + 2] and _real(f[j + 2]) != 0.0:
+                if j + 2 < len(f) and f[j + 2] and nastran_real(f[j + 2]) != 0.0:
                     raise SupportError(f"{path}: {card} D = {f[j + 2]}: a non-zero "
                                        "displacement is a load, not a support; only supports "
                                        "are read")
@@ -84,7 +84,7 @@ def ansys(path: str | Path) -> list[tuple[list[int], tuple[int, ...], str]]:
         if label not in _ANSYS and label not in ("ROTX", "ROTY", "ROTZ"):
             raise SupportError(f"{path}:{number}: D on {label}: only UX, UY, UZ, ALL (and "
                                "rotations, which solid nodes do not have) are read")
-        if f[3] and _real(f[3]) != 0.0:
+        if f[3] and nastran_real(f[3]) != 0.0:
             raise SupportError(f"{path}:{number}: D {f[1]} {label} = {f[3]}: a non-zero "
                                "displacement is a load, not a support; only supports are read")
         if label in _ANSYS:

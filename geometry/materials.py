@@ -22,7 +22,7 @@ from pathlib import Path
 _NASTRAN_REAL = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+))([+-]\d+)$")  # 7.85-9 = 7.85e-9
 
 
-def _real(field: str) -> float:
+def nastran_real(field: str) -> float:
     """A Nastran or Ansys real ("" -> nan)."""
     field = field.strip().replace("D", "E").replace("d", "e")
     if not field:
@@ -31,7 +31,7 @@ def _real(field: str) -> float:
     return float(f"{match.group(1)}e{match.group(2)}" if match else field)
 
 
-def _nastran_cards(path: Path):
+def nastran_cards(path: Path):
     """(name, fields) of every bulk-data card, continuations joined."""
     card: list[str] = []
     for raw in Path(path).read_text(errors="replace").splitlines():
@@ -60,10 +60,10 @@ def nastran(path: str | Path) -> dict[int, tuple[float, float, float]]:
     """Property id -> (E, nu, rho) of its PSOLID's MAT1."""
     mat1: dict[int, tuple[float, float, float]] = {}
     psolid: dict[int, int] = {}
-    for name, f in _nastran_cards(Path(path)):
+    for name, f in nastran_cards(Path(path)):
         f = f + [""] * 8
         if name == "MAT1":
-            E, G, nu, rho = (_real(v) for v in f[1:5])
+            E, G, nu, rho = (nastran_real(v) for v in f[1:5])
             if math.isnan(nu) and not (math.isnan(E) or math.isnan(G)):
                 nu = E / (2.0 * G) - 1.0
             if math.isnan(E) and not (math.isnan(G) or math.isnan(nu)):
@@ -92,7 +92,7 @@ def ansys(path: str | Path) -> dict[int, tuple[float, float, float]]:
             continue
         label, mat, value = f[at].upper(), f[at + 1], f[at + 3]
         if label in ("EX", "PRXY", "NUXY", "DENS") and mat:
-            found.setdefault(int(mat), {}).setdefault(label, _real(value))
+            found.setdefault(int(mat), {}).setdefault(label, nastran_real(value))
     out = {}
     for mat, props in found.items():
         nu = props.get("PRXY", props.get("NUXY", math.nan))

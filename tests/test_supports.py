@@ -383,3 +383,19 @@ def test_a_deck_support_that_is_a_load_is_one_line(tmp_path, suffix, cards, word
     with pytest.raises(MeshImportError) as err:
         import_mesh(path, bodies={"block": {".bdf": "pid1", ".cdb": "mat1"}[suffix]})
     assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_ansys_material_cards_in_each_form_a_tool_writes(tmp_path):
+    """MPDATA as CDWRITE writes it, as Workbench writes it (UNBL) and as typed."""
+    from microslip.geometry import materials
+
+    path = tmp_path / "m.cdb"
+    path.write_text("MPTEMP,R5.0, 1, 1,  0.00000000    ,\n"
+                    "MPDATA,R5.0, 1,EX  ,       1, 1,  2.1E+11    ,\n"
+                    "MPDATA,R5.0, 1,PRXY,       1, 1, 0.3,\n"
+                    "MPDATA,UNBL,16,DENS,2,1,7850.0\n"
+                    "MPDATA,UNBL,16,EX,2,1,7.0E+10\n"
+                    "MPDATA,UNBL,16,NUXY,2,1,0.33\n"
+                    "MPDATA,DENS,1,,7800.\n")
+    found = materials.ansys(path)
+    assert found == {1: (2.1e11, 0.3, 7800.0), 2: (7.0e10, 0.33, 7850.0)}
