@@ -4,6 +4,7 @@ nodal diameter) against a dense eigen-solve of the same matrices and its reduced
 blade: results.h5, the picture, one line per body."""
 
 import h5py
+import matplotlib.image as mpimg
 import numpy as np
 import pytest
 import scipy.linalg as sla
@@ -94,4 +95,7 @@ def test_modes_of_an_imported_blade_end_to_end(tmp_path, capsys):
     # "auto" keeps the modes below 4 x the 10th fixed-interface frequency: the first eight
     # within 0.1 % (the README's statement), the first above
     assert np.all(reduced >= f_hz * (1 - 1e-12)) and np.all(reduced / f_hz - 1 < 1e-3)
-    assert (tmp_path / "out" / "clamped.png").is_file()
+    # render draws the same picture from results.h5 alone, pixel for pixel
+    assert main(["render", str(tmp_path / "out"), "--out", str(tmp_path / "again")]) == 0
+    np.testing.assert_array_equal(mpimg.imread(tmp_path / "again" / "clamped.png"),
+                                  mpimg.imread(tmp_path / "out" / "clamped.png"))
