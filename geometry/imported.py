@@ -265,7 +265,7 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     mid_xyz = mid_xyz * length
     supports = _deck_supports(raw, used, new, length)
     parameters = {"file": Path(path).name, "units": units, "dropped_sets": list(dropped),
-                  "materials": _body_materials(raw, solids, body_of, UNITS[units])}
+                  "materials": _body_materials(raw, solids, body_of, UNITS[units], first)}
 
     def mesh_of(xyz: np.ndarray, cyclic: dict | None = None,
                 motion: np.ndarray | None = None) -> Mesh:
@@ -404,9 +404,12 @@ def _cards(reader, path: Path) -> dict | str:
         return f"its material cards cannot be read ({exc})"
 
 
-def _body_materials(raw, solids, body_of, units: Units) -> dict[str, dict | str]:
+def _body_materials(raw, solids, body_of, units: Units, first: dict[int, int]
+                    ) -> dict[str, dict | str]:
     """Body -> its material from the file's cards in SI (youngs_modulus [Pa], poisson_ratio,
-    density [kg/m^3]), or why the file gives none (``material = "file"`` reads these)."""
+    density [kg/m^3], name), or for a body of several materials ``{"zones": [that and
+    "elements": its mesh element indices, ...]}``, or why the file gives none (``material =
+    "file"`` reads these). ``first``: each solid block's first element index in the mesh."""
     info = getattr(raw, "info", None) or {}
     per_block, table = info.get("element_materials"), info.get("materials", {})
     out: dict[str, dict | str] = {}
@@ -414,20 +417,36 @@ def _body_materials(raw, solids, body_of, units: Units) -> dict[str, dict | str]
         if per_block is None or isinstance(table, str):
             out[body] = table if isinstance(table, str) else "the format carries no materials"
             continue
-        keys = set()
+        members: dict = {}
         for k, idx in parts.items():
-            keys |= {_key_of(v) for v in np.asarray(per_block[solids[k][0]])[idx].ravel()}
-        keys.discard("")
-        if len(keys) != 1:
-            out[body] = ("its elements have no material" if not keys else
-                         f"its elements have {len(keys)} materials {sorted(map(str, keys))}")
+            keys = np.array([_key_of(v) for v in np.asarray(per_block[solids[k][0]])[idx]],
+                            dtype=object)
+            for key in set(keys.tolist()):
+                members.setdefault(key, []).append(first[k] + idx[keys == key])
+        if "" in members or not members:
+            out[body] = "its elements have no material" if len(members) <= 1 else (
+                f"{sum(len(np.concatenate(v)) for v in [members['']])} of its elements have "
+                "no material")
             continue
-        key = keys.pop()
-        E, nu, rho = table.get(key, (np.nan,) * 3)
-        missing = [n for n, v in (("E", E), ("nu", nu), ("density", rho)) if not np.isfinite(v)]
-        out[body] = (f"material {key!r} lacks {', '.join(missing)}" if missing else
-                     {"youngs_modulus": E * units.stress, "poisson_ratio": nu,
-                      "density": rho * units.density, "name": str(key)})
+        zones = []
+        for key in sorted(members, key=str):
+            found = table.get(key, (np.nan,) * 3)
+            if isinstance(found, str):
+                zones = f"material {key!r}: {found}"
+                break
+            E, nu, rho = found
+            missing = [n for n, v in (("E", E), ("nu", nu), ("density", rho))
+                       if not np.isfinite(v)]
+            if missing:
+                zones = f"material {key!r} lacks {', '.join(missing)}"
+                break
+            zones.append({"youngs_modulus": E * units.stress, "poisson_ratio": nu,
+                          "density": rho * units.density, "name": str(key),
+                          "elements": np.sort(np.concatenate(members[key])).tolist()})
+        if isinstance(zones, str) or len(zones) > 1:
+            out[body] = zones if isinstance(zones, str) else {"zones": zones}
+        else:
+            out[body] = {k: v for k, v in zones[0].items() if k != "elements"}
     return out
 
 

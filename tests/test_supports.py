@@ -399,3 +399,37 @@ def test_ansys_material_cards_in_each_form_a_tool_writes(tmp_path):
                     "MPDATA,DENS,1,,7800.\n")
     found = materials.ansys(path)
     assert found == {1: (2.1e11, 0.3, 7800.0), 2: (7.0e10, 0.33, 7850.0)}
+
+
+def test_a_body_of_two_materials_is_assembled_element_by_element(tmp_path):
+    """An Abaqus part of steel and aluminium elements sharing nodes: one body of two
+    materials from the deck's cards; its mass is each zone's volume times its density, its
+    stiffness each element's, against the two halves assembled on their own and summed
+    (elements carry their own stiffness; the shared nodes add)."""
+    from microslip.pipeline.case.reduction import _resolved
+
+    cards = ("*ELSET, ELSET=STEEL\n1, 2\n*ELSET, ELSET=ALU\n3, 4\n"
+             "*MATERIAL, NAME=S\n*ELASTIC, TYPE=ISO\n2.0e11, 0.3\n*DENSITY\n7850.\n"
+             "*MATERIAL, NAME=A\n*ELASTIC\n7.0e10, 0.33\n*DENSITY\n2700.\n"
+             "*SOLID SECTION, ELSET=STEEL, MATERIAL=S\n*SOLID SECTION, ELSET=ALU, MATERIAL=A\n")
+    path, _, _ = _deck(tmp_path, cards)
+    read = import_mesh(path, bodies={"block": "BLOCK"}).mesh
+    material = _resolved("file", read, "block")
+    assert isinstance(material, fem.MaterialZones) and len(material.zones) == 2
+    body = fem.assemble(read, "block", material, order=1)
+    steel, alu = fem.Material(2.0e11, 0.3, 7850.0), fem.Material(7.0e10, 0.33, 2700.0)
+    # element by element: each half assembled as a mesh of its own, scattered by node
+    expected = np.zeros(body.stiffness.shape)
+    for rows, m in (([0, 1], steel), ([2, 3], alu)):
+        part = Mesh("part", read.points, read.tetrahedra, {"block": np.arange(2)},
+                    hexahedra=read.hexahedra[rows])
+        half = fem.assemble(part, "block", m, order=1)
+        at = body.dofs_of_nodes(half.nodes).ravel()
+        expected[np.ix_(at, at)] += half.stiffness.toarray()[np.ix_(
+            half.node_dofs.ravel(), half.node_dofs.ravel())]
+    np.testing.assert_allclose(body.stiffness.toarray(), expected, rtol=0,
+                               atol=1e-12 * np.abs(expected).max())
+    whole = fem.assemble(read, "block", steel, order=1)
+    volume = 0.2 * 0.02 * 0.02 / 2
+    assert body.mass.sum() / 3 == pytest.approx(volume * (7850.0 + 2700.0), rel=1e-12)
+    assert whole.mass.sum() / 3 == pytest.approx(2 * volume * 7850.0, rel=1e-12)

@@ -55,7 +55,7 @@ import numpy as np
 from microslip.geometry.mesh import ContactPatch, Support
 from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
-from microslip.pipeline.fe.fem import Damping, Material
+from microslip.pipeline.fe.fem import Damping, Material, MaterialZones
 from microslip.pipeline.fe.reduction import BodySpec
 
 from .checks import is_int, is_number, unknown_keys
@@ -377,6 +377,10 @@ def _resolved(m: Material | str, mesh: Any, body: str) -> Material:
     if isinstance(found, str):
         raise ValueError(f"reduction: material = \"file\" for body {body!r}, but {found}; "
                          "give [reduction.bodies.<body>.material] in SI")
+    if "zones" in found:  # a body of several materials
+        return MaterialZones(tuple(
+            (Material(z["youngs_modulus"], z["poisson_ratio"], z["density"]),
+             np.asarray(z["elements"], dtype=np.int64)) for z in found["zones"]))
     return Material(found["youngs_modulus"], found["poisson_ratio"], found["density"])
 
 

@@ -108,6 +108,8 @@ def imported_bodies(mesh: Any, materials: Mapping[str, Any]) -> list[BodyNumbers
         m = materials.get(body)
         if m == "file" and isinstance(cards.get(body), dict):
             card = cards[body]
+            if "zones" in card:  # several materials: the one of most elements
+                card = max(card["zones"], key=lambda z: len(z["elements"]))
             out.append(BodyNumbers(body, size, card["youngs_modulus"], card["density"], True))
         elif m is not None and m != "file":
             out.append(BodyNumbers(body, size, m.youngs_modulus, m.density))

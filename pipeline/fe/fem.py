@@ -22,7 +22,7 @@ axis (+z through the origin), per unit Omega^2 (see its docstring for what is no
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -31,7 +31,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import skfem as fe
 from numpy.typing import NDArray
-from skfem.helpers import dot
+from skfem.helpers import ddot, dot, sym_grad, trace
 from skfem.models.elasticity import linear_elasticity
 
 from microslip.geometry import elements as geometry_elements
@@ -97,6 +97,48 @@ class Material:
 
 
 @dataclass(frozen=True, eq=False)
+class MaterialZones:
+    """Several isotropic materials in one body (a deck's part of two materials):
+    ``zones`` (material, (k,) sorted mesh element indices) holding each of the body's
+    elements once. Where one material is asked for (a contact's flat-punch stiffness, the
+    units' plausibility), the zone of most elements answers (``main``)."""
+
+    zones: tuple[tuple[Material, IntArray], ...]
+
+    @property
+    def main(self) -> Material:
+        return max(self.zones, key=lambda z: len(z[1]))[0]
+
+    @property
+    def youngs_modulus(self) -> float:
+        return self.main.youngs_modulus
+
+    @property
+    def poisson_ratio(self) -> float:
+        return self.main.poisson_ratio
+
+    @property
+    def density(self) -> float:
+        return self.main.density
+
+    def as_tuple(self) -> tuple:
+        """The zones' materials and element sets (a cache key's part)."""
+        return tuple((m.as_tuple(), np.asarray(e, np.int64).tobytes().hex()[:64] + str(len(e)))
+                     for m, e in self.zones)
+
+    def of_elements(self, elements: IntArray) -> IntArray:
+        """(m,) the zone of each of the mesh elements ``elements``; ValueError if one is in
+        none."""
+        zone = np.full(len(elements), -1, dtype=np.int64)
+        for i, (_, members) in enumerate(self.zones):
+            zone[np.isin(elements, members)] = i
+        if np.any(zone < 0):
+            raise ValueError(f"MaterialZones: element {int(elements[zone < 0][0])} has no "
+                             "material")
+        return zone
+
+
+@dataclass(frozen=True, eq=False)
 class BodyModel:
     """Assembled stiffness and mass of one body, with its node/DOF tables.
 
@@ -130,6 +172,7 @@ class BodyModel:
     mass: sp.csr_matrix
     curved_edges: IntArray = field(default_factory=lambda: np.empty((0, 2), np.int64))
     edge_nodes: FloatArray = field(default_factory=lambda: np.empty((0, 3)))
+    zones: Mapping[str, IntArray] = field(default_factory=dict)  # shape -> each row's zone
 
     @property
     def n_dofs(self) -> int:
@@ -224,15 +267,41 @@ def _mass_form(u, v, w):
     return w["rho"] * dot(u, v)
 
 
-def stiffness(basis: fe.Basis, material: Material) -> sp.csr_matrix:
-    """Stiffness matrix K (N, N) [N/m] of isotropic linear elasticity on ``basis``."""
-    form = linear_elasticity(material.lame_lambda, material.shear_modulus)
-    return form.assemble(basis).tocsr()
+@fe.BilinearForm
+def _elasticity_form(u, v, w):
+    # 2 mu eps(u) : eps(v) + lambda div u div v, the Lame parameters per quadrature point
+    eu, ev = sym_grad(u), sym_grad(v)
+    return 2.0 * w["mu"] * ddot(eu, ev) + w["lam"] * trace(eu) * trace(ev)
 
 
-def mass(basis: fe.Basis, material: Material) -> sp.csr_matrix:
-    """Consistent mass matrix M (N, N) [kg] on ``basis``."""
-    return _mass_form.assemble(basis, rho=material.density).tocsr()
+def _per_element(basis: fe.Basis, materials: Sequence[Material], zone: IntArray | None,
+                 value: Callable[[Material], float]) -> float | NDArray:
+    """A material constant on ``basis``: one number, or (elements, points) per element's
+    zone."""
+    if zone is None:
+        return value(materials[0])
+    values = np.array([value(m) for m in materials])[zone]
+    return np.repeat(values[:, None], basis.X.shape[-1], axis=1)
+
+
+def stiffness(basis: fe.Basis, material: Material, zones: Sequence[Material] = (),
+              zone: IntArray | None = None) -> sp.csr_matrix:
+    """Stiffness matrix K (N, N) [N/m] of isotropic linear elasticity on ``basis``; with
+    ``zone`` (each element's index into ``zones``), each element's own material."""
+    if zone is None:
+        form = linear_elasticity(material.lame_lambda, material.shear_modulus)
+        return form.assemble(basis).tocsr()
+    return _elasticity_form.assemble(
+        basis, lam=_per_element(basis, zones, zone, lambda m: m.lame_lambda),
+        mu=_per_element(basis, zones, zone, lambda m: m.shear_modulus)).tocsr()
+
+
+def mass(basis: fe.Basis, material: Material, zones: Sequence[Material] = (),
+         zone: IntArray | None = None) -> sp.csr_matrix:
+    """Consistent mass matrix M (N, N) [kg] on ``basis`` (``zone``: as ``stiffness``)."""
+    rho = (material.density if zone is None
+           else _per_element(basis, zones, zone, lambda m: m.density))
+    return _mass_form.assemble(basis, rho=rho).tocsr()
 
 
 @dataclass(frozen=True, eq=False)
@@ -304,7 +373,7 @@ def _summed(parts: list[tuple[sp.spmatrix, IntArray]], n: int) -> sp.csr_matrix:
 def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> BodyModel:
     """Assemble K and M of one body of ``mesh`` (see the module docstring for the choices)."""
     _check_order(order)
-    if not isinstance(material, Material):
+    if not isinstance(material, Material | MaterialZones):
         raise ValueError(f"material={material!r}: expected a fem.Material")
     if body not in mesh.bodies:
         raise ValueError(f"body={body!r} does not exist; available: {sorted(mesh.bodies)}")
@@ -315,11 +384,16 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
     curved = _body_curved_edges(mesh, cells)
     nodes, edges, blocks = _blocks(points, cells, order, curved)
     n = 3 * (len(nodes) + (len(edges) if order == 2 else 0))
+    zones = _zones_of(mesh, body, material)
+    materials = [m for m, _ in material.zones] if zones else []
     k_parts, m_parts = [], []
     for block in blocks:
         k_degree, m_degree = elements.SHAPES[block.shape].degrees[order]
-        k_parts.append((stiffness(block.basis(order, k_degree), material), block.dof_map))
-        m_parts.append((mass(block.basis(order, m_degree), material), block.dof_map))
+        zone = zones.get(block.shape)
+        k_parts.append((stiffness(block.basis(order, k_degree), material, materials, zone),
+                        block.dof_map))
+        m_parts.append((mass(block.basis(order, m_degree), material, materials, zone),
+                        block.dof_map))
     K, M = _summed(k_parts, n), _summed(m_parts, n)
     K = ((K + K.T) * 0.5).tocsr()  # remove assembly round-off asymmetry
     M = ((M + M.T) * 0.5).tocsr()
@@ -343,7 +417,24 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
         mass=M,
         curved_edges=curved[0],
         edge_nodes=curved[1],
+        zones=zones,
     )
+
+
+def _zones_of(mesh: MeshLike, body: str, material: Material | MaterialZones
+              ) -> dict[str, IntArray]:
+    """Shape -> the zone of each row of the body's cells of that shape (empty for one
+    material): the body's elements, sorted, split by shape as ``body_cells`` splits them."""
+    if not isinstance(material, MaterialZones):
+        return {}
+    index = np.asarray(mesh.bodies[body], dtype=np.int64)
+    out, start = {}, 0
+    for shape, c in mesh.cells.items():
+        inside = index[(index >= start) & (index < start + len(c))]
+        if len(inside):
+            out[shape] = material.of_elements(inside)
+        start += len(c)
+    return out
 
 
 def _body_curved_edges(mesh: MeshLike, cells: Mapping[str, IntArray]
@@ -391,9 +482,14 @@ def centrifugal_load(body: BodyModel) -> FloatArray:
     _, _, blocks = _blocks(points, body.cells, body.order,
                            (body.curved_edges, body.edge_nodes))
     f = np.zeros(body.n_dofs)
+    materials = ([m for m, _ in body.material.zones]
+                 if isinstance(body.material, MaterialZones) else [])
     for block in blocks:
-        part = _centrifugal_form.assemble(block.basis(body.order, body.order + 1),
-                                          rho=body.material.density)
+        basis = block.basis(body.order, body.order + 1)
+        zone = body.zones.get(block.shape)
+        rho = (body.material.density if zone is None
+               else _per_element(basis, materials, zone, lambda m: m.density))
+        part = _centrifugal_form.assemble(basis, rho=rho)
         np.add.at(f, block.dof_map, part)
     return np.asarray(f, dtype=np.float64)
 
