@@ -1056,8 +1056,28 @@ def run_modes(case: Case, spec: Modes, group: h5py.Group, run: Run) -> tuple[str
                          + " ".join(f"{x:.6g}" for x in found.frequencies_hz[:6])
                          + f"; reduced model's error at most "
                          f"{float(np.abs(error).max(initial=0.0)):.2g}")
+    if isinstance(run.models, AssemblyModels):
+        _assembly_modes(case, spec, group, run)
     _draw(pictures.modes, group, spec, run)
     return "complete", f"(the reduced models' frequency error at most {worst:.2g})"
+
+
+def _assembly_modes(case: Case, spec: Modes, group: h5py.Group, run: Run) -> None:
+    """The reduced assembly's natural frequencies on each dynamic harmonic's nodal diameter,
+    every contact stuck and the cyclic bodies free of contact (the FRF's linear limits'
+    resonances): results.h5 <name>/assembly/order<n>."""
+    variant = case.with_values(spec.set)
+    cm = run.models.assembly(variant)
+    point = operating_point(variant)
+    parent = group.create_group(schema.ASSEMBLY_MODES)
+    for order in (o for o in cm.hb.harmonics.orders if o > 0):
+        stuck, free = (cm.linear_frequencies(point, order, springs, spec.count)
+                       for springs in ("stuck", "free"))
+        run.writer.write_group(parent, f"order{order}", {"stuck_hz": stuck, "free_hz": free},
+                               {"order": order})
+        run.progress(f"[{spec.name}] assembly, harmonic {order}: stuck f [Hz] "
+                     + " ".join(f"{x:.6g}" for x in stuck[:6]) + "; free (no contact) "
+                     + " ".join(f"{x:.6g}" for x in free[:6]))
 
 
 RUNNERS = {"frf": run_frf, "peak": run_peak, "uncertainty": run_uncertainty,

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 
 from microslip.pipeline.fe.reduction import ReducedModel
 from microslip.pipeline.friction.laws import ContactResponse, slip_share
@@ -223,6 +224,32 @@ class AssemblyModel:
         Q = h.from_complex({o: X[k] for k, o in enumerate(h.orders)}, (n_dof,))
         names = list(self.outputs) if names is None else names
         return np.array([self.outputs[n] @ Q for n in names]).reshape(len(names), -1)
+
+    def linear_frequencies(self, point: OperatingPoint, order: int, springs: str = "stuck",
+                           count: int = 10) -> np.ndarray:
+        """(count,) the lowest natural frequencies [Hz] of a linear limit (``springs`` as
+        ``linear_outputs``: every contact stuck, or the cyclic bodies alone) on harmonic
+        ``order``'s reduced matrices (its nodal diameter), undamped, at the point's mass
+        multiplier; a harmonic of frequency f there is excited at w = 2 pi f / order."""
+        if springs not in ("stuck", "free"):
+            raise ValueError(f"springs = {springs!r}: expected 'stuck' or 'free'")
+        hb = self.hb
+        k = list(hb.harmonics.orders).index(order)
+        n_dof = hb.linear.n_dof
+        K, M = hb.linear.K[k].copy(), hb.linear.mass(point)[k]
+        if springs == "free":
+            keep = self._cyclic_indices(k)
+            K, M = K[np.ix_(keep, keep)], M[np.ix_(keep, keep)]
+        else:
+            for c in hb.contacts:
+                el = c.elements
+                B = np.asarray(c.kinematics[order]).reshape(-1, n_dof)
+                k_c = np.zeros((el.size, el.n_components))
+                k_c[:, : el.dim] = el.kt
+                k_c[:, -1] = el.kn
+                K[:n_dof, :n_dof] += B.conj().T @ (k_c.reshape(-1, 1) * B)
+        lam = sla.eigh(0.5 * (K + K.conj().T), 0.5 * (M + M.conj().T), eigvals_only=True)
+        return np.sqrt(np.clip(lam[:count], 0.0, None)) / (2 * np.pi)
 
     def _cyclic_indices(self, k: int) -> np.ndarray:
         """Order k's positions of the cyclic bodies' coordinates (masters and modes)."""

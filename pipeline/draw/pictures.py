@@ -447,6 +447,8 @@ def modes(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> 
     """The reduced models' frequency error on each mode of every body and nodal diameter."""
     rows = []
     for body, b in g.items():
+        if body == schema.ASSEMBLY_MODES:  # (the reduced assembly's: no unreduced reference)
+            continue
         for where, m in b.items():
             rows.append({"label": body + ("" if where == "body" else f" ND {where[2:]}"),
                          "frequencies_hz": m["frequencies_hz"][()],

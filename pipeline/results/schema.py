@@ -59,6 +59,10 @@ def step(index: int) -> str:
     return f"{_STEP}{index}"
 
 
+#: The group of a modes analysis holding the reduced assembly's frequencies
+ASSEMBLY_MODES = "assembly"
+
+
 def nodal_diameter(h: int) -> str:
     """The group of a reduced body's model at nodal diameter ``h``: ``nd3``."""
     return f"nd{h}"
@@ -298,6 +302,10 @@ LAYOUT = group(
                 data("nodes", "(n_v,) the body's vertices (mesh indices)"),
                 data("shapes", "(k, n_v, 3) the vertices' displacements per mode, mass-"
                      "normalised (complex at 0 < h < Ns/2; shapes = true)")),
+          group("assembly/order<n>", "(modes, an [assembly] case) the reduced assembly on "
+                "harmonic n's nodal diameter, undamped", ("order",),
+                data("stuck_hz", "(k,) Hz, every contact stuck (its kt, kn springs)"),
+                data("free_hz", "(k,) Hz, the cyclic bodies free of contact")),
           group("curve_NNN", "(dti) the time integration",
                 ("label", *_RUN, "outputs", "steps_per_period", "measure"),
                 data("omega", "(n,) rad/s"),
