@@ -371,8 +371,10 @@ def check(argv: list[str]) -> int:
             c = load(path)
             largest = max(sizes(c.data), key=lambda s: s.nbytes, default=None)
             size = f"; largest analysis: {largest}" if largest else ""
-            print(f"{path}: ok ({len(c.analyses)} analyses: "
-                  f"{', '.join(str(a.get('name', a['type'])) for a in c.analyses)}{size})")
+            names = ', '.join(str(a.get('name', a['type'])) for a in c.analyses)
+            print(f"{path}: ok ({len(c.analyses)} analyses: {names}{size})" if c.analyses
+                  else f"{path}: ok (no analysis: the mesh" + (
+                      " and its reduction)" if "reduction" in c.data else ")"))
             units, implausible = case_unit_lines(c.data)
             for line in imported_contents(c.data):
                 print(f"{path}: {line}")
