@@ -25,8 +25,8 @@ reader keeps the keywords a model needs and follows Abaqus' rules for them:
 * ``*BOUNDARY`` (data lines ``node or node set, first DOF[, last DOF[, 0]]``, or ``set,
   ENCASTRE / PINNED / XSYMM ...``) as supports: the translations held (``info["boundary"]``:
   (node or set, held DOFs 1-3, line)); a non-zero magnitude is a prescribed motion, a load,
-  and refused; rotational DOFs (4-6) mean nothing on solid nodes and are counted
-  (``info["rotations"]``); ``*TRANSFORM`` (``NSET=``, ``TYPE=R`` or ``C``: two points) as the
+  and refused; rotational DOFs (4-6) mean nothing on solid nodes and are dropped;
+  ``*TRANSFORM`` (``NSET=``, ``TYPE=R`` or ``C``: two points) as the
   local frame of its set's supports (``info["transforms"]``: set -> (type, a, b)).
 
 * ``*SURFACE`` (``NAME=``; ``TYPE=ELEMENT``, the default: data lines ``element or element
@@ -43,6 +43,8 @@ import re
 from pathlib import Path
 
 import numpy as np
+
+from .elements import SOLID_TYPES
 
 # Abaqus type (without suffix letters) -> meshio cell type
 _SOLIDS = {"C3D4": "tetra", "C3D10": "tetra10", "C3D8": "hexahedron",
@@ -102,7 +104,6 @@ def read(path: str | Path):
     sections: list[tuple[str, str]] = []  # (ELSET, MATERIAL)
     boundary: list[tuple[int | str, tuple[int, ...], str]] = []  # (node or set, DOFs, where)
     transforms: dict[str, tuple[str, list[float], list[float]]] = {}
-    rotations = 0
     elastic_types: dict[str, str] = {}  # material -> its *ELASTIC TYPE, if not isotropic
     surfaces: dict[str, list[tuple[int | str, str]]] = {}  # name -> (element or set, face)
     # names are case-insensitive in a deck: each keeps its first spelling
@@ -184,13 +185,13 @@ def read(path: str | Path):
                 materials[current][2] = float(values[0])
             elif keyword == "*BOUNDARY":
                 dofs = _held(values, f"{where}:{number}")
-                rotations += sum(d > 3 for d in dofs)
                 target = int(values[0]) if _is_int(values[0]) else name_of("n", values[0])
                 boundary.append((target, tuple(d for d in dofs if d <= 3),
                                  f"{where}:{number}"))
             elif keyword == "*SURFACE":
-                face = values[1].upper() if len(values) > 1 else ""
-                if params.get("TYPE", "ELEMENT").upper() == "ELEMENT" and face not in _FACES:
+                by_faces = params.get("TYPE", "ELEMENT").upper() == "ELEMENT"
+                face = values[1].upper() if by_faces and len(values) > 1 else ""  # (a weight)
+                if by_faces and face not in _FACES:
                     raise DeckError(f"{where}:{number}: *SURFACE face {face or '?'}: solid "
                                     "element faces are S1-S6")
                 target = int(values[0]) if _is_int(values[0]) else values[0]
@@ -276,7 +277,7 @@ def read(path: str | Path):
                                              "isotropic elasticity is modelled"
                                              if n in elastic_types else tuple(v))
                                          for n, v in materials.items()},
-                           "boundary": held, "rotations": rotations,
+                           "boundary": held,
                            "transforms": {n: (t, a, b, point_sets.get(n, np.empty(0, int)))
                                           for n, (t, a, b) in transforms.items()}})
 
@@ -312,9 +313,6 @@ _FACE_CORNERS = {
     "wedge": [(1, 2, 3), (4, 6, 5), (1, 4, 5, 2), (2, 5, 6, 3), (3, 6, 4, 1)],
 }
 _FACES = {f"S{i}" for i in range(1, 7)}
-_SHAPE = {"tetra": "tetra", "tetra10": "tetra", "hexahedron": "hexahedron",
-          "hexahedron20": "hexahedron", "hexahedron27": "hexahedron", "wedge": "wedge",
-          "wedge15": "wedge"}
 
 
 def _surface_nodes(faces, blocks, where_is, elsets, nsets, spelled, path) -> list[int]:
@@ -342,7 +340,7 @@ def _surface_nodes(faces, blocks, where_is, elsets, nsets, spelled, path) -> lis
             if e not in where_is:
                 continue  # (not a solid)
             k, i = where_is[e]
-            kind = _SHAPE[blocks[k][0]]
+            kind = SOLID_TYPES[blocks[k][0]]
             corners = _FACE_CORNERS[kind]
             if int(face[1:]) > len(corners):
                 raise DeckError(f"{path}: *SURFACE face {face} of element {e}: a {kind} "

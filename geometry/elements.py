@@ -20,6 +20,12 @@ import numpy as np
 
 #: shape name -> corner count, in the order a mesh stores its elements
 SHAPES = {"tetra": 4, "hexahedron": 8, "wedge": 6}
+#: meshio cell type -> our shape, of the solid elements the importers read
+SOLID_TYPES = {
+    "tetra": "tetra", "tetra10": "tetra",
+    "hexahedron": "hexahedron", "hexahedron20": "hexahedron", "hexahedron27": "hexahedron",
+    "wedge": "wedge", "wedge15": "wedge",
+}
 
 #: shape -> its edges (corner pairs), in VTK's (and Abaqus') order of the quadratic
 #: elements' mid-edge nodes

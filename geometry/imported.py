@@ -40,12 +40,8 @@ from .mesh import FRAMES, Mesh, MeshValidationError, Support
 from .params import GeometryBuildError
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 
-#: meshio cell type -> (our shape, corner count) of the solid elements read
-SOLID_TYPES = {
-    "tetra": "tetra", "tetra10": "tetra",
-    "hexahedron": "hexahedron", "hexahedron20": "hexahedron", "hexahedron27": "hexahedron",
-    "wedge": "wedge", "wedge15": "wedge",
-}
+#: meshio cell type -> our shape, of the solid elements read
+SOLID_TYPES = elements.SOLID_TYPES
 #: meshio cell types that are not solids: their nodes form node sets, nothing else
 _FACE_TYPES = ("vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9")
 _NAME = re.compile(r"^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$")
@@ -237,7 +233,7 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
         raise MeshImportError(f"{path}: node coordinates must be finite 3D points")
     groups = _element_groups(raw)
-    corners, offset, mids = _corners(points, raw, solids, path)
+    corners, mids = _corners(points, raw, solids, path)
     body_of = _bodies(groups, solids, raw, bodies, path)
 
     # keep the corner nodes only, in file order
@@ -261,7 +257,7 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
 
     node_sets, dropped = _node_sets(raw, groups, used, new)
     length = (getattr(raw, "info", None) or {}).get("length", UNITS[units].length)  # (CAD)
-    curved, mid_xyz = _curved_edges(points, mids, new)
+    curved, mid_xyz, offset = _curved_edges(points, mids, new)
     mid_xyz = mid_xyz * length
     supports = _deck_supports(raw, used, new, length)
     parameters = {"file": Path(path).name, "units": units, "dropped_sets": list(dropped),
@@ -417,37 +413,37 @@ def _body_materials(raw, solids, body_of, units: Units, first: dict[int, int]
         if per_block is None or isinstance(table, str):
             out[body] = table if isinstance(table, str) else "the format carries no materials"
             continue
-        members: dict = {}
+        members: dict = {}  # material key -> its elements (mesh indices)
         for k, idx in parts.items():
             keys = np.array([_key_of(v) for v in np.asarray(per_block[solids[k][0]])[idx]],
                             dtype=object)
             for key in set(keys.tolist()):
                 members.setdefault(key, []).append(first[k] + idx[keys == key])
-        if "" in members or not members:
-            out[body] = "its elements have no material" if len(members) <= 1 else (
-                f"{sum(len(np.concatenate(v)) for v in [members['']])} of its elements have "
-                "no material")
+        if "" in members:
+            out[body] = (f"{len(np.concatenate(members['']))} of its elements have no "
+                         "material" if len(members) > 1 else "its elements have no material")
             continue
-        zones = []
-        for key in sorted(members, key=str):
-            found = table.get(key, (np.nan,) * 3)
-            if isinstance(found, str):
-                zones = f"material {key!r}: {found}"
-                break
-            E, nu, rho = found
-            missing = [n for n, v in (("E", E), ("nu", nu), ("density", rho))
-                       if not np.isfinite(v)]
-            if missing:
-                zones = f"material {key!r} lacks {', '.join(missing)}"
-                break
-            zones.append({"youngs_modulus": E * units.stress, "poisson_ratio": nu,
-                          "density": rho * units.density, "name": str(key),
-                          "elements": np.sort(np.concatenate(members[key])).tolist()})
-        if isinstance(zones, str) or len(zones) > 1:
-            out[body] = zones if isinstance(zones, str) else {"zones": zones}
+        cards = {key: _card(key, table, units) for key in sorted(members, key=str)}
+        fault = next((c for c in cards.values() if isinstance(c, str)), None)
+        if fault is not None or len(cards) == 1:
+            out[body] = fault or next(iter(cards.values()))
         else:
-            out[body] = {k: v for k, v in zones[0].items() if k != "elements"}
+            out[body] = {"zones": [card | {"elements": np.sort(np.concatenate(
+                members[key])).tolist()} for key, card in cards.items()]}
     return out
+
+
+def _card(key, table: dict, units: Units) -> dict | str:
+    """Material ``key`` of the file's cards in SI, or why it cannot be used."""
+    found = table.get(key, (np.nan,) * 3)
+    if isinstance(found, str):
+        return f"material {key!r}: {found}"
+    E, nu, rho = found
+    missing = [n for n, v in (("E", E), ("nu", nu), ("density", rho)) if not np.isfinite(v)]
+    if missing:
+        return f"material {key!r} lacks {', '.join(missing)}"
+    return {"youngs_modulus": E * units.stress, "poisson_ratio": nu,
+            "density": rho * units.density, "name": str(key)}
 
 
 def _key_of(value) -> str | int:
@@ -486,17 +482,15 @@ _DIM = {"vertex": 0, "line": 1, "line3": 1, "triangle": 2, "triangle6": 2, "quad
 
 
 def _corners(points: np.ndarray, raw, solids, path
-             ) -> tuple[dict[int, np.ndarray], float, list[np.ndarray]]:
-    """Block index -> (m, corners) positively oriented corner nodes; the largest mid-node
-    offset from its straight edge's midpoint, relative to the edge length; and per quadratic
+             ) -> tuple[dict[int, np.ndarray], list[np.ndarray]]:
+    """Block index -> (m, corners) positively oriented corner nodes; and per quadratic
     block (k, 3) rows (corner a, corner b, mid node) of file node indices."""
-    out, offset, mids = {}, 0.0, []
+    out, mids = {}, []
     for k, (_, block) in enumerate(solids):
         shape = SOLID_TYPES[block.type]
         data = np.asarray(block.data, dtype=np.int64)
         c = data[:, : elements.SHAPES[shape]]
         if data.shape[1] > c.shape[1]:
-            offset = max(offset, _midnode_offset(points, shape, c, data[:, c.shape[1]:]))
             mids.append(_edge_mid_nodes(points, shape, c, data[:, c.shape[1]:], block.type,
                                         path))
         jac = elements.corner_jacobians(points, shape, c)
@@ -510,7 +504,7 @@ def _corners(points: np.ndarray, raw, solids, path
                 f"{path}: {bad.size} {block.type} element(s) inverted or tangled (first: "
                 f"element {int(bad[0]) + 1} of that type in the file)")
         out[k] = c
-    return out, offset, mids
+    return out, mids
 
 
 def _deck_supports(raw, used: np.ndarray, new: np.ndarray, length: float
@@ -584,29 +578,20 @@ def _edge_mid_nodes(points, shape, corners, extra, kind, path) -> np.ndarray:
 CURVED = 1e-6
 
 
-def _curved_edges(points, mids, new) -> tuple[np.ndarray, np.ndarray]:
+def _curved_edges(points, mids, new) -> tuple[np.ndarray, np.ndarray, float]:
     """(c, 2) sorted corner pairs in the kept numbering and (c, 3) mid node positions (the
-    file's units) of the edges whose mid node lies off the straight midpoint."""
+    file's units) of the edges whose mid node lies off the straight midpoint, and the
+    largest such offset relative to its edge's length (0 for a linear mesh)."""
     if not mids:
-        return np.empty((0, 2), dtype=np.int64), np.empty((0, 3))
+        return np.empty((0, 2), dtype=np.int64), np.empty((0, 3)), 0.0
     rows = np.concatenate(mids)
     pairs = np.sort(rows[:, :2], axis=1)
     pairs, first = np.unique(pairs, axis=0, return_index=True)  # one node per edge
     xyz = points[rows[first, 2]]
     a, b = points[pairs[:, 0]], points[pairs[:, 1]]
-    off = np.linalg.norm(xyz - 0.5 * (a + b), axis=1) > CURVED * np.linalg.norm(b - a, axis=1)
-    return np.sort(new[pairs[off]], axis=1), xyz[off]
-
-
-def _midnode_offset(points, shape, corners, extra) -> float:
-    """max over elements and mid nodes of min over the element's edges of |node - edge
-    midpoint| / edge length (order-free: readers order mid nodes differently)."""
-    edges = np.asarray(elements.EDGES[shape])
-    a, b = points[corners[:, edges[:, 0]]], points[corners[:, edges[:, 1]]]  # (m, e, 3)
-    mid, length = 0.5 * (a + b), np.linalg.norm(b - a, axis=2)
-    extra = extra[:, : len(edges)]  # a hexahedron27's face and centre nodes are not on edges
-    d = np.linalg.norm(points[extra][:, :, None, :] - mid[:, None, :, :], axis=3)
-    return float((d / length[:, None, :]).min(axis=2).max(initial=0.0))
+    relative = np.linalg.norm(xyz - 0.5 * (a + b), axis=1) / np.linalg.norm(b - a, axis=1)
+    off = relative > CURVED
+    return np.sort(new[pairs[off]], axis=1), xyz[off], float(relative.max(initial=0.0))
 
 
 def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]]:

@@ -62,6 +62,16 @@ def _frozen(arr: np.ndarray) -> np.ndarray:
     return out
 
 
+def own_images_only(left: np.ndarray, right: np.ndarray, matching: bool) -> bool:
+    """Whether every node on both cyclic faces is paired with itself (``left[i] ==
+    right[i]``: a node on the axis, of a sector that contains it; matching faces only)."""
+    both = np.intersect1d(left, right)
+    if not both.size:
+        return True
+    return bool(matching and len(left) == len(right)
+                and np.array_equal(np.unique(left[left == right]), both))
+
+
 @dataclass(frozen=True)
 class CyclicBoundary:
     """The periodic faces of one sector body.
@@ -91,9 +101,7 @@ class CyclicBoundary:
             )
         if int(self.sectors) < 3:
             raise MeshValidationError(f"CyclicBoundary.sectors = {self.sectors}, must be >= 3")
-        both = np.intersect1d(left, right)
-        if both.size and not (self.matching and np.array_equal(
-                np.sort(left[left == right]) if len(left) == len(right) else both, both)):
+        if not own_images_only(left, right, self.matching):
             raise MeshValidationError("CyclicBoundary: a node is on both left and right faces "
                                       "but not its own image (only a node on the axis is)")
         object.__setattr__(self, "left", left)
@@ -291,6 +299,14 @@ class Support:
         frames = np.stack([radial, np.cross(axis, radial), np.broadcast_to(axis, xyz.shape)],
                           axis=1)
         return frames[:, self.held]
+
+    @property
+    def digest(self) -> str:
+        """sha256 hex digest of what the support holds: its nodes, directions and frame."""
+        h = hashlib.sha256(self.frame.encode())
+        for a in (self.nodes, self.held.astype(np.int8), self.axes, self.origin):
+            h.update(np.ascontiguousarray(a).tobytes())
+        return h.hexdigest()
 
     def moved(self, rotation: np.ndarray, shift: np.ndarray) -> Support:
         """The support after the mesh moved by x -> rotation x + shift."""
@@ -612,10 +628,7 @@ class Mesh:
             put("b", p.nodes_b)
             put("n", p.normal)
         for name in sorted(self.supports):
-            sup = self.supports[name]
-            put(f"support/{name}/{sup.frame}", sup.nodes)
-            put("held", sup.held.astype(np.int8))
-            put("frame", np.concatenate([sup.axes.ravel(), sup.origin]))
+            put(f"support/{name}/{self.supports[name].digest}")
         put(json.dumps(self.parameters, sort_keys=True))
         return h.hexdigest()
 

@@ -376,9 +376,10 @@ def check(argv: list[str]) -> int:
                   else f"{path}: ok (no analysis: the mesh" + (
                       " and its reduction)" if "reduction" in c.data else ")"))
             units, implausible = case_unit_lines(c.data)
-            for line in imported_contents(c.data):
+            contents = imported_contents(c.data)
+            for line in contents:
                 print(f"{path}: {line}")
-            if imported_contents(c.data) and "reduction" in c.data:
+            if contents and "reduction" in c.data:
                 from microslip.pipeline.app.plan import reduction_estimate
                 from microslip.pipeline.solve.memory import memory_text
 

@@ -206,8 +206,10 @@ def _samples(case: Case, spec: Uncertainty, store: CurveStore, nbytes: int, unkn
                  f"workers ~n x faster), {unknowns:,} unknowns")
 
 
-def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[Stage]:
-    """Per body and nodal diameter: the reduced model's cache file exists, or it runs."""
+def _reduction(mesh, red, cache: Path | None, orders, surfaces: bool = False
+               ) -> list[Stage]:
+    """Per body and nodal diameter: the reduced model's cache file exists, or it runs
+    (``cache`` None: none is cached)."""
 
     from microslip.pipeline.case.reduction import body_specs, needed_nodal_diameters
     from microslip.pipeline.fe import reduction
@@ -223,8 +225,7 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
             seconds *= SOLID_ELEMENTS
         is_cyclic = spec.body in mesh.cyclic
         sectors = mesh.cyclic[spec.body].sectors if is_cyclic else 0
-        n, columns = _reduction_size(mesh, spec)
-        nbytes = _reduction_bytes(mesh, spec, n, columns)
+        n, columns, nbytes = _reduction_size(mesh, spec)
         seconds += DENSE_S * n * columns**2
         for h in (nds if is_cyclic else (None,)):
             complex_nd = is_cyclic and 0 < h < sectors / 2
@@ -235,8 +236,7 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
                                         "theirs)", seconds))
                     continue
                 spec = _with_reference(spec, mesh, red, nds, cache, surfaces)
-            path = reduction.model_path(mesh, spec, h, cache)
-            cached = path.is_file()
+            cached = cache is not None and reduction.model_path(mesh, spec, h, cache).is_file()
             cyclic_cached = cyclic_cached and (cached or not is_cyclic)
             where = f"{spec.body} ND {h}" if is_cyclic else spec.body
             work = seconds * (COMPLEX_ND if complex_nd else 1.0)
@@ -249,13 +249,14 @@ def _reduction(mesh, red, cache: Path, orders, surfaces: bool = False) -> list[S
 def reduction_estimate(mesh, red, orders=None) -> tuple[float, float]:
     """(seconds on the reference machine, peak bytes) of reducing every body of ``mesh`` as
     ``red`` says, none cached (``check``'s line)."""
-    stages = _reduction(mesh, red, Path("/nonexistent-cache"), orders)
+    stages = _reduction(mesh, red, None, orders)
     return sum(s.work for s in stages), max((s.nbytes for s in stages), default=0)
 
 
-def _reduction_size(mesh, spec) -> tuple[int, int]:
+def _reduction_size(mesh, spec) -> tuple[int, int, float]:
     """(DOFs of the body, columns of its reduction basis: 3 x master nodes + modes, "auto"
-    as AUTO_MODES and AUTO_MODES_PER_MASTER say)."""
+    as AUTO_MODES and AUTO_MODES_PER_MASTER say, peak memory [bytes] of its reduction by the
+    anchors above, real: a complex nodal diameter doubles it)."""
     from microslip.geometry import elements
     from microslip.pipeline.fe import reduction
 
@@ -268,16 +269,10 @@ def _reduction_size(mesh, spec) -> tuple[int, int]:
     masters = reduction.spec_nodes(mesh, spec)[0].size
     modes = (spec.n_modes if isinstance(spec.n_modes, int)
              else max(AUTO_MODES, int(AUTO_MODES_PER_MASTER * masters)))
-    return 3 * (mesh.body_nodes(spec.body).size + edges), 3 * masters + modes
-
-
-def _reduction_bytes(mesh, spec, n: int, columns: int) -> float:
-    """Peak memory [bytes] of one body's Craig-Bampton reduction of ``n`` DOFs and
-    ``columns`` basis columns (the anchors above), real; a complex nodal diameter doubles
-    it."""
-    solid = SOLID_ELEMENTS_MEMORY if set(mesh.body_cells(spec.body)) - {"tetra"} else 1.0
+    n, columns = 3 * (mesh.body_nodes(spec.body).size + edges), 3 * masters + modes
+    solid = SOLID_ELEMENTS_MEMORY if set(cells) - {"tetra"} else 1.0
     per_dof = FACTOR_BYTES * solid * (n / 1e5) ** FILL_GROWTH + COLUMN_BYTES * columns
-    return PROCESS_BYTES + n * per_dof
+    return n, columns, PROCESS_BYTES + n * per_dof
 
 
 def _with_reference(spec, mesh, red, nds, cache: Path, surfaces: bool = False):

@@ -1016,8 +1016,6 @@ def _worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
     return "complete", ""
 
 
-#: One runner per analysis type: (case, its spec, its results group, the run's shared
-#: parts) -> (status, message).
 def run_modes(case: Case, spec: Modes, group: h5py.Group, run: Run) -> tuple[str, str]:
     """The lowest modes of every reduced body, unreduced (held as its reduction holds it)
     and reduced, per nodal diameter (``fe.modes``): results.h5 <name>/<body>/nd<h> (a body
@@ -1038,8 +1036,7 @@ def run_modes(case: Case, spec: Modes, group: h5py.Group, run: Run) -> tuple[str
         for h, model in (models.items() if is_cyclic else list(models.items())[:1]):
             t = time.perf_counter()
             found = body_modes(mesh, body, model, spec.count, h if is_cyclic else None,
-                               spec.shapes, None if red.backend == "auto" else red.backend,
-                               assembled)
+                               spec.shapes, red.factorization, assembled)
             error = found.relative_error
             worst = max(worst, float(np.abs(error).max(initial=0.0)))
             data = {"frequencies_hz": found.frequencies_hz, "reduced_hz": found.reduced_hz,
@@ -1080,6 +1077,8 @@ def _assembly_modes(case: Case, spec: Modes, group: h5py.Group, run: Run) -> Non
                      + " ".join(f"{x:.6g}" for x in free[:6]))
 
 
+#: One runner per analysis type: (case, its spec, its results group, the run's shared
+#: parts) -> (status, message).
 RUNNERS = {"frf": run_frf, "peak": run_peak, "uncertainty": run_uncertainty,
            "loops": run_loops, "dti": run_dti, "transient": run_transient,
            "modes": run_modes}

@@ -83,7 +83,7 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
         except ValueError as err:
             raise InputError(str(err)) from None
     patch_stiffness = patch_stiffnesses(mesh, specs, red)
-    backend = None if red.backend == "auto" else red.backend
+    backend = red.factorization
     result = StructureResult({}, patch_stiffness, nds, red.f_max)
     count = _Count(sum(len(set(nds)) if s.body in mesh.cyclic else 1 for s in specs))
     for spec in sorted(specs, key=lambda s: s.body not in mesh.cyclic):  # cyclic bodies first

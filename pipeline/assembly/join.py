@@ -61,7 +61,7 @@ def join(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
             points[c.name] = pts
     K, M, C, Mp = _linear(layout, harmonics, n_dof, set(spec.mass_bodies))
     if 0 in harmonics.orders and spec.static_anchor > 0:
-        free = free_bodies(models)
+        free = {b for b, per_nd in models.items() if per_nd[min(per_nd)].has_rigid_mode}
         anchored = [c for c in contacts if {points[c.name].body_a, points[c.name].body_b} & free]
         K[0][:n_dof, :n_dof] += static_anchor(anchored, n_dof, spec.static_anchor)
     linear = LinearDynamics.create(K, M, C, harmonics=harmonics, mass_part=Mp, n_shared=n_dof)
@@ -156,27 +156,6 @@ def _linear(layout: list[BodyLayout], harmonics: Harmonics, n_dof: int, mass_bod
     return K, M, C, Mp
 
 
-#: A reduced model whose lowest eigenvalue (masters free) is below this fraction of its
-#: highest has a rigid mode: its own stiffness does not hold it (round-off puts a rigid
-#: mode's near 1e-16 of the highest; a body's first elastic mode lies far above 1e-10)
-RIGID = 1e-10
-
-
-def free_bodies(models: Mapping[str, Mapping[int, ReducedModel]]) -> set[str]:
-    """The bodies whose static model (ND 0, or the one model of a body without cyclic
-    symmetry) has a rigid mode: held by their contacts alone (a damper, a blade in its slot).
-    """
-    import scipy.linalg as sla
-
-    out = set()
-    for body, per_nd in models.items():
-        model = per_nd[min(per_nd)]
-        lam = sla.eigh(np.asarray(model.stiffness), np.asarray(model.mass), eigvals_only=True)
-        if lam[0] < RIGID * lam[-1]:
-            out.add(body)
-    return out
-
-
 def static_anchor(contacts: list[Contact], n_dof: int, ratio: float) -> np.ndarray:
     """(n_dof, n_dof) real stiffness ``ratio sum B_t^T kt B_t`` of order 0: a spring of
     ``ratio kt`` on every pair's mean tangential relative displacement.
@@ -188,9 +167,10 @@ def static_anchor(contacts: list[Contact], n_dof: int, ratio: float) -> np.ndarr
     free (the order-0 Jacobian is singular; Newton stalls and continuation crawls). The
     anchor picks the position nearest the undeformed one. Where a pair sticks, its static
     tangential stiffness grows by the ratio (1e-3 changes the blisk's peak by < 1e-4,
-    measured: see the README). ``join`` anchors the contacts of free bodies only
-    (``free_bodies``): between held bodies (a shroud's interlock, whose blade untwists under
-    the centrifugal load) the anchor would hold back a static motion nothing else resists."""
+    measured: see the README). ``join`` anchors the contacts of free bodies only (whose
+    static model has a rigid mode, ``ReducedModel.has_rigid_mode``): between held bodies (a
+    shroud's interlock, whose blade untwists under the centrifugal load) the anchor would
+    hold back a static motion nothing else resists."""
     A = np.zeros((n_dof, n_dof))
     for c in contacts:
         el = c.elements

@@ -209,17 +209,11 @@ class AssemblyModel:
                 x[keep] = np.linalg.solve(A[np.ix_(keep, keep)], b[keep])
                 X.append(x[:n_dof])
                 continue
-            for c in hb.contacts:
-                el = c.elements
-                B = np.asarray(c.kinematics[o]).reshape(el.size, el.n_components, n_dof)
-                k_c = np.zeros((el.size, el.n_components))
-                if springs == "stuck":
-                    k_c[:, : el.dim] = el.kt
-                k_c[:, -1] = el.kn
-                Bf = B.reshape(-1, n_dof)
-                A[:n_dof, :n_dof] += Bf.conj().T @ (k_c.reshape(-1, 1) * Bf)
-                if o == 0:  # the preload kn Delta of the normal springs
-                    b[:n_dof] -= B[:, -1, :].conj().T @ el.n0
+            A[:n_dof, :n_dof] += self._spring_stiffness(o, springs)
+            if o == 0:  # the preload kn Delta of the normal springs
+                for c in hb.contacts:
+                    B = np.asarray(c.kinematics[o]).reshape(c.elements.size, -1, n_dof)
+                    b[:n_dof] -= B[:, -1, :].conj().T @ c.elements.n0
             X.append(np.linalg.solve(A, b)[:n_dof])
         Q = h.from_complex({o: X[k] for k, o in enumerate(h.orders)}, (n_dof,))
         names = list(self.outputs) if names is None else names
@@ -241,15 +235,24 @@ class AssemblyModel:
             keep = self._cyclic_indices(k)
             K, M = K[np.ix_(keep, keep)], M[np.ix_(keep, keep)]
         else:
-            for c in hb.contacts:
-                el = c.elements
-                B = np.asarray(c.kinematics[order]).reshape(-1, n_dof)
-                k_c = np.zeros((el.size, el.n_components))
-                k_c[:, : el.dim] = el.kt
-                k_c[:, -1] = el.kn
-                K[:n_dof, :n_dof] += B.conj().T @ (k_c.reshape(-1, 1) * B)
+            K[:n_dof, :n_dof] += self._spring_stiffness(order, springs)
         lam = sla.eigh(0.5 * (K + K.conj().T), 0.5 * (M + M.conj().T), eigvals_only=True)
         return np.sqrt(np.clip(lam[:count], 0.0, None)) / (2 * np.pi)
+
+    def _spring_stiffness(self, order: int, springs: str) -> np.ndarray:
+        """(n_dof, n_dof) sum B^H k B over every contact at harmonic ``order``: its stick
+        springs (kt, kn; ``springs = "stuck"``) or its normal springs alone ("normal")."""
+        n_dof = self.hb.linear.n_dof
+        out = np.zeros((n_dof, n_dof))  # (complex where a contact's kinematics is)
+        for c in self.hb.contacts:
+            el = c.elements
+            B = np.asarray(c.kinematics[order]).reshape(-1, n_dof)
+            k_c = np.zeros((el.size, el.n_components))
+            if springs == "stuck":
+                k_c[:, : el.dim] = el.kt
+            k_c[:, -1] = el.kn
+            out = out + B.conj().T @ (k_c.reshape(-1, 1) * B)
+        return out
 
     def _cyclic_indices(self, k: int) -> np.ndarray:
         """Order k's positions of the cyclic bodies' coordinates (masters and modes)."""

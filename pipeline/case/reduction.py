@@ -47,7 +47,7 @@ whose mesh, material, constraints, masters and mode selection have not changed.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -307,6 +307,11 @@ class ReductionTable:
     bodies: Mapping[str, BodyTable] = field(default_factory=dict)
     contact_stiffness: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
+    @property
+    def factorization(self) -> str | None:
+        """The factorization backend the solvers take (None: the best available, "auto")."""
+        return None if self.backend == "auto" else self.backend
+
     @classmethod
     def of(cls, table: Mapping[str, Any] | ReductionTable) -> ReductionTable:
         """The spec of a validated [reduction] table (a spec is returned as it is)."""
@@ -426,8 +431,7 @@ def body_supports(mesh: Any, body: str,
     for support in getattr(mesh, "supports", {}).values():
         inside = np.intersect1d(support.nodes, nodes)
         if inside.size:
-            out.append(Support(inside, support.held, support.frame, support.axes,
-                               support.origin))
+            out.append(replace(support, nodes=inside))
     for i, (name, held, frame) in enumerate(given):
         where = f"reduction.bodies.{body}.supports[{i}].set = {name!r}"
         if name not in mesh.node_sets:

@@ -39,7 +39,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from microslip.geometry import surfaces
-from microslip.geometry.mesh import rotation_z
+from microslip.geometry.mesh import mid_edge_points, own_images_only, rotation_z
 
 from .fem import BodyModel, IntArray
 
@@ -105,9 +105,7 @@ def check_boundary(body: BodyModel, boundary: Any, rtol: float = 1e-8) -> None:
         raise ValueError(
             f"cyclic boundary: left {left.shape} and right {right.shape} must be equal 1-D shapes"
         )
-    both = np.intersect1d(left, right)
-    if both.size and not (boundary.matching and np.array_equal(
-            np.sort(left[left == right]), both)):
+    if not own_images_only(left, right, boundary.matching):
         raise ValueError("cyclic boundary: a node is on both faces but not its own image "
                          "(only a node on the axis is)")
     pl = body.points[body.local_nodes(left, "cyclic boundary left")]
@@ -259,12 +257,10 @@ class SectorModel:
         return pos_c
 
 
-def held_triples(body: BodyModel, supports: Sequence[Any]) -> dict[int, np.ndarray]:
+def _held_triples(body: BodyModel, supports: Sequence[Any]) -> dict[int, np.ndarray]:
     """First DOF of each DOF triple a support holds -> (m, 3) the unit vectors held there
     (every support's, at the vertex or the mid-edge point; an edge is held where both its
     ends are, on the body's surface, as ``BodyModel.set_dofs`` holds a clamped set's)."""
-    from microslip.geometry.mesh import mid_edge_points
-
     points = np.zeros((int(body.nodes[-1]) + 1, 3))
     points[body.nodes] = body.points
     held: dict[int, list[np.ndarray]] = {}
@@ -298,7 +294,7 @@ def _supported_basis(body: BodyModel, removed: np.ndarray, supports: Sequence[An
     (rows). ``on_axis``: first DOF of a triple on a sector's axis -> the (complex)
     directions its nodal diameter leaves it (kept as they are: no support holds more)."""
     N = body.n_dofs
-    kept = {k: _kept_directions(v) for k, v in held_triples(body, supports).items()
+    kept = {k: _kept_directions(v) for k, v in _held_triples(body, supports).items()
             if not removed[k]}
     for k, directions in (on_axis or {}).items():
         if not removed[k]:
@@ -357,9 +353,9 @@ def sector_model(
         free_on_axis = _kept_directions(np.eye(3) - T).conj()  # u = T u on the axis
         B, owner, kept = _supported_basis(body, removed, supports,
                                           {int(k): free_on_axis for k in axis[:, 0]})
-        P = _tied(B, tie, T, removed, kept, N)
         slave = np.zeros(N, dtype=bool)
         slave[tie.slave.ravel()] = True
+        P = _tied(B, tie, T, removed, slave, kept)
         keep = ~slave[owner]
         P, owner = P[:, np.flatnonzero(keep)], owner[keep]
     P = sp.csr_matrix(P, dtype=dtype)
@@ -395,10 +391,11 @@ def _axis_apart(tie: FaceTie) -> tuple[FaceTie, IntArray]:
 
 
 def _tied(B: sp.csr_matrix, tie: FaceTie, T: np.ndarray, removed: np.ndarray,
-          kept: dict[int, np.ndarray], N: int) -> sp.csr_matrix:
+          slave: np.ndarray, kept: dict[int, np.ndarray]) -> sp.csr_matrix:
     """P = D B + Pi G B: the non-slave rows of B, and each slave DOF the master's
     displacement interpolated and turned (G: u_S[a] = sum_b T[a, b] sum_j W[., j] u_M[j, b]),
-    projected on the slave's own free directions (Pi: zero for a clamped slave DOF)."""
+    projected on the slave's own free directions (Pi: zero for a clamped slave DOF);
+    ``slave``: (N,) the DOFs that follow."""
     W = tie.weights.tocoo()
     rows, cols, vals = [], [], []
     for a in range(3):
@@ -407,10 +404,9 @@ def _tied(B: sp.csr_matrix, tie: FaceTie, T: np.ndarray, removed: np.ndarray,
                 rows.append(tie.slave[W.row, a])
                 cols.append(tie.master[W.col, b])
                 vals.append(T[a, b] * W.data)
+    N = len(slave)
     G = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                       shape=(N, N))
-    slave = np.zeros(N, dtype=bool)
-    slave[tie.slave.ravel()] = True
     plain = slave & ~removed
     r, c, v = [], [], []
     for k, directions in kept.items():

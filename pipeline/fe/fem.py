@@ -21,6 +21,7 @@ axis (+z through the origin), per unit Omega^2 (see its docstring for what is no
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -123,8 +124,8 @@ class MaterialZones:
 
     def as_tuple(self) -> tuple:
         """The zones' materials and element sets (a cache key's part)."""
-        return tuple((m.as_tuple(), np.asarray(e, np.int64).tobytes().hex()[:64] + str(len(e)))
-                     for m, e in self.zones)
+        return tuple((m.as_tuple(), hashlib.sha256(np.asarray(e, np.int64).tobytes())
+                      .hexdigest()) for m, e in self.zones)
 
     def of_elements(self, elements: IntArray) -> IntArray:
         """(m,) the zone of each of the mesh elements ``elements``; ValueError if one is in
@@ -274,34 +275,33 @@ def _elasticity_form(u, v, w):
     return 2.0 * w["mu"] * ddot(eu, ev) + w["lam"] * trace(eu) * trace(ev)
 
 
-def _per_element(basis: fe.Basis, materials: Sequence[Material], zone: IntArray | None,
-                 value: Callable[[Material], float]) -> float | NDArray:
-    """A material constant on ``basis``: one number, or (elements, points) per element's
-    zone."""
+def _constant(basis: fe.Basis, material: Material | MaterialZones, zone: IntArray | None,
+              value: Callable[[Material], float]) -> float | NDArray:
+    """A material constant on ``basis``: one number, or with ``zone`` (each element's index
+    into ``material.zones``) (elements, points), each element's own."""
     if zone is None:
-        return value(materials[0])
-    values = np.array([value(m) for m in materials])[zone]
+        return value(material)
+    values = np.array([value(m) for m, _ in material.zones])[zone]
     return np.repeat(values[:, None], basis.X.shape[-1], axis=1)
 
 
-def stiffness(basis: fe.Basis, material: Material, zones: Sequence[Material] = (),
+def stiffness(basis: fe.Basis, material: Material | MaterialZones,
               zone: IntArray | None = None) -> sp.csr_matrix:
     """Stiffness matrix K (N, N) [N/m] of isotropic linear elasticity on ``basis``; with
-    ``zone`` (each element's index into ``zones``), each element's own material."""
+    ``zone`` (each element's index into ``material.zones``), each element's own material."""
     if zone is None:
         form = linear_elasticity(material.lame_lambda, material.shear_modulus)
         return form.assemble(basis).tocsr()
     return _elasticity_form.assemble(
-        basis, lam=_per_element(basis, zones, zone, lambda m: m.lame_lambda),
-        mu=_per_element(basis, zones, zone, lambda m: m.shear_modulus)).tocsr()
+        basis, lam=_constant(basis, material, zone, lambda m: m.lame_lambda),
+        mu=_constant(basis, material, zone, lambda m: m.shear_modulus)).tocsr()
 
 
-def mass(basis: fe.Basis, material: Material, zones: Sequence[Material] = (),
+def mass(basis: fe.Basis, material: Material | MaterialZones,
          zone: IntArray | None = None) -> sp.csr_matrix:
     """Consistent mass matrix M (N, N) [kg] on ``basis`` (``zone``: as ``stiffness``)."""
-    rho = (material.density if zone is None
-           else _per_element(basis, zones, zone, lambda m: m.density))
-    return _mass_form.assemble(basis, rho=rho).tocsr()
+    return _mass_form.assemble(
+        basis, rho=_constant(basis, material, zone, lambda m: m.density)).tocsr()
 
 
 @dataclass(frozen=True, eq=False)
@@ -385,15 +385,13 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
     nodes, edges, blocks = _blocks(points, cells, order, curved)
     n = 3 * (len(nodes) + (len(edges) if order == 2 else 0))
     zones = _zones_of(mesh, body, material)
-    materials = [m for m, _ in material.zones] if zones else []
     k_parts, m_parts = [], []
     for block in blocks:
         k_degree, m_degree = elements.SHAPES[block.shape].degrees[order]
         zone = zones.get(block.shape)
-        k_parts.append((stiffness(block.basis(order, k_degree), material, materials, zone),
+        k_parts.append((stiffness(block.basis(order, k_degree), material, zone),
                         block.dof_map))
-        m_parts.append((mass(block.basis(order, m_degree), material, materials, zone),
-                        block.dof_map))
+        m_parts.append((mass(block.basis(order, m_degree), material, zone), block.dof_map))
     K, M = _summed(k_parts, n), _summed(m_parts, n)
     K = ((K + K.T) * 0.5).tocsr()  # remove assembly round-off asymmetry
     M = ((M + M.T) * 0.5).tocsr()
@@ -482,13 +480,9 @@ def centrifugal_load(body: BodyModel) -> FloatArray:
     _, _, blocks = _blocks(points, body.cells, body.order,
                            (body.curved_edges, body.edge_nodes))
     f = np.zeros(body.n_dofs)
-    materials = ([m for m, _ in body.material.zones]
-                 if isinstance(body.material, MaterialZones) else [])
     for block in blocks:
         basis = block.basis(body.order, body.order + 1)
-        zone = body.zones.get(block.shape)
-        rho = (body.material.density if zone is None
-               else _per_element(basis, materials, zone, lambda m: m.density))
+        rho = _constant(basis, body.material, body.zones.get(block.shape), lambda m: m.density)
         part = _centrifugal_form.assemble(basis, rho=rho)
         np.add.at(f, block.dof_map, part)
     return np.asarray(f, dtype=np.float64)

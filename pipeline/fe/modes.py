@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import NDArray
 
 from . import cyclic, fem, linalg
@@ -59,12 +58,6 @@ def frequencies_hz(lam: NDArray) -> NDArray[np.float64]:
     return np.sqrt(np.clip(np.real(lam), 0.0, None)) / (2 * np.pi)
 
 
-def reduced_frequencies(model: ReducedModel, count: int) -> NDArray[np.float64]:
-    """(count,) the lowest natural frequencies [Hz] of a reduced model, masters free."""
-    lam = sla.eigh(np.asarray(model.stiffness), np.asarray(model.mass), eigvals_only=True)
-    return frequencies_hz(lam[:count])
-
-
 def body_modes(mesh: MeshLike, spec: BodySpec, model: ReducedModel, count: int,
                nodal_diameter: int | None = None, shapes: bool = True,
                backend: str | None = None, body: fem.BodyModel | None = None) -> BodyModes:
@@ -77,7 +70,7 @@ def body_modes(mesh: MeshLike, spec: BodySpec, model: ReducedModel, count: int,
     h = nodal_diameter if boundary is not None else 0
     sector = cyclic.sector_model(body, clamped, boundary, h or 0, spec.supports)
     count = min(count, sector.n_free)
-    reduced = reduced_frequencies(model, count)
+    reduced = model.frequencies(count)
     held = clamped.size or spec.supports
     elastic = reduced[reduced > 1e-3 * reduced.max(initial=0.0)]
     first = float(2 * np.pi * elastic.min()) ** 2 if elastic.size else 1.0

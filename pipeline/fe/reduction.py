@@ -40,6 +40,7 @@ import json
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +55,9 @@ from microslip.geometry.stored import written_whole
 
 from . import cyclic, fem, linalg
 from .fem import Damping, IntArray, Material, MeshLike
+
+#: A reduced model's lowest frequency below this fraction of its highest is a rigid mode
+RIGID = 1e-5
 
 #: Bump when the stored layout or the algorithm changes (invalidates caches).
 #: 2: reduced load vectors (``ReducedModel.loads``, the centrifugal load at ND 0).
@@ -203,9 +207,22 @@ class ReducedModel:
 
     def frequencies(self, k: int | None = None) -> NDArray[np.float64]:
         """Lowest natural frequencies [Hz] of the reduced model (free masters)."""
-        lam = np.linalg.eigvalsh(_generalized(self.stiffness, self.mass))
-        f = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+        f = self._frequencies
         return f if k is None else f[:k]
+
+    @cached_property
+    def _frequencies(self) -> NDArray[np.float64]:
+        lam = np.linalg.eigvalsh(_generalized(self.stiffness, self.mass))
+        return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+
+    @property
+    def has_rigid_mode(self) -> bool:
+        """Whether the model (masters free) moves as a rigid body, its own stiffness not
+        holding it (a damper, a blade held in its slot by its contacts): its lowest
+        frequency below RIGID of its highest (round-off puts a rigid mode's near 1e-8 of
+        it; a body's first elastic mode lies far above 1e-5)."""
+        f = self._frequencies
+        return bool(f[0] < RIGID * f[-1])
 
     # --- HDF5 ----------------------------------------------------------------------------
 
@@ -319,8 +336,9 @@ def _key(mesh_hash: str, body: str, order: int, material: Material, clamped: Int
          recovery_nodes: IntArray, patches: Mapping[str, IntArray] | None,
          cutoff: float = CUTOFF, f_max: float | None = None,
          loads: Iterable[str] = (), supports: Sequence[Any] = ()) -> str:
-    return _hash({
-        "supports": [_support_digest(s) for s in supports],
+    # (supports enter only where there are some: the keys of models without stay as they were)
+    held = {"supports": [s.digest for s in supports]} if supports else {}
+    return _hash(held | {
         "format": FORMAT_VERSION,
         "mesh": mesh_hash,
         "body": body,
@@ -723,14 +741,6 @@ def _path(cache_dir: str | Path, mesh: MeshLike, spec: BodySpec, master_nodes: I
                nodal_diameter, "craig-bampton", master_nodes, spec.n_modes, recovery, patches,
                spec.cutoff, spec.f_max, _body_load_names(nodal_diameter), spec.supports)
     return Path(cache_dir) / f"cb-{key[:32]}.h5"
-
-
-def _support_digest(support: Any) -> str:
-    """A support's identity: its nodes, held directions and frame."""
-    return hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in (
-        np.asarray(support.nodes, np.int64), np.asarray(support.held, np.int8),
-        np.asarray(support.axes, float), np.asarray(support.origin, float)))
-        + support.frame.encode()).hexdigest()
 
 
 def _body_load_names(nodal_diameter: int | None) -> tuple[str, ...]:
