@@ -95,6 +95,9 @@ def test_modes_of_an_imported_blade_end_to_end(tmp_path, capsys):
     # "auto" keeps the modes below 4 x the 10th fixed-interface frequency: the first eight
     # within 0.1 % (the README's statement), the first above
     assert np.all(reduced >= f_hz * (1 - 1e-12)) and np.all(reduced / f_hz - 1 < 1e-3)
+    # show summarises it per body (no curves to count)
+    assert main(["show", str(tmp_path / "out")]) == 0
+    assert "  BLADE body: f [Hz] " in capsys.readouterr().out
     # render draws the same picture from results.h5 alone, pixel for pixel
     assert main(["render", str(tmp_path / "out"), "--out", str(tmp_path / "again")]) == 0
     np.testing.assert_array_equal(mpimg.imread(tmp_path / "again" / "clamped.png"),

@@ -169,6 +169,7 @@ def _imported_case() -> dict:
     ([{"set": "TIP", "held": ["r"]}], "among ['x', 'y', 'z']"),
     ([{"set": "TIP", "held": ["x"], "frame": "polar"}], "expected one of ['global', "),
     ([{"set": "TIP", "held": []}], "non-empty list"),
+    ([{"set": "TIP"}], "held: missing; the directions held, among ['x', 'y', 'z']"),
     ([{"set": "TIP", "held": ["x"], "axis": [0, 0, 1]}], "axis: unknown key"),
     ("TIP", "expected a list of tables"),
 ])
@@ -234,7 +235,7 @@ def test_a_decks_surfaces_are_node_sets_of_their_faces(tmp_path):
     """*SURFACE by element faces (Abaqus' S1-S6) and by nodes: node sets of those names."""
     tail = ("*ELSET, ELSET=LAST\n4\n*SURFACE, NAME=TipFace\nLAST, S4\n"
             "*SURFACE, NAME=BOTTOM, TYPE=ELEMENT\n1, S1\n2, S1\n"
-            "*SURFACE, NAME=ENDS, TYPE=NODE\nEND\n")
+            "*SURFACE, NAME=ENDS, TYPE=NODE\nEND, 1.0\n")  # (a node surface's weight)
     path, mesh, _ = _deck(tmp_path, tail)
     sets = import_mesh(path).mesh.node_sets
     tip = mesh.node_sets["block/tip"]

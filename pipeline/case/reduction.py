@@ -181,7 +181,9 @@ def _check_supports(pre: str, supports: Any, out: list[str]) -> None:
             continue
         names = SUPPORT_FRAMES[frame]
         held = item.get("held")
-        if not (isinstance(held, list) and held and all(h in names for h in held)
+        if held is None:
+            out.append(f"{where}.held: missing; the directions held, among {list(names)}")
+        elif not (isinstance(held, list) and held and all(h in names for h in held)
                 and len(set(held)) == len(held)):
             out.append(f"{where}.held = {held!r}: expected a non-empty list of distinct "
                        f"directions of the {frame} frame, among {list(names)}")

@@ -356,6 +356,9 @@ def _analysis_lines(f: h5py.File) -> list[str]:
         if ga.get("type") == "uncertainty":
             lines.extend(_uncertainty_lines(g))
             continue
+        if ga.get("type") == "modes":
+            lines.extend(_modes_lines(g))
+            continue
         for curve, c in g.items():
             if not isinstance(c, h5py.Group):
                 continue
@@ -371,6 +374,25 @@ def _analysis_lines(f: h5py.File) -> list[str]:
             coarse = sampling_warning(c)
             if coarse:
                 lines.append(f"    warning: {coarse}")
+    return lines
+
+
+def _modes_lines(g: h5py.Group) -> list[str]:
+    """A modes analysis: per body and nodal diameter its first frequencies and the reduced
+    model's largest error; per harmonic the reduced assembly's stuck and free frequencies."""
+    def first(f) -> str:
+        return " ".join(f"{x:.6g}" for x in f[()][:6])
+
+    lines = []
+    for body, b in g.items():
+        for where, m in b.items():
+            if body == schema.ASSEMBLY_MODES:
+                lines.append(f"  assembly, harmonic {m.attrs['order']}: stuck f [Hz] "
+                             f"{first(m['stuck_hz'])}; free {first(m['free_hz'])}")
+                continue
+            error = float(np.abs(m["relative_error"][()]).max(initial=0.0))
+            lines.append(f"  {body} {where}: f [Hz] {first(m['frequencies_hz'])}; reduced "
+                         f"model's error at most {error:.2g}")
     return lines
 
 
