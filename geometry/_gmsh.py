@@ -16,7 +16,7 @@ import gmsh
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .mesh import MATCH_TOL, ContactPatch, CyclicBoundary, Mesh, rotation_z
+from .mesh import CURVED, MATCH_TOL, ContactPatch, CyclicBoundary, Mesh, rotation_z
 from .params import GeometryBuildError
 
 Dimtags = list[tuple[int, int]]
@@ -262,7 +262,10 @@ def constant_field(size: float) -> int:
 
 # ------------------------------------------------------------------ mesh extraction
 class MeshReader:
-    """Reads the current Gmsh mesh into 0-based arrays (nodes of tets only)."""
+    """Reads the current Gmsh mesh into 0-based arrays (nodes of tets only), and the curved
+    edges of its second-order image: ``curved_edges`` (c, 2) sorted node pairs and
+    ``edge_nodes`` (c, 3) their mid-edge points (m) where Gmsh places them on a curved
+    geometry (arcs, cylinders) off the straight midpoint."""
 
     def __init__(self) -> None:
         tags, coords, _ = gmsh.model.mesh.getNodes()
@@ -283,6 +286,35 @@ class MeshReader:
         self.points = coords[order][pos]
         self._tags = used_tags  # sorted gmsh tags of used nodes; index = position
         self._tets_by_vol = tets_by_vol
+        self.curved_edges, self.edge_nodes = self._curved_edges()
+
+    def _curved_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Gmsh's mid-edge points of the second-order mesh (on the geometry), kept where off
+        the straight midpoint; the mesh is returned to first order (setOrder renumbers the
+        nodes, so the corners are matched element by element, not by tag)."""
+        edges = _tet10_edges()
+        pairs, mids = [], []
+        gmsh.model.mesh.setOrder(2)
+        try:
+            tags, coords, _ = gmsh.model.mesh.getNodes()
+            order = np.argsort(tags)
+            tags, coords = np.asarray(tags)[order], np.asarray(coords).reshape(-1, 3)[order]
+            for vol, linear in self._tets_by_vol.items():
+                types, _, nodes = gmsh.model.mesh.getElements(3, vol)
+                quadratic = np.asarray(nodes[list(types).index(11)], np.int64).reshape(-1, 10)
+                corners = self.index(linear.ravel()).reshape(-1, 4)
+                pairs.append(np.sort(corners[:, edges].reshape(-1, 2), axis=1))
+                mids.append(coords[np.searchsorted(tags, quadratic[:, 4:].ravel())])
+        finally:
+            gmsh.model.mesh.setOrder(1)
+        if not pairs:
+            return np.empty((0, 2), np.int64), np.empty((0, 3))
+        pairs, first = np.unique(np.vstack(pairs), axis=0, return_index=True)
+        xyz = np.vstack(mids)[first]
+        a, b = self.points[pairs[:, 0]], self.points[pairs[:, 1]]
+        off = (np.linalg.norm(xyz - 0.5 * (a + b), axis=1)
+               > CURVED * np.linalg.norm(b - a, axis=1))
+        return pairs[off], xyz[off]
 
     def index(self, gmsh_tags) -> np.ndarray:
         """0-based indices of Gmsh node tags (all must belong to tets)."""
@@ -312,6 +344,15 @@ class MeshReader:
     def point_node(self, point_tag: int) -> np.ndarray:
         """(1,) node index of a geometric point."""
         return self.index(gmsh.model.mesh.getNodes(0, point_tag)[0])
+
+
+def _tet10_edges() -> np.ndarray:
+    """(6, 2) corner pairs of Gmsh's 10-node tetrahedron's mid nodes, in its node order (read
+    from its reference element, not assumed)."""
+    ref = np.asarray(gmsh.model.mesh.getElementProperties(11)[4]).reshape(10, 3)
+    half = 0.5 * (ref[:4, None] + ref[None, :4])  # (4, 4, 3) midpoints of corner pairs
+    return np.array([np.argwhere(np.all(np.isclose(half, m), axis=2) & np.triu(
+        np.ones((4, 4), bool), 1))[0] for m in ref[4:]])
 
 
 def pair_cyclic(points: np.ndarray, left: np.ndarray, right: np.ndarray, sectors: int

@@ -15,6 +15,9 @@ importer reads (a meshio.Mesh), so a CAD model goes on like any mesh file.
   faces match node for node; they are the node sets ``cyclic/<body>/left`` and ``right``.
 * Sizes: ``size`` [m] the target element edge (default: a tenth of the smallest solid's
   extent).
+* Curved faces: the tetrahedra come back with 10 nodes, their mid-edge nodes where Gmsh's
+  second-order mesh puts them on the CAD's curved faces and edges (the quadratic geometry
+  the importer keeps); a model of planar faces only comes back in 4-node tetrahedra.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import gmsh
 import numpy as np
 
 from . import _gmsh as g
+from .mesh import mid_edge_points
 from .params import GeometryBuildError
 from .sector import SectorSpec
 
@@ -35,7 +39,7 @@ _NAME = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 def mesh(path: str | Path, length: float = 1.0, size: float | None = None,
          sector: SectorSpec | None = None):
-    """The CAD file meshed in linear tetrahedra, as a meshio.Mesh (see the module).
+    """The CAD file meshed in tetrahedra, as a meshio.Mesh (see the module).
 
     length: metres per length unit of a BREP file (STEP and IGES declare theirs). The points
     stay in the model's unit, ``info["length"]`` metres each (the importer scales them).
@@ -176,7 +180,13 @@ def _read_back(owner: dict[int, str], periodic: list[tuple[int, int]], meshio):
         copy_of[name] = mine
         cell_sets[name] = [np.arange(len(t)) if b == name else np.empty(0, np.int64)
                            for b in bodies]
-        blocks.append(("tetra", mine[t]))
+        if len(r.curved_edges):  # the body's own mid nodes, on the CAD's curved faces
+            edges, mids = _mid_nodes(r, t, n)
+            n += len(mids)
+            points.append(mids)
+            blocks.append(("tetra10", np.hstack([mine[t], edges])))
+        else:
+            blocks.append(("tetra", mine[t]))
     body_of_face = {f: owner[v] for v in owner for f in _faces_of(v)}
 
     def face_nodes(face: int) -> np.ndarray:
@@ -196,6 +206,19 @@ def _read_back(owner: dict[int, str], periodic: list[tuple[int, int]], meshio):
                        point_sets={k: np.asarray(v, dtype=np.int64)
                                    for k, v in point_sets.items()},
                        cell_sets=cell_sets)
+
+
+#: meshio's (VTK's) 10-node tetrahedron: its mid nodes' corner pairs, in node order
+_TET10_EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
+
+
+def _mid_nodes(r, tets: np.ndarray, first: int) -> tuple[np.ndarray, np.ndarray]:
+    """(m, 6) mid-node numbers (from ``first`` on) of the tets (m, 4) and (e, 3) their points:
+    Gmsh's second-order points where an edge is curved, the straight midpoint elsewhere."""
+    pairs = np.sort(tets[:, _TET10_EDGES].reshape(-1, 2), axis=1)
+    unique, which = np.unique(pairs, axis=0, return_inverse=True)
+    xyz = mid_edge_points(r.points, unique, r.curved_edges, r.edge_nodes)
+    return first + which.reshape(-1, 6), xyz
 
 
 def _faces_of(volume: int) -> set[int]:

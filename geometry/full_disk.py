@@ -106,9 +106,12 @@ def full_disk(sector: Mesh) -> Mesh:
                 f"{name}#{k}", body_copy(p.body_a, k), body_copy(p.body_b, kb),
                 node_map[k][p.nodes_a], node_map[kb % ns][p.nodes_b],
                 rotation_z(k * phi) @ p.normal, p.area)
+    curved_edges, edge_nodes = _copied_curved_edges(sector, node_map, phi)
     return Mesh(
         model=f"{sector.model}_full",
         points=points,
+        curved_edges=curved_edges,
+        edge_nodes=edge_nodes,
         tetrahedra=_stacked(cells["tetra"], "tetra"),
         bodies=bodies,
         node_sets=node_sets,
@@ -117,6 +120,18 @@ def full_disk(sector: Mesh) -> Mesh:
         hexahedra=_stacked(cells["hexahedron"], "hexahedron"),
         wedges=_stacked(cells["wedge"], "wedge"),
     )
+
+
+def _copied_curved_edges(sector: Mesh, node_map: np.ndarray, phi: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """The sector's curved edges in every copy: (c Ns, 2) sorted node pairs, (c Ns, 3) their
+    mid-edge points turned with the copy (an edge on a cyclic face, shared by two copies,
+    once)."""
+    pairs = np.vstack([np.sort(node_map[k][sector.curved_edges], axis=1)
+                       for k in range(len(node_map))])
+    xyz = np.vstack([sector.edge_nodes @ rotation_z(k * phi).T for k in range(len(node_map))])
+    pairs, first = np.unique(pairs, axis=0, return_index=True)
+    return pairs.reshape(-1, 2), xyz[first].reshape(-1, 3)
 
 
 def _stacked(parts: list[np.ndarray], shape: str) -> np.ndarray:

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from . import abaqus, cad, deck_supports, elements, materials
-from .mesh import FRAMES, Mesh, MeshValidationError, Support
+from .mesh import CURVED, FRAMES, Mesh, MeshValidationError, Support
 from .params import GeometryBuildError
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 
@@ -575,9 +575,6 @@ def _edge_mid_nodes(points, shape, corners, extra, kind, path) -> np.ndarray:
 
 #: A mid node further than this (relative to its edge's length) from the straight edge's
 #: midpoint makes the edge curved; closer, it is rounding of a straight edge's midpoint.
-CURVED = 1e-6
-
-
 def _curved_edges(points, mids, new) -> tuple[np.ndarray, np.ndarray, float]:
     """(c, 2) sorted corner pairs in the kept numbering and (c, 3) mid node positions (the
     file's units) of the edges whose mid node lies off the straight midpoint, and the

@@ -81,8 +81,8 @@ def annulus(shape: str = "hexahedron", sectors: int = 12,
     """One sector (theta in [-phi/2, phi/2]) of a ring r in ``radii``, z in [0, width], on an
     (nr, ntheta, nz) grid of cells in ``shape``; ``stretch`` > 0 moves the radial and axial
     grid lines more the nearer they are to the right face, so the two cyclic faces no longer
-    match; ``curved``: every edge's mid node on the ring (the image of its midpoint in the
-    grid's (r, theta, z) coordinates), the quadratic geometry a curved deck has. Body "ring";
+    match; ``curved``: every edge's mid node on the cylinder through its ends' mean radius
+    (an arc's midpoint along theta), the quadratic geometry a curved deck has. Body "ring";
     node sets "ring/bore" (r = r0), "cyclic/left", "cyclic/right"."""
     P, hexes = grid((1.0, 1.0, 1.0), cells)
 
@@ -104,6 +104,18 @@ def annulus(shape: str = "hexahedron", sectors: int = 12,
         shapes = {"tetra": tets, "hexahedron": hexes, "wedge": wedges}
         edges = np.unique(np.concatenate([np.sort(c[:, elements.EDGES[k]].reshape(-1, 2),
                                                   axis=1) for k, c in shapes.items()]), axis=0)
-    return Mesh("annulus", ring(P), tets, {"ring": np.arange(n)}, node_sets=sets,
+    points = ring(P)
+    return Mesh("annulus", points, tets, {"ring": np.arange(n)}, node_sets=sets,
                 hexahedra=hexes, wedges=wedges, curved_edges=edges,
-                edge_nodes=ring(P[edges].mean(axis=1)))
+                edge_nodes=_on_mean_cylinder(points[edges]))
+
+
+def _on_mean_cylinder(ends: np.ndarray) -> np.ndarray:
+    """(e, 3) mid-edge points of edges with ``ends`` (e, 2, 3) [m]: the chord's midpoint
+    moved radially (about z) onto the cylinder through the ends' mean radius, as a mesher
+    projects onto a curved surface: an arc's midpoint for an edge along theta, the chord's
+    for a radial or axial one, a second-order offset on a cell's diagonal."""
+    mid = ends.mean(axis=1)
+    radius = np.linalg.norm(ends[:, :, :2], axis=2).mean(axis=1)
+    mid[:, :2] *= (radius / np.linalg.norm(mid[:, :2], axis=1))[:, None]
+    return mid

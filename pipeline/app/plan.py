@@ -38,15 +38,16 @@ from microslip.pipeline.solve.memory import memory_text
 from .cache import SharedCache, built_mesh
 from .store import CurveStore
 
-#: Measured anchors of the estimates (two quiet cores, the shipped cases; the harmonic
-#: balance's, the pictures' and the start's are case.estimate's): a Craig-Bampton model per
-#: 1000 vertex nodes of its body, P2 tetrahedra [s] (P1 a fifth; a complex nodal diameter
-#: COMPLEX_ND times, quadratic hexahedra and wedges SOLID_ELEMENTS times: their denser
-#: rows); a linear limit curve of 1296 unknowns [s] (growing as unknowns^1.8); a Gmsh mesh
-#: and its three previews [s].
+#: Measured anchors of the estimates (two quiet cores, the shipped cases and imported blocks
+#: of 1.5k-220k DOFs; the harmonic balance's, the pictures' and the start's are
+#: case.estimate's): a Craig-Bampton model per 1000 vertex nodes of its body, P2
+#: tetrahedra [s] (P1 LINEAR_ELEMENTS times; a complex nodal diameter COMPLEX_ND times,
+#: hexahedra and wedges SOLID_ELEMENTS times: their denser rows); a linear limit curve of
+#: 1296 unknowns [s] (growing as unknowns^1.8); a Gmsh mesh and its three previews [s].
 REDUCTION_S_PER_KNODE = 10.0
+LINEAR_ELEMENTS = 0.06
 COMPLEX_ND = 1.5
-SOLID_ELEMENTS = 2.0
+SOLID_ELEMENTS = 1.3
 #: Peak memory of a Craig-Bampton model of n DOFs and m master nodes (imported blocks of
 #: 5k-220k DOFs in tetrahedra and hexahedra, both orders, measured as the run's peak
 #: resident size): the process itself, PROCESS_BYTES, plus per DOF the sparse factor's
@@ -220,8 +221,9 @@ def _reduction(mesh, red, cache: Path | None, orders, surfaces: bool = False
     cyclic_cached = True
     for spec in sorted(body_specs(mesh, red, surfaces), key=lambda s: s.body not in mesh.cyclic):
         nodes = mesh.body_nodes(spec.body).size
-        seconds = REDUCTION_S_PER_KNODE * nodes / 1000 * (1.0 if spec.order == 2 else 0.2)
-        if spec.order == 2 and len(mesh.hexahedra) + len(mesh.wedges):
+        seconds = (REDUCTION_S_PER_KNODE * nodes / 1000
+                   * (1.0 if spec.order == 2 else LINEAR_ELEMENTS))
+        if len(mesh.hexahedra) + len(mesh.wedges):
             seconds *= SOLID_ELEMENTS
         is_cyclic = spec.body in mesh.cyclic
         sectors = mesh.cyclic[spec.body].sectors if is_cyclic else 0
