@@ -171,6 +171,7 @@ def _imported_case() -> dict:
     ([{"set": "TIP", "held": []}], "non-empty list"),
     ([{"set": "TIP"}], "held: missing; the directions held, among ['x', 'y', 'z']"),
     ([{"set": "TIP", "held": ["x"], "axis": [0, 0, 1]}], "axis: unknown key"),
+    ([{"set": "TIP", "hold": ["x"]}], "hold: unknown key"),  # not "held: missing" too
     ("TIP", "expected a list of tables"),
 ])
 def test_a_bad_support_in_a_case_is_one_line(supports, words):

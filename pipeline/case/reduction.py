@@ -46,6 +46,7 @@ whose mesh, material, constraints, masters and mode selection have not changed.
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -181,8 +182,11 @@ def _check_supports(pre: str, supports: Any, out: list[str]) -> None:
             continue
         names = SUPPORT_FRAMES[frame]
         held = item.get("held")
+        misspelt = any(difflib.get_close_matches(str(k), ["held"], n=1)
+                       for k in item if k not in SUPPORT_KEYS)  # said by unknown_keys
         if held is None:
-            out.append(f"{where}.held: missing; the directions held, among {list(names)}")
+            if not misspelt:
+                out.append(f"{where}.held: missing; the directions held, among {list(names)}")
         elif not (isinstance(held, list) and held and all(h in names for h in held)
                 and len(set(held)) == len(held)):
             out.append(f"{where}.held = {held!r}: expected a non-empty list of distinct "
