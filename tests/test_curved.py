@@ -127,3 +127,28 @@ def test_curved_hexahedra_converge_where_straight_edges_stall(tmp_path):
     # 1.9e-3 -> 4.1e-4 (ratio 4.7: the chords' h^2)
     assert error[True][1] < 1e-4 < 3e-4 < error[False][1]
     assert error[True][0] / error[True][1] > 8 > 6 > error[False][0] / error[False][1]
+
+
+@pytest.mark.parametrize("shape", ["tetra", "hexahedron", "wedge"])
+def test_a_mid_node_that_folds_its_element_is_one_line(shape):
+    """A mid-edge node pushed across its element (a deck's typo, a mesher's bend): the
+    isoparametric map turns the element inside out, which no straight-edged check sees; it
+    is refused by name, from the assembly and from the reduction stage as an input fault."""
+    import dataclasses
+
+    from microslip.pipeline.app.structure import reduce_structure
+    from microslip.pipeline.case import InputError
+
+    mesh = _ring(shape, (1, 8, 1), True)
+    nodes = mesh.edge_nodes.copy()
+    # three radial thicknesses off the edge: past every neighbour's far face
+    nodes[0] = nodes[0] + 3 * (R1 - R0) * np.array([1.0, 0.0, 0.0])
+    bad = dataclasses.replace(mesh, edge_nodes=nodes)
+    fem.assemble(mesh, "ring", STEEL)  # the arcs as they are: fine
+    with pytest.raises(fem.InvertedElements, match=rf"curved {shape} element\(s\) turned"):
+        fem.assemble(bad, "ring", STEEL)
+    table = {"order": 2, "modes": 4, "bodies": {"ring": {"clamped": ["cyclic/left"],
+                                                          "masters": ["cyclic/right"]}}}
+    with pytest.raises(InputError, match="body 'ring': .* inside out"):
+        reduce_structure(dataclasses.replace(bad, cyclic={}), table, None,
+                         progress=lambda s: None)

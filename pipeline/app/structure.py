@@ -24,6 +24,7 @@ from microslip.pipeline.case.reduction import (
     patch_stiffnesses,
 )
 from microslip.pipeline.fe import contact_stiffness, reduction
+from microslip.pipeline.fe.fem import InvertedElements
 from microslip.pipeline.fe.reduction import ReducedModel
 
 from .progress import time_left
@@ -96,8 +97,11 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
                 spec = replace(spec, f_max=f_ref)
 
         report = _recorder(result, spec.body, None if is_cyclic else nds, progress, count)
-        result.models[spec.body] = reduction.reduce_body(mesh, spec, nds, cache_dir, backend,
-                                                         report)
+        try:
+            result.models[spec.body] = reduction.reduce_body(mesh, spec, nds, cache_dir,
+                                                             backend, report)
+        except InvertedElements as err:  # a deck's (or a mesher's) mid nodes
+            raise InputError(f"body {spec.body!r}: {err}") from None
     return result
 
 

@@ -351,9 +351,31 @@ def _blocks(points: FloatArray, cells: Mapping[str, IntArray], order: int,
             mid = mid_edge_points(points, pairs, *curved)
             if np.abs(mid - points[pairs].mean(axis=1)).max() > 0.0:
                 mapping = kind.curved_mapping(skm, mid)
+                _check_curved_map(mapping, shape, nodes[used])
         blocks.append(_Block(shape, skm, dof_map.astype(np.int64), mapping))
     edges = np.array(list(key_of), dtype=np.int64).reshape(-1, 2)
     return nodes, nodes[edges] if len(edges) else edges, blocks
+
+
+class InvertedElements(ValueError):
+    """Curved elements whose mid-edge nodes fold their map (det J changes sign)."""
+
+
+def _check_curved_map(mapping: Any, shape: str, vertices: IntArray) -> None:
+    """InvertedElements naming how many elements of ``shape`` the isoparametric map turns
+    inside out at one of their nodes (corners or mid-edge: where a far-off mid node shows
+    first), and the first one's corners (global vertex numbers ``vertices``)."""
+    det = mapping.detDF(np.ascontiguousarray(mapping.elem.doflocs.T))  # (elements, nodes)
+    # scikit-fem integrates |det J|, and its hexahedra map with det J < 0: what folds an
+    # element is a sign unlike the block's, anywhere on it
+    det = det * np.sign(np.median(det))
+    bad = np.flatnonzero((det <= 0.0).any(axis=1))
+    if bad.size:
+        corners = vertices[mapping.mesh.t[: geometry_elements.SHAPES[shape], bad[0]]]
+        raise InvertedElements(
+            f"{bad.size} curved {shape} element(s) turned inside out by their mid-edge nodes "
+            f"(det J changes sign at a node; first: corners {corners.tolist()}): move the mid "
+            "nodes nearer their edges' midpoints, or refine where the edges bend")
 
 
 def _summed(parts: list[tuple[sp.spmatrix, IntArray]], n: int) -> sp.csr_matrix:
