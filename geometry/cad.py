@@ -29,6 +29,7 @@ import gmsh
 import numpy as np
 
 from . import _gmsh as g
+from . import elements
 from .mesh import mid_edge_points
 from .params import GeometryBuildError
 from .sector import SectorSpec
@@ -208,14 +209,10 @@ def _read_back(owner: dict[int, str], periodic: list[tuple[int, int]], meshio):
                        cell_sets=cell_sets)
 
 
-#: meshio's (VTK's) 10-node tetrahedron: its mid nodes' corner pairs, in node order
-_TET10_EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]])
-
-
 def _mid_nodes(r, tets: np.ndarray, first: int) -> tuple[np.ndarray, np.ndarray]:
     """(m, 6) mid-node numbers (from ``first`` on) of the tets (m, 4) and (e, 3) their points:
     Gmsh's second-order points where an edge is curved, the straight midpoint elsewhere."""
-    pairs = np.sort(tets[:, _TET10_EDGES].reshape(-1, 2), axis=1)
+    pairs = np.sort(tets[:, elements.EDGES["tetra"]].reshape(-1, 2), axis=1)  # VTK order
     unique, which = np.unique(pairs, axis=0, return_inverse=True)
     xyz = mid_edge_points(r.points, unique, r.curved_edges, r.edge_nodes)
     return first + which.reshape(-1, 6), xyz

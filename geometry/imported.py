@@ -573,11 +573,10 @@ def _edge_mid_nodes(points, shape, corners, extra, kind, path) -> np.ndarray:
     return np.stack([a.ravel(), b.ravel(), node.ravel()], axis=1)
 
 
-#: A mid node further than this (relative to its edge's length) from the straight edge's
-#: midpoint makes the edge curved; closer, it is rounding of a straight edge's midpoint.
 def _curved_edges(points, mids, new) -> tuple[np.ndarray, np.ndarray, float]:
     """(c, 2) sorted corner pairs in the kept numbering and (c, 3) mid node positions (the
-    file's units) of the edges whose mid node lies off the straight midpoint, and the
+    file's units) of the edges whose mid node lies off the straight midpoint (by more than
+    ``mesh.CURVED`` of the edge: closer, a straight edge's rounding), and the
     largest such offset relative to its edge's length (0 for a linear mesh)."""
     if not mids:
         return np.empty((0, 2), dtype=np.int64), np.empty((0, 3)), 0.0

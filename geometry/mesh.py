@@ -33,8 +33,8 @@ _FIELDS = {"tetrahedra": "tetra", "hexahedra": "hexahedron", "wedges": "wedge"}
 
 #: Geometric matching tolerance of cyclic faces and contact grids (m).
 MATCH_TOL = 1e-9
-# a mid-edge node this far off its straight midpoint (relative to the edge's length) makes
-# the edge curved: below it, the deck's or Gmsh's rounding
+#: A mid-edge node this far off its straight midpoint (relative to the edge's length) makes
+#: the edge curved: below it, the deck's or Gmsh's rounding.
 CURVED = 1e-6
 
 
