@@ -262,12 +262,12 @@ def constant_field(size: float) -> int:
 
 # ------------------------------------------------------------------ mesh extraction
 class MeshReader:
-    """Reads the current Gmsh mesh into 0-based arrays (nodes of tets only); with ``curved``,
-    also the curved edges of its second-order image: ``curved_edges`` (c, 2) sorted node
-    pairs and ``edge_nodes`` (c, 3) their mid-edge points (m) where Gmsh places them on a
-    curved geometry (arcs, cylinders) off the straight midpoint (else none: straight)."""
+    """Reads the current Gmsh mesh into 0-based arrays (nodes of tets only), and the curved
+    edges of its second-order image: ``curved_edges`` (c, 2) sorted node pairs and
+    ``edge_nodes`` (c, 3) their mid-edge points (m) where Gmsh places them on a curved
+    geometry (arcs, cylinders) off the straight midpoint."""
 
-    def __init__(self, curved: bool = False) -> None:
+    def __init__(self) -> None:
         tags, coords, _ = gmsh.model.mesh.getNodes()
         coords = np.asarray(coords).reshape(-1, 3)
         tets_by_vol = {}
@@ -286,8 +286,7 @@ class MeshReader:
         self.points = coords[order][pos]
         self._tags = used_tags  # sorted gmsh tags of used nodes; index = position
         self._tets_by_vol = tets_by_vol
-        self.curved_edges, self.edge_nodes = (self._curved_edges() if curved else
-                                              (np.empty((0, 2), np.int64), np.empty((0, 3))))
+        self.curved_edges, self.edge_nodes = self._curved_edges()
 
     def _curved_edges(self) -> tuple[np.ndarray, np.ndarray]:
         """Gmsh's mid-edge points of the second-order mesh (on the geometry), kept where off

@@ -380,6 +380,8 @@ def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
     return Mesh(
         model="blisk_sector",
         points=r.points,
+        curved_edges=r.curved_edges,
+        edge_nodes=r.edge_nodes,
         tetrahedra=tets,
         bodies=bodies,
         node_sets=sets,

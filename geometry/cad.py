@@ -158,7 +158,7 @@ def _periodic_faces(sector: SectorSpec, scale: float) -> list[tuple[int, int]]:
 
 def _read_back(owner: dict[int, str], periodic: list[tuple[int, int]], meshio):
     """The meshed model as a meshio.Mesh: each body's tetrahedra on its own nodes."""
-    r = g.MeshReader(curved=True)  # the tets' nodes, 0-based, each volume's tets, the arcs
+    r = g.MeshReader()  # the tetrahedra's nodes, 0-based, and each volume's tets
     points = [r.points]
     n = len(r.points)
     blocks, cell_sets, point_sets = [], {}, {}

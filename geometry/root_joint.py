@@ -304,6 +304,8 @@ def _read(p, disk, blade, rects, patches, left, right, cad) -> Mesh:
     return Mesh(
         model="root_joint",
         points=r.points,
+        curved_edges=r.curved_edges,
+        edge_nodes=r.edge_nodes,
         tetrahedra=tets,
         bodies={"disk": np.arange(len(t_disk)), "blade": np.arange(len(t_disk), len(tets))},
         node_sets=sets,

@@ -224,6 +224,8 @@ def _mesh_and_read(p: ShroudParameters, blisk: int) -> Mesh:
     return Mesh(
         model="shrouded_blisk",
         points=r.points,
+        curved_edges=r.curved_edges,
+        edge_nodes=r.edge_nodes,
         tetrahedra=tets,
         bodies={"blisk": np.arange(len(tets))},
         node_sets={"blisk/bore": r.surface_nodes(bore), "blisk/shroud": r.surface_nodes(outer),

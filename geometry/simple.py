@@ -79,6 +79,8 @@ def _build_beam(p: BeamParameters) -> Mesh:
     return Mesh(
         model="beam",
         points=r.points,
+        curved_edges=r.curved_edges,
+        edge_nodes=r.edge_nodes,
         tetrahedra=r.tets([vol]),
         bodies={"beam": np.arange(len(r.tets([vol])))},
         node_sets={
@@ -171,6 +173,8 @@ def _build_annular(p: AnnularSectorParameters) -> Mesh:
     return Mesh(
         model="annular_sector",
         points=r.points,
+        curved_edges=r.curved_edges,
+        edge_nodes=r.edge_nodes,
         tetrahedra=tets,
         bodies={"disk": np.arange(len(tets))},
         node_sets={

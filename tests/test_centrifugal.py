@@ -43,14 +43,20 @@ def _components(body):
     return comp
 
 
-def _dof_locations(body):
-    """(N, 3) location of every DOF: the vertex, or the midpoint of the edge (P2)."""
+def _dof_locations(body, mesh):
+    """(N, 3) location of every DOF: the vertex, or the edge's mid node (P2: on the arc
+    where the edge is curved)."""
     locs = np.zeros((body.n_dofs, 3))
     locs[body.node_dofs.ravel()] = np.repeat(body.points, 3, axis=0)
     if len(body.edge_dofs):
-        mid = body.points[body.local_nodes(body.edges.ravel()).reshape(-1, 2)].mean(axis=1)
-        locs[body.edge_dofs.ravel()] = np.repeat(mid, 3, axis=0)
+        locs[body.edge_dofs.ravel()] = np.repeat(mesh.mid_edge_points(body.edges), 3, axis=0)
     return locs
+
+
+def _straight(mesh):
+    """The mesh with straight edges (its tets' closed-form moments are exact for it)."""
+    return dataclasses.replace(mesh, curved_edges=np.empty((0, 2), np.int64),
+                               edge_nodes=np.empty((0, 3)))
 
 
 def _moments(mesh, body_name, density):
@@ -80,51 +86,73 @@ def _largest_arc_step(mesh, name, radius):
 # --- the FE load ------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("order", [1, 2])
-def test_resultant_of_the_annular_sector(disk_mesh, order):
-    """Sum of the x / y / z components = m Omega^2 r_cg per unit Omega^2."""
-    body = fem.assemble(disk_mesh, "disk", STEEL, order)
+def _resultant(mesh, order):
+    """(3,) the sums of the x / y / z components of the disk's centrifugal load [kg m]."""
+    body = fem.assemble(mesh, "disk", STEEL, order)
     f = fem.centrifugal_load(body)
     assert f.shape == (body.n_dofs,) and f.dtype == np.float64
     comp = _components(body)
-    F = np.array([f[comp == k].sum() for k in range(3)])
-    # Against the mesh's own mass and first moment (exact per tet): the shape functions sum to
-    # one (P1 and P2), so the sums are the integral of rho (x, y, 0), exact but for the
-    # round-off of sums over ~1000 entries (measured 3e-16 of the x resultant; 1e-12 allows
-    # any summation order).
+    return np.array([f[comp == k].sum() for k in range(3)])
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_resultant_of_the_annular_sector(disk_mesh, order):
+    """Sum of the x / y / z components = m Omega^2 r_cg per unit Omega^2."""
+    # Straight-edged, against its own mass and first moment (exact per tet): the shape
+    # functions sum to one (P1 and P2), so the sums are the integral of rho (x, y, 0), exact
+    # but for the round-off of sums over ~1000 entries (measured 3e-16 of the x resultant;
+    # 1e-12 allows any summation order).
+    F = _resultant(_straight(disk_mesh), order)
     first, _ = _moments(disk_mesh, "disk", STEEL.density)
     assert F[2] == 0.0  # no axial body force at all
     np.testing.assert_allclose(F[:2], first[:2], rtol=0, atol=1e-12 * first[0])
     # Against the hand closed form of the (curved) annular sector, centroid on the x axis:
     #   m r_cg = rho w (r_o^3 - r_i^3) / 3 * 2 sin(phi / 2).
-    # The mesh replaces each arc by chords: a chord over the angle d scales the first moment
-    # of its fan (origin to arc) by cos^2(d / 2); the rim loses moment, the bore gains some.
-    # So the relative error is at most r_o^3 sin^2(d_max / 2) / (r_o^3 - r_i^3), d_max the
-    # largest chord angle on bore and rim (15 deg here: bound 1.8e-2, measured 1.2e-3; a
-    # wrong density, factor or axis would be off by O(1)).
+    # Chords instead of arcs: a chord over the angle d scales the first moment of its fan
+    # (origin to arc) by cos^2(d / 2); the rim loses moment, the bore gains some. So their
+    # relative error is at most r_o^3 sin^2(d_max / 2) / (r_o^3 - r_i^3), d_max the largest
+    # chord angle on bore and rim (15 deg here: bound 1.8e-2, measured 1.2e-3). The mesh as
+    # Gmsh curves it (its mid nodes on the arcs) is within d^4: measured 1e-6 (a wrong
+    # density, factor or axis would be off by O(1)).
     phi = 2 * np.pi / NS
     closed = STEEL.density * WIDTH * (R_OUT**3 - R_IN**3) / 3 * 2 * np.sin(phi / 2)
     d_max = max(_largest_arc_step(disk_mesh, "disk/bore", R_IN),
                 _largest_arc_step(disk_mesh, "disk/rim", R_OUT))
     bound = R_OUT**3 * np.sin(d_max / 2) ** 2 / (R_OUT**3 - R_IN**3)
     assert abs(1.0 - F[0] / closed) < bound
+    curved = _resultant(disk_mesh, order)
+    assert abs(1.0 - curved[0] / closed) < 1e-2 * bound
     # y: the sector is symmetric about y = 0, the mesh only nearly: ~1e-10 N s^2 against
     # 4e-2 for x (the mesh's own first moment above matches it exactly).
-    assert abs(F[1]) < 1e-6 * closed
+    assert abs(F[1]) < 1e-6 * closed and abs(curved[1]) < 1e-6 * closed
 
 
 @pytest.mark.parametrize("order", [1, 2])
 def test_load_is_the_mass_times_the_position_field(blisk_mesh, order):
-    """(x, y, 0) is linear, so P1 and P2 interpolate it exactly and f = M g (g its DOF values):
-    an independent check of quadrature and of the DOF numbering of the rebuilt basis."""
+    """(x, y, 0) is linear, so P1 and P2 interpolate it exactly on straight-edged tets and
+    f = M g (g its DOF values): an independent check of quadrature and of the DOF numbering
+    of the rebuilt basis. On the curved mesh (Gmsh's arcs), P2 still interpolates it (the
+    isoparametric map is P2) but neither integral is exact any more."""
     for name in ("damper", "blisk"):
-        body = fem.assemble(blisk_mesh, name, STEEL, order)
-        f = fem.centrifugal_load(body)
-        locs, comp = _dof_locations(body), _components(body)
-        g = np.where(comp < 2, locs[np.arange(body.n_dofs), np.minimum(comp, 1)], 0.0)
-        # Both integrals exact (intorder p + 1 for the load, 2p for M); differences are sum
-        # round-off over a row (~10-100 terms; measured <= 2e-15 of the largest entry).
-        np.testing.assert_allclose(f, body.mass @ g, rtol=0, atol=1e-13 * np.abs(f).max())
+        for mesh in (_straight(blisk_mesh), blisk_mesh):
+            body = fem.assemble(mesh, name, STEEL, order)
+            f = fem.centrifugal_load(body)
+            locs, comp = _dof_locations(body, mesh), _components(body)
+            g = np.where(comp < 2, locs[np.arange(body.n_dofs), np.minimum(comp, 1)], 0.0)
+            if mesh is not blisk_mesh:
+                # Both integrals exact (intorder p + 1 for the load, 2p for M); differences
+                # are sum round-off over a row (~10-100 terms; measured <= 2e-15 of the
+                # largest entry).
+                np.testing.assert_allclose(f, body.mass @ g, rtol=0,
+                                           atol=1e-13 * np.abs(f).max())
+            elif order == 2:
+                # Curved tets: the integrands gain det J's degree 3, the rules stay those of
+                # straight tets (as CalculiX's and Abaqus' do): measured 5.2e-6 of the
+                # largest entry, and the resultants (partition of unity) still exact
+                # (1.2e-15)
+                d = f - body.mass @ g
+                assert np.abs(d).max() < 2e-5 * np.abs(f).max()
+                assert np.abs(d[comp == 0].sum()) < 1e-12 * np.abs(f[comp == 0].sum())
 
 
 # --- the reduced load ---------------------------------------------------------------------

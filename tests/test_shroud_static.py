@@ -135,3 +135,58 @@ def test_the_assemblys_stuck_frequency_is_the_stuck_limits_resonance(tmp_path):
     # frequency; the limit's points around it are 0.12 rad/s apart (1.7e-5)
     assert abs(2 * np.pi * stuck[0] / peak - 1) < 5e-5
     assert free[0] < stuck[0]  # (the interlock stiffens the blades)
+
+
+@pytest.mark.slow
+def test_the_1N_frf_passes_a_square_root_cusp_by_a_longer_step(tmp_path, monkeypatch):
+    """The shipped shroud's 1 N FRF meets, near 7056.7 rad/s, a pair whose stuck cycle's
+    admissible slider positions shrink to a point (its residual rises as the square root
+    of the arc there): every short arclength step and the fixed-frequency crossings fail,
+    and the branch used to stop. A step a few times longer lands past it; the branch it
+    skips is there: Newton at fixed frequencies inside the leap converges (1.1 min)."""
+    from microslip.pipeline.app.models import AssemblyModels
+    from microslip.pipeline.app.run import mesh_geometry
+    from microslip.pipeline.app.structure import reduce_structure
+    from microslip.pipeline.case import curve_variants
+    from microslip.pipeline.solve import continuation as cont
+    from microslip.pipeline.solve import response
+
+    case = cases.load(CASE)
+    spec = case.analysis_specs[0]
+    variant = next(iter(curve_variants(case, spec)))[0]
+    assert variant.data["assembly"]["excitation"] == 1.0
+    mesh = mesh_geometry(case.geometry_table, tmp_path, progress=lambda s: None,
+                         pictures=False)
+    structure = reduce_structure(mesh, variant.data["reduction"], None,
+                                 cases.harmonics(variant).orders, progress=lambda s: None)
+    hb = AssemblyModels(mesh, structure).model(variant)
+    base = cases.operating_point(variant, spec.omega)
+    settings = cases.settings(variant)
+
+    def sweep():
+        return response.sweep(hb, "frequency", spec.start, spec.stop, base, settings=settings)
+
+    leaps = []
+    leap = cont._leap
+
+    def recorded(fun, x, lam, *args):
+        out = leap(fun, x, lam, *args)
+        leaps.append((lam, x, out[0]))
+        return out
+
+    monkeypatch.setattr(cont, "_leap", recorded)
+    branch = sweep().branch
+    assert branch.complete and len(leaps) >= 1 and all(o is not None for *_, o in leaps)
+    lam0, x0, _ = leaps[0]
+    i = int(np.flatnonzero(branch.values == lam0)[0])
+    lam1, x1 = branch.values[i + 1], branch.x[i + 1]
+    assert 0 < lam1 - lam0 < 2.0  # rad/s: past the cusp, not over the resonance (7041)
+    fun = response.problem(hb, base, "frequency")
+    xs, fs = response.scales(hb, base)
+    for f in (0.25, 0.5, 0.75):  # the skipped stretch: solutions at every frequency
+        r = cont.newton(fun, x0 + f * (x1 - x0), lam0 + f * (lam1 - lam0), x_scale=xs,
+                        f_scale=fs, settings=settings)
+        assert r.converged
+    monkeypatch.setattr(cont, "MAX_LEAPS", 0)  # without the leap: stopped there
+    stopped = sweep().branch
+    assert stopped.status == "stopped" and abs(stopped.values[-1] - lam0) < 1e-6 * lam0

@@ -484,8 +484,8 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
                      f_scale, settings, progress, parameter):
     tangent, orientation = first_tangent
     rms = _rms(x)
-    h = settings.step
-    corners = misses = 0  # corners crossed; correctors missed in a row
+    h = h_good = settings.step  # the step, and the last one the corrector converged from
+    corners = misses = leaps = 0  # corners crossed; correctors missed in a row; leaps
     while len(out) < settings.max_points:
         y = np.append(x / xs, lam / lam_scale)
         pred = y + h * tangent
@@ -526,27 +526,40 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
                 corners += 1
                 crossed = _cross_corner(fun, x, lam, tangent[-1], lam_scale, xs, f_scale,
                                         settings)
-            if crossed is None and h >= settings.min_step:
+            if crossed is not None:
+                lam_c, r = crossed
+                crossed_tangent = _tangent(fun, r.x, lam_c, xs, lam_scale, f_scale, tangent,
+                                           direction)
+                if crossed_tangent is None:
+                    return out.finish("stopped", f"singular Jacobian at {parameter} = "
+                                      f"{lam_c:.6g}")
+                t_c, orientation = crossed_tangent
+                if t_c[-1] * (lam_c - lam) < 0:  # keep going the way the crossing went
+                    t_c, orientation = -t_c, -orientation
+                out.add(lam_c, r)
+                if progress:
+                    progress(len(out), lam_c, r.iterations)
+                x, lam, tangent, h, misses = r.x, lam_c, t_c, settings.step, 0
+                continue
+            if h >= settings.min_step:
                 continue  # not a corner: shorter steps go on
-            if crossed is None:
+            # no step is short enough: a point where the branch is continuous but not
+            # differentiable (a square-root cusp, see LEAP_GROWTH), which a longer step passes
+            leapt = None
+            leaps += 1  # beyond MAX_LEAPS: none tried
+            if leaps <= MAX_LEAPS:
+                leapt, tries = _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale,
+                                     settings)
+                out.steps += tries
+            if leapt is None:
                 why = f"corrector failed ({info})" if not ok else \
                     "the corrector keeps leaving the branch"
+                longer = f" and longer steps to max_step = {settings.max_step:g}" if \
+                    leaps <= MAX_LEAPS else ""
                 return out.finish("stopped", f"stopped near {parameter} = {lam:.6g}: {why} "
-                                  f"with step below min_step = {settings.min_step:g}")
-            lam_c, r = crossed
-            crossed_tangent = _tangent(fun, r.x, lam_c, xs, lam_scale, f_scale, tangent,
-                                       direction)
-            if crossed_tangent is None:
-                return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_c:.6g}")
-            t_c, orientation = crossed_tangent
-            if t_c[-1] * (lam_c - lam) < 0:  # keep going the way the crossing went
-                t_c, orientation = -t_c, -orientation
-            out.add(lam_c, r)
-            if progress:
-                progress(len(out), lam_c, r.iterations)
-            x, lam, tangent, h, misses = r.x, lam_c, t_c, settings.step, 0
-            continue
-        misses = 0
+                                  f"with step below min_step = {settings.min_step:g}{longer}")
+            y_new, its, res, info, h = leapt
+        misses, h_good = 0, h
         x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
         new_tangent = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent,
                                direction, info)
@@ -614,6 +627,40 @@ def _cross_corner(fun, x, lam, slope, lam_scale, xs, f_scale, settings):
         if r.converged:
             return lam_c, r
     return None
+
+
+#: Steps tried past a singular point: LEAP_GROWTH^k x 2 x the last step the corrector
+#: converged from, up to max_step, shortest first. A stuck 2D contact whose admissible slider
+#: positions (the intersection of its samples' friction discs) shrink to a lens moves with
+#: the lens' corner, as the square root of the distance to where the lens vanishes and the
+#: contact starts slipping every period: the residual there rises as sqrt(h) along the
+#: tangent (measured on the shrouded blisk: 4e-9 to 1.5e-3 of the force scale within 1.3e-8
+#: of arc), so no short step converges, and one some 2e-3 long does (4 iterations), while
+#: the steps had shrunk to 1e-6 on the way in.
+LEAP_GROWTH = 4.0
+MAX_LEAPS = 20  # per branch, as MAX_CORNERS
+
+
+def _leap_steps(h_good: float, settings: Settings) -> np.ndarray:
+    """The leaps' steps: 2 h_good growing by LEAP_GROWTH to max_step (which ends them)."""
+    first = min(2.0 * h_good, settings.max_step)
+    n = int(np.ceil(np.log(settings.max_step / first) / np.log(LEAP_GROWTH))) if \
+        first < settings.max_step else 0
+    return np.minimum(first * LEAP_GROWTH ** np.arange(n + 1), settings.max_step)
+
+
+def _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale, settings):
+    """The corrector from steps of :func:`_leap_steps` along ``tangent`` from the last
+    solution (x, lam): (y, iterations, residual, info, step, tries) of the first that
+    converges on the branch (within 10 steps of its predictor, as any step), else
+    (None, tries)."""
+    y0 = np.append(x / xs, lam / lam_scale)
+    for tries, h in enumerate(_leap_steps(h_good, settings), 1):
+        pred = y0 + h * tangent
+        ok, y, its, res, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings)
+        if ok and np.linalg.norm(y - pred) <= 10.0 * h:
+            return (y, its, res, info, h), tries
+    return None, tries
 
 
 def _lu_sign(lu: np.ndarray, piv: np.ndarray) -> float:
