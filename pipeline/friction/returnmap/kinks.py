@@ -10,7 +10,7 @@ from numba import njit
 from ..states import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK
 
 
-@njit(cache=True)
+@njit(inline="always")  # see steps.INLINED
 def _coeff_weight(c, theta, ns, corder, ckind):
     """Analysis weight a_c(theta) and its derivative d a_c / d theta."""  # pragma: no cover
     if ckind[c] == 0:
@@ -21,7 +21,7 @@ def _coeff_weight(c, theta, ns, corder, ckind):
     return 2.0 / ns * np.sin(n * theta), 2.0 / ns * n * np.cos(n * theta)
 
 
-@njit(cache=True)
+@njit(inline="always")  # see steps.INLINED
 def _slopes(c, theta, corder, ckind):
     """d/dtheta and d2/dtheta2 of the basis function of coefficient c."""  # pragma: no cover
     if ckind[c] == 0:
@@ -56,6 +56,8 @@ def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, w
     up = np.zeros(d)  # u'(theta_c)
     dup = np.zeros((d, m))
     dvp = np.zeros(m)
+    upp = np.zeros(d)  # u''(theta_c)
+    work = (jump, djump, ds, a, da, nvec, dn, up, dup, dvp, upp)
     for k in range(ns):
         kprev = k - 1 if k > 0 else ns - 1
         s0, s1 = state_out[p, kprev], state_out[p, k]
@@ -74,17 +76,16 @@ def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, w
         for q in range(kinds):
             kind = first + q
             _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal,
-                  want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out,
-                  jump, djump, ds, a, da, nvec, dn, up, dup, dvp)
+                  want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out, work)
 
 
-@njit(cache=True)
+@njit(inline="always")  # see steps.INLINED (a tuple of work arrays: at most 30 arguments)
 def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal,
-          want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out,
-          jump, djump, ds, a, da, nvec, dn, up, dup, dvp):  # pragma: no cover
+          want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out, work):  # pragma: no cover
     """One kink of ``kind`` (1 stick -> slip, 2 opening, 3 closing) in the interval
-    (kprev, k) of point p: its correction added to F_out (and J_out, D_out); the work
-    arrays are the caller's."""
+    (kprev, k) of point p: its correction added to F_out (and J_out, D_out); ``work``: the
+    caller's work arrays (jump, djump, ds, a, da, nvec, dn, up, dup, dvp, upp)."""
+    jump, djump, ds, a, da, nvec, dn, up, dup, dvp, upp = work
     d, ns, nc = u.shape[1], u.shape[2], E.shape[1]
     m = J_out.shape[3] + 1
     vcol, rows, h = d * nc, d + 1, 2.0 * np.pi / ns
@@ -116,7 +117,8 @@ def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_norm
     vp, vpp = 0.0, 0.0
     for j in range(d):
         up[j] = 0.0
-    upp = np.zeros(d)
+    for j in range(d):
+        upp[j] = 0.0
     for c in range(nc):
         d1, d2 = _slopes(c, theta, corder, ckind)
         for j in range(d):
@@ -198,7 +200,7 @@ def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_norm
                         J_out[p, j, c, col] += val
 
 
-@njit(cache=True)
+@njit(inline="always")  # see steps.INLINED
 def _crossing(p, k, kprev, a, da, kn, mu, n0, v, E, has_normal, want_jac, T_out, N_out,
               G, ds, nvec, dn):  # pragma: no cover
     """Fraction s of (kprev, k) where the linear predictor ``T_prev + s a``
