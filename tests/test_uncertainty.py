@@ -173,12 +173,17 @@ def test_a_study_grown_computes_only_its_new_samples(jenkins_study):
     assert np.all(seconds > 0)  # each when it was computed, the stored ones too
 
 
-@pytest.mark.parametrize("max_points, status", [(70, "complete"), (40, "stopped")])
-def test_a_sample_whose_sweep_stops_is_swept_from_the_other_end(tmp_path, max_points, status):
+@pytest.mark.parametrize("max_points, status, resumed", [(70, "complete", False),
+                                                         (40, "complete", True),
+                                                         (15, "stopped", True)])
+def test_a_sample_whose_sweep_stops_is_swept_from_the_other_end(tmp_path, max_points, status,
+                                                                 resumed):
     """An upward sweep cut short by max_points is met by a downward one from the window's
     top: where the two overlap (70 points each) the sample is complete and its peak the
-    describing function's; where they leave a gap (40 each: the peak in it), and again at
-    twice the samples, the sample is stopped and the statistics leave it out."""
+    describing function's. Where they leave a gap (the peak in it), each goes on from where
+    it stopped at twice the samples, what it found kept: 40 + 40 points from each end close
+    the gap (complete, the describing function's peak); 15 + 15 do not (stopped, left out of
+    the statistics)."""
     data = copy.deepcopy(JENKINS) | {"solver": {"max_points": max_points}}
     data["analysis"][0]["samples"] = 4
     lines = []
@@ -187,12 +192,11 @@ def test_a_sample_whose_sweep_stops_is_swept_from_the_other_end(tmp_path, max_po
     with h5py.File(path) as f:
         s, st = f["spread"][schema.SAMPLES], f["spread"][schema.STATISTICS]
         assert np.all(s["status"][()] == status.encode())
-        assert np.all(s["points"][()] == 2 * max_points)  # both sweeps ran to their limit
+        # every sweep ran to its limit, the first ones' points kept (not swept again)
+        assert np.all(s["points"][()] == (4 if resumed else 2) * max_points)
         mu, peak, count = s["parameters"][()][:, 0], s["peak"][()], st.attrs["count"]
         assert f["spread"].attrs["status"] == status
-        # stopped from both ends: swept once more at twice the samples, which cannot help
-        # here (the limit is the points), said with the first attempt's reasons
-        assert np.all(s["samples"][()] == (1024 if status == "complete" else 2048))
+        assert np.all(s["samples"][()] == (2048 if resumed else 1024))
         message = f["spread"].attrs["message"]
     if status == "complete":
         assert count == 4 and sum("swept from both ends" in line for line in lines) == 4

@@ -44,33 +44,37 @@ def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertaint
     swept upwards; where that sweep stops short it is swept downwards from its top too,
     and the two together must cover it (a crawl or a turn the upward sweep could not follow,
     e.g. where a contact with a gap closes, is often passed from the other side). Where
-    they do not, both sweeps are repeated once with the period sampled twice as finely:
-    what stops them is nearly always a stick/slip kink that falls between samples (the
-    peak moves by < 0.03 % on the blisk, a crawl becomes a smooth branch). The peak is the
-    largest response of the branches, refined."""
+    they do not, each sweep goes on from where it stopped with the period sampled twice as
+    finely: what stops them is nearly always a stick/slip kink that falls between samples
+    (the peak moves by < 0.03 % on the blisk, a crawl becomes a smooth branch), and what
+    they found is kept, not computed again. The peak is the largest response of the
+    branches (each at its own sampling), refined."""
     hb = models.model(c)
     rows = models.selection(c, [spec.output])
     base = operating_point(c, spec.window[0])
     solver = settings(c)
+    up, down = _sweeps(hb, spec.window, base, solver)
+    status, message = _coverage(up, down, *spec.window)
     notes = []
-    for model in (hb, hb.with_samples(2 * hb.harmonics.n_samples)):
-        found = _sweeps(model, spec.window, base, solver)
-        if any(r.branch.status == "interrupted" for r in found):
-            return Outcome({}, {}, "interrupted", "interrupted by the user")
-        status, message = _coverage(found, *spec.window)
-        if status != "stopped":
-            break
-        notes.append(f"at {model.harmonics.n_samples} samples per period: {message}")
-    samples = model.harmonics.n_samples
+    if status == "stopped" and not _interrupted(up, down):
+        notes.append(f"at {hb.harmonics.n_samples} samples per period: {message}")
+        fine = hb.with_samples(2 * hb.harmonics.n_samples)
+        up, down = (_resumed(fine, chain, end, base, solver)
+                    for chain, end in ((up, spec.window[1]), (down, spec.window[0])))
+        status, message = _coverage(up, down, *spec.window)
+    if _interrupted(up, down):
+        return Outcome({}, {}, "interrupted", "interrupted by the user")
+    found = [r for r in (*up, *down) if len(r)]
+    samples = max(r.model.harmonics.n_samples for r in (*up, *down))
     message = "; ".join([*notes, message])
-    found = [r for r in found if len(r)]
     if not found:
         return Outcome(dict.fromkeys(ROW, np.nan) | {"points": 0, "samples": samples}, {},
                        "failed", message or "no solution in the window")
-    shown = [np.array([response_at(model, x, r.point(i), rows, spec.measure)[0]
+    shown = [np.array([response_at(r.model, x, r.point(i), rows, spec.measure)[0]
                        for i, x in enumerate(r.branch.x)]) for r in found]
     top = int(np.argmax([np.max(y) for y in shown]))
     w, x = refined_peak(found[top], shown[top], rows, spec.measure, solver)
+    model = found[top].model
     point = base.set("frequency", w)
     states = [cr.state for cr in model.contact_response(x, point)]
     share = slip_share(np.concatenate(states)) if states else np.nan
@@ -79,31 +83,48 @@ def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertaint
     return Outcome(data, {}, status, message)
 
 
-def _sweeps(model, window: tuple[float, float], base, solver) -> list:
-    """The window swept upwards and, where that stops, downwards from its top."""
+def _sweeps(model, window: tuple[float, float], base, solver) -> tuple[list, list]:
+    """(upward, downward) sweeps of the window: the downward one (from its top) only where
+    the upward one stops."""
     lo, hi = window
-    found = [sweep(model, "frequency", lo, hi, base, settings=solver)]
-    if found[0].branch.status == "stopped":
-        found.append(sweep(model, "frequency", hi, lo, base.set("frequency", hi),
-                           settings=solver))
-    return found
+    up = [sweep(model, "frequency", lo, hi, base, settings=solver)]
+    if up[0].branch.status != "stopped":
+        return up, []
+    return up, [sweep(model, "frequency", hi, lo, base.set("frequency", hi), settings=solver)]
 
 
-def _coverage(found: list, lo: float, hi: float) -> tuple[str, str]:
-    """(status, message) of a sample's sweeps: complete when one reached the end of the
-    window or the upward and downward ones overlap (said in the message); else the upward
-    sweep's status and why each stopped."""
-    up = found[0].branch
-    if len(found) == 1:
-        return up.status, up.message
-    down = found[1].branch
-    reached_up = max(up.values, default=lo)
-    reached_down = min(down.values, default=hi)
-    if down.status == "complete" or reached_down <= reached_up:
+def _interrupted(*chains: list) -> bool:
+    return any(r.branch.status == "interrupted" for chain in chains for r in chain)
+
+
+def _resumed(model, chain: list, end: float, base, solver) -> list:
+    """``chain`` (sweeps towards ``end``) with one more by ``model`` from its last point
+    where its last sweep stopped (from its start if it found nothing)."""
+    if not chain or chain[-1].branch.status != "stopped":
+        return chain
+    last = chain[-1]
+    start, x0 = ((float(last.values[-1]), last.branch.x[-1]) if len(last) else
+                 (last.base.get("frequency"), None))
+    return [*chain, sweep(model, "frequency", start, end, base.set("frequency", start),
+                          settings=solver, x0=x0)]
+
+
+def _coverage(up: list, down: list, lo: float, hi: float) -> tuple[str, str]:
+    """(status, message) of a sample's sweeps (each chain in the order swept): complete when
+    one chain reached the end of the window or the upward and downward ones overlap (said
+    in the message); else the upward sweep's status and why each stopped."""
+    last_up = up[-1].branch
+    if not down:
+        return last_up.status, last_up.message
+    last_down = down[-1].branch
+    reached_up = max((v for r in up for v in r.values), default=lo)
+    reached_down = min((v for r in down for v in r.values), default=hi)
+    if last_up.status == "complete" or last_down.status == "complete" \
+            or reached_down <= reached_up:
         return "complete", (f"swept from both ends: upwards to {reached_up:.6g} rad/s "
-                            f"({up.message}), downwards to {reached_down:.6g}")
-    return "stopped", (f"upwards to {reached_up:.6g} rad/s ({up.message}), downwards to "
-                       f"{reached_down:.6g} ({down.message})")
+                            f"({last_up.message}), downwards to {reached_down:.6g}")
+    return "stopped", (f"upwards to {reached_up:.6g} rad/s ({last_up.message}), downwards to "
+                       f"{reached_down:.6g} ({last_down.message})")
 
 
 def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tuple[str, str]:
