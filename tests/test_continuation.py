@@ -287,3 +287,21 @@ def test_the_corrector_gives_up_early_where_newton_makes_no_progress():
     assert not ok and "no progress" in why and res >= 1.0
     assert its <= cont.STAGNATION + 2
     assert len(calls) <= 8 * (cont.STAGNATION + 2)  # 7 trials per iteration at most
+
+
+def test_a_watch_stops_the_branch_where_it_says_so():
+    """The watch sees every new point and its answer ends the branch there, as its message;
+    an empty answer changes nothing (the same points as without a watch)."""
+    seen = []
+
+    def watch(lam, x):
+        seen.append(lam)
+        return "enough" if lam > 0.0 else ""
+
+    b = cont.arclength(s_curve, np.array([-1.5]), -2.0, 2.0, watch=watch)
+    assert b.status == "stopped" and b.message == "enough"
+    assert b.values[-1] > 0.0 and np.all(b.values[:-1] <= 0.0)
+    assert seen == list(b.values[1:])  # every point after the first, once
+    free = cont.arclength(s_curve, np.array([-1.5]), -2.0, 2.0, watch=lambda lam, x: "")
+    plain = cont.arclength(s_curve, np.array([-1.5]), -2.0, 2.0)
+    assert free.complete and np.array_equal(free.values, plain.values)

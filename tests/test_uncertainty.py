@@ -204,3 +204,31 @@ def test_a_sample_whose_sweep_stops_is_swept_from_the_other_end(tmp_path, max_po
         np.testing.assert_allclose(peak, reference, rtol=2e-5)  # as the full sweep's
     else:
         assert count == 0 and "at 1024 samples per period: upwards to" in message
+
+
+def test_a_sweep_is_stopped_where_it_crawls_under_resolved():
+    """UnderResolved: a message once the last CRAWL_POINTS points lie within CRAWL_SPAN of the
+    window and stick arcs within two samples are there; none while the sweep moves (the
+    contacts not even asked) or where the arcs are resolved."""
+    from microslip.pipeline.app.uncertainty import CRAWL_POINTS, CRAWL_SPAN, UnderResolved
+
+    asked = []
+
+    def arcs(n):
+        def count(lam, x):
+            asked.append(lam)
+            return n
+        return count
+
+    x = np.zeros(3)
+    moving = UnderResolved(arcs(5), span=100.0)
+    assert not any(moving(3100.0 + i, x) for i in range(3 * CRAWL_POINTS)) and not asked
+    crawl = 3150.0 + 0.9 * CRAWL_SPAN * 100.0 * np.linspace(0, 1, CRAWL_POINTS)
+    stuck = UnderResolved(arcs(5), span=100.0)
+    said = [stuck(lam, x) for lam in crawl]
+    assert not any(said[:-1]) and "at 5 contact point(s)" in said[-1]
+    resolved = UnderResolved(arcs(0), span=100.0)
+    assert not any(resolved(lam, x) for lam in crawl)
+    # a crawl wider than CRAWL_SPAN of the window is a sweep still moving
+    wide = UnderResolved(arcs(5), span=100.0)
+    assert not any(wide(lam, x) for lam in 3150.0 + 1.1 * (crawl - 3150.0) / 0.9)

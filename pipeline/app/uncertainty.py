@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 
 import h5py
 import numpy as np
@@ -37,6 +38,44 @@ from .tasks import Outcome, Progress, Task
 #: per period, of the sweeps that gave it.
 ROW = ("peak", "omega", "slip_share", "points", "samples")
 
+#: A sweep crawls where its last CRAWL_POINTS points moved the frequency by less than
+#: CRAWL_SPAN of the window. With stick arcs within two samples there, the sampled forces
+#: change in steps between kinks and the steps stay short for minutes (4-26 of the 42 of
+#: blisk_uncertainty's 64 samples): the sweep goes on at twice the samples from there.
+CRAWL_POINTS = 20
+CRAWL_SPAN = 1e-4
+
+
+class UnderResolved:
+    """The ``watch`` of a sweep (:func:`continuation.arclength`): its message where the
+    sweep crawls (CRAWL_POINTS, CRAWL_SPAN of ``span``) and ``undersampled(lam, x)``, the
+    contact points with a stick arc within two samples there, is not zero; else ""."""
+
+    def __init__(self, undersampled: Callable[[float, np.ndarray], int], span: float) -> None:
+        self.undersampled = undersampled
+        self.span = span
+        self.recent: list[float] = []  # the last CRAWL_POINTS points' frequencies
+
+    def __call__(self, lam: float, x: np.ndarray) -> str:
+        self.recent = [*self.recent[1 - CRAWL_POINTS:], lam]
+        if (len(self.recent) < CRAWL_POINTS
+                or max(self.recent) - min(self.recent) >= CRAWL_SPAN * self.span):
+            return ""
+        n = self.undersampled(lam, x)
+        if not n:
+            return ""
+        return (f"crawling at {lam:.6g} rad/s (the last {CRAWL_POINTS} points within "
+                f"{CRAWL_SPAN:g} of the window) with stick arcs within two samples at {n} "
+                "contact point(s)")
+
+
+def _undersampled(model, base) -> Callable[[float, np.ndarray], int]:
+    """(lam, x) -> the contact points of ``model`` with a stick arc within two samples."""
+    def count(lam: float, x: np.ndarray) -> int:
+        responses = model.contact_response(x, base.set("frequency", lam))
+        return sum(int(np.count_nonzero(r.undersampled)) for r in responses)
+    return count
+
 
 def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertainty, index: int,
                 *, progress: Progress, live: bool = True) -> Outcome:
@@ -47,13 +86,14 @@ def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertaint
     they do not, each sweep goes on from where it stopped with the period sampled twice as
     finely: what stops them is nearly always a stick/slip kink that falls between samples
     (the peak moves by < 0.03 % on the blisk, a crawl becomes a smooth branch), and what
-    they found is kept, not computed again. The peak is the largest response of the
-    branches (each at its own sampling), refined."""
+    they found is kept, not computed again. A sweep that crawls with stick arcs within two
+    samples is stopped there (UnderResolved), not left to crawl for minutes. The peak is the
+    largest response of the branches (each at its own sampling), refined."""
     hb = models.model(c)
     rows = models.selection(c, [spec.output])
     base = operating_point(c, spec.window[0])
     solver = settings(c)
-    up, down = _sweeps(hb, spec.window, base, solver)
+    up, down = _sweeps(hb, spec.window, base, solver, _undersampled(hb, base))
     status, message = _coverage(up, down, *spec.window)
     notes = []
     if status == "stopped" and not _interrupted(up, down):
@@ -83,14 +123,17 @@ def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertaint
     return Outcome(data, {}, status, message)
 
 
-def _sweeps(model, window: tuple[float, float], base, solver) -> tuple[list, list]:
+def _sweeps(model, window: tuple[float, float], base, solver, undersampled
+            ) -> tuple[list, list]:
     """(upward, downward) sweeps of the window: the downward one (from its top) only where
-    the upward one stops."""
+    the upward one stops; each stopped where it crawls under-resolved (UnderResolved)."""
     lo, hi = window
-    up = [sweep(model, "frequency", lo, hi, base, settings=solver)]
+    up = [sweep(model, "frequency", lo, hi, base, settings=solver,
+                watch=UnderResolved(undersampled, hi - lo))]
     if up[0].branch.status != "stopped":
         return up, []
-    return up, [sweep(model, "frequency", hi, lo, base.set("frequency", hi), settings=solver)]
+    return up, [sweep(model, "frequency", hi, lo, base.set("frequency", hi), settings=solver,
+                      watch=UnderResolved(undersampled, hi - lo))]
 
 
 def _interrupted(*chains: list) -> bool:

@@ -440,8 +440,12 @@ def arclength(
     f_scale: float = 1.0,
     settings: Settings = DEFAULT,
     progress: Callable[[int, float, int], None] | None = None,
+    watch: Callable[[float, np.ndarray], str] | None = None,
 ) -> Branch:
     """Pseudo-arclength continuation from ``start`` until ``stop`` is passed.
+
+    ``watch(lam, x)``, called at each new point: a non-empty answer stops the branch there
+    ("stopped", the answer its message).
 
     Scaled unknowns ``y = [x / (x_scale sqrt(n)), lam / lam_scale]`` with ``lam_scale =
     |stop - start|``; steps ``h`` are arc lengths in that metric. The unknowns enter by
@@ -469,7 +473,7 @@ def arclength(
         return out.finish("stopped", f"singular Jacobian at {parameter} = {lam:.6g}")
     try:
         return _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction,
-                                start, stop, f_scale, settings, progress, parameter)
+                                start, stop, f_scale, settings, progress, parameter, watch)
     except KeyboardInterrupt:
         return out.finish("interrupted", f"interrupted by the user after {parameter} = "
                           f"{out.values[-1]:.6g}")
@@ -481,7 +485,7 @@ def _rms(x: np.ndarray) -> float:
 
 
 def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, start, stop,
-                     f_scale, settings, progress, parameter):
+                     f_scale, settings, progress, parameter, watch):
     tangent, orientation = first_tangent
     rms = _rms(x)
     h = h_good = settings.step  # the step, and the last one the corrector converged from
@@ -576,6 +580,9 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
         stall = _stalled(out, lam_scale)
         if stall:
             return out.finish("stopped", f"stalled at {parameter} = {lam_new:.6g}: {stall}")
+        seen = watch(lam_new, x_new) if watch else ""
+        if seen:
+            return out.finish("stopped", seen)
         h = _adapted_step(h, t_new, tangent, its, settings)
         x, lam, tangent = x_new, lam_new, t_new
         # dynamic scaling: the unknowns' scale follows the largest amplitude met,

@@ -269,12 +269,14 @@ def sweep(
     x_scale: float | None = None,
     progress: Callable[[int, float, int], None] | None = None,
     retry: bool = True,
+    watch: Callable[[float, np.ndarray], str] | None = None,
 ) -> Response:
     """Follow the solution of ``model`` as ``parameter`` goes from start to stop.
 
     base: values of the other parameters (and of this one, overridden by the
     sweep). Bad arguments raise ValueError before any solve. retry: where the cold
     start (no ``x0``) fails at the first point, reach it by :func:`excitation_ramp`.
+    watch: see :func:`continuation.arclength` (arclength only).
     """
     if parameter not in PARAMETERS:
         raise ValueError(f"sweep: 'parameter' = {parameter!r} is not one of {PARAMETERS}")
@@ -310,7 +312,8 @@ def sweep(
     def follow(x_start: np.ndarray) -> cont.Branch:
         if method == "arclength":
             return cont.arclength(fun, x_start, start, stop, parameter=parameter,
-                                  x_scale=xs, f_scale=fs, settings=settings, progress=progress)
+                                  x_scale=xs, f_scale=fs, settings=settings, progress=progress,
+                                  watch=watch)
 
         def guesses(value):
             p = base.set(parameter, value)
