@@ -152,3 +152,30 @@ def test_a_mid_node_that_folds_its_element_is_one_line(shape):
     with pytest.raises(InputError, match="body 'ring': .* inside out"):
         reduce_structure(dataclasses.replace(bad, cyclic={}), table, None,
                          progress=lambda s: None)
+
+
+def test_the_full_disk_keeps_every_copys_arcs():
+    """A curved ring sector copied round the disk: each copy's mid nodes turned with it, so
+    the whole ring's mass is Ns times the sector's (to round-off) and the closed form's to
+    the arcs' 3e-6 (the chords would lose 6.4e-3)."""
+    import dataclasses
+
+    from microslip import geometry
+    from microslip.geometry._gmsh import pair_cyclic
+
+    sector = _ring("hexahedron", (1, 8, 1), True)
+    left, right = sector.node_sets["cyclic/left"], sector.node_sets["cyclic/right"]
+    sector = dataclasses.replace(sector, cyclic={"ring": pair_cyclic(sector.points, left,
+                                                                      right, SECTORS)})
+    disk = geometry.full_disk(sector)
+    # the annulus lists every edge (straight ones too): a face's are shared by two copies
+    on_face = np.isin(sector.curved_edges, left).all(axis=1).sum()
+    assert len(disk.curved_edges) == SECTORS * (len(sector.curved_edges) - on_face)
+    masses = []
+    for mesh in (sector, disk):
+        body = fem.assemble(mesh, "ring", STEEL)
+        shift = np.zeros(body.n_dofs)
+        shift[np.vstack([body.node_dofs, body.edge_dofs])[:, 0]] = 1.0
+        masses.append(shift @ body.mass @ shift)
+    assert masses[1] == pytest.approx(SECTORS * masses[0], rel=1e-12)
+    assert masses[1] == pytest.approx(SECTORS * MASS, rel=3e-5)

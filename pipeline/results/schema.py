@@ -276,7 +276,9 @@ LAYOUT = group(
                 data("slip_share", "(n,) share of the contact points slipping there"),
                 data("points", "(n,) continuation points of the sample's sweeps"),
                 data("samples", "(n,) time samples per period of its sweeps (the case's, or "
-                     "twice as many where those could not cover the window)"),
+                     "twice as many where those could not cover the window: each sweep then "
+                     "goes on from where it stopped at twice the samples, what it found "
+                     "kept)"),
                 data("seconds", "(n,) s, the sample's task when it was computed"),
                 data("status", "(n,) complete | stopped | failed | not run")),
           group(STATISTICS, "(uncertainty) of the complete samples' peaks",

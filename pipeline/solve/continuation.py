@@ -544,6 +544,7 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
                 if progress:
                     progress(len(out), lam_c, r.iterations)
                 x, lam, tangent, h, misses = r.x, lam_c, t_c, settings.step, 0
+                h_good = h
                 continue
             if h >= settings.min_step:
                 continue  # not a corner: shorter steps go on
@@ -553,16 +554,19 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
             leaps += 1  # beyond MAX_LEAPS: none tried
             if leaps <= MAX_LEAPS:
                 leapt, tries = _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale,
-                                     settings)
+                                     settings, stop, direction)
                 out.steps += tries
             if leapt is None:
                 why = f"corrector failed ({info})" if not ok else \
                     "the corrector keeps leaving the branch"
-                longer = f" and longer steps to max_step = {settings.max_step:g}" if \
-                    leaps <= MAX_LEAPS else ""
+                longer = (f" and longer steps to max_step = {settings.max_step:g}" if
+                          leaps <= MAX_LEAPS else f" (all {MAX_LEAPS} leaps used)")
                 return out.finish("stopped", f"stopped near {parameter} = {lam:.6g}: {why} "
                                   f"with step below min_step = {settings.min_step:g}{longer}")
             y_new, its, res, info, h = leapt
+            leapt_from = y  # past a non-smooth point: go on the way the leap went
+        else:
+            leapt_from = None
         misses, h_good = 0, h
         x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
         new_tangent = _tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent,
@@ -570,6 +574,8 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
         if new_tangent is None:
             return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_new:.6g}")
         t_new = new_tangent[0] * new_tangent[1] * orientation
+        if leapt_from is not None and t_new @ (y_new - leapt_from) < 0:
+            t_new, orientation = -t_new, -orientation  # det's sign across the cusp: unsure
         if not settings.lower < lam_new < settings.upper:
             return out.finish("stopped", f"the branch left the admissible range "
                               f"({settings.lower:g}, {settings.upper:g}) of {parameter} "
@@ -656,16 +662,22 @@ def _leap_steps(h_good: float, settings: Settings) -> np.ndarray:
     return np.minimum(first * LEAP_GROWTH ** np.arange(n + 1), settings.max_step)
 
 
-def _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale, settings):
+def _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale, settings, stop, direction):
     """The corrector from steps of :func:`_leap_steps` along ``tangent`` from the last
-    solution (x, lam): (y, iterations, residual, info, step, tries) of the first that
-    converges on the branch (within 10 steps of its predictor, as any step), else
-    (None, tries)."""
+    solution (x, lam), each predictor short of ``stop``: ((y, iterations, residual, info,
+    step), tries) of the first that converges on the branch (within 10 steps of its
+    predictor, as any step) and moves the parameter the way the tangent does (where it
+    moves it), else (None, tries)."""
     y0 = np.append(x / xs, lam / lam_scale)
-    for tries, h in enumerate(_leap_steps(h_good, settings), 1):
+    tries = 0
+    for h in _leap_steps(h_good, settings):
         pred = y0 + h * tangent
+        if (pred[-1] * lam_scale - stop) * direction >= 0:
+            break  # the end value is the ordinary step's to land on
+        tries += 1
         ok, y, its, res, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings)
-        if ok and np.linalg.norm(y - pred) <= 10.0 * h:
+        onward = abs(tangent[-1]) < 1e-3 or (y[-1] - y0[-1]) * tangent[-1] > 0
+        if ok and onward and np.linalg.norm(y - pred) <= 10.0 * h:
             return (y, its, res, info, h), tries
     return None, tries
 

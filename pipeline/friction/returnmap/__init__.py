@@ -90,7 +90,8 @@ SIGNATURE = tuple(numba.from_dtype(dt) if nd == 0 else types.Array(numba.from_dt
 # vs 8.0. From ~12 ms a stall costs little and threads halve the time on quiet cores.
 PARALLEL_MIN_WORK = 2**19
 # Compile time of the serial kernel, s, told on a first run (measured 10.9 s with numba 0.60;
-# 42 s with numba 0.68.1 on this machine, 53 s with the per-sample helpers inlined, 2026-11).
+# 22-25 s with numba 0.68.1 in 2026-11 on a quieter machine; 42 s here on 2026-11-28, 53 s
+# with the per-sample helpers inlined).
 COMPILE_SECONDS = 50
 
 

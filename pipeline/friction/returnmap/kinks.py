@@ -10,7 +10,7 @@ from numba import njit
 from ..states import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK
 
 
-@njit(inline="always")  # see steps.INLINED
+@njit(inline="always")  # see INLINED in steps.py
 def _coeff_weight(c, theta, ns, corder, ckind):
     """Analysis weight a_c(theta) and its derivative d a_c / d theta."""  # pragma: no cover
     if ckind[c] == 0:
@@ -21,7 +21,7 @@ def _coeff_weight(c, theta, ns, corder, ckind):
     return 2.0 / ns * np.sin(n * theta), 2.0 / ns * n * np.cos(n * theta)
 
 
-@njit(inline="always")  # see steps.INLINED
+@njit(inline="always")  # see INLINED in steps.py
 def _slopes(c, theta, corder, ckind):
     """d/dtheta and d2/dtheta2 of the basis function of coefficient c."""  # pragma: no cover
     if ckind[c] == 0:
@@ -79,7 +79,7 @@ def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, w
                   want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out, work)
 
 
-@njit(inline="always")  # see steps.INLINED (a tuple of work arrays: at most 30 arguments)
+@njit(inline="always")  # see INLINED in steps.py (a tuple of work arrays: at most 30 arguments)
 def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal,
           want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out, work):  # pragma: no cover
     """One kink of ``kind`` (1 stick -> slip, 2 opening, 3 closing) in the interval
@@ -200,7 +200,7 @@ def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_norm
                         J_out[p, j, c, col] += val
 
 
-@njit(inline="always")  # see steps.INLINED
+@njit(inline="always")  # see INLINED in steps.py
 def _crossing(p, k, kprev, a, da, kn, mu, n0, v, E, has_normal, want_jac, T_out, N_out,
               G, ds, nvec, dn):  # pragma: no cover
     """Fraction s of (kprev, k) where the linear predictor ``T_prev + s a``

@@ -130,7 +130,7 @@ def march_period(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, wa
 
 
 
-@njit(inline="always")  # see steps.INLINED
+@njit(inline="always")  # see INLINED in steps.py
 def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
                cn0, Lp):  # pragma: no cover
     """2D slip over the step from sample kprev to k, integrated exactly.
@@ -242,7 +242,7 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
     return True
 
 
-@njit(inline="always")  # see steps.INLINED
+@njit(inline="always")  # see INLINED in steps.py
 def _flow_derivative(dT0, dT1, dq0, dq1, dL1, t0, t1, L0, L1, h0, h1, nq, c0, p0, p1, np_,
                      Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1):  # pragma: no cover
     """Directional derivative of the exact 2D slip update (see _slip_flow) along
@@ -270,7 +270,7 @@ def _flow_derivative(dT0, dT1, dq0, dq1, dL1, t0, t1, L0, L1, h0, h1, nq, c0, p0
     return dL1 * r0 + L1 * dr0, dL1 * r1 + L1 * dr1
 
 
-@njit(inline="always")  # see steps.INLINED
+@njit(inline="always")  # see INLINED in steps.py
 def _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, cn0, Tp, dT):
     """Predictor of a contact that closes inside (kprev, k): T was 0 and sticking
     starts where the normal gap closes, ``Tp = kt (1 - s) (u_k - u_kprev)`` with
