@@ -24,7 +24,7 @@ from microslip.pipeline.case.specs import Uncertainty
 from microslip.pipeline.draw import pictures
 from microslip.pipeline.friction.laws import slip_share
 from microslip.pipeline.results import schema
-from microslip.pipeline.solve.response import sweep
+from microslip.pipeline.solve.response import sweep, undersampled_points
 from microslip.pipeline.solve.uncertainty import PERCENTILES, statistics
 
 from .limits import linear_peak
@@ -71,10 +71,7 @@ class UnderResolved:
 
 def _undersampled(model, base) -> Callable[[float, np.ndarray], int]:
     """(lam, x) -> the contact points of ``model`` with a stick arc within two samples."""
-    def count(lam: float, x: np.ndarray) -> int:
-        responses = model.contact_response(x, base.set("frequency", lam))
-        return sum(int(np.count_nonzero(r.undersampled)) for r in responses)
-    return count
+    return lambda lam, x: undersampled_points(model, x, base.set("frequency", lam))
 
 
 def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertainty, index: int,

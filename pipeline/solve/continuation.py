@@ -331,6 +331,9 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
 #: followed round it by the detour), while another branch stays O(1) away however short
 #: the step.
 FAR = 3.0
+#: A corrector that lands further than this many steps from its predictor has left for
+#: another branch.
+ON_BRANCH = 10.0
 
 
 def _off_branch(out, x, pred, lam, x_scale, span) -> bool:
@@ -389,7 +392,7 @@ def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):
         pred = np.append(x / xs, lam / lam_scale) + h * tangent
         ok, y, its, _, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings)
         out.steps += 1
-        if not ok or np.linalg.norm(y - pred) > 10.0 * h:
+        if not ok or np.linalg.norm(y - pred) > ON_BRANCH * h:
             h /= 2
             if h < settings.min_step:
                 return None, turned
@@ -514,7 +517,7 @@ def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, 
         ok, y_new, its, res, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale,
                                              settings)
         out.steps += 1
-        far = ok and np.linalg.norm(y_new - pred) > 10.0 * h  # on another branch
+        far = ok and np.linalg.norm(y_new - pred) > ON_BRANCH * h
         if not ok or far:
             h /= 2
             misses += 1
@@ -665,9 +668,8 @@ def _leap_steps(h_good: float, settings: Settings) -> np.ndarray:
 def _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale, settings, stop, direction):
     """The corrector from steps of :func:`_leap_steps` along ``tangent`` from the last
     solution (x, lam), each predictor short of ``stop``: ((y, iterations, residual, info,
-    step), tries) of the first that converges on the branch (within 10 steps of its
-    predictor, as any step) and moves the parameter the way the tangent does (where it
-    moves it), else (None, tries)."""
+    step), tries) of the first that converges on the branch (ON_BRANCH, as any step) and
+    moves the parameter the way the tangent does (where it moves it), else (None, tries)."""
     y0 = np.append(x / xs, lam / lam_scale)
     tries = 0
     for h in _leap_steps(h_good, settings):
@@ -677,7 +679,7 @@ def _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale, settings, stop, 
         tries += 1
         ok, y, its, res, info = _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings)
         onward = abs(tangent[-1]) < 1e-3 or (y[-1] - y0[-1]) * tangent[-1] > 0
-        if ok and onward and np.linalg.norm(y - pred) <= 10.0 * h:
+        if ok and onward and np.linalg.norm(y - pred) <= ON_BRANCH * h:
             return (y, its, res, info, h), tries
     return None, tries
 

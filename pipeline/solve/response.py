@@ -456,9 +456,14 @@ def sampling_shift(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint,
     return d[:-1], float(d[-1])
 
 
+def undersampled_points(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> int:
+    """The contact points whose stick arcs at (x, ``point``) fall within two samples."""
+    return sum(int(np.count_nonzero(r.undersampled)) for r in model.contact_response(x, point))
+
+
 def sampling_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
     """A remedy for a stalled solve when stick arcs fall between samples."""
-    n = sum(int(np.sum(r.undersampled > 0)) for r in model.contact_response(x, point))
+    n = undersampled_points(model, x, point)
     if n == 0:
         return ""
     return (f"; at {n} contact point(s) a whole stick arc falls between two of the "

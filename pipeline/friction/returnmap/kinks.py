@@ -117,7 +117,6 @@ def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_norm
     vp, vpp = 0.0, 0.0
     for j in range(d):
         up[j] = 0.0
-    for j in range(d):
         upp[j] = 0.0
     for c in range(nc):
         d1, d2 = _slopes(c, theta, corder, ckind)
