@@ -39,3 +39,41 @@ def three_dof_cyclic_like(h, coupled=True):
     forces = {0: np.array([0.0, 0.0, -0.1]), 1: np.array([0.0, 0.0, 0.3 + 0.1j])}
     return HarmonicBalance(lin, [Contact("d", d, B), Contact("b", b, Bb)],
                            Excitation(forces), h)
+
+
+def friction_grid(n_points: int, H: int = 1, ns: int = 64, *, cyclic: bool = True,
+                  shared: bool = False):
+    """A sector-like model with ``n_points`` law-D contacts (2D friction, variable normal
+    load), each between two nodes of 3 DOFs (6 n_points shared DOFs, plus 4 no contact
+    touches, condensed): complex Hermitian stiffness per order (a nodal diameter's),
+    complex kinematics on one side (the neighbour sector's phase), proportional damping, a
+    static normal preload and a tangential excitation. ``shared``: neighbouring points
+    share a node (their blocks overlap, as on a patch whose grid reuses nodes)."""
+    h = Harmonics.up_to(H, ns)
+    rng = np.random.default_rng(n_points)
+    nodes = n_points + 1 if shared else 2 * n_points
+    n = 3 * nodes + 4
+    A = rng.normal(size=(n, n)) / np.sqrt(n)
+    base = 4.0 * np.eye(n) + 0.5 * (A + A.T) + np.diag(np.arange(n) / n)
+    K, M, C = {}, {}, {}
+    for o in h.orders:
+        E = rng.normal(size=(n, n)) / np.sqrt(n)
+        K[o] = base + (0.2j * (E - E.T) if o else 0.0)
+        M[o] = np.eye(n)
+        C[o] = 0.01 * base
+    B = {}
+    for o in h.orders:
+        ph = np.exp(0.4j * o) if (cyclic and o) else 1.0
+        Bo = np.zeros((3 * n_points, n), dtype=complex)
+        for p in range(n_points):
+            a, b = (p, p + 1) if shared else (2 * p, 2 * p + 1)
+            Bo[3 * p:3 * p + 3, 3 * a:3 * a + 3] = np.eye(3)
+            Bo[3 * p:3 * p + 3, 3 * b:3 * b + 3] = -ph * np.eye(3)
+        B[o] = Bo if cyclic else Bo.real
+    el = ContactElements.create("D", kt=3.0, kn=5.0, mu=0.3, n0=np.linspace(0.5, 1.5, n_points),
+                                n_points=n_points)
+    f1 = np.zeros(n, dtype=complex)
+    f1[0::3][: nodes] = 0.4 * np.exp(0.3j * np.arange(nodes))
+    forces = {o: (f1 if o == 1 else np.zeros(n)) for o in h.orders}
+    return HarmonicBalance(LinearDynamics.create(K, M, C, harmonics=h), [Contact("grid", el, B)],
+                           Excitation(forces), h)

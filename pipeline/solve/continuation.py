@@ -29,6 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
+from microslip.pipeline.solve.jacobian import BalanceJacobian
+
 Problem = Callable[[np.ndarray, float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]]
 
 
@@ -186,8 +188,12 @@ def _norm(R: np.ndarray, f_scale: float) -> float:
     return float(np.max(np.abs(R))) / f_scale if R.size else 0.0
 
 
-def _solve(J: np.ndarray, R: np.ndarray, keep: list | None = None) -> np.ndarray:
-    """J^-1 R by LU; the factors are appended to ``keep`` if given (for reuse)."""
+def _solve(J: np.ndarray | BalanceJacobian, R: np.ndarray, keep: list | None = None
+           ) -> np.ndarray:
+    """J^-1 R by LU (a structured J: its own solve); the LU factors are put in ``keep`` if
+    given (for reuse)."""
+    if isinstance(J, BalanceJacobian):
+        return J.solve(R)
     if not np.all(np.isfinite(J)):
         raise ValueError("Jacobian has NaN or Inf")
     with warnings.catch_warnings():  # a zero pivot is reported below, as an error
@@ -702,6 +708,8 @@ def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None)
     gives s from the factors of any bordered matrix."""
     J, dR, *factors = jac if jac is not None else fun(x, lam, True)[1:]
     n = x.size
+    if isinstance(J, BalanceJacobian):
+        return _structured_tangent(J, dR, xs, lam_scale, f_scale, previous, direction)
     if previous is not None and factors and factors[0] and n >= REUSE_FACTORS:
         rhs = np.zeros(n + 1)
         rhs[n] = 1.0
@@ -734,6 +742,42 @@ def _tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None)
         warnings.simplefilter("ignore", sla.LinAlgWarning)
         lu, piv = sla.lu_factor(A, check_finite=False)
     return t / np.linalg.norm(t), _lu_sign(lu, piv)
+
+
+def _structured_tangent(J, dR, xs, lam_scale, f_scale, previous, direction):
+    """:func:`_tangent` with a structured Jacobian: its bordered solve and determinant
+    sign (in the unscaled unknowns; the scalings are positive, so the sign is the same)."""
+    n = xs.size
+    try:
+        if previous is None:
+            t = np.append(J.solve(-dR * lam_scale) / xs, 1.0) * direction
+            row = t
+        else:
+            rhs = np.zeros(n + 1)
+            rhs[n] = 1.0
+            t, row = _bordered(J, dR, previous, xs, lam_scale, f_scale, rhs), previous
+        sign = J.bordered_sign(dR * lam_scale, row[:n] / xs, row[n])
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    if not (np.all(np.isfinite(t)) and np.linalg.norm(t) > 0 and sign != 0):
+        return None
+    return t / np.linalg.norm(t), sign
+
+
+def _bordered(J, dR, row, xs, lam_scale, f_scale, rhs, keep=None) -> np.ndarray:
+    """z of [J diag(xs) / f_scale, dR lam_scale / f_scale; row] z = rhs (the scaled
+    bordered system), the LU factors of a dense one put in ``keep``."""
+    n = xs.size
+    if isinstance(J, BalanceJacobian):  # in u = xs z[:n], the unscaled unknowns
+        z = J.bordered_solve(dR * lam_scale, row[:n] / xs, row[n],
+                             np.append(rhs[:n] * f_scale, rhs[n]))
+        z[:n] /= xs
+        return z
+    A = np.empty((n + 1, n + 1))
+    A[:n, :n] = J * xs[None, :] / f_scale
+    A[:n, n] = dR * lam_scale / f_scale
+    A[n] = row
+    return _solve(A, rhs, keep)
 
 
 #: The corrector gives up after CORRECTOR_ITER x target_iter iterations, or when STAGNATION
@@ -775,13 +819,9 @@ def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
         if it >= STAGNATION and merit > 0.5 * merits[-1 - STAGNATION]:
             return False, y, it, res, (f"no progress in {STAGNATION} iterations "
                                        f"(||R|| = {res:.3g} * f_scale)")
-        A = np.empty((n + 1, n + 1))
-        A[:n, :n] = J * xs[None, :] / f_scale
-        A[:n, n] = dR * lam_scale / f_scale
-        A[n] = tangent
         rhs = np.append(R / f_scale, tangent @ (y - pred))
         try:
-            step = -_solve(A, rhs, factors)
+            step = -_bordered(J, dR, tangent, xs, lam_scale, f_scale, rhs, factors)
         except (np.linalg.LinAlgError, ValueError) as err:
             return False, y, it, res, f"singular bordered Jacobian ({err})"
         best = None

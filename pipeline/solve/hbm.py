@@ -36,9 +36,12 @@ import scipy.sparse as sp
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.law import ContactSet
 from microslip.pipeline.friction.laws import ContactResponse
+from microslip.pipeline.solve.jacobian import BalanceJacobian, PointBlocks, Preconditioner
 
 PARAMETERS = ("frequency", "excitation", "mass", "preload")
 _DENSE_LIMIT = 400_000  # entries of the real kinematic map kept dense
+#: Unknowns from which continuation uses the structured Jacobian (see ``structured``).
+STRUCTURED_FROM = 600
 
 
 @dataclass(frozen=True)
@@ -286,24 +289,87 @@ class Excitation:
         return tuple(out), rot[0], rot[1]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Condensed:
-    """Linear part condensed on the contact DOFs at one operating point.
+    """Linear part condensed on the contact DOFs at one operating point:
+    S_k = D_cc - D_ci Y_k per order, Y_k = D_ii^-1 D_ic, kept as its factors. A product
+    ``S_k X`` costs nc^2 + 2 nc ni (:meth:`S_product`); the matrices ``S`` (nc^2 ni per
+    order) are made only when asked (a dense Jacobian, a new preconditioner, a linear
+    guess), not at every Newton iterate of a continuation.
 
     Per order k: q_i = z_k - Y_k q_c recovers the other DOFs (the shared ones no contact
     touches, then the order's own)."""
 
-    S: np.ndarray  # (n_orders, nc, nc) complex
+    D: tuple[np.ndarray, ...]  # per order (n_k, n_k), contact DOFs first; real at order 0
+    n_contact: int
     F: np.ndarray  # (n_orders, nc) complex
     Y: tuple[np.ndarray, ...]  # per order (ni_k, nc), real where D is (order 0)
     z: tuple[np.ndarray, ...]  # per order (ni_k,)
-    dS: np.ndarray | None
+    dS: tuple[_SchurDerivative | None, ...] | None  # per order; None where dS_k = 0
     dF: np.ndarray | None
+
+    @cached_property
+    def S(self) -> np.ndarray:
+        """(n_orders, nc, nc) complex."""
+        nc = self.n_contact
+        out = np.empty((len(self.D), nc, nc), dtype=complex)
+        for k, (D, Y) in enumerate(zip(self.D, self.Y)):
+            np.subtract(D[:nc, :nc], D[:nc, nc:] @ Y, out=out[k])
+        return out
+
+    def S_product(self, X: np.ndarray) -> np.ndarray:
+        """S_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
+        made, nc = self.__dict__.get("S"), self.n_contact
+        out = np.empty(X.shape, dtype=complex)
+        for k, (D, Y, x) in enumerate(zip(self.D, self.Y, X)):
+            if made is not None:  # one product
+                out[k] = made[k] @ x
+            else:
+                out[k] = _product(D[:nc, :nc], x) - _product(D[:nc, nc:], _product(Y, x))
+        return out
+
+    def dS_product(self, X: np.ndarray) -> np.ndarray:
+        """dS_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
+        out = np.zeros(X.shape, dtype=complex)
+        for k, d in enumerate(self.dS):
+            if d is not None:
+                out[k] = d.apply(X[k])
+        return out
 
     @property
     def nbytes(self) -> int:
-        arrays = [self.S, self.F, *self.Y, *self.z, self.dS, self.dF]
-        return sum(a.nbytes for a in arrays if a is not None)
+        arrays = [self.F, *self.D, *self.Y, *self.z, self.dF, self.__dict__.get("S")]
+        derivatives = sum(d.nbytes for d in self.dS or () if d is not None)
+        return sum(a.nbytes for a in arrays if a is not None) + derivatives
+
+
+@dataclass(frozen=True, eq=False)
+class _SchurDerivative:
+    """One order's dS = dD_cc - dD_ci Y - L (dD_ic - dD_ii Y), L = D_ci D_ii^-1, kept as
+    its factors: dS X costs products with the blocks (nc^2 + 4 nc ni per column), not the
+    matrix (nc^2 ni); the residual needs dS x only."""
+
+    dD: np.ndarray  # (n, n) the order's dD, contact DOFs first
+    Dci: np.ndarray  # (nc, ni)
+    Y: np.ndarray  # (ni, nc)
+    lu: tuple | None  # LU of D_ii, None where nothing is condensed
+
+    @property
+    def nbytes(self) -> int:
+        return self.dD.nbytes + self.Dci.nbytes + self.Y.nbytes + \
+            (self.lu[0].nbytes if self.lu else 0)
+
+    def apply(self, X: np.ndarray) -> np.ndarray:
+        """dS X for X (nc,) or (nc, m)."""
+        nc = self.Dci.shape[0]
+        dD = self.dD
+        out = dD[:nc, :nc] @ X
+        if self.lu is None:
+            return out
+        W = self.Y @ X
+        out = out - dD[:nc, nc:] @ W
+        V = dD[nc:, :nc] @ X - dD[nc:, nc:] @ W
+        return out - self.Dci @ sla.lu_solve(self.lu, V, check_finite=False)
 
 
 class HarmonicBalance:
@@ -347,9 +413,10 @@ class HarmonicBalance:
         self.dofs = np.flatnonzero(used)  # the unknowns: contact DOFs
         self.others = np.flatnonzero(~used)  # shared DOFs no contact touches
         self._Breal = [self._real_kinematics(B) for B in self._B]
-        self._blocks = [_PointBlocks.of(Br, c.elements.size) for c, Br in
-                        zip(self.contacts, self._Breal)]
+        self._blocks = [PointBlocks.of(Br, c.elements.size, harmonics.n_coeffs)
+                        for c, Br in zip(self.contacts, self._Breal)]
         self._cache = _Cache()
+        self.preconditioner = Preconditioner()  # the structured Newton's, shared by copies
         self._by_samples: dict[int, HarmonicBalance] = {}  # shared by every resampled copy
 
     def with_samples(self, n_samples: int) -> HarmonicBalance:
@@ -520,33 +587,51 @@ class HarmonicBalance:
         point: OperatingPoint,
         parameter: str | None = None,
         jacobian: bool = True,
-    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        structured: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray | BalanceJacobian | None, np.ndarray | None]:
         """R(x), dR/dx and dR/d(parameter) at ``point``.
 
         x: (n_unknowns,) real, DOF-major over :attr:`dofs`. Returns R (n,),
-        J (n, n) or None, dR (n,) or None (if ``parameter`` is None).
+        J (n, n) or None, dR (n,) or None (if ``parameter`` is None). ``structured``: J
+        as a :class:`~microslip.pipeline.solve.jacobian.BalanceJacobian` (its per-order and
+        per-point parts kept apart, solved by preconditioned GMRES) instead of a dense
+        matrix.
         """
         lin = self.condensed(point, parameter)
         h = self.harmonics
-        # the linear terms per order on the complex blocks; the real operator only for J (a
-        # continuation meets every point once: converting S costs what copying a cached
-        # real one would, and dS is never needed as a matrix)
-        R = h.real_apply(lin.S, x) - h.real_vector(lin.F).ravel()
-        J = h.real_matrix(lin.S) if jacobian else None
+        # the linear terms per order on the complex blocks; the real operator only for a
+        # dense J (a continuation meets every point once: converting S costs what copying a
+        # cached real one would, and dS is never needed as a matrix)
+        Xd = h.to_complex(x.reshape(self.dofs.size, h.n_coeffs))
+        X = np.array([Xd[o] for o in h.orders])
+        R = h.real_vector(lin.S_product(X) - lin.F).ravel()
+        dense = jacobian and not structured
+        J = h.real_matrix(lin.S) if dense else None
+        sandwiches = []
         dR = None
         if parameter is not None:
-            dR = h.real_apply(lin.dS, x) - h.real_vector(lin.dF).ravel()
+            dR = h.real_vector(lin.dS_product(X) - lin.dF).ravel()
         for c, Br, blocks in zip(self.contacts, self._Breal, self._blocks):
             el = c.elements.with_preload(point.preload)
             g = (Br @ x).reshape(el.size, el.n_components, -1)
             r = el.evaluate(g, self.harmonics, jacobian=jacobian or parameter == "preload",
                             corrections=self.sub_sample)
             R += Br.T @ r.forces.ravel()
-            if jacobian:
+            if dense:
                 blocks.add_sandwich(J, r.jacobian)
+            elif jacobian:
+                sandwiches.append((blocks, blocks.sandwich(r.jacobian)))
             if parameter == "preload":
                 dR += Br.T @ c.elements.preload_derivative(r).ravel()
+        if jacobian and structured:
+            J = BalanceJacobian(h, lin, tuple(sandwiches), self.preconditioner)
         return R, J, dR
+
+    @property
+    def structured(self) -> bool:
+        """Whether continuation solves with the structured Jacobian: from STRUCTURED_FROM
+        unknowns on (below, a dense LU costs less than the Krylov iterations)."""
+        return self.n_unknowns >= STRUCTURED_FROM
 
     # ------------------------------------------------------- post-processing
     def relative_displacements(self, x: np.ndarray) -> list[np.ndarray]:
@@ -656,46 +741,6 @@ class HarmonicBalance:
         return out
 
 
-@dataclass(frozen=True)
-class _PointBlocks:
-    """The real kinematic map of one contact cut into its points: point p's rows touch only
-    the unknowns ``cols[p]`` (its two nodes' DOFs times the coefficients), through the dense
-    block ``B[p]`` (m, k) with m = components x coefficients. Then B^T diag(J_p) B costs
-    P (m k^2 + k^2) instead of a product over every unknown; ``disjoint``: no two points
-    share an unknown (each node in one pair) and none is padded, so the blocks add without
-    collisions."""
-
-    cols: np.ndarray  # (P, k) int, padded with a repeated column whose B entries are 0
-    B: np.ndarray  # (P, m, k)
-    disjoint: bool
-
-    @classmethod
-    def of(cls, Br: np.ndarray | sp.csr_matrix, P: int) -> _PointBlocks:
-        Bc = sp.csr_matrix(Br)
-        m = Bc.shape[0] // P
-        cols = [np.unique(Bc[p * m:(p + 1) * m].indices) for p in range(P)]
-        k = max((c.size for c in cols), default=0)
-        idx = np.zeros((P, max(k, 1)), dtype=np.int64)
-        B = np.zeros((P, m, max(k, 1)))
-        for p, c in enumerate(cols):
-            if c.size:
-                idx[p, : c.size], idx[p, c.size:] = c, c[0]
-                B[p, :, : c.size] = Bc[p * m:(p + 1) * m][:, c].toarray()
-        used = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
-        padded = any(c.size < k for c in cols)
-        return cls(idx, B, bool(np.unique(used).size == used.size) and not padded)
-
-    def add_sandwich(self, J: np.ndarray, blocks: np.ndarray) -> None:
-        """J += B^T diag(blocks) B for per-point blocks (P, c, nc, c, nc)."""
-        P, m, _ = self.B.shape
-        C = np.swapaxes(self.B, 1, 2) @ (blocks.reshape(P, m, m) @ self.B)  # (P, k, k)
-        rows, cols = self.cols[:, :, None], self.cols[:, None, :]
-        if self.disjoint:
-            J[rows, cols] += C
-        else:  # shared or padded columns: accumulate every contribution
-            np.add.at(J, (rows, cols), C)
-
-
 def _others(shared_others: np.ndarray, n_shared: int, n: int) -> np.ndarray:
     """Indices condensed in an order of size n: shared DOFs no contact touches, then the
     order's own DOFs n_shared..n-1."""
@@ -748,62 +793,64 @@ def _condense(D, F, nc: int, dD=None, dF=None) -> Condensed:
     (:class:`_Reordered`); F: per order (n_k,) in that order; dD, dF: their derivatives per
     order (an entry None where zero) or None."""
     n, deriv = len(D), dD is not None or dF is not None
-    S, Fe = np.empty((n, nc, nc), dtype=complex), np.empty((n, nc), dtype=complex)
-    dS, dFe = (np.zeros_like(S), np.zeros_like(Fe)) if deriv else (None, None)
+    Fe = np.empty((n, nc), dtype=complex)
+    dFe = np.zeros_like(Fe) if deriv else None
+    dS = [None] * n
     Ys, zs = [], []
     for k, (Dk, Fk) in enumerate(zip(D, F)):
         dFk = None if dF is None else dF[k]
-        Y, z = _schur(Dk, Fk, nc, S[k], Fe[k], dFk, None if dFk is None else dFe[k])
+        Y, z, lu = _schur(Dk, Fk, nc, Fe[k], dFk, None if dFk is None else dFe[k])
         if dD is not None and dD[k] is not None:
-            _schur_derivative(Dk, dD[k], nc, Y, z, dS[k], dFe[k])
+            dS[k] = _schur_derivative(Dk, dD[k], nc, Y, z, lu, dFe[k])
         Ys.append(Y)
         zs.append(z)
-    return Condensed(S, Fe, tuple(Ys), tuple(zs), dS, dFe)
+    return Condensed(tuple(D), nc, Fe, tuple(Ys), tuple(zs), tuple(dS) if deriv else None,
+                     dFe)
 
 
-def _schur(D, F, nc, S, Fe, dF=None, dFe=None):
-    """One order's condensation written into S (nc, nc) and Fe (nc,): S = D_cc - D_ci Y and
-    Fe = F_c - D_ci z, with Y = D_ii^-1 D_ic (ni, nc), z = D_ii^-1 F_i (ni,); given dF (n,),
-    also dFe = dF_c - L dF_i with L = D_ci D_ii^-1 (the part that does not depend on dD).
-    Returns (Y, z)."""
-    Dcc, Dci, Dic, Dii = D[:nc, :nc], D[:nc, nc:], D[nc:, :nc], D[nc:, nc:]
+def _schur(D, F, nc, Fe, dF=None, dFe=None):
+    """One order's condensation of the loads, written into Fe (nc,): Fe = F_c - D_ci z with
+    Y = D_ii^-1 D_ic (ni, nc), z = D_ii^-1 F_i (ni,); given dF (n,), also
+    dFe = dF_c - L dF_i with L = D_ci D_ii^-1 (the part that does not depend on dD).
+    Returns (Y, z, the LU factors of D_ii or None where nothing is condensed)."""
+    Dci, Dic, Dii = D[:nc, nc:], D[nc:, :nc], D[nc:, nc:]
     vecs = F[:, None] if dF is None else np.stack([F, dF], axis=1)  # (n, 1 or 2)
+    lu = None
     if Dii.shape[0] == 0:
-        S[...] = Dcc
         g = np.zeros((nc, vecs.shape[1]), dtype=complex)
         Y, z = np.zeros((0, nc), dtype=complex), np.zeros(0, dtype=complex)
     else:
-        # one solve and one product for every right-hand side, D_ci D_ii^-1 [D_ic, F_i, dF_i]
-        # (each BLAS call costs a thread hand-off, more than the flops on a busy machine)
-        sol = np.linalg.solve(Dii, _join(Dic, vecs[nc:]))
-        G = Dci @ sol
-        np.subtract(Dcc, G[:, :nc], out=S)
-        g = _tail(G, nc)
-        Y, z = sol[:, :nc], _tail(sol, nc)[:, 0].copy()
+        # one solve for every right-hand side, D_ii^-1 [D_ic, F_i, dF_i]
+        lu = sla.lu_factor(Dii, check_finite=False)
+        sol = sla.lu_solve(lu, _join(Dic, vecs[nc:]), check_finite=False)
+        Y, t = sol[:, :nc], _tail(sol, nc)
+        g = Dci @ t
+        z = t[:, 0].copy()
     Fe[...] = F[:nc] - g[:, 0]
     if dF is not None:
         dFe[...] = dF[:nc] - g[:, 1]
-    return Y, z
+    return Y, z, lu
 
 
-def _schur_derivative(D, dD, nc, Y, z, dS, dFe) -> None:
-    """The dependence of one order's D in the derivatives of its condensation:
-    dS = dD_cc - dD_ci Y - L (dD_ic - dD_ii Y) written into dS (nc, nc) and
-    -(dD_ci - L dD_ii) z added to dFe (nc,), with L = D_ci D_ii^-1 and Y, z from
-    :func:`_schur`."""
-    if Y.shape[0] == 0:  # nothing condensed
-        dS[...] = dD[:nc, :nc]
-        return
-    # L V as D_ci (D_ii^-1 V) with V = [dD_ic - dD_ii Y, -dD_ii z]: one solve (refactoring
-    # D_ii, ni^3, costs nothing beside) and one product, [dD_ci, D_ci] [W; D_ii^-1 V] with
-    # W = [Y, z] (nc x 2 ni x nc, the condensation's cost)
-    W = np.concatenate([Y, z[:, None]], axis=1)
-    V = -(dD[nc:, nc:] @ W)
-    V[:, :nc] += dD[nc:, :nc]
-    U = np.linalg.solve(D[nc:, nc:], V)
-    H = np.concatenate([dD[:nc, nc:], D[:nc, nc:]], axis=1) @ np.concatenate([W, U])
-    np.subtract(dD[:nc, :nc], H[:, :nc], out=dS)
-    dFe -= H[:, nc]
+def _schur_derivative(D, dD, nc, Y, z, lu, dFe) -> _SchurDerivative:
+    """The dependence of one order's D in the derivatives of its condensation: dS as a
+    :class:`_SchurDerivative`, and -(dD_ci - L dD_ii) z added to dFe (nc,), with
+    L = D_ci D_ii^-1 and Y, z, lu from :func:`_schur`."""
+    out = _SchurDerivative(dD, D[:nc, nc:], Y, lu)
+    if lu is not None:
+        dFe -= dD[:nc, nc:] @ z - D[:nc, nc:] @ sla.lu_solve(lu, dD[nc:, nc:] @ z,
+                                                           check_finite=False)
+    return out
+
+
+def _product(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """A x, a real A applied to a complex x as two real products (numpy would copy A to
+    complex first: order 0's matrices, whose vectors are real)."""
+    if np.iscomplexobj(A) or not np.iscomplexobj(x):
+        return A @ x
+    if not np.any(x.imag):
+        return A @ x.real
+    return A @ x.real + 1j * (A @ x.imag)
 
 
 def _join(A: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -219,8 +219,10 @@ def problem(model: HarmonicBalance, base: OperatingPoint, parameter: str) -> con
     (R, dR/dx, dR/d parameter) at ``base`` with the parameter set to the value."""
 
     def fun(x: np.ndarray, value: float, jac: bool):
-        return model.residual(x, base.set(parameter, value), parameter, jacobian=jac)
+        return model.residual(x, base.set(parameter, value), parameter, jacobian=jac,
+                              structured=structured)
 
+    structured = model.structured
     return fun
 
 
@@ -489,7 +491,7 @@ def solve_point(
         x0 = initial_guess(model, point, fs)
 
     def fun(x, lam, jac):
-        return model.residual(x, point, None, jacobian=jac)
+        return model.residual(x, point, None, jacobian=jac, structured=model.structured)
 
     r = cont.newton(fun, x0, 0.0, x_scale=xs, f_scale=fs, settings=settings)
     if r.converged:
@@ -533,7 +535,7 @@ def excitation_ramp(
     fun = problem(model, point, "excitation")
 
     def at_point(x, lam, jac):
-        return model.residual(x, point, None, jacobian=jac)
+        return model.residual(x, point, None, jacobian=jac, structured=model.structured)
 
     reached = []
     for name, method in (("natural", cont.natural), ("arclength", cont.arclength)):

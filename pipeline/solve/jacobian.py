@@ -1,0 +1,430 @@
+"""The linear algebra of the balance: its Jacobian as a structured operator, solved by a
+Krylov method preconditioned per harmonic order.
+
+The Jacobian of :class:`~microslip.pipeline.solve.hbm.HarmonicBalance` is
+
+    J = L + sum_p B_p^T J_p B_p
+
+with ``L`` block-diagonal over harmonic orders (the condensed dynamic stiffness, one dense
+complex block S_n per order, in the real cos/sin layout) and a contact part block-diagonal
+over contact points (point p's coefficients of every order, through its two nodes' DOFs).
+Poured into one dense real matrix it costs ``(N_dof x N_coeff)^2`` memory and a dense LU
+of that size per Newton iteration. Here it is kept as the two parts:
+
+* :class:`BalanceJacobian` applies J (per order a complex matrix-vector product, per point a
+  small dense block) and makes the preconditioner.
+* The preconditioner is J's order-diagonal part: per order n the complex block
+  ``S_n + sum_p B_pn^H K_pn B_pn``, with ``K_pn`` the part of point p's order-n block that a
+  complex stiffness can represent (the mean over the period of its tangent stiffness;
+  what is left, the stiffness's harmonics that couple orders, GMRES resolves). One LU per
+  order: memory ``N_dof^2`` per order, factorization ``N_dof^3`` per order.
+* :class:`Preconditioner` keeps those factors across Newton iterations and continuation
+  points (a point's neighbour has nearly the same Jacobian) and is refreshed when GMRES
+  needs more than ``REFRESH_ITERATIONS`` iterations.
+* :func:`gmres` is right-preconditioned GMRES (the true residual is the one tested).
+
+The sign of det J, which arclength continuation needs to orient its tangent, is
+``sign det P x sign det (P^-1 J)``: the first from the order-0 LU (a complex block's real
+form has determinant ``|det|^2 > 0``), the second from the Arnoldi matrix of a GMRES run to
+convergence from a fixed random start (its Ritz values include every eigenvalue of
+``P^-1 J`` away from the cluster near 1, so every negative one).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from microslip.pipeline.friction.harmonics import Harmonics
+
+#: GMRES: relative tolerance of a Newton step's solve (||J dx - r|| <= RTOL ||r||): the
+#: step is then Newton's to 1e-10, so the iterates and converged points are those of a
+#: direct solve to well below the continuation's tolerance (1e-9 of the force scale).
+RTOL = 1e-10
+#: Krylov vectors kept before a solve counts as failed (the memory: n x this many floats).
+MAX_KRYLOV = 80
+#: A solve on old factors that took more iterations than this, and more than
+#: REFRESH_GROWTH x the first solve on them, refreshes the preconditioner from the Jacobian
+#: at hand (measured on the blisk + damper, 2 x 36 pairs: a fresh order-diagonal
+#: preconditioner takes 14-20 iterations to 1e-10 at H 1, ~27 at H 3, and one 3 points
+#: old the same: what it lacks is the coupling of the orders, not the newest state).
+REFRESH_ITERATIONS = 30
+REFRESH_GROWTH = 1.5
+#: Relative tolerance of the Arnoldi run that gives the determinant's sign.
+SIGN_RTOL = 1e-8
+
+
+@dataclass(frozen=True)
+class PointBlocks:
+    """The real kinematic map of one contact cut into its points: point p's rows touch only
+    its DOFs ``dofs[p]`` (all coefficients of each), through the dense block ``B[p]``
+    (m, kd x n_coeffs), m = components x coefficients, columns DOF-major. Then
+    B^T diag(J_p) B costs P (m k^2 + k^2) instead of a product over every unknown.
+    ``disjoint``: no two points share a DOF and none is padded (a point with fewer DOFs
+    repeats its first one with zero columns), so the blocks add without collisions."""
+
+    dofs: np.ndarray  # (P, kd) int, indices into the balance's contact DOFs
+    B: np.ndarray  # (P, m, kd * n_coeffs)
+    n_coeffs: int
+    disjoint: bool
+
+    @classmethod
+    def of(cls, Br, P: int, n_coeffs: int) -> PointBlocks:
+        """From the real map (P m, N_dof n_coeffs), dense or CSR, DOF-major columns."""
+        import scipy.sparse as sp
+
+        Bc = sp.csr_matrix(Br)
+        m = Bc.shape[0] // P
+        per = [np.unique(Bc[p * m:(p + 1) * m].indices // n_coeffs) for p in range(P)]
+        kd = max((d.size for d in per), default=0)
+        dofs = np.zeros((P, max(kd, 1)), dtype=np.int64)
+        B = np.zeros((P, m, max(kd, 1) * n_coeffs))
+        coeffs = np.arange(n_coeffs)
+        for p, d in enumerate(per):
+            if d.size:
+                dofs[p, : d.size], dofs[p, d.size:] = d, d[0]
+                cols = (d[:, None] * n_coeffs + coeffs).ravel()
+                B[p, :, : cols.size] = Bc[p * m:(p + 1) * m][:, cols].toarray()
+        used = np.concatenate(per) if per else np.zeros(0, dtype=np.int64)
+        padded = any(d.size < kd for d in per)
+        return cls(dofs, B, n_coeffs,
+                   bool(np.unique(used).size == used.size) and not padded)
+
+    @property
+    def cols(self) -> np.ndarray:
+        """(P, kd n_coeffs) the unknowns of each point, DOF-major."""
+        nc = self.n_coeffs
+        return (self.dofs[:, :, None] * nc + np.arange(nc)).reshape(self.dofs.shape[0], -1)
+
+    def sandwich(self, blocks: np.ndarray) -> np.ndarray:
+        """(P, k, k) B_p^T J_p B_p of per-point blocks (P, c, nc, c, nc) or (P, m, m)."""
+        P, m, _ = self.B.shape
+        return np.swapaxes(self.B, 1, 2) @ (blocks.reshape(P, m, m) @ self.B)
+
+    def add_sandwich(self, J: np.ndarray, blocks: np.ndarray) -> None:
+        """J += B^T diag(blocks) B for per-point blocks (P, c, nc, c, nc)."""
+        self.scatter(J, self.sandwich(blocks))
+
+    def scatter(self, J: np.ndarray, C: np.ndarray) -> None:
+        """J[cols_p, cols_p] += C_p for (P, k, k) blocks."""
+        cols = self.cols
+        rows, cc = cols[:, :, None], cols[:, None, :]
+        if self.disjoint:
+            J[rows, cc] += C
+        else:  # shared or padded columns: accumulate every contribution
+            np.add.at(J, (rows, cc), C)
+
+
+@dataclass(frozen=True, eq=False)
+class BalanceJacobian:
+    """J = L + sum_p B_p^T J_p B_p of the balance at one state, as an operator on the real
+    DOF-major unknowns (n = N_dof x n_coeffs).
+
+    linear: the condensed linear part (:class:`~microslip.pipeline.solve.hbm.Condensed`:
+        ``S_product`` per order, ``S`` (n_orders, N_dof, N_dof) complex when asked);
+    contacts: per contact its :class:`PointBlocks` and its (P, k, k) sandwiched blocks;
+    store: the model's :class:`Preconditioner` (shared by every Jacobian of the model)."""
+
+    harmonics: Harmonics
+    linear: Any
+    contacts: tuple[tuple[PointBlocks, np.ndarray], ...]
+    store: Preconditioner = field(repr=False)
+
+    @property
+    def n_dof(self) -> int:
+        return self.linear.n_contact
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = self.n_dof * self.harmonics.n_coeffs
+        return n, n
+
+    def matvec(self, v: np.ndarray) -> np.ndarray:
+        """J v, (n,): per order S_n X_n (X_n = a_n - i b_n), then the contact part."""
+        h = self.harmonics
+        X = h.to_complex(v.reshape(self.n_dof, h.n_coeffs))
+        y = h.real_vector(self.linear.S_product(np.array([X[o] for o in h.orders])))
+        out = y.ravel()
+        if self._contact is not None:
+            out += self._contact @ v
+        return out
+
+    @cached_property
+    def _contact(self):
+        """The contact part as one sparse matrix (P k^2 entries: one product per GMRES
+        iteration instead of one small one per point)."""
+        import scipy.sparse as sp
+
+        if not self.contacts:
+            return None
+        rows, cols, vals = [], [], []
+        for pb, C in self.contacts:
+            c = pb.cols
+            rows.append(np.broadcast_to(c[:, :, None], C.shape).ravel())
+            cols.append(np.broadcast_to(c[:, None, :], C.shape).ravel())
+            vals.append(C.ravel())
+        n = self.shape[0]
+        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows),
+                                                      np.concatenate(cols))), shape=(n, n))
+
+    def dense(self) -> np.ndarray:
+        """The (n, n) real matrix (small models, checks)."""
+        J = self.harmonics.real_matrix(self.linear.S)
+        for pb, C in self.contacts:
+            pb.scatter(J, C)
+        return J
+
+    def order_blocks(self) -> np.ndarray:
+        """(n_orders, N_dof, N_dof) complex: J's order-diagonal part, each order's block
+        projected on the complex-linear maps (real form [[A, B], [-B, A]] of A + iB)."""
+        h = self.harmonics
+        out = np.array(self.linear.S, dtype=complex)
+        nc, k0 = h.n_coeffs, int(h.has_static)
+        pairs = ([(0, 0)] if h.has_static else []) + list(zip(h.cos_index, h.sin_index))
+        for pb, C in self.contacts:
+            P, kd = pb.dofs.shape
+            C5 = C.reshape(P, kd, nc, kd, nc)
+            rows, cols = pb.dofs[:, :, None], pb.dofs[:, None, :]
+            for k, (a, b) in enumerate(pairs):
+                if k < k0:
+                    blk = C5[:, :, a, :, a].astype(complex)
+                else:
+                    blk = 0.5 * (C5[:, :, a, :, a] + C5[:, :, b, :, b]) \
+                        + 0.5j * (C5[:, :, a, :, b] - C5[:, :, b, :, a])
+                if pb.disjoint:
+                    out[k][rows, cols] += blk
+                else:
+                    np.add.at(out[k], (rows, cols), blk)
+        return out
+
+    # ------------------------------------------------------------------ solves
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """J^-1 rhs by preconditioned GMRES; np.linalg.LinAlgError where it fails even with
+        a preconditioner made from this Jacobian."""
+        return self.store.solve(self, _Plain(self), rhs)
+
+    def bordered_solve(self, col: np.ndarray, row: np.ndarray, corner: float,
+                       rhs: np.ndarray) -> np.ndarray:
+        """The (n + 1) solution of [[J, col], [row, corner]] z = rhs."""
+        return self.store.solve(self, _Bordered(self, col, row, corner), rhs)
+
+    def bordered_sign(self, col: np.ndarray, row: np.ndarray, corner: float) -> float:
+        """sign det [[J, col], [row, corner]] (see the module)."""
+        return self.store.sign(self, _Bordered(self, col, row, corner))
+
+
+class _Plain:
+    """J and its preconditioner as the Krylov method sees them."""
+
+    def __init__(self, J: BalanceJacobian):
+        self.J = J
+
+    def apply(self, v):
+        return self.J.matvec(v)
+
+    def inverse(self, factors: _Factors):
+        return factors.solve
+
+    def sign(self, factors: _Factors) -> float:
+        return factors.sign
+
+
+class _Bordered(_Plain):
+    """[[J, col], [row, corner]] and the preconditioner bordered the same way (block
+    elimination with the per-order factors)."""
+
+    def __init__(self, J, col, row, corner):
+        super().__init__(J)
+        self.col, self.row, self.corner = col, row, float(corner)
+
+    def apply(self, v):
+        n = v.size - 1
+        return np.append(self.J.matvec(v[:n]) + self.col * v[n], self.row @ v[:n]
+                         + self.corner * v[n])
+
+    def _schur(self, factors):
+        z2 = factors.solve(self.col)
+        den = self.corner - self.row @ z2
+        scale = abs(self.corner) + np.linalg.norm(self.row) * np.linalg.norm(z2)
+        if not abs(den) > 1e-14 * scale:
+            raise np.linalg.LinAlgError("bordered preconditioner singular")
+        return z2, den
+
+    def inverse(self, factors):
+        z2, den = self._schur(factors)
+
+        def solve(v):
+            n = v.size - 1
+            z1 = factors.solve(v[:n])
+            mu = (v[n] - self.row @ z1) / den
+            return np.append(z1 - mu * z2, mu)
+
+        return solve
+
+    def sign(self, factors) -> float:
+        return factors.sign * float(np.sign(self._schur(factors)[1]))
+
+
+@dataclass(frozen=True)
+class _Factors:
+    """Per-order LU factors of the order-diagonal preconditioner, single precision:
+    order 0 real."""
+
+    harmonics: Harmonics
+    inverses: tuple  # per order (N_dof, N_dof), float32 (order 0) or complex64
+    sign: float  # sign det of the real form (order 0's LU; complex blocks give |det|^2)
+
+    @classmethod
+    def of(cls, J: BalanceJacobian) -> _Factors:
+        h = J.harmonics
+        lus, sign = [], 1.0  # inverses
+        for k, A in enumerate(J.order_blocks()):
+            # single precision: half the memory and the time of every solve; GMRES is
+            # flexible, so the factors' rounding (1e-7) is the preconditioner's only
+            A = A.real.astype(np.float32) if (h.has_static and k == 0) else \
+                A.astype(np.complex64)
+            lu, piv = sla.lu_factor(A, check_finite=False, overwrite_a=True)
+            d = np.diag(lu)
+            if not np.all(np.isfinite(d)) or np.any(d == 0):
+                raise np.linalg.LinAlgError(f"preconditioner of order {h.orders[k]} singular")
+            if h.has_static and k == 0:
+                swaps = np.count_nonzero(piv != np.arange(piv.size))
+                sign = float(np.prod(np.sign(d))) * (-1.0) ** swaps
+            # the explicit inverse: a matrix-vector product per solve, 4x faster than the
+            # two triangular solves (LAPACK's are not blocked for one right side)
+            getri = sla.lapack.cgetri if np.iscomplexobj(lu) else sla.lapack.sgetri
+            inv, info = getri(lu, piv, overwrite_lu=True)
+            if info != 0 or not np.all(np.isfinite(inv)):
+                raise np.linalg.LinAlgError(f"preconditioner of order {h.orders[k]} singular")
+            lus.append(inv)
+        return cls(h, tuple(lus), sign)
+
+    def solve(self, v: np.ndarray) -> np.ndarray:
+        h = self.harmonics
+        n = self.inverses[0].shape[0]
+        c = v.reshape(n, h.n_coeffs)
+        k0 = int(h.has_static)
+        out = np.empty_like(c)
+        if h.has_static:
+            out[:, 0] = self.inverses[0] @ c[:, 0].astype(np.float32)
+        if h.dynamic_orders:
+            X = (c[:, k0::2] - 1j * c[:, k0 + 1::2]).astype(np.complex64)  # a_n - i b_n
+            for k, inv in enumerate(self.inverses[k0:]):
+                Y = inv @ X[:, k]
+                out[:, k0 + 2 * k], out[:, k0 + 2 * k + 1] = Y.real, -Y.imag
+        return out.ravel()
+
+
+class Preconditioner:
+    """The per-order factors a model's Newton solves share, with how they fared: reused
+    while GMRES converges in at most REFRESH_ITERATIONS, made again from the Jacobian at
+    hand otherwise. Counters for benchmarks: ``solves``, ``iterations`` (GMRES, summed),
+    ``refreshes``."""
+
+    def __init__(self):
+        self._factors: _Factors | None = None
+        self._first = 0  # GMRES iterations of the first solve on the current factors
+        self.solves = self.iterations = self.refreshes = 0
+
+    def _fresh(self, J: BalanceJacobian) -> _Factors:
+        self._factors, self._first = _Factors.of(J), 0
+        self.refreshes += 1
+        return self._factors
+
+    def _slow(self, its: int) -> bool:
+        """Whether a solve on the current factors took long enough to make them again."""
+        if not self._first:
+            self._first = its
+            return False
+        return its > max(REFRESH_ITERATIONS, REFRESH_GROWTH * self._first)
+
+    def solve(self, J: BalanceJacobian, system: _Plain, rhs: np.ndarray) -> np.ndarray:
+        if not np.all(np.isfinite(rhs)):
+            raise ValueError("right-hand side has NaN or Inf")
+        fresh = self._factors is None
+        factors = self._factors or self._fresh(J)
+        while True:
+            try:
+                x, its, _ = gmres(system.apply, system.inverse(factors), rhs)
+            except np.linalg.LinAlgError:
+                x, its = None, MAX_KRYLOV
+            self.solves += 1
+            self.iterations += its
+            if x is not None:
+                if self._slow(its) and not fresh:
+                    self._fresh(J)  # converged slowly on old factors: new ones for the next
+                return x
+            if fresh:
+                raise np.linalg.LinAlgError(
+                    f"GMRES did not converge in {MAX_KRYLOV} iterations with a fresh "
+                    "preconditioner (Jacobian singular or nearly)")
+            factors, fresh = self._fresh(J), True
+
+    def sign(self, J: BalanceJacobian, system: _Plain) -> float:
+        """sign det of the system: the factors' sign times that of the Arnoldi matrix of
+        GMRES from a fixed random start, run to SIGN_RTOL."""
+        factors = self._factors or self._fresh(J)
+        n = J.shape[0] + int(isinstance(system, _Bordered))
+        start = np.random.default_rng(n).standard_normal(n)
+        for attempt in range(2):
+            try:
+                _, _, H = gmres(system.apply, system.inverse(factors), start, rtol=SIGN_RTOL)
+                break
+            except np.linalg.LinAlgError:
+                if attempt:
+                    raise
+                factors = self._fresh(J)
+        s, _ = np.linalg.slogdet(H)
+        return system.sign(factors) * float(s)
+
+
+def gmres(apply, precondition, b: np.ndarray, rtol: float = RTOL,
+          max_iter: int = MAX_KRYLOV) -> tuple[np.ndarray, int, np.ndarray]:
+    """Flexible GMRES (Saad 1993) for A x = b: (x, iterations, the square Arnoldi matrix
+    of A M^-1). Flexible: the preconditioned vectors z_j = M^-1 v_j are kept and x is
+    their combination, so a preconditioner that is linear only to its rounding (single
+    precision factors) costs no accuracy. Classical Gram-Schmidt done twice (as accurate
+    as the modified one, in matrix products). LinAlgError without convergence to
+    ||b - A x|| <= rtol ||b||."""
+    n = b.size
+    beta = float(np.linalg.norm(b))
+    if beta == 0.0:
+        return np.zeros(n), 0, np.eye(0)
+    V = np.empty((max_iter + 1, n))
+    Z = np.empty((max_iter, n))
+    Hs = np.zeros((max_iter + 1, max_iter))
+    rot = np.zeros((max_iter, 2))  # Givens rotations (c, s)
+    g = np.zeros(max_iter + 1)
+    R = np.zeros((max_iter + 1, max_iter))  # the rotated Hessenberg
+    V[0], g[0] = b / beta, beta
+    for j in range(max_iter):
+        Z[j] = precondition(V[j])
+        w = apply(Z[j])
+        h = V[: j + 1] @ w
+        w -= V[: j + 1].T @ h
+        h2 = V[: j + 1] @ w
+        w -= V[: j + 1].T @ h2
+        h += h2
+        norm = float(np.linalg.norm(w))
+        Hs[: j + 1, j], Hs[j + 1, j] = h, norm
+        col = np.append(h, norm)
+        for i in range(j):
+            c, s = rot[i]
+            col[i], col[i + 1] = c * col[i] + s * col[i + 1], -s * col[i] + c * col[i + 1]
+        r = float(np.hypot(col[j], col[j + 1]))
+        if r == 0.0:
+            raise np.linalg.LinAlgError("GMRES breakdown")
+        rot[j] = col[j] / r, col[j + 1] / r
+        col[j], col[j + 1] = r, 0.0
+        R[: j + 2, j] = col
+        g[j], g[j + 1] = rot[j, 0] * g[j], -rot[j, 1] * g[j]
+        if abs(g[j + 1]) <= rtol * beta or norm == 0.0:
+            y = sla.solve_triangular(R[: j + 1, : j + 1], g[: j + 1], check_finite=False)
+            return Z[: j + 1].T @ y, j + 1, Hs[: j + 1, : j + 1]
+        V[j + 1] = w / norm
+    raise np.linalg.LinAlgError(f"GMRES: no convergence in {max_iter} iterations "
+                                f"(residual {abs(g[max_iter]) / beta:.2g} of the right side)")

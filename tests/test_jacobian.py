@@ -1,0 +1,154 @@
+"""The structured Jacobian of the balance (pipeline/solve/jacobian.py) against the dense one:
+its products, its order-diagonal preconditioner, its solves and its determinant's sign, and
+continuation with it against continuation with dense LUs."""
+
+import numpy as np
+import pytest
+from models import friction_grid, three_dof_cyclic_like
+
+from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.pipeline.solve import continuation as cont
+from microslip.pipeline.solve import hbm, jacobian
+from microslip.pipeline.solve.hbm import OperatingPoint
+from microslip.pipeline.solve.response import solve_point, sweep
+
+MODELS = {
+    "grid, disjoint, cyclic": lambda: friction_grid(6, H=3, cyclic=True),
+    "grid, shared nodes, real": lambda: friction_grid(6, H=3, cyclic=False, shared=True),
+    "three DOFs, two laws": lambda: three_dof_cyclic_like(Harmonics.up_to(3, 128)),
+}
+
+
+def _slipping_state(hb, w):
+    """A converged state in partial slip (the contact Jacobian is far from the stuck one)
+    and the point."""
+    p = OperatingPoint(w)
+    r = solve_point(hb, p)
+    assert r.converged
+    return r.x, p
+
+
+@pytest.fixture(scope="module", params=list(MODELS))
+def state(request):
+    hb = MODELS[request.param]()
+    x, p = _slipping_state(hb, 1.9)
+    x = x + 0.01 * np.random.default_rng(0).normal(size=x.size) * np.max(np.abs(x))
+    R, J, dR = hb.residual(x, p, "frequency")
+    R2, Js, dR2 = hb.residual(x, p, "frequency", structured=True)
+    return hb, J, Js, R, dR
+
+
+def test_products_and_matrix_are_the_dense_jacobian(state):
+    hb, J, Js, R, _ = state
+    assert Js.shape == J.shape
+    # the same floating-point sums in another order: rounding of the entries' size
+    assert np.max(np.abs(Js.dense() - J)) <= 1e-13 * np.max(np.abs(J))
+    V = np.random.default_rng(1).normal(size=(3, J.shape[0]))
+    for v in V:
+        assert np.linalg.norm(Js.matvec(v) - J @ v) <= 1e-13 * np.linalg.norm(J) * \
+            np.linalg.norm(v)
+
+
+def test_order_blocks_are_the_complex_part_of_the_order_diagonal(state):
+    """Independent of the per-point projection: from the dense matrix's slices."""
+    hb, J, Js, _, _ = state
+    h = hb.harmonics
+    nd, nc = hb.dofs.size, h.n_coeffs
+    J4 = J.reshape(nd, nc, nd, nc)
+    blocks = Js.order_blocks()
+    k0 = int(h.has_static)
+    if h.has_static:
+        assert np.max(np.abs(blocks[0] - J4[:, 0, :, 0])) <= 1e-13 * np.max(np.abs(J))
+    for k, (a, b) in enumerate(zip(h.cos_index, h.sin_index)):
+        want = 0.5 * (J4[:, a, :, a] + J4[:, b, :, b]) + 0.5j * (J4[:, a, :, b] - J4[:, b, :, a])
+        assert np.max(np.abs(blocks[k0 + k] - want)) <= 1e-13 * np.max(np.abs(J))
+
+
+def test_solves_match_dense_solves(state):
+    hb, J, Js, R, dR = state
+    hb.preconditioner.__init__()  # fresh counters and no factors
+    x = Js.solve(R)
+    ref = np.linalg.solve(J, R)
+    # GMRES to RTOL = 1e-10 of the right side; the error is at most cond(J) times that
+    cond = np.linalg.cond(J)
+    assert np.linalg.norm(x - ref) <= 10 * jacobian.RTOL * cond * np.linalg.norm(ref)
+    assert np.linalg.norm(J @ x - R) <= 2 * jacobian.RTOL * np.linalg.norm(R)
+    rng = np.random.default_rng(2)
+    row, corner = rng.normal(size=R.size), 0.7
+    A = np.block([[J, dR[:, None]], [np.append(row, corner)[None, :]]])
+    rhs = rng.normal(size=R.size + 1)
+    z = Js.bordered_solve(dR, row, corner, rhs)
+    assert np.linalg.norm(A @ z - rhs) <= 2 * jacobian.RTOL * np.linalg.norm(rhs)
+    assert hb.preconditioner.refreshes == 1 and hb.preconditioner.solves == 2
+
+
+def test_determinant_sign_is_the_dense_one(state):
+    """Both signs occur: the corner's sign flips that of the Schur complement when it
+    dominates; a row along -J^-T ... makes it small."""
+    hb, J, Js, R, dR = state
+    rng = np.random.default_rng(3)
+    signs = set()
+    for corner in (-50.0, -0.3, 0.0, 0.3, 50.0):
+        row = rng.normal(size=R.size)
+        A = np.block([[J, dR[:, None]], [np.append(row, corner)[None, :]]])
+        want = np.linalg.slogdet(A)[0]
+        assert Js.bordered_sign(dR, row, corner) == want
+        signs.add(want)
+    assert signs == {-1.0, 1.0}
+
+
+def test_gmres_solves_a_nonsymmetric_system_and_reports_failure():
+    rng = np.random.default_rng(4)
+    A = np.eye(60) + 0.3 * rng.normal(size=(60, 60)) / np.sqrt(60)
+    b = rng.normal(size=60)
+    x, its, H = jacobian.gmres(lambda v: A @ v, lambda v: v, b, rtol=1e-12)
+    assert np.linalg.norm(A @ x - b) <= 1e-11 * np.linalg.norm(b)
+    assert H.shape == (its, its) and np.linalg.slogdet(H)[0] == np.linalg.slogdet(A)[0]
+    # a preconditioner that is the inverse: one iteration
+    inv = np.linalg.inv(A)
+    assert jacobian.gmres(lambda v: A @ v, lambda v: inv @ v, b)[1] == 1
+    with pytest.raises(np.linalg.LinAlgError):
+        jacobian.gmres(lambda v: A @ v, lambda v: v, b, rtol=1e-14, max_iter=5)
+
+
+def test_old_factors_are_reused_until_slow_then_refreshed():
+    hb = friction_grid(6, H=3)
+    x, p = _slipping_state(hb, 1.9)
+    pc = hb.preconditioner
+    pc.__init__()
+    _, J1, _ = hb.residual(x, p, structured=True)
+    J1.solve(np.ones(x.size))
+    assert pc.refreshes == 1
+    _, J2, _ = hb.residual(x * 1.001, p.set("frequency", 1.901), structured=True)
+    J2.solve(np.ones(x.size))  # a neighbour: the old factors serve
+    assert pc.refreshes == 1
+    # far away (stuck, another frequency): converged slowly or not at all on the old
+    # factors, so they are made again from the Jacobian at hand
+    _, J3, _ = hb.residual(np.zeros(x.size), p.set("frequency", 0.5), structured=True)
+    before = pc.iterations
+    J3.solve(np.ones(x.size))
+    assert pc.refreshes == 2 or pc.iterations - before <= jacobian.REFRESH_ITERATIONS
+
+
+@pytest.mark.parametrize("model", ["grid, disjoint, cyclic", "grid, shared nodes, real"])
+def test_continuation_with_structured_solves_follows_the_dense_branch(model, monkeypatch):
+    """The same arclength sweep through the resonance, every Newton step by GMRES or by a
+    dense LU: the same points (the step sizes follow the iteration counts, so one different
+    count would shift every later point: they must agree one to one)."""
+    out = {}
+    for structured in (False, True):
+        monkeypatch.setattr(hbm, "STRUCTURED_FROM", 0 if structured else 10**9)
+        hb = MODELS[model]()
+        assert hb.structured == structured
+        r = sweep(hb, "frequency", 1.6, 2.4, OperatingPoint(1.6),
+                  settings=cont.Settings(max_points=400))
+        assert r.branch.complete
+        out[structured] = r
+    a, b = out[False], out[True]
+    assert len(a) == len(b)
+    assert list(a.branch.iterations) == list(b.branch.iterations)
+    # both converged to tol = 1e-9 of the force scale; the points agree to what that leaves
+    # of the step lengths (1e-8 of the range: the comparison script's tolerance)
+    assert np.max(np.abs(a.values - b.values)) <= 1e-8 * 0.8
+    scale = np.max(np.abs(a.branch.x))
+    assert np.max(np.abs(a.branch.x - b.branch.x)) <= 1e-7 * scale
