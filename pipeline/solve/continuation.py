@@ -794,7 +794,6 @@ def _correct(fun, pred, tangent, xs, lam_scale, f_scale, settings):
     """Newton on [R(y) = 0; t . (y - y_pred) = 0] (Firrone & Zucca eq. 56), damped like
     :func:`newton`: near a stick/slip kink the full step can jump between two
     linear pieces and cycle; halving it until the residual falls breaks that."""
-    n = pred.size - 1
 
     def evaluate(y):
         x, lam = y[:-1] * xs, y[-1] * lam_scale
