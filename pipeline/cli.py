@@ -23,6 +23,7 @@ BENCHES = {
     "trade": "microslip.pipeline.bench.trade",
     "elements": "microslip.pipeline.bench.elements",
     "cluster": "microslip.pipeline.bench.cluster",
+    "solvers": "microslip.pipeline.bench.solvers",
 }
 
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from models import jenkins_oscillator, normal_oscillator
 
+from microslip.pipeline.solve import arclength, newton
 from microslip.pipeline.solve import continuation as cont
 from microslip.pipeline.solve.hbm import OperatingPoint
 from microslip.pipeline.solve.response import solve_point, sweep
@@ -247,8 +248,8 @@ def test_a_stalled_branch_stops_and_says_why():
     hb = jenkins_oscillator(3, 64, c=0.0, kt=1e2)
     r = sweep(hb, "frequency", 0.55, 2.5, OperatingPoint(0.55))
     assert r.branch.status == "stopped" and "stalled at frequency = 1" in r.branch.message
-    assert len(r) < 3 * cont.STALL_POINTS + 400  # stopped, not piled up to max_points
-    assert np.ptp(r.values[-cont.STALL_POINTS:]) < cont.STALL_SPAN * 1.95
+    assert len(r) < 3 * arclength.STALL_POINTS + 400  # stopped, not piled up to max_points
+    assert np.ptp(r.values[-arclength.STALL_POINTS:]) < arclength.STALL_SPAN * 1.95
     assert r.amplitude([0])[-1, 0] > 1e3  # it did run off (m, against 0.1 N / 1 N/m)
 
 
@@ -282,11 +283,11 @@ def test_the_corrector_gives_up_early_where_newton_makes_no_progress():
 
     settings = cont.Settings(max_iter=25, target_iter=4)
     tangent = np.array([0.0, 1.0])
-    ok, _, its, res, why = cont._correct(no_root, np.array([0.3, 0.0]), tangent,
+    ok, _, its, res, why = newton.corrector(no_root, np.array([0.3, 0.0]), tangent,
                                          np.ones(1), 1.0, 1.0, settings)
     assert not ok and "no progress" in why and res >= 1.0
-    assert its <= cont.STAGNATION + 2
-    assert len(calls) <= 8 * (cont.STAGNATION + 2)  # 7 trials per iteration at most
+    assert its <= newton.STAGNATION + 2
+    assert len(calls) <= 8 * (newton.STAGNATION + 2)  # 7 trials per iteration at most
 
 
 def test_a_watch_stops_the_branch_where_it_says_so():

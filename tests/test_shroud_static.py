@@ -148,8 +148,8 @@ def test_the_1N_frf_passes_a_square_root_cusp_by_a_longer_step(tmp_path, monkeyp
     from microslip.pipeline.app.run import mesh_geometry
     from microslip.pipeline.app.structure import reduce_structure
     from microslip.pipeline.case import curve_variants
+    from microslip.pipeline.solve import arclength, response
     from microslip.pipeline.solve import continuation as cont
-    from microslip.pipeline.solve import response
 
     case = cases.load(CASE)
     spec = case.analysis_specs[0]
@@ -167,14 +167,14 @@ def test_the_1N_frf_passes_a_square_root_cusp_by_a_longer_step(tmp_path, monkeyp
         return response.sweep(hb, "frequency", spec.start, spec.stop, base, settings=settings)
 
     leaps = []
-    leap = cont._leap
+    leap = arclength._leap
 
     def recorded(fun, x, lam, *args):
         out = leap(fun, x, lam, *args)
         leaps.append((lam, x, out[0]))
         return out
 
-    monkeypatch.setattr(cont, "_leap", recorded)
+    monkeypatch.setattr(arclength, "_leap", recorded)
     branch = sweep().branch
     assert branch.complete and len(leaps) >= 1 and all(o is not None for *_, o in leaps)
     lam0, x0, _ = leaps[0]
@@ -187,6 +187,6 @@ def test_the_1N_frf_passes_a_square_root_cusp_by_a_longer_step(tmp_path, monkeyp
         r = cont.newton(fun, x0 + f * (x1 - x0), lam0 + f * (lam1 - lam0), x_scale=xs,
                         f_scale=fs, settings=settings)
         assert r.converged
-    monkeypatch.setattr(cont, "MAX_LEAPS", 0)  # without the leap: stopped there
+    monkeypatch.setattr(arclength, "MAX_LEAPS", 0)  # without the leap: stopped there
     stopped = sweep().branch
     assert stopped.status == "stopped" and abs(stopped.values[-1] - lam0) < 1e-6 * lam0

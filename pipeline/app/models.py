@@ -74,7 +74,7 @@ class AssemblyModels:
                 self.mesh, self.structure.models, self.structure.patch_stiffness,
                 assembly.spec(case.data, tuple(sorted(self.mesh.bodies)),
                               tuple(self.mesh.cyclic)), harmonics(case),
-                sub_sample=case.solver_table.sub_sample)
+                sub_sample=case.solver_table.sub_sample, jacobian=case.solver_table.jacobian)
         return self._built[key]
 
     def model(self, case: Case) -> HarmonicBalance:

@@ -44,7 +44,8 @@ from .spec import AssemblySpec, PatchFriction
 
 def join(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
            patch_stiffness: Mapping[str, PatchStiffness], spec: AssemblySpec,
-           harmonics: Harmonics, *, sub_sample: bool = True) -> AssemblyModel:
+           harmonics: Harmonics, *, sub_sample: bool = True, jacobian: str = "auto"
+           ) -> AssemblyModel:
     """The assembly model of ``spec`` over the reduced ``models`` (body -> ND -> model, as the
     structural stage gives them) with the patches' stiffness per node pair.
 
@@ -66,7 +67,8 @@ def join(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
         K[0][:n_dof, :n_dof] += static_anchor(anchored, n_dof, spec.static_anchor)
     linear = LinearDynamics.create(K, M, C, harmonics=harmonics, mass_part=Mp, n_shared=n_dof)
     excitation = _excitation(mesh, layout, node_dof, n_dof, spec, harmonics)
-    hb = HarmonicBalance(linear, contacts, excitation, harmonics, sub_sample=sub_sample)
+    hb = HarmonicBalance(linear, contacts, excitation, harmonics, sub_sample=sub_sample,
+                         jacobian=jacobian)
     outputs = {o.name: _row(mesh, node_dof, n_dof, o.node_set, o.direction)
                for o in spec.outputs}
     dof_nodes = np.concatenate([np.repeat(b.master_nodes, 3) for b in layout])

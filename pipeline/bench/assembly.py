@@ -4,14 +4,17 @@ contact grids from 2 x 24 to 2 x 240 node pairs, harmonics 0-1 and 0-3.
     microslip bench assembly                                 # the whole table
     microslip bench assembly --grids 6x4,9x4 --harmonics 1 --points 10
 
-Per configuration, in a fresh process (its own peak memory): the mesh and the reduced bodies
-(cached under --cache), the assembly model, the first point (linear guesses, scales, Newton
-from cold) and then --points arclength points from there. Printed: unknowns, time before the
-first point, median time per point, Newton iterations per point, peak memory, and the floor,
-the dense LU of the unknowns at this machine's measured rate (a 400 x 400 LU in the same
-process), which every Newton iteration pays once. Last, the growth exponent of time per
-point against the number of unknowns (3 is the LU's). A configuration whose single LU would
-take longer than --budget seconds is not run; its estimate is printed instead.
+Per configuration, in a fresh process (its own peak memory) at --threads BLAS threads: the
+mesh and the reduced bodies (cached under --cache), the assembly model, the first point
+(linear guesses, scales, Newton from cold) and then --points arclength points from there.
+Printed: unknowns, time before the first point, median time per point, Newton iterations
+per point, GMRES iterations per Newton solve and preconditioners made (the structured
+Newton, from hbm.STRUCTURED_FROM unknowns on), peak memory, and the dense LU of the unknowns
+at this machine's measured rate (a 400 x 400 LU in the same process): what every Newton
+iteration paid before the structured Newton, and "x LU" the time per point over it. Last,
+the growth exponent of time per point against the number of unknowns (3 is the LU's). A
+configuration whose one unavoidable factorization (:func:`factorization_seconds`) would take
+longer than --budget seconds is not run.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ import numpy as np
 
 from .core import reference_unit
 
-GRIDS = ((6, 4), (9, 4), (12, 5), (15, 8), (24, 10))  # (axial, along the flank) per patch
+GRIDS = ((6, 4), (9, 4), (12, 5), (12, 6), (15, 8), (24, 10))  # (axial, along the flank)
 LU_400_FLOP = 2.0 / 3.0 * 400**3
 
 
@@ -36,8 +39,29 @@ def unknowns(n_axial: int, n_flank: int, H: int) -> int:
     return 12 * n_axial * n_flank * (2 * H + 1)
 
 
-def run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dict:
-    """One configuration (run in a child process)."""
+def factorization_seconds(n: int, H: int, rate: float) -> float:
+    """The one factorization a configuration cannot avoid, at ``rate`` flop/s: the dense LU
+    of the n unknowns below hbm.STRUCTURED_FROM, else the preconditioner's per-order LU and
+    inverse (order 0 real, H complex orders of n / (2H + 1) DOFs, 4 real flops per complex
+    one; in single precision, counted as double)."""
+    from microslip.pipeline.solve.hbm import STRUCTURED_FROM
+
+    if n < STRUCTURED_FROM:
+        return 2.0 / 3.0 * n**3 / rate
+    nd = n / (2 * H + 1)
+    return 2.0 * (1 + 4 * H) * nd**3 / rate  # LU (2/3) and inverse (4/3) per order
+
+
+def run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str,
+            threads: int = 1) -> dict:
+    """One configuration (run in a child process, ``threads`` BLAS threads)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(threads):
+        return _run_one(n_axial, n_flank, H, points, cache)
+
+
+def _run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dict:
     from microslip import geometry
     from microslip.pipeline.app import structure
     from microslip.pipeline.assembly.join import join
@@ -72,10 +96,16 @@ def run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dict
         its.append(iterations)
 
     t2 = time.perf_counter()
+    pc = hb.preconditioner
+    before = (pc.solves, pc.iterations, pc.refreshes)
     r = sweep(hb, "frequency", w0, 1.1 * w0, base, x0=first.branch.x[0],
               settings=cont.Settings(max_points=points + 1), progress=tick)
     steps = np.diff([t2, *times])[1:]  # the first is the start point again
+    solves, krylov, refreshes = (a - b for a, b in zip((pc.solves, pc.iterations,
+                                                          pc.refreshes), before))
     return {"unknowns": hb.n_unknowns, "setup": setup, "first": t_first,
+            "structured": hb.structured, "krylov": krylov / solves if solves else float("nan"),
+            "refreshes": refreshes,
             "per_point": float(np.median(steps)) if len(steps) else float("nan"),
             "iterations": float(np.mean(its[1:])) if len(its) > 1 else float("nan"),
             "points": len(r) - 1, "status": r.branch.status,
@@ -97,8 +127,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="contact grids per patch, e.g. 6x4,9x4 (axial x flank)")
     parser.add_argument("--harmonics", default="1,3", help="highest orders H, e.g. 1,3")
     parser.add_argument("--points", type=int, default=10, help="arclength points timed")
-    parser.add_argument("--budget", type=float, default=30.0,
-                        help="skip a configuration whose one LU would take longer [s]")
+    parser.add_argument("--budget", type=float, default=60.0,
+                        help="skip a configuration whose one factorization (the dense LU "
+                             "below hbm.STRUCTURED_FROM unknowns, else the preconditioner's "
+                             "per-order ones) would take longer [s]")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="BLAS threads of each configuration (default 1)")
     parser.add_argument("--cache", default=".microslip-cache/bench-assembly",
                         help="where the reduced bodies are kept between runs")
     args = parser.parse_args(argv)
@@ -107,28 +141,33 @@ def main(argv: list[str] | None = None) -> int:
     Hs = [int(h) for h in args.harmonics.split(",")]
     unit = reference_unit()
     rate = LU_400_FLOP / unit
-    print(f"reference: 400 x 400 LU {unit * 1e3:.2f} ms ({rate / 1e9:.1f} GFLOP/s)")
+    print(f"reference: 400 x 400 LU {unit * 1e3:.2f} ms ({rate / 1e9:.1f} GFLOP/s); "
+          f"{args.threads} BLAS thread(s) per configuration; 'gmres': Krylov iterations per "
+          "Newton solve (LU: dense), 'new P': preconditioners made over the points")
     header = (f"{'grid':>9} {'H':>2} {'unknowns':>8} {'setup s':>8} {'first s':>8} "
-              f"{'s/point':>8} {'its/pt':>6} {'LU s':>7} {'x LU':>5} {'peak MB':>8}  status")
+              f"{'s/point':>8} {'its/pt':>6} {'gmres':>5} {'new P':>5} {'LU s':>7} "
+              f"{'x LU':>5} {'peak MB':>8}  status")
     print(header)
     rows: dict[int, list[tuple[int, float]]] = {}
     ctx = multiprocessing.get_context("spawn")
     for H in Hs:
         for na, nf in args.grids:
             n = unknowns(na, nf, H)
-            lu = 2.0 / 3.0 * n**3 / rate
             grid = f"2x{na * nf}"
-            if lu > args.budget:
-                print(f"{grid:>9} {H:>2} {n:>8} {'':>8} {'':>8} {'':>8} {'':>6} {lu:7.2f} "
-                      f"{'':>5} {8 * n * n * 6 / 2**20:8.0f}  skipped: one LU ~{lu:.0f} s "
-                      f"> --budget (memory estimate: 6 dense matrices)", flush=True)
+            cost = factorization_seconds(n, H, rate)
+            if cost > args.budget:
+                print(f"{grid:>9} {H:>2} {n:>8}  skipped: one factorization ~{cost:.0f} s "
+                      "> --budget", flush=True)
                 continue
             with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
-                res = pool.submit(run_one, na, nf, H, args.points, args.cache).result()
+                res = pool.submit(run_one, na, nf, H, args.points, args.cache,
+                                  args.threads).result()
             lu = 2.0 / 3.0 * res["unknowns"] ** 3 / rate
+            gm = f"{res['krylov']:5.1f}" if res["structured"] else f"{'LU':>5}"
             print(f"{grid:>9} {H:>2} {res['unknowns']:>8} {res['setup']:8.1f} "
                   f"{res['first']:8.2f} {res['per_point']:8.3f} {res['iterations']:6.1f} "
-                  f"{lu:7.3f} {res['per_point'] / lu:5.1f} {res['memory_mb']:8.0f}  "
+                  f"{gm} {res['refreshes']:5d} "
+                  f"{lu:7.3f} {res['per_point'] / lu:5.2f} {res['memory_mb']:8.0f}  "
                   f"{res['status']} ({res['points']} points)", flush=True)
             rows.setdefault(H, []).append((res["unknowns"], res["per_point"]))
     for H, pts in rows.items():

@@ -96,8 +96,9 @@ def lumped_model(case: Case) -> HarmonicBalance:
         o = load.harmonic
         f = forces.setdefault(o, np.zeros(n, dtype=complex))
         f[index[load.dof]] += load.amplitude * np.exp(1j * np.deg2rad(load.phase))
-    sub = case.solver_table.sub_sample
-    return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=sub)
+    solver = case.solver_table
+    return HarmonicBalance(lin, contacts, Excitation(forces), h, sub_sample=solver.sub_sample,
+                           jacobian=solver.jacobian)
 
 
 def operating_point(case: Case | None = None, omega: float = 1.0) -> OperatingPoint:

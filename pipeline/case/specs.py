@@ -277,18 +277,21 @@ class HarmonicsTable:
 
 @dataclass(frozen=True, kw_only=True)
 class SolverTable:
-    """[solver]: the continuation settings (their defaults: ``continuation.Settings``) and
-    ``sub_sample``, the sub-sample corrections of the contact forces."""
+    """[solver]: the continuation settings (their defaults: ``continuation.Settings``),
+    ``sub_sample``, the sub-sample corrections of the contact forces, and ``jacobian``, how
+    Newton solves (``hbm.JACOBIANS``)."""
 
     settings: Settings = field(default_factory=Settings)
     sub_sample: bool = True
+    jacobian: str = "auto"
 
     @classmethod
     def of(cls, table: Mapping[str, Any]) -> SolverTable:
         """The spec of a validated [solver] table."""
-        given = {k: v for k, v in table.items() if k != "sub_sample"}
+        given = {k: v for k, v in table.items() if k not in ("sub_sample", "jacobian")}
         return cls(settings=Settings(**given),
-                   sub_sample=table.get("sub_sample", cls.sub_sample))
+                   sub_sample=table.get("sub_sample", cls.sub_sample),
+                   jacobian=table.get("jacobian", cls.jacobian))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -12,7 +12,7 @@ import numpy as np
 from microslip import geometry
 from microslip.pipeline.friction.laws import FORMS, FrictionLaw
 from microslip.pipeline.friction.registry import LAWS
-from microslip.pipeline.solve.hbm import PARAMETERS
+from microslip.pipeline.solve.hbm import JACOBIANS, PARAMETERS
 
 from . import assembly, specs
 from .checks import is_int, is_number, number, samples_rule, unknown_keys
@@ -29,7 +29,7 @@ CONTACT_KEYS = {"name", "law", "form", "kt", "kn", "mu", "n0", "interference", "
 LOAD_KEYS = {"dof", "amplitude", "harmonic", "phase"}
 HARMONIC_KEYS = {"max", "orders", "samples"}
 SOLVER_KEYS = {"tol", "max_iter", "step", "min_step", "max_step", "max_turn", "target_iter",
-               "max_points", "sub_sample"}
+               "max_points", "sub_sample", "jacobian"}
 FAMILY_KEYS = {f.name for f in dataclasses.fields(specs.Family)}
 
 
@@ -406,6 +406,9 @@ def _solver(s, out: list[str]) -> None:
             number(f"solver.{k}", s[k], out, positive=True, integer=True)
     if "sub_sample" in s and not isinstance(s["sub_sample"], bool):
         out.append(f"solver.sub_sample = {s['sub_sample']!r}: expected true or false")
+    if "jacobian" in s and s["jacobian"] not in JACOBIANS:
+        out.append(f"solver.jacobian = {s['jacobian']!r}: expected one of "
+                   f"{', '.join(repr(j) for j in JACOBIANS)}")
 
 
 def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],

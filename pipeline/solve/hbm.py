@@ -30,18 +30,27 @@ from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 
 from microslip.pipeline.friction.harmonics import Harmonics
 from microslip.pipeline.friction.law import ContactSet
 from microslip.pipeline.friction.laws import ContactResponse
+from microslip.pipeline.solve.condensation import (
+    Condensed,
+    Reordered,
+    condense,
+    condensed_dofs,
+    solve_orders,
+)
 from microslip.pipeline.solve.jacobian import BalanceJacobian, PointBlocks, Preconditioner
 
 PARAMETERS = ("frequency", "excitation", "mass", "preload")
 _DENSE_LIMIT = 400_000  # entries of the real kinematic map kept dense
 #: Unknowns from which continuation uses the structured Jacobian (see ``structured``).
 STRUCTURED_FROM = 600
+#: How Newton solves with the Jacobian: "dense" (LU), "structured" (solve.jacobian) or
+#: "auto" (structured from STRUCTURED_FROM unknowns).
+JACOBIANS = ("auto", "dense", "structured")
 
 
 @dataclass(frozen=True)
@@ -289,89 +298,6 @@ class Excitation:
         return tuple(out), rot[0], rot[1]
 
 
-@dataclass(frozen=True, eq=False)
-class Condensed:
-    """Linear part condensed on the contact DOFs at one operating point:
-    S_k = D_cc - D_ci Y_k per order, Y_k = D_ii^-1 D_ic, kept as its factors. A product
-    ``S_k X`` costs nc^2 + 2 nc ni (:meth:`S_product`); the matrices ``S`` (nc^2 ni per
-    order) are made only when asked (a dense Jacobian, a new preconditioner, a linear
-    guess), not at every Newton iterate of a continuation.
-
-    Per order k: q_i = z_k - Y_k q_c recovers the other DOFs (the shared ones no contact
-    touches, then the order's own)."""
-
-    D: tuple[np.ndarray, ...]  # per order (n_k, n_k), contact DOFs first; real at order 0
-    n_contact: int
-    F: np.ndarray  # (n_orders, nc) complex
-    Y: tuple[np.ndarray, ...]  # per order (ni_k, nc), real where D is (order 0)
-    z: tuple[np.ndarray, ...]  # per order (ni_k,)
-    dS: tuple[_SchurDerivative | None, ...] | None  # per order; None where dS_k = 0
-    dF: np.ndarray | None
-
-    @cached_property
-    def S(self) -> np.ndarray:
-        """(n_orders, nc, nc) complex."""
-        nc = self.n_contact
-        out = np.empty((len(self.D), nc, nc), dtype=complex)
-        for k, (D, Y) in enumerate(zip(self.D, self.Y)):
-            np.subtract(D[:nc, :nc], D[:nc, nc:] @ Y, out=out[k])
-        return out
-
-    def S_product(self, X: np.ndarray) -> np.ndarray:
-        """S_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
-        made, nc = self.__dict__.get("S"), self.n_contact
-        out = np.empty(X.shape, dtype=complex)
-        for k, (D, Y, x) in enumerate(zip(self.D, self.Y, X)):
-            if made is not None:  # one product
-                out[k] = made[k] @ x
-            else:
-                out[k] = _product(D[:nc, :nc], x) - _product(D[:nc, nc:], _product(Y, x))
-        return out
-
-    def dS_product(self, X: np.ndarray) -> np.ndarray:
-        """dS_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
-        out = np.zeros(X.shape, dtype=complex)
-        for k, d in enumerate(self.dS):
-            if d is not None:
-                out[k] = d.apply(X[k])
-        return out
-
-    @property
-    def nbytes(self) -> int:
-        arrays = [self.F, *self.D, *self.Y, *self.z, self.dF, self.__dict__.get("S")]
-        derivatives = sum(d.nbytes for d in self.dS or () if d is not None)
-        return sum(a.nbytes for a in arrays if a is not None) + derivatives
-
-
-@dataclass(frozen=True, eq=False)
-class _SchurDerivative:
-    """One order's dS = dD_cc - dD_ci Y - L (dD_ic - dD_ii Y), L = D_ci D_ii^-1, kept as
-    its factors: dS X costs products with the blocks (nc^2 + 4 nc ni per column), not the
-    matrix (nc^2 ni); the residual needs dS x only."""
-
-    dD: np.ndarray  # (n, n) the order's dD, contact DOFs first
-    Dci: np.ndarray  # (nc, ni)
-    Y: np.ndarray  # (ni, nc)
-    lu: tuple | None  # LU of D_ii, None where nothing is condensed
-
-    @property
-    def nbytes(self) -> int:
-        return self.dD.nbytes + self.Dci.nbytes + self.Y.nbytes + \
-            (self.lu[0].nbytes if self.lu else 0)
-
-    def apply(self, X: np.ndarray) -> np.ndarray:
-        """dS X for X (nc,) or (nc, m)."""
-        nc = self.Dci.shape[0]
-        dD = self.dD
-        out = dD[:nc, :nc] @ X
-        if self.lu is None:
-            return out
-        W = self.Y @ X
-        out = out - dD[:nc, nc:] @ W
-        V = dD[nc:, :nc] @ X - dD[nc:, nc:] @ W
-        return out - self.Dci @ sla.lu_solve(self.lu, V, check_finite=False)
-
-
 class HarmonicBalance:
     """The nonlinear algebraic system of one model at given harmonics.
 
@@ -386,6 +312,7 @@ class HarmonicBalance:
         harmonics: Harmonics,
         *,
         sub_sample: bool = True,
+        jacobian: str = "auto",
     ):
         if tuple(linear.orders) != harmonics.orders:
             raise ValueError(
@@ -395,6 +322,9 @@ class HarmonicBalance:
         self.linear = linear
         self.harmonics = harmonics
         self.sub_sample = bool(sub_sample)
+        if jacobian not in JACOBIANS:
+            raise ValueError(f"hbm: jacobian = {jacobian!r} is not one of {JACOBIANS}")
+        self.jacobian = jacobian
         self.excitation = excitation
         self.contacts = tuple(contacts)
         n = linear.n_dof
@@ -460,7 +390,8 @@ class HarmonicBalance:
         out = HarmonicBalance(
             LinearDynamics.create(lin.K[0], lin.M[0], lin.C[0], harmonics=full,
                                   mass_part=lin.M_part[0]),
-            self.contacts, self.excitation, full, sub_sample=self.sub_sample)
+            self.contacts, self.excitation, full, sub_sample=self.sub_sample,
+            jacobian=self.jacobian)
         self._cache.put(key, out, 0, pinned=True)
         return out
 
@@ -565,18 +496,18 @@ class HarmonicBalance:
         lin = self._reordered()
         F, dF = self.forces(point, parameter)
         dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
-        out = _condense(lin.linear.dynamic_stiffness(point), lin.take(F), self.dofs.size, dD,
+        out = condense(lin.linear.dynamic_stiffness(point), lin.take(F), self.dofs.size, dD,
                         None if dF is None else lin.take(dF))
         self._cache.put(key, out, out.nbytes)
         return out
 
-    def _reordered(self) -> _Reordered:
+    def _reordered(self) -> Reordered:
         """The linear part reordered for the condensation, built once (pinned in the cache:
         it counts against CACHE_LIMIT but every point needs it)."""
         key = ("reordered",)
         hit = self._cache.get(key)
         if hit is None:
-            hit = _Reordered.of(self.linear, self.dofs, self.others)
+            hit = Reordered.of(self.linear, self.dofs, self.others)
             self._cache.put(key, hit, hit.nbytes, pinned=True)
         return hit
 
@@ -629,9 +560,12 @@ class HarmonicBalance:
 
     @property
     def structured(self) -> bool:
-        """Whether continuation solves with the structured Jacobian: from STRUCTURED_FROM
-        unknowns on (below, a dense LU costs less than the Krylov iterations)."""
-        return self.n_unknowns >= STRUCTURED_FROM
+        """Whether continuation solves with the structured Jacobian: as ``jacobian`` says,
+        and for "auto" from STRUCTURED_FROM unknowns on (below, a dense LU costs less than
+        the Krylov iterations)."""
+        if self.jacobian == "auto":
+            return self.n_unknowns >= STRUCTURED_FROM
+        return self.jacobian == "structured"
 
     # ------------------------------------------------------- post-processing
     def relative_displacements(self, x: np.ndarray) -> list[np.ndarray]:
@@ -662,7 +596,7 @@ class HarmonicBalance:
         for k, (o, n) in enumerate(zip(h.orders, self.linear.sizes)):
             X = np.zeros(n, dtype=complex)
             X[self.dofs] = Xc[o]
-            X[_others(self.others, self.linear.n_dof, n)] = lin.z[k] - lin.Y[k] @ Xc[o]
+            X[condensed_dofs(self.others, self.linear.n_dof, n)] = lin.z[k] - lin.Y[k] @ Xc[o]
             out.append(X)
         return out
 
@@ -708,10 +642,10 @@ class HarmonicBalance:
         h = self.harmonics
         if lin.S.shape[1] == 0:
             return np.zeros(0)
-        X = None if stuck else _solve_orders(lin.S, lin.F)
+        X = None if stuck else solve_orders(lin.S, lin.F)
         if X is None:
             S = lin.S + self._stick_stiffness()
-            X = _solve_orders(S, lin.F)
+            X = solve_orders(S, lin.F)
             if X is None:  # singular even stuck (e.g. uncoupled laws at order 0)
                 X = np.array([np.linalg.lstsq(A, b, rcond=None)[0] for A, b in zip(S, lin.F)])
         x = h.real_vector(X).ravel()
@@ -739,149 +673,6 @@ class HarmonicBalance:
             Bc = B[order][:, cols]
             out += Bc.conj().T @ (k.reshape(-1, 1) * Bc)
         return out
-
-
-def _others(shared_others: np.ndarray, n_shared: int, n: int) -> np.ndarray:
-    """Indices condensed in an order of size n: shared DOFs no contact touches, then the
-    order's own DOFs n_shared..n-1."""
-    return np.concatenate([shared_others, np.arange(n_shared, n)])
-
-
-@dataclass(frozen=True, eq=False)
-class _Reordered:
-    """The linear part with rows and columns reordered per order: the contact DOFs, then the
-    condensed ones (``_others``). The blocks D_cc, D_ci, D_ic, D_ii of any point are then
-    basic slices of D, not gathers from the full matrices: a continuation puts every Newton
-    iterate at a new frequency, so this is what gets reused. Matrices are stored real where
-    their imaginary part is exactly zero (half the memory, real products at order 0)."""
-
-    index: tuple[np.ndarray, ...]  # per order (n_k,): the original DOF of each row
-    linear: LinearDynamics  # reordered, read-only
-
-    @classmethod
-    def of(cls, linear: LinearDynamics, dofs: np.ndarray, others: np.ndarray) -> _Reordered:
-        index = tuple(np.concatenate([dofs, _others(others, linear.n_dof, n)])
-                      for n in linear.sizes)
-
-        def take(mats):
-            out = []
-            for A, p in zip(mats, index):
-                B = A[np.ix_(p, p)]
-                B = B if np.any(B.imag) else np.ascontiguousarray(B.real)
-                B.flags.writeable = False
-                out.append(B)
-            return tuple(out)
-
-        return cls(index, LinearDynamics(take(linear.K), take(linear.M), take(linear.C),
-                                         take(linear.M_part), linear.orders, linear.n_dof))
-
-    @property
-    def nbytes(self) -> int:
-        lin = self.linear
-        return sum(a.nbytes for a in (*self.index, *lin.K, *lin.M, *lin.C, *lin.M_part))
-
-    def take(self, vectors: Sequence[np.ndarray]) -> list[np.ndarray]:
-        """Per order (n_k,) vectors reordered like the matrices."""
-        return [v[p] for v, p in zip(vectors, self.index)]
-
-
-def _condense(D, F, nc: int, dD=None, dF=None) -> Condensed:
-    """Exact per-order condensation of D q = F onto its first nc DOFs (the rest condensed):
-    S = D_cc - D_ci D_ii^-1 D_ic.
-
-    D: per order (n_k, n_k), real or complex, rows and columns ordered contact DOFs first
-    (:class:`_Reordered`); F: per order (n_k,) in that order; dD, dF: their derivatives per
-    order (an entry None where zero) or None."""
-    n, deriv = len(D), dD is not None or dF is not None
-    Fe = np.empty((n, nc), dtype=complex)
-    dFe = np.zeros_like(Fe) if deriv else None
-    dS = [None] * n
-    Ys, zs = [], []
-    for k, (Dk, Fk) in enumerate(zip(D, F)):
-        dFk = None if dF is None else dF[k]
-        Y, z, lu = _schur(Dk, Fk, nc, Fe[k], dFk, None if dFk is None else dFe[k])
-        if dD is not None and dD[k] is not None:
-            dS[k] = _schur_derivative(Dk, dD[k], nc, Y, z, lu, dFe[k])
-        Ys.append(Y)
-        zs.append(z)
-    return Condensed(tuple(D), nc, Fe, tuple(Ys), tuple(zs), tuple(dS) if deriv else None,
-                     dFe)
-
-
-def _schur(D, F, nc, Fe, dF=None, dFe=None):
-    """One order's condensation of the loads, written into Fe (nc,): Fe = F_c - D_ci z with
-    Y = D_ii^-1 D_ic (ni, nc), z = D_ii^-1 F_i (ni,); given dF (n,), also
-    dFe = dF_c - L dF_i with L = D_ci D_ii^-1 (the part that does not depend on dD).
-    Returns (Y, z, the LU factors of D_ii or None where nothing is condensed)."""
-    Dci, Dic, Dii = D[:nc, nc:], D[nc:, :nc], D[nc:, nc:]
-    vecs = F[:, None] if dF is None else np.stack([F, dF], axis=1)  # (n, 1 or 2)
-    lu = None
-    if Dii.shape[0] == 0:
-        g = np.zeros((nc, vecs.shape[1]), dtype=complex)
-        Y, z = np.zeros((0, nc), dtype=complex), np.zeros(0, dtype=complex)
-    else:
-        # one solve for every right-hand side, D_ii^-1 [D_ic, F_i, dF_i]
-        lu = sla.lu_factor(Dii, check_finite=False)
-        sol = sla.lu_solve(lu, _join(Dic, vecs[nc:]), check_finite=False)
-        Y, t = sol[:, :nc], _tail(sol, nc)
-        g = Dci @ t
-        z = t[:, 0].copy()
-    Fe[...] = F[:nc] - g[:, 0]
-    if dF is not None:
-        dFe[...] = dF[:nc] - g[:, 1]
-    return Y, z, lu
-
-
-def _schur_derivative(D, dD, nc, Y, z, lu, dFe) -> _SchurDerivative:
-    """The dependence of one order's D in the derivatives of its condensation: dS as a
-    :class:`_SchurDerivative`, and -(dD_ci - L dD_ii) z added to dFe (nc,), with
-    L = D_ci D_ii^-1 and Y, z, lu from :func:`_schur`."""
-    out = _SchurDerivative(dD, D[:nc, nc:], Y, lu)
-    if lu is not None:
-        dFe -= dD[:nc, nc:] @ z - D[:nc, nc:] @ sla.lu_solve(lu, dD[nc:, nc:] @ z,
-                                                           check_finite=False)
-    return out
-
-
-def _product(A: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """A x, a real A applied to a complex x as two real products (numpy would copy A to
-    complex first: order 0's matrices, whose vectors are real)."""
-    if np.iscomplexobj(A) or not np.iscomplexobj(x):
-        return A @ x
-    if not np.any(x.imag):
-        return A @ x.real
-    return A @ x.real + 1j * (A @ x.imag)
-
-
-def _join(A: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """[A, v] as one operand. Complex columns v (m, k) join a real A as their float view
-    (m, 2k: real and imaginary parts interleaved), so products with real matrices stay real
-    (order 0: a quarter of the work); :func:`_tail` undoes it."""
-    if np.iscomplexobj(A):
-        return np.concatenate([A, v], axis=1)
-    return np.concatenate([A, np.ascontiguousarray(v, dtype=complex).view(float)], axis=1)
-
-
-def _tail(G: np.ndarray, n: int) -> np.ndarray:
-    """The complex columns past the first n of a product with :func:`_join`'s operand."""
-    t = G[:, n:]
-    return t if np.iscomplexobj(G) else np.ascontiguousarray(t).view(complex)
-
-
-def _solve_orders(S: np.ndarray, F: np.ndarray, rcond_min: float = 1e-12
-                  ) -> np.ndarray | None:
-    """X_k = S_k^-1 F_k per order, or None if any S_k is singular to rcond_min (LAPACK's
-    1-norm estimate, O(n^2) beside the O(n^3) factorization)."""
-    X = np.empty_like(F)
-    for k, (A, b) in enumerate(zip(S, F)):
-        lu, piv, info = sla.lapack.zgetrf(A)
-        if info != 0:
-            return None
-        rcond, _ = sla.lapack.zgecon(lu, np.abs(A).sum(axis=0).max(), norm="1")
-        if not rcond >= rcond_min:
-            return None
-        X[k] = sla.lu_solve((lu, piv), b, check_finite=False)
-    return X
 
 
 #: Bytes the per-point cache of a HarmonicBalance may hold (dense condensed matrices of a

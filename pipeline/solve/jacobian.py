@@ -202,10 +202,10 @@ class BalanceJacobian:
         return out
 
     # ------------------------------------------------------------------ solves
-    def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """J^-1 rhs by preconditioned GMRES; np.linalg.LinAlgError where it fails even with
-        a preconditioner made from this Jacobian."""
-        return self.store.solve(self, _Plain(self), rhs)
+    def solve(self, rhs: np.ndarray, rtol: float = RTOL) -> np.ndarray:
+        """J^-1 rhs by preconditioned GMRES to ``rtol``; np.linalg.LinAlgError where it
+        fails even with a preconditioner made from this Jacobian."""
+        return self.store.solve(self, _Plain(self), rhs, rtol)
 
     def bordered_solve(self, col: np.ndarray, row: np.ndarray, corner: float,
                        rhs: np.ndarray) -> np.ndarray:
@@ -342,14 +342,15 @@ class Preconditioner:
             return False
         return its > max(REFRESH_ITERATIONS, REFRESH_GROWTH * self._first)
 
-    def solve(self, J: BalanceJacobian, system: _Plain, rhs: np.ndarray) -> np.ndarray:
+    def solve(self, J: BalanceJacobian, system: _Plain, rhs: np.ndarray,
+              rtol: float = RTOL) -> np.ndarray:
         if not np.all(np.isfinite(rhs)):
             raise ValueError("right-hand side has NaN or Inf")
         fresh = self._factors is None
         factors = self._factors or self._fresh(J)
         while True:
             try:
-                x, its, _ = gmres(system.apply, system.inverse(factors), rhs)
+                x, its, _ = gmres(system.apply, system.inverse(factors), rhs, rtol)
             except np.linalg.LinAlgError:
                 x, its = None, MAX_KRYLOV
             self.solves += 1

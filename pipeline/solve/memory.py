@@ -22,7 +22,7 @@ REAL = 8  # bytes of a float64
 COMPLEX = 16
 #: Dense (n x n) real copies a continuation step holds besides the cache: the Jacobian of the
 #: current point, of the best and of the latest line-search trial, the bordered matrix, its LU
-#: factors (kept for the tangent) and a scaled temporary (solve.continuation._correct). With
+#: factors (kept for the tangent) and a scaled temporary (solve.newton.corrector). With
 #: 7 the estimate came within -5 % / +17 % of the peak RSS of FRFs measured at 1,500 and
 #: 4,500 unknowns (cache-bound) and -3 % at 601 unknowns and 8,192 samples (kernel-bound).
 WORKING_COPIES = 7
@@ -38,22 +38,36 @@ def balance_bytes(contact_dofs: int, linear_dofs: int, orders: int, coeffs: int,
                   contacts: list[ContactShape], points: int, cache_limit: int) -> int:
     """Peak memory of a harmonic balance in bytes, from its sizes alone (nothing built).
 
-    n = contact_dofs x coeffs real unknowns. Dense: the cache (``solve.hbm._Cache``) keeps
-    per evaluated point the real condensed matrix and its parameter derivative (2 n^2 reals)
-    and their complex per-order blocks, as many entries as fit in ``cache_limit`` (at least
-    one) or as a curve of ``points`` (at most TYPICAL_POINTS) evaluates, plus the entry
-    being made; a step holds WORKING_COPIES more. Linear part: K, M, C,
-    M_part, D and dD per order (complex, ``linear_dofs`` square). Contact kernel: the
-    synthesis and analysis matrices (samples x coeffs each), per point its Jacobian block
-    (c coeffs)^2, the product B^T J B (dofs coeffs)^2 and the map B between them, the time
-    histories, and per thread the time derivative matrix (samples x d c coeffs)."""
+    n = contact_dofs x coeffs real unknowns. The cache (``solve.hbm._Cache``) keeps per
+    evaluated point the condensation's factors (D and dD per order, complex, ``linear_dofs``
+    square), as many entries as fit in ``cache_limit`` (at least one) or as a curve of
+    ``points`` (at most TYPICAL_POINTS) evaluates, plus the entry being made. Below
+    ``hbm.STRUCTURED_FROM`` unknowns the Jacobian is dense: each entry also holds the
+    condensed blocks S and two real n x n matrices, and a step WORKING_COPIES more; from it
+    on, structured (``solve.jacobian``): the blocks S once, the preconditioner's
+    single-precision inverses, the contact part's sparse matrix and the Krylov vectors,
+    nothing n x n. Linear part: K, M, C, M_part per order (complex, ``linear_dofs``
+    square). Contact kernel: the synthesis and analysis matrices (samples x coeffs each),
+    per point its Jacobian block (c coeffs)^2, the product B^T J B (dofs coeffs)^2 and the
+    map B between them, the time histories, and per thread the time derivative matrix
+    (samples x d c coeffs)."""
+    from .hbm import STRUCTURED_FROM
+    from .jacobian import MAX_KRYLOV
+
     n = contact_dofs * coeffs
-    dense = REAL * n * n
-    entry = 2 * dense + 2 * COMPLEX * orders * contact_dofs**2
+    blocks = COMPLEX * orders * contact_dofs**2  # one complex N_dof^2 matrix per order
+    entry = 2 * COMPLEX * orders * linear_dofs**2
+    if n < STRUCTURED_FROM:
+        dense = REAL * n * n
+        entry += 2 * dense + blocks
+        working = WORKING_COPIES * dense
+    else:  # S, the order blocks being inverted, the inverses (complex64), Krylov vectors
+        working = 2 * blocks + blocks // 2 + 2 * REAL * MAX_KRYLOV * (n + 1)
+        working += sum(12 * c.points * (c.dofs * coeffs) ** 2 for c in contacts)
     evaluations = min(points, TYPICAL_POINTS) * EVALUATIONS_PER_POINT
     held = max(1, min(cache_limit // max(entry, 1), evaluations))
-    total = (held + 1) * entry + WORKING_COPIES * dense
-    total += 6 * COMPLEX * orders * linear_dofs**2
+    total = (held + 1) * entry + working
+    total += 4 * COMPLEX * orders * linear_dofs**2
     total += 2 * REAL * samples * coeffs
     threads = os.cpu_count() or 1
     for c in contacts:

@@ -21,6 +21,7 @@ from microslip.pipeline.friction.laws import ContactResponse
 
 from . import continuation as cont
 from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
+from .jacobian import BalanceJacobian
 from .stability import Stability, hill_stability, undefined
 
 METHODS = ("arclength", "natural")
@@ -376,9 +377,12 @@ def static_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) ->
     h = model.harmonics
     if not h.has_static or model.n_unknowns == 0:
         return ""
-    _, J, _ = model.residual(x, point)
-    a0 = np.arange(model.dofs.size) * h.n_coeffs  # DOF-major: a0 first
-    J0 = J[np.ix_(a0, a0)]
+    _, J, _ = model.residual(x, point, structured=model.structured)
+    if isinstance(J, BalanceJacobian):  # order 0's block is J's own (nothing projected)
+        J0 = np.ascontiguousarray(J.order_blocks()[0].real)
+    else:
+        a0 = np.arange(model.dofs.size) * h.n_coeffs  # DOF-major: a0 first
+        J0 = J[np.ix_(a0, a0)]
     lu, _, info = sla.lapack.dgetrf(J0)
     rcond = 0.0 if info else sla.lapack.dgecon(lu, np.abs(J0).sum(axis=0).max())[0]
     if rcond >= 1e-12:
@@ -445,14 +449,17 @@ def sampling_shift(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint,
     is zero to the solver's tolerance): a-posteriori, how much a converged point depends
     on the sampling (a lightly damped resonance amplifies a small force error: hence the
     solve, not the residual alone). NaN where the bordered system is singular."""
-    R, J, dR = model.residual(x, point, parameter)
+    R, J, dR = model.residual(x, point, parameter, structured=model.structured)
     fine = model.with_samples(2 * model.harmonics.n_samples)
-    A = np.block([[J, dR[:, None]], [border[None, :]]])
     b = np.append(-(fine.residual(x, point, jacobian=False)[0] - R), 0.0)
     try:
-        with warnings.catch_warnings():  # an ill-conditioned system gives a large shift
-            warnings.simplefilter("ignore", sla.LinAlgWarning)
-            d = sla.solve(A, b, check_finite=False)
+        if isinstance(J, BalanceJacobian):
+            d = J.bordered_solve(dR, border[:-1], border[-1], b)
+        else:
+            A = np.block([[J, dR[:, None]], [border[None, :]]])
+            with warnings.catch_warnings():  # an ill-conditioned system gives a large shift
+                warnings.simplefilter("ignore", sla.LinAlgWarning)
+                d = sla.solve(A, b, check_finite=False)
     except (np.linalg.LinAlgError, ValueError):
         return np.full_like(x, np.nan), float("nan")
     return d[:-1], float(d[-1])

@@ -18,7 +18,8 @@ non-linear in lambda (the Schur complement of K + s C + s^2 M); in full coordina
 quadratic, linearised to [[0, I], [-J, -Delta_1]] = lambda [[I, 0], [0, Delta_2]]. The
 condensation is still what makes it cheap: the exponents nearest zero come from
 shift-and-invert at lambda = 0, whose every solve with J is Newton's condensed Jacobian (one
-LU) plus one LU of each order's condensed block D_ii. A stability check at full scale thus
+LU, or for a large model its structured solve, see ``jacobian``) plus one LU of each order's
+condensed block D_ii. A stability check at full scale thus
 costs about one Newton iteration of the point (small problems go to a dense eigensolver
 instead, the inverted operator formed on the identity).
 
@@ -47,10 +48,14 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from .hbm import HarmonicBalance, OperatingPoint
+from .jacobian import BalanceJacobian
 
 #: Hill problems of at most this many real unknowns (2 x the full DOFs x coefficients, the
 #: linearised size) go to the dense eigensolver: every eigenvalue, ~0.1 s at the limit.
 DENSE = 600
+#: GMRES tolerance of a structured Jacobian's solves in Hill's method: ARPACK converges its
+#: eigenvalues to 1e-10, which needs solves a little more accurate than Newton's.
+HILL_RTOL = 1e-12
 #: ARPACK's first count of exponents, and its most after doubling.
 FIRST, MOST = 6, 96
 #: Exponents with real parts within NEUTRAL x w of zero are neutral, not unstable: the free
@@ -124,8 +129,17 @@ class _Hill:
     def __init__(self, hb: HarmonicBalance, x: np.ndarray, point: OperatingPoint):
         self.h, w = hb.harmonics, point.omega
         self.nc = hb.dofs.size
-        _, J, _ = hb.residual(x, point)
-        self.newton = sla.lu_factor(J, check_finite=False)
+        _, J, _ = hb.residual(x, point, structured=hb.structured)
+        # Newton's Jacobian as the continuation solves it: dense LU, or for a problem too
+        # large for the dense eigensolver the structured one's preconditioned GMRES (to
+        # HILL_RTOL, one solve per column). The dense eigensolver takes every exponent,
+        # those far from zero from 1 / mu with mu small: they need a solve exact to
+        # rounding, which the dense LU of a small J costs nothing to give.
+        small = 2 * (J.shape[0] + self._condensed_size(hb)) <= DENSE
+        if isinstance(J, BalanceJacobian) and small:
+            J = J.dense()
+        self.newton = J if isinstance(J, BalanceJacobian) else \
+            sla.lu_factor(J, check_finite=False)
         lin = hb._reordered().linear  # contact DOFs first in every order
         nc = self.nc
         self.Dci, self.Dic, self.Dii, self.delta = [], [], [], []
@@ -186,7 +200,7 @@ class _Hill:
              for lu, Rk in zip(self.Dii, R)]
         g = self._join([np.concatenate([B @ tk, np.zeros_like(tk)]) for B, tk in
                         zip(self.Dci, t)])[: self.n_contact]
-        zc = sla.lu_solve(self.newton, r[: self.n_contact] - g, check_finite=False)
+        zc = self._solve_newton(r[: self.n_contact] - g)
         Xc = self._split(np.concatenate([zc, np.zeros((self.size - self.n_contact,
                                                        zc.shape[1]))]))
         out = []
@@ -194,6 +208,19 @@ class _Hill:
             zi = tk - (sla.lu_solve(lu, B @ X[:nc], check_finite=False) if lu else 0.0)
             out.append(np.concatenate([X[:nc], zi]))
         return self._join(out)
+
+    @staticmethod
+    def _condensed_size(hb: HarmonicBalance) -> int:
+        """The real unknowns of every order's condensed DOFs (order 0: one per DOF)."""
+        nc = hb.dofs.size
+        return sum((n - nc) * (1 if o == 0 else 2)
+                   for o, n in zip(hb.harmonics.orders, hb.linear.sizes))
+
+    def _solve_newton(self, b: np.ndarray) -> np.ndarray:
+        """Newton's Jacobian solved for the columns of b (n_contact, m)."""
+        if isinstance(self.newton, BalanceJacobian):
+            return np.column_stack([self.newton.solve(c, rtol=HILL_RTOL) for c in b.T])
+        return sla.lu_solve(self.newton, b, check_finite=False)
 
     def inverted(self, v: np.ndarray) -> np.ndarray:
         """The linearised problem shifted and inverted at 0: [p; q] -> [u; p] with
