@@ -99,8 +99,11 @@ def test_no_damper_is_the_free_blisk(sector):
     ws = first_bending(sector) * np.array([0.95, 1.0, 1.05])
     for w in ws:
         p = OperatingPoint(w)
-        np.testing.assert_allclose(cm.output_coefficients(np.zeros(0), p),
-                                   with_damper.linear_outputs(p, "free"), rtol=1e-12, atol=0)
+        want = with_damper.linear_outputs(p, "free")
+        # the same solves in another order: rounding of the largest coefficient (a static
+        # one 1e-4 of it is not held to its own 1e-12)
+        np.testing.assert_allclose(cm.output_coefficients(np.zeros(0), p), want, rtol=0,
+                                   atol=1e-12 * np.max(np.abs(want)))
     r = sweep(cm.hb, "frequency", ws[0], ws[-1], OperatingPoint(ws[0]))
     w_free = r.peak(cm.outputs["tip"])[0]
     assert w_free == pytest.approx(first_bending(sector), rel=2e-3)  # the blisk's own mode

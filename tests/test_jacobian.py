@@ -138,9 +138,9 @@ def test_continuation_with_structured_solves_follows_the_dense_branch(model, mon
     out = {}
     for structured in (False, True):
         monkeypatch.setattr(hbm, "STRUCTURED_FROM", 0 if structured else 10**9)
-        hb = MODELS[model]()
+        hb = friction_grid(6, H=1, cyclic="cyclic" in model, shared="shared" in model)
         assert hb.structured == structured
-        r = sweep(hb, "frequency", 1.6, 2.4, OperatingPoint(1.6),
+        r = sweep(hb, "frequency", 1.7, 2.3, OperatingPoint(1.7),
                   settings=cont.Settings(max_points=400))
         assert r.branch.complete
         out[structured] = r
@@ -149,6 +149,6 @@ def test_continuation_with_structured_solves_follows_the_dense_branch(model, mon
     assert list(a.branch.iterations) == list(b.branch.iterations)
     # both converged to tol = 1e-9 of the force scale; the points agree to what that leaves
     # of the step lengths (1e-8 of the range: the comparison script's tolerance)
-    assert np.max(np.abs(a.values - b.values)) <= 1e-8 * 0.8
+    assert np.max(np.abs(a.values - b.values)) <= 1e-8 * 0.6
     scale = np.max(np.abs(a.branch.x))
     assert np.max(np.abs(a.branch.x - b.branch.x)) <= 1e-7 * scale
