@@ -152,3 +152,22 @@ def test_continuation_with_structured_solves_follows_the_dense_branch(model, mon
     assert np.max(np.abs(a.values - b.values)) <= 1e-8 * 0.6
     scale = np.max(np.abs(a.branch.x))
     assert np.max(np.abs(a.branch.x - b.branch.x)) <= 1e-7 * scale
+
+
+def test_hill_exponents_through_gmres_are_those_through_the_lu(monkeypatch):
+    """Hill's shift-and-invert with every solve by GMRES (to HILL_RTOL) finds the exponents
+    nearest zero that the dense LU finds (ARPACK on both, to its 1e-10)."""
+    from microslip.pipeline.solve import stability
+
+    hb = friction_grid(6, H=1)
+    x, p = _slipping_state(hb, 1.95)
+    monkeypatch.setattr(stability, "DENSE", 0)  # ARPACK on both
+    ref = stability.hill_stability(hb, x, p)
+    monkeypatch.setattr(hbm, "STRUCTURED_FROM", 0)
+    monkeypatch.setattr(stability, "HILL_LU", 0)
+    assert hb.structured
+    got = stability.hill_stability(hb, x, p)
+    assert got.stable == ref.stable and got.exponents.size == ref.exponents.size
+    # ARPACK's tolerance 1e-10 on 1 / lambda, relative: the exponents to ~1e-8 of |lambda|
+    want, have = np.sort_complex(ref.exponents), np.sort_complex(got.exponents)
+    assert np.all(np.abs(have - want) <= 1e-7 * np.abs(want) + 1e-9 * p.omega)

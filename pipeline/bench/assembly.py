@@ -69,7 +69,7 @@ def _run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dic
     from microslip.pipeline.friction.harmonics import Harmonics
     from microslip.pipeline.solve import continuation as cont
     from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import sweep
+    from microslip.pipeline.solve.response import solve_point, sweep
 
     t0 = time.perf_counter()
     mesh = geometry.blisk_sector(contact_n_axial=n_axial, contact_n_flank=n_flank)
@@ -86,8 +86,7 @@ def _run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dic
     w0 = 0.96 * 2 * np.pi * red.frequencies["blisk", 12][0]
     base = OperatingPoint(w0, mass_multiplier=25.0)
     t1 = time.perf_counter()
-    first = sweep(hb, "frequency", w0, 1.1 * w0, base,
-                  settings=cont.Settings(max_points=1))
+    first = solve_point(hb, base)  # what a curve's start costs: guesses, scales, Newton
     t_first = time.perf_counter() - t1
     times, its = [], []
 
@@ -98,7 +97,7 @@ def _run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dic
     t2 = time.perf_counter()
     pc = hb.preconditioner
     before = (pc.solves, pc.iterations, pc.refreshes)
-    r = sweep(hb, "frequency", w0, 1.1 * w0, base, x0=first.branch.x[0],
+    r = sweep(hb, "frequency", w0, 1.1 * w0, base, x0=first.x,
               settings=cont.Settings(max_points=points + 1), progress=tick)
     steps = np.diff([t2, *times])[1:]  # the first is the start point again
     solves, krylov, refreshes = (a - b for a, b in zip((pc.solves, pc.iterations,

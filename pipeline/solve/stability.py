@@ -53,6 +53,9 @@ from .jacobian import BalanceJacobian
 #: Hill problems of at most this many real unknowns (2 x the full DOFs x coefficients, the
 #: linearised size) go to the dense eigensolver: every eigenvalue, ~0.1 s at the limit.
 DENSE = 600
+#: Newton's Jacobians up to this many unknowns are factored densely for Hill's method
+#: (one LU: 0.1 s at 1,296, 1.6 s at 3,024 here), larger ones solved by GMRES.
+HILL_LU = 3500
 #: GMRES tolerance of a structured Jacobian's solves in Hill's method: ARPACK converges its
 #: eigenvalues to 1e-10, which needs solves a little more accurate than Newton's.
 HILL_RTOL = 1e-12
@@ -130,13 +133,13 @@ class _Hill:
         self.h, w = hb.harmonics, point.omega
         self.nc = hb.dofs.size
         _, J, _ = hb.residual(x, point, structured=hb.structured)
-        # Newton's Jacobian as the continuation solves it: dense LU, or for a problem too
-        # large for the dense eigensolver the structured one's preconditioned GMRES (to
-        # HILL_RTOL, one solve per column). The dense eigensolver takes every exponent,
-        # those far from zero from 1 / mu with mu small: they need a solve exact to
-        # rounding, which the dense LU of a small J costs nothing to give.
+        # Newton's Jacobian: its dense LU up to HILL_LU unknowns, else the structured
+        # one's preconditioned GMRES (to HILL_RTOL, one solve per column). ARPACK applies
+        # the inverse some 20-60 times: one LU costs less than that many GMRES solves up
+        # to a few thousand unknowns. The dense eigensolver takes every exponent, those far
+        # from zero from 1 / mu with mu small: they need a solve exact to rounding.
         small = 2 * (J.shape[0] + self._condensed_size(hb)) <= DENSE
-        if isinstance(J, BalanceJacobian) and small:
+        if isinstance(J, BalanceJacobian) and (small or J.shape[0] <= HILL_LU):
             J = J.dense()
         self.newton = J if isinstance(J, BalanceJacobian) else \
             sla.lu_factor(J, check_finite=False)
