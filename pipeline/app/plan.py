@@ -26,7 +26,7 @@ from microslip.pipeline.case import (
 )
 from microslip.pipeline.case.build import sample_variants
 from microslip.pipeline.case.estimate import (
-    POINT_EXPONENT,
+    LINEAR_EXPONENT,
     POINT_UNKNOWNS,
     START_S,
     analysis_seconds,
@@ -186,7 +186,7 @@ def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None =
         if "assembly" in data and isinstance(spec, Frf) and spec.parameter == "frequency":
             masses = {operating_point(c, spec.omega).mass_multiplier
                       for c, _, _ in curve_variants(case, spec)}
-            seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** POINT_EXPONENT
+            seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** LINEAR_EXPONENT
             stages.append(Stage(f"{name}: linear limits (free, stuck x {len(masses)})", False,
                                 seconds * (1 + len(masses)), 0,
                                 "each reused from the cache when unchanged"))

@@ -64,17 +64,21 @@ def sizes(data: dict) -> list[Size]:
 #: figure: the solves, Hill's stability at every point, the map points, the pictures.
 #:
 #: A harmonic-balance point of an assembly: POINT_S at 1296 real unknowns and 64 samples,
-#: growing as unknowns^1.8 (the dense LU of the Jacobian, a few per point) and as
-#: samples^0.5; Hill's stability adds STABILITY of it. A lumped model's point: the
+#: growing as unknowns^1.6 (the structured Newton's GMRES: ~110 products with the per-order
+#: blocks a point, `bench assembly`) and as samples^0.5; Hill's stability adds STABILITY of
+#: it (a dense LU of Newton's Jacobian up to stability.HILL_LU unknowns and ARPACK's
+#: solves: about one point). A lumped model's point: the
 #: per-contact overhead of a Newton step (LUMPED_CONTACT_S, the kernels' calls) and the
 #: return map's work, samples x unknowns x motions (LUMPED_SAMPLE_S). A curve: CURVE_POINTS
 #: points (the shipped curves: 26 to 161); a map point: MAP_SOLVES solves and MAP_DRAW_S per
 #: picture; a peak value followed by continuation: PEAK_SOLVES solves. A time integration:
 #: STEP_S per step of 9 DOFs (linear in the DOFs), STEADY_PERIODS periods after the ramp.
-POINT_S = 0.5
+POINT_S = 0.25
 POINT_UNKNOWNS = 1296
-POINT_EXPONENT = 1.8
-STABILITY = 0.5
+POINT_EXPONENT = 1.6
+STABILITY = 1.0
+#: The linear limits (a dense per-order solve per frequency) grow as unknowns^1.8.
+LINEAR_EXPONENT = 1.8
 LUMPED_CONTACT_S = 3e-3
 LUMPED_SAMPLE_S = 1e-6
 CURVE_POINTS = 80
