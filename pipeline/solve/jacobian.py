@@ -279,14 +279,16 @@ class _Factors:
     sign: float  # sign det of the real form (order 0's LU; complex blocks give |det|^2)
 
     @classmethod
-    def of(cls, J: BalanceJacobian) -> _Factors:
+    def of(cls, J: BalanceJacobian, single: bool = True) -> _Factors:
+        """``single``: in single precision (half the memory and time of every solve; GMRES
+        is flexible, so the factors' rounding is the preconditioner's only), else double
+        (where an order block is too ill-conditioned for single precision: a lightly damped
+        resonance, a fold)."""
         h = J.harmonics
+        real, cplx = (np.float32, np.complex64) if single else (np.float64, np.complex128)
         lus, sign = [], 1.0  # inverses
         for k, A in enumerate(J.order_blocks()):
-            # single precision: half the memory and the time of every solve; GMRES is
-            # flexible, so the factors' rounding (1e-7) is the preconditioner's only
-            A = A.real.astype(np.float32) if (h.has_static and k == 0) else \
-                A.astype(np.complex64)
+            A = A.real.astype(real) if (h.has_static and k == 0) else A.astype(cplx)
             lu, piv = sla.lu_factor(A, check_finite=False, overwrite_a=True)
             d = np.diag(lu)
             if not np.all(np.isfinite(d)) or np.any(d == 0):
@@ -296,7 +298,7 @@ class _Factors:
                 sign = float(np.prod(np.sign(d))) * (-1.0) ** swaps
             # the explicit inverse: a matrix-vector product per solve, 4x faster than the
             # two triangular solves (LAPACK's are not blocked for one right side)
-            getri = sla.lapack.cgetri if np.iscomplexobj(lu) else sla.lapack.sgetri
+            getri = sla.get_lapack_funcs("getri", (lu,))
             inv, info = getri(lu, piv, overwrite_lu=True)
             if info != 0 or not np.all(np.isfinite(inv)):
                 raise np.linalg.LinAlgError(f"preconditioner of order {h.orders[k]} singular")
@@ -310,9 +312,9 @@ class _Factors:
         k0 = int(h.has_static)
         out = np.empty_like(c)
         if h.has_static:
-            out[:, 0] = self.inverses[0] @ c[:, 0].astype(np.float32)
+            out[:, 0] = self.inverses[0] @ c[:, 0].astype(self.inverses[0].dtype)
         if h.dynamic_orders:
-            X = (c[:, k0::2] - 1j * c[:, k0 + 1::2]).astype(np.complex64)  # a_n - i b_n
+            X = (c[:, k0::2] - 1j * c[:, k0 + 1::2]).astype(self.inverses[-1].dtype)
             for k, inv in enumerate(self.inverses[k0:]):
                 Y = inv @ X[:, k]
                 out[:, k0 + 2 * k], out[:, k0 + 2 * k + 1] = Y.real, -Y.imag
@@ -330,10 +332,40 @@ class Preconditioner:
         self._first = 0  # GMRES iterations of the first solve on the current factors
         self.solves = self.iterations = self.refreshes = 0
 
-    def _fresh(self, J: BalanceJacobian) -> _Factors:
-        self._factors, self._first = _Factors.of(J), 0
+    def __getstate__(self) -> dict:
+        """Pickled without its factors (N_dof^2 per order: a model sent to a worker makes
+        its own at its first solve)."""
+        return {**self.__dict__, "_factors": None, "_first": 0}
+
+    def _fresh(self, J: BalanceJacobian, single: bool = True) -> _Factors:
+        self._factors, self._first = _Factors.of(J, single), 0
         self.refreshes += 1
         return self._factors
+
+    def _run(self, J: BalanceJacobian, system: _Plain, rhs: np.ndarray, rtol: float):
+        """GMRES on the current factors; where it fails, on fresh ones, then on fresh ones
+        in double precision: (x, Arnoldi matrix, the factors it ran on); LinAlgError where
+        even the last fails."""
+        stages = ([] if self._factors is None else [None]) + [True, False]
+        for single in stages:
+            factors = self._factors if single is None else self._fresh(J, single)
+            try:
+                x, its, H = gmres(system.apply, system.inverse(factors), rhs, rtol)
+            except np.linalg.LinAlgError as err:
+                self.solves += 1
+                self.iterations += MAX_KRYLOV
+                failure = err
+                continue
+            self.solves += 1
+            self.iterations += its
+            if single is None and self._slow(its):
+                self._fresh(J)  # converged slowly on old factors: new ones for the next
+            elif single is not None:
+                self._slow(its)  # the first solve on the new factors
+            return x, H, factors
+        raise np.linalg.LinAlgError(
+            f"GMRES did not converge in {MAX_KRYLOV} iterations even with a fresh "
+            f"preconditioner in double precision (Jacobian singular or nearly: {failure})")
 
     def _slow(self, its: int) -> bool:
         """Whether a solve on the current factors took long enough to make them again."""
@@ -346,35 +378,17 @@ class Preconditioner:
               rtol: float = RTOL) -> np.ndarray:
         if not np.all(np.isfinite(rhs)):
             raise ValueError("right-hand side has NaN or Inf")
-        fresh = self._factors is None
-        factors = self._factors or self._fresh(J)
-        while True:
-            try:
-                x, its, _ = gmres(system.apply, system.inverse(factors), rhs, rtol)
-            except np.linalg.LinAlgError:
-                x, its = None, MAX_KRYLOV
-            self.solves += 1
-            self.iterations += its
-            if x is not None:
-                if self._slow(its) and not fresh:
-                    self._fresh(J)  # converged slowly on old factors: new ones for the next
-                return x
-            if fresh:
-                raise np.linalg.LinAlgError(
-                    f"GMRES did not converge in {MAX_KRYLOV} iterations with a fresh "
-                    "preconditioner (Jacobian singular or nearly)")
-            factors, fresh = self._fresh(J), True
+        return self._run(J, system, rhs, rtol)[0]
 
     def sign(self, J: BalanceJacobian, system: _Plain) -> float:
         """sign det of the system: the factors' sign times that of the Arnoldi matrix of
         GMRES from a fixed random start, run to SIGN_RTOL."""
-        factors = self._factors or self._fresh(J)
         n = J.shape[0] + int(isinstance(system, _Bordered))
         start = np.random.default_rng(n).standard_normal(n)
-        # not converged in MAX_KRYLOV: the Ritz values of that many steps still hold the
-        # outlying eigenvalues (those converge first); a breakdown raises
-        _, _, H = gmres(system.apply, system.inverse(factors), start, rtol=SIGN_RTOL,
-                        strict=False)
+        # converged, or the Ritz values are not yet the eigenvalues and the sign is a
+        # guess: then on fresh factors (old ones: the slow run makes them new), then in
+        # double precision, else LinAlgError
+        _, H, factors = self._run(J, system, start, SIGN_RTOL)
         s, _ = np.linalg.slogdet(H)
         return system.sign(factors) * float(s)
 
@@ -408,6 +422,8 @@ def gmres(apply, precondition, b: np.ndarray, rtol: float = RTOL,
         w -= V[: j + 1].T @ h2
         h += h2
         norm = float(np.linalg.norm(w))
+        if not np.isfinite(norm):
+            raise np.linalg.LinAlgError("GMRES: NaN or Inf in the operator or preconditioner")
         Hs[: j + 1, j], Hs[j + 1, j] = h, norm
         col = np.append(h, norm)
         for i in range(j):

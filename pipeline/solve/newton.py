@@ -252,7 +252,7 @@ def _structured_tangent(J, dR, xs, lam_scale, f_scale, previous, direction):
             rhs = np.zeros(n + 1)
             rhs[n] = 1.0
             t, row = _bordered(J, dR, previous, xs, lam_scale, f_scale, rhs), previous
-        sign = J.bordered_sign(dR * lam_scale, row[:n] / xs, row[n])
+        sign = J.bordered_sign(dR * lam_scale, row[:n] * (f_scale / xs), row[n] * f_scale)
     except (np.linalg.LinAlgError, ValueError):
         return None
     if not (np.all(np.isfinite(t)) and np.linalg.norm(t) > 0 and sign != 0):
@@ -265,8 +265,10 @@ def _bordered(J, dR, row, xs, lam_scale, f_scale, rhs, keep=None) -> np.ndarray:
     bordered system), the LU factors of a dense one put in ``keep``."""
     n = xs.size
     if isinstance(J, BalanceJacobian):  # in u = xs z[:n], the unscaled unknowns
-        z = J.bordered_solve(dR * lam_scale, row[:n] / xs, row[n],
-                             np.append(rhs[:n] * f_scale, rhs[n]))
+        # the arc equation in force units too, so that GMRES's one residual norm weighs
+        # both rows as the dense path's scaling does
+        z = J.bordered_solve(dR * lam_scale, row[:n] * (f_scale / xs), row[n] * f_scale,
+                             rhs * f_scale)
         z[:n] /= xs
         return z
     A = np.empty((n + 1, n + 1))

@@ -222,7 +222,12 @@ class _Hill:
     def _solve_newton(self, b: np.ndarray) -> np.ndarray:
         """Newton's Jacobian solved for the columns of b (n_contact, m)."""
         if isinstance(self.newton, BalanceJacobian):
-            return np.column_stack([self.newton.solve(c, rtol=HILL_RTOL) for c in b.T])
+            try:
+                return np.column_stack([self.newton.solve(c, rtol=HILL_RTOL) for c in b.T])
+            except np.linalg.LinAlgError:
+                # GMRES fails where J is nearly singular (a fold, where bifurcations are
+                # located): the dense LU, as below HILL_LU, warns there but solves
+                self.newton = sla.lu_factor(self.newton.dense(), check_finite=False)
         return sla.lu_solve(self.newton, b, check_finite=False)
 
     def inverted(self, v: np.ndarray) -> np.ndarray:
