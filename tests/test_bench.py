@@ -60,3 +60,18 @@ def test_bench_elements_converges_for_every_shape(monkeypatch, capsys):
         for order in ("1", "2"):
             assert error[shape, order, "(10,1,1)"] < error[shape, order, "(5,1,1)"]
         assert error[shape, "2", "(5,1,1)"] < error[shape, "1", "(5,1,1)"]
+
+
+def test_bench_solvers_finds_the_same_solutions_both_ways(capsys):
+    """The Duffing case by dense LUs and by the structured Jacobian: the same points (to
+    1e-8 of each dataset's largest entry), verdicts and bifurcations; the exit says so."""
+    from pathlib import Path
+
+    case = Path(__file__).resolve().parents[1] / "cases" / "duffing.toml"
+    assert main(["bench", "solvers", str(case)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("duffing: dense ")
+    rows = {line.split()[0]: line for line in out.splitlines()[1:]}
+    assert {"solutions", "verdicts", "bifurcations"} <= set(rows), out
+    size = float(rows["solutions"].split("largest difference ")[1].split()[0])
+    assert size <= 1e-8, out

@@ -83,6 +83,37 @@ def largest_differences(old: Path, new: Path) -> dict[str, tuple[float | str, fl
     return out
 
 
+def peak_differences(old: Path, new: Path) -> list[str]:
+    """Per curve whose two runs took different numbers of points (a step path that parted
+    at a different iteration count): its peak, the largest amplitude and the parameter
+    value there, in both, relative. A text per such curve."""
+    out = []
+
+    def visit(name, a):
+        if not (isinstance(a, h5py.Group) and "amplitude" in a and name in fb):
+            return
+        b = fb[name]
+        if "amplitude" not in b or a["amplitude"].shape == b["amplitude"].shape:
+            return
+        key = "omega" if "omega" in a else "parameter"
+        if key not in a or key not in b:
+            return
+        peaks = []
+        for g in (a, b):
+            amp = np.max(np.abs(g["amplitude"][()]), axis=tuple(range(1, g["amplitude"].ndim)))
+            i = int(np.argmax(amp))
+            peaks.append((float(amp[i]), float(g[key][()][i])))
+        (a0, w0), (a1, w1) = peaks
+        out.append(f"{name}: {a['amplitude'].shape[0]} and {b['amplitude'].shape[0]} points; "
+                   f"peak {a0:.6g} at {w0:.8g} and {a1:.6g} at {w1:.8g} (differences "
+                   f"{abs(a1 - a0) / abs(a0):.1e}, {abs(w1 - w0) / abs(w0):.1e}; the sampled "
+                   "peaks of two point sets, not the refined one)")
+
+    with h5py.File(old / "results.h5", "r") as fa, h5py.File(new / "results.h5", "r") as fb:
+        fa.visititems(visit)
+    return out
+
+
 def _kind(name: str) -> str:
     """Which group of the summary a dataset belongs to."""
     parts = name.split("/")
@@ -101,6 +132,7 @@ def compare_case(path: Path, rtol: float) -> tuple[bool, list[str]]:
         t_struct = run_with(path, "structured", structured)
         largest = {k: v for k, v in largest_differences(dense, structured).items()
                    if not ("/" + k).endswith(NOT_COMPARED)}
+        peaks = peak_differences(dense, structured)
     groups: dict[str, list[tuple[str, float | str, float]]] = {}
     for name, (rel, scale) in largest.items():
         groups.setdefault(_kind(name), []).append((name, rel, scale))
@@ -126,6 +158,7 @@ def compare_case(path: Path, rtol: float) -> tuple[bool, list[str]]:
         size = top[1] if isinstance(top[1], str) else f"{top[1]:.1e}"
         lines.append(f"  {kind:12s} {len(groups[kind]):4d} datasets, largest difference "
                      f"{size} of max |old| = {top[2]:.3g} ({top[0]})")
+    lines += [f"  {p}" for p in peaks]
     return ok, lines
 
 
