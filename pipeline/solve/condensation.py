@@ -7,13 +7,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
-
-if TYPE_CHECKING:
-    from .hbm import LinearDynamics
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,10 +111,11 @@ class Reordered:
     their imaginary part is exactly zero (half the memory, real products at order 0)."""
 
     index: tuple[np.ndarray, ...]  # per order (n_k,): the original DOF of each row
-    linear: LinearDynamics  # reordered, read-only
+    linear: Any  # hbm.LinearDynamics, reordered, read-only (this module is hbm's)
 
     @classmethod
-    def of(cls, linear: LinearDynamics, dofs: np.ndarray, others: np.ndarray) -> Reordered:
+    def of(cls, linear: Any, dofs: np.ndarray, others: np.ndarray) -> Reordered:
+        """linear: an hbm.LinearDynamics; its reordered copy is of the same type."""
         index = tuple(np.concatenate([dofs, condensed_dofs(others, linear.n_dof, n)])
                       for n in linear.sizes)
 

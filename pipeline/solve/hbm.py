@@ -48,6 +48,15 @@ PARAMETERS = ("frequency", "excitation", "mass", "preload")
 _DENSE_LIMIT = 400_000  # entries of the real kinematic map kept dense
 #: Unknowns from which continuation uses the structured Jacobian (see ``structured``).
 STRUCTURED_FROM = 600
+
+
+def structured_by_default(n_dof: int, n_coeffs: int) -> bool:
+    """Whether "auto" solves with the structured Jacobian: from STRUCTURED_FROM unknowns,
+    where the contact DOFs are at least as many as the coefficients. Its preconditioner is
+    the order-diagonal part; with few DOFs and many orders (one DOF at H = 300) nearly all
+    of the Jacobian is the coupling of the orders it leaves out (GMRES then takes its
+    full 80 iterations and more), and the dense LU of that size is cheap anyway."""
+    return n_dof * n_coeffs >= STRUCTURED_FROM and n_dof >= n_coeffs
 #: How Newton solves with the Jacobian: "dense" (LU), "structured" (solve.jacobian) or
 #: "auto" (structured from STRUCTURED_FROM unknowns).
 JACOBIANS = ("auto", "dense", "structured")
@@ -561,10 +570,10 @@ class HarmonicBalance:
     @property
     def structured(self) -> bool:
         """Whether continuation solves with the structured Jacobian: as ``jacobian`` says,
-        and for "auto" from STRUCTURED_FROM unknowns on (below, a dense LU costs less than
-        the Krylov iterations)."""
+        and for "auto" :func:`structured_by_default` (below STRUCTURED_FROM unknowns a dense
+        LU costs less than the Krylov iterations)."""
         if self.jacobian == "auto":
-            return self.n_unknowns >= STRUCTURED_FROM
+            return structured_by_default(self.dofs.size, self.harmonics.n_coeffs)
         return self.jacobian == "structured"
 
     # ------------------------------------------------------- post-processing

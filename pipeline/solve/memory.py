@@ -41,23 +41,23 @@ def balance_bytes(contact_dofs: int, linear_dofs: int, orders: int, coeffs: int,
     n = contact_dofs x coeffs real unknowns. The cache (``solve.hbm._Cache``) keeps per
     evaluated point the condensation's factors (D and dD per order, complex, ``linear_dofs``
     square), as many entries as fit in ``cache_limit`` (at least one) or as a curve of
-    ``points`` (at most TYPICAL_POINTS) evaluates, plus the entry being made. Below
-    ``hbm.STRUCTURED_FROM`` unknowns the Jacobian is dense: each entry also holds the
-    condensed blocks S and two real n x n matrices, and a step WORKING_COPIES more; from it
-    on, structured (``solve.jacobian``): the blocks S once, the preconditioner's
+    ``points`` (at most TYPICAL_POINTS) evaluates, plus the entry being made. Where
+    ``hbm.structured_by_default`` says dense, each entry also holds the condensed blocks
+    S and two real n x n matrices, and a step WORKING_COPIES more; where structured
+    (``solve.jacobian``): the blocks S once, the preconditioner's
     single-precision inverses, the contact part's sparse matrix and the Krylov vectors,
     nothing n x n. Linear part: K, M, C, M_part per order (complex, ``linear_dofs``
     square). Contact kernel: the synthesis and analysis matrices (samples x coeffs each),
     per point its Jacobian block (c coeffs)^2, the product B^T J B (dofs coeffs)^2 and the
     map B between them, the time histories, and per thread the time derivative matrix
     (samples x d c coeffs)."""
-    from .hbm import STRUCTURED_FROM
+    from .hbm import structured_by_default
     from .jacobian import MAX_KRYLOV
 
     n = contact_dofs * coeffs
     blocks = COMPLEX * orders * contact_dofs**2  # one complex N_dof^2 matrix per order
     entry = 2 * COMPLEX * orders * linear_dofs**2
-    if n < STRUCTURED_FROM:
+    if not structured_by_default(contact_dofs, coeffs):
         dense = REAL * n * n
         entry += 2 * dense + blocks
         working = WORKING_COPIES * dense
