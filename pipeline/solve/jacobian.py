@@ -347,9 +347,10 @@ class Preconditioner:
         in double precision: (x, Arnoldi matrix, the factors it ran on); LinAlgError where
         even the last fails."""
         stages = ([] if self._factors is None else [None]) + [True, False]
+        failure: Exception | None = None
         for single in stages:
-            factors = self._factors if single is None else self._fresh(J, single)
-            try:
+            try:  # a singular single-precision block: double precision next
+                factors = self._factors if single is None else self._fresh(J, single)
                 x, its, H = gmres(system.apply, system.inverse(factors), rhs, rtol)
             except np.linalg.LinAlgError as err:
                 self.solves += 1
@@ -359,7 +360,10 @@ class Preconditioner:
             self.solves += 1
             self.iterations += its
             if single is None and self._slow(its):
-                self._fresh(J)  # converged slowly on old factors: new ones for the next
+                try:  # converged slowly on old factors: new ones for the next
+                    self._fresh(J)
+                except np.linalg.LinAlgError:
+                    self._factors = None  # the next solve tries again
             elif single is not None:
                 self._slow(its)  # the first solve on the new factors
             return x, H, factors
@@ -394,14 +398,13 @@ class Preconditioner:
 
 
 def gmres(apply, precondition, b: np.ndarray, rtol: float = RTOL,
-          max_iter: int = MAX_KRYLOV, strict: bool = True
-          ) -> tuple[np.ndarray, int, np.ndarray]:
+          max_iter: int = MAX_KRYLOV) -> tuple[np.ndarray, int, np.ndarray]:
     """Flexible GMRES (Saad 1993) for A x = b: (x, iterations, the square Arnoldi matrix
     of A M^-1). Flexible: the preconditioned vectors z_j = M^-1 v_j are kept and x is
     their combination, so a preconditioner that is linear only to its rounding (single
     precision factors) costs no accuracy. Classical Gram-Schmidt done twice (as accurate
     as the modified one, in matrix products). LinAlgError without convergence to
-    ||b - A x|| <= rtol ||b|| in max_iter iterations (``strict``; else the best iterate)."""
+    ||b - A x|| <= rtol ||b|| in max_iter iterations."""
     n = b.size
     beta = float(np.linalg.norm(b))
     if beta == 0.0:
@@ -436,7 +439,7 @@ def gmres(apply, precondition, b: np.ndarray, rtol: float = RTOL,
         col[j], col[j + 1] = r, 0.0
         R[: j + 2, j] = col
         g[j], g[j + 1] = rot[j, 0] * g[j], -rot[j, 1] * g[j]
-        if abs(g[j + 1]) <= rtol * beta or norm == 0.0 or (j + 1 == max_iter and not strict):
+        if abs(g[j + 1]) <= rtol * beta or norm == 0.0:
             y = sla.solve_triangular(R[: j + 1, : j + 1], g[: j + 1], check_finite=False)
             return Z[: j + 1].T @ y, j + 1, Hs[: j + 1, : j + 1]
         V[j + 1] = w / norm
