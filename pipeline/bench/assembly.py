@@ -9,7 +9,7 @@ mesh and the reduced bodies (cached under --cache), the assembly model, the firs
 (linear guesses, scales, Newton from cold) and then --points arclength points from there.
 Printed: unknowns, time before the first point, median time per point, Newton iterations
 per point, GMRES iterations per Newton solve and preconditioners made (the structured
-Newton, from hbm.STRUCTURED_FROM unknowns on), peak memory, and the dense LU of the unknowns
+Newton, where hbm.structured_by_default picks it), peak memory, and the dense LU of the unknowns
 at this machine's measured rate (a 400 x 400 LU in the same process): what every Newton
 iteration paid before the structured Newton, and "x LU" the time per point over it. Last,
 the growth exponent of time per point against the number of unknowns (3 is the LU's). A
@@ -41,14 +41,14 @@ def unknowns(n_axial: int, n_flank: int, H: int) -> int:
 
 def factorization_seconds(n: int, H: int, rate: float) -> float:
     """The one factorization a configuration cannot avoid, at ``rate`` flop/s: the dense LU
-    of the n unknowns below hbm.STRUCTURED_FROM, else the preconditioner's per-order LU and
+    of the n unknowns where hbm.structured_by_default says dense, else the per-order LU and
     inverse (order 0 real, H complex orders of n / (2H + 1) DOFs, 4 real flops per complex
     one; in single precision, counted as double)."""
-    from microslip.pipeline.solve.hbm import STRUCTURED_FROM
+    from microslip.pipeline.solve.hbm import structured_by_default
 
-    if n < STRUCTURED_FROM:
-        return 2.0 / 3.0 * n**3 / rate
     nd = n / (2 * H + 1)
+    if not structured_by_default(round(nd), 2 * H + 1):
+        return 2.0 / 3.0 * n**3 / rate
     return 2.0 * (1 + 4 * H) * nd**3 / rate  # LU (2/3) and inverse (4/3) per order
 
 
@@ -128,8 +128,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--points", type=int, default=10, help="arclength points timed")
     parser.add_argument("--budget", type=float, default=60.0,
                         help="skip a configuration whose one factorization (the dense LU "
-                             "below hbm.STRUCTURED_FROM unknowns, else the preconditioner's "
-                             "per-order ones) would take longer [s]")
+                             "where hbm.structured_by_default says dense, else the "
+                             "preconditioner's per-order ones) would take longer [s]")
     parser.add_argument("--threads", type=int, default=1,
                         help="BLAS threads of each configuration (default 1)")
     parser.add_argument("--cache", default=".microslip-cache/bench-assembly",
