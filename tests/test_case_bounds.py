@@ -202,3 +202,12 @@ def test_no_note_below_the_sampling_limit():
     assert len(cases.notes(data)) == 1
     for name in ("blade_damper", "normal_load", "plane_circular", "sdof_wall"):
         assert cases.notes(cases.load(CASES / f"{name}.toml").data) == [], name
+
+
+def test_an_unknown_jacobian_is_one_line_naming_the_choices():
+    data = sdof(max=1)
+    data["solver"] = {"jacobian": "lu"}
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
+    assert err.value.faults == ["solver.jacobian = 'lu': expected one of 'auto', 'dense', "
+                                "'structured'"]
