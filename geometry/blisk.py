@@ -65,6 +65,7 @@ from ._shapes import (
     rotate_z,
     staggered_blade,
 )
+from .averaging import averaged_patch, cells_per_edge
 from .mesh import Mesh
 from .params import (
     GeometryBuildError,
@@ -103,8 +104,10 @@ class BliskParameters:
     density: float = param(7850.0, "kg/m^3", 1.0, 25000.0, "damper density (steel)")
     size: float = positive_length(0.008, "global tet size")
     blade_size: float = positive_length(0.004, "tet size in the blade")
-    contact_n_axial: int = grid_count(9, "contact grid nodes along the axis (n1)")
-    contact_n_flank: int = grid_count(4, "contact grid nodes along the flank (n2)")
+    contact_n_axial: int = grid_count(9, "contact points along the axis (n1)")
+    contact_n_flank: int = grid_count(4, "contact points along the flank (n2)")
+    contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the contact flanks; "
+                                "0: the contact grid is the mesh (one node per point)")
 
     # ------------------------------------------------------------ derived shape
     @property
@@ -296,6 +299,16 @@ def _blade(p: BliskParameters) -> int:
                            p.blade_thickness, p.blade_stagger)
 
 
+def _flank_nodes(p: BliskParameters, e1: np.ndarray, e2: np.ndarray) -> tuple[int, int]:
+    """Nodes of a flank's mesh along its axis (e1) and up the flank (e2): the contact
+    grid's, or with ``contact_size`` a finer mesh whose edges lie on the contact cells'
+    borders."""
+    if p.contact_size <= 0.0:
+        return p.contact_n_axial, p.contact_n_flank
+    return (cells_per_edge(float(np.linalg.norm(e1)), p.contact_n_axial, p.contact_size) + 1,
+            cells_per_edge(float(np.linalg.norm(e2)), p.contact_n_flank, p.contact_size) + 1)
+
+
 def _patch_surfaces(p: BliskParameters, blisk: int, damper: int, rects) -> dict:
     """{patch: (damper face, blisk face)} located by centre and area."""
     blisk_faces = g.boundary_surfaces([(3, blisk)])
@@ -317,13 +330,13 @@ def _mesh_and_read(p: BliskParameters, blisk: int, damper: int, rects) -> Mesh:
     left, right = cyclic_faces([blisk], p.sectors)
     g.set_periodic_rotation(left, right, p.phi)
     patches = _patch_surfaces(p, blisk, damper, rects)
-    n1, n2 = p.contact_n_axial, p.contact_n_flank
+    spacing = 0.0
     for name, faces in patches.items():
-        e1 = rects[name][1]
+        e1, e2 = rects[name][1:3]
+        n1, n2 = _flank_nodes(p, e1, e2)
         for face in faces:
             g.set_transfinite_rectangle(face, e1, n1, n2)
-    spacing = max(p.damper_length / (n1 - 1),
-                  np.linalg.norm(rects["damper_left"][2]) / (n2 - 1))
+        spacing = max(spacing, np.linalg.norm(e1) / (n1 - 1), np.linalg.norm(e2) / (n2 - 1))
     patch_faces = [f for faces in patches.values() for f in faces]
     x_blade = p.r_platform
     ty, tz = p.blade_half_extent
@@ -360,13 +373,25 @@ def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
         "damper/all": np.unique(t_damper),
     }
     contacts = {}
+    points, averages, weights = r.points, [], []
     for name, (f_damper, f_blisk) in patches.items():
         nd, nb = r.surface_nodes([f_damper]), r.surface_nodes([f_blisk])
-        sets[f"contact/{name}/damper"], sets[f"contact/{name}/blisk"] = nd, nb
         offset = 1 if name == "damper_right" else 0
-        contacts[name] = g.contact_patch(
-            name, r.points, "damper", nd, "blisk", nb, rects[name], p.contact_n_axial,
-            p.contact_n_flank, b_angle=offset * p.phi, b_sector_offset=offset)
+        if p.contact_size > 0.0:  # points averaging cells of the finer flank mesh
+            sides = (("damper", {"tetra": t_damper}, nd), ("blisk", {"tetra": t_blisk}, nb))
+            patch, xyz, rows, w = averaged_patch(
+                name, points, len(points), sides, rects[name], p.contact_n_axial,
+                p.contact_n_flank, b_angle=offset * p.phi, b_sector_offset=offset)
+            points = np.vstack([points, xyz])
+            averages.append(rows)
+            weights.append(w)
+            nd, nb = np.sort(patch.nodes_a.ravel()), np.sort(patch.nodes_b.ravel())
+        else:
+            patch = g.contact_patch(
+                name, r.points, "damper", nd, "blisk", nb, rects[name], p.contact_n_axial,
+                p.contact_n_flank, b_angle=offset * p.phi, b_sector_offset=offset)
+        sets[f"contact/{name}/damper"], sets[f"contact/{name}/blisk"] = nd, nb
+        contacts[name] = patch
     derived = {
         "sector_angle": p.phi,
         "cad_volume": cad,
@@ -379,7 +404,9 @@ def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
     }
     return Mesh(
         model="blisk_sector",
-        points=r.points,
+        points=points,
+        averages=np.vstack(averages) if averages else np.empty((0, 2), np.int64),
+        average_weights=np.concatenate(weights) if weights else np.empty(0),
         curved_edges=r.curved_edges,
         edge_nodes=r.edge_nodes,
         tetrahedra=tets,

@@ -352,6 +352,12 @@ class Mesh:
                 (``fe.fem``), at either field order.
     supports:   name -> :class:`Support`: the nodes the file holds (an imported deck's
                 ``*BOUNDARY``), each within one body
+    averages:   (a, 2) int64 rows (point, node), and average_weights: (a,) float64: points
+                that belong to no element and move as a weighted average of nodes of one
+                body, u(point) = sum of w u(node) over its rows (weights > 0, summing to 1;
+                the point sits at the weighted mean of its nodes). A contact point standing
+                for a patch of a finer surface mesh is one (its force goes back to the
+                nodes with the same weights): the contact grid apart from the mesh.
     """
 
     model: str
@@ -367,6 +373,8 @@ class Mesh:
     curved_edges: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
     edge_nodes: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
     supports: dict[str, Support] = field(default_factory=dict)
+    averages: np.ndarray = field(default_factory=lambda: np.empty((0, 2), np.int64))
+    average_weights: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     # ------------------------------------------------------------------ checks
     def __post_init__(self) -> None:
@@ -394,6 +402,7 @@ class Mesh:
         n = len(points)
         self._check_curved_edges(n)
         object.__setattr__(self, "bodies", self._checked_bodies(self.element_count))
+        self._check_averages(n)
         object.__setattr__(self, "node_sets", self._checked_node_sets(n))
         self._check_cyclic()
         self._check_contacts()
@@ -421,6 +430,46 @@ class Mesh:
             raise MeshValidationError("edge_nodes: non-finite coordinates")
         object.__setattr__(self, "curved_edges", pairs)
         object.__setattr__(self, "edge_nodes", _frozen(xyz))
+
+    def _check_averages(self, n: int) -> None:
+        rows = _index_array("averages", self.averages, 2).reshape(-1, 2)
+        w = np.asarray(self.average_weights, dtype=np.float64).reshape(-1)
+        if len(w) != len(rows):
+            raise MeshValidationError(f"average_weights: {len(w)} weights for {len(rows)} "
+                                      "rows of averages")
+        object.__setattr__(self, "averages", rows)
+        object.__setattr__(self, "average_weights", _frozen(w))
+        if not len(rows):
+            return
+        if rows.min() < 0 or rows.max() >= n:
+            raise MeshValidationError(f"averages: indices outside [0, {n})")
+        if not np.all(np.isfinite(w)) or w.min() <= 0.0:
+            raise MeshValidationError("average_weights: every weight must be > 0")
+        points, row = np.unique(rows[:, 0], return_inverse=True)
+        element_nodes = self._nodes_of(np.arange(self.element_count))
+        if np.isin(points, element_nodes).any() or np.isin(rows[:, 1], points).any():
+            raise MeshValidationError("averages: an averaged point is a node of an element "
+                                      "or of another average")
+        total = np.bincount(row, w, len(points))
+        if np.abs(total - 1.0).max() > 1e-9:
+            raise MeshValidationError("average_weights: the weights of a point do not sum "
+                                      "to 1")
+        owner = np.full(n, -1)
+        for i, body in enumerate(self.bodies):
+            owner[self.body_nodes(body)] = i
+        body = owner[rows[:, 1]]
+        if body.min() < 0:
+            raise MeshValidationError("averages: a node averaged is in no element")
+        lo = np.full(len(points), len(self.bodies))
+        np.minimum.at(lo, row, body)
+        if np.any(lo[row] != body):
+            raise MeshValidationError("averages: a point averages nodes of two bodies")
+        mean = np.zeros((len(points), 3))
+        np.add.at(mean, row, w[:, None] * self.points[rows[:, 1]])
+        err = np.abs(mean - self.points[points]).max()
+        if err > MATCH_TOL:
+            raise MeshValidationError(f"averages: a point is {err:.3e} m off the weighted "
+                                      "mean of its nodes")
 
     def _checked_bodies(self, n_elements: int) -> dict[str, np.ndarray]:
         if not self.bodies:
@@ -481,7 +530,7 @@ class Mesh:
             for body, nodes in ((patch.body_a, patch.nodes_a), (patch.body_b, patch.nodes_b)):
                 if body not in self.bodies:
                     raise MeshValidationError(f"contacts[{name!r}]: unknown body {body!r}")
-                if not np.all(np.isin(nodes, self.body_nodes(body))):
+                if not np.all(np.isin(nodes, self.body_points(body))):
                     raise MeshValidationError(f"contacts[{name!r}]: nodes outside body {body!r}")
             if patch.b_sector_offset and patch.body_b not in self.cyclic:
                 raise MeshValidationError(
@@ -549,6 +598,29 @@ class Mesh:
     def body_nodes(self, body: str) -> np.ndarray:
         """(k,) sorted unique int64 node indices used by the elements of ``body``."""
         return self._nodes_of(self.bodies[body])
+
+    def body_points(self, body: str) -> np.ndarray:
+        """(k,) sorted unique int64: ``body``'s nodes and the averaged points that move
+        with them (``averages``)."""
+        nodes = self.body_nodes(body)
+        mine = self.averages[np.isin(self.averages[:, 1], nodes), 0]
+        return np.union1d(nodes, mine)
+
+    def averaging(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, nodes, weights) of the averaged ``points`` (k,) among ``averages``:
+        row i of a (k, n) matrix holds the weights of points[i] (no rows for a point that
+        is not averaged)."""
+        points = np.asarray(points, dtype=np.int64).ravel()
+        order = np.argsort(points)
+        pos = np.searchsorted(points, self.averages[:, 0], sorter=order)
+        pos = np.minimum(pos, max(len(points) - 1, 0))
+        hit = (points[order[pos]] == self.averages[:, 0]) if len(points) else pos < 0
+        return order[pos[hit]], self.averages[hit, 1], self.average_weights[hit]
+
+    @property
+    def averaged_points(self) -> np.ndarray:
+        """(p,) sorted point indices that are averages of nodes (``averages``)."""
+        return np.unique(self.averages[:, 0])
 
     def sector_angle(self, body: str) -> float:
         """phi = 2 pi / Ns of a cyclic body (rad)."""
@@ -632,6 +704,9 @@ class Mesh:
             put("n", p.normal)
         for name in sorted(self.supports):
             put(f"support/{name}/{self.supports[name].digest}")
+        if len(self.averages):  # (absent from the digests of meshes without)
+            put("averages", self.averages)
+            put("average_weights", self.average_weights)
         put(json.dumps(self.parameters, sort_keys=True))
         return h.hexdigest()
 

@@ -349,6 +349,55 @@ def factorize(
     return _SuperLUFactor(lu=lu, n=int(A.shape[0]), complex_matrix=complex_matrix)
 
 
+class ConstrainedFactor:
+    """Solves of a Hermitian positive semi-definite K (n, n) under linear constraints W
+    (c, n), W of full row rank and holding K's null space (averaged masters: the contact
+    points that stand for patches of a surface): x of
+
+        K x + W^H lam = b,   W x = g.
+
+    By the augmented Lagrangian: K_a = K + a W^H W is positive definite and has the same
+    solution for any a (W x = g makes the added term vanish), so it is factorized once
+    (Cholesky), with Z = K_a^-1 W^H (n, c) and the capacitance C = W Z (c, c):
+    x = y - Z C^-1 (W y - g), y = K_a^-1 (b + a W^H g). ``a`` is the mean diagonal of K
+    over that of W^H W on its columns: the ties as stiff as the elements they hold, so
+    K_a is conditioned as K is.
+
+    ``solve(b)`` (g = 0) is the constrained inverse of K on the null space of W: the
+    shift-invert operator of the fixed-interface modes (``constraint`` tells
+    ``lowest_modes`` to start its Krylov space there).
+    """
+
+    def __init__(self, K: sp.spmatrix, W: sp.spmatrix, backend: str | None = None) -> None:
+        W = sp.csr_matrix(W)
+        WHW = (W.conj().T @ W).tocsr()
+        held = WHW.diagonal().real
+        self.alpha = float(np.abs(K.diagonal()).mean() / held[held > 0].mean())
+        self.factor = factorize(K + self.alpha * WHW, backend=backend, positive_definite=True)
+        self.n, self.backend, self.constraint = K.shape[0], self.factor.backend, W
+        self.Z = np.asarray(self.factor.solve(W.conj().T.toarray()))
+        C = np.asarray(W @ self.Z)
+        try:
+            self._cho = sla.cho_factor(0.5 * (C + C.conj().T))
+        except np.linalg.LinAlgError:
+            raise ValueError("averaged masters: their weights are linearly dependent (two "
+                             "points averaging the same nodes alike)") from None
+
+    def solve(self, b: NDArray, g: NDArray | None = None) -> NDArray:
+        """x (n,) or (n, k) for b (n,) or (n, k) and constraint values g (c,) or (c, k)
+        (None: 0)."""
+        b = np.asarray(b)
+        if g is not None:
+            b = b + self.alpha * (self.constraint.conj().T @ g)
+        y = np.asarray(self.factor.solve(b))
+        r = self.constraint @ y if g is None else self.constraint @ y - g
+        return y - self.Z @ sla.cho_solve(self._cho, r)
+
+    def free(self) -> None:
+        self.factor.free()
+        self.Z = np.empty((0, 0))
+
+
 def rayleigh_ritz(K: sp.spmatrix, M: sp.spmatrix, V: NDArray) -> tuple[NDArray, NDArray]:
     """Eigenpairs of (K, M) projected on span(V): ascending eigenvalues, M-orthonormal vectors.
 
@@ -395,9 +444,13 @@ def lowest_modes(
         raise ValueError(f"k={k!r}: number of modes must satisfy 0 < k <= n = {n}")
     if method not in ("block", "arpack"):
         raise ValueError(f"method={method!r}: 'block' or 'arpack'")
+    W = getattr(factor, "constraint", None)
     if n <= _DENSE_LIMIT or (k >= n // 2 and upper is None):
         # Small or nearly complete spectra: dense LAPACK is faster and always complete.
-        lam, V = sla.eigh(K.toarray(), M.toarray())
+        N = np.eye(n) if W is None else sla.null_space(W.toarray())
+        KN, MN = (np.asarray(A @ N) for A in (K, M))
+        lam, V = sla.eigh(N.conj().T @ KN, N.conj().T @ MN)
+        V = N @ V
         count = k if upper is None else max(k, int(np.sum(lam <= _bound(upper, lam[:k]))))
         return lam[:count], V[:, :count]
     if factor is None:
@@ -468,6 +521,8 @@ def _block_krylov(
     W = rng.standard_normal((n, b))
     if np.issubdtype(dtype, np.complexfloating):
         W = W + 1j * rng.standard_normal((n, b))
+    if getattr(factor, "constraint", None) is not None:  # start where S maps: W x = 0
+        W = factor.solve(spmm(M, W.astype(dtype)))
     cap = min(n, _BASIS * k + 3 * b)
     # Column-major: the leading columns V[:, :m] are contiguous, so BLAS reads them in place
     # (a row-major basis made every product copy n x m first: 1/3 of the eigen time).
@@ -520,8 +575,10 @@ def _block_krylov(
                 return rayleigh_ritz(K, M, X)
         W, MW = _svqb(Z, MZ)
         if W.shape[1] == 0:  # invariant subspace: continue from fresh random directions
-            W, MW, *_ = _m_orthogonalize(rng.standard_normal((n, b)).astype(dtype),
-                                        V[:, :m], MV[:, :m], M)
+            fresh = rng.standard_normal((n, b)).astype(dtype)
+            if getattr(factor, "constraint", None) is not None:
+                fresh = factor.solve(spmm(M, fresh))
+            W, MW, *_ = _m_orthogonalize(fresh, V[:, :m], MV[:, :m], M)
             W, MW = _svqb(W, MW)
         if m + W.shape[1] > _BASIS * wanted + 3 * b:
             # Thick restart on the wanted Ritz vectors and one block beyond: H is diagonal

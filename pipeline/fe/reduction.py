@@ -320,15 +320,17 @@ def reduction_key(
     cutoff: float = CUTOFF,
     f_max: float | None = None,
     loads: Iterable[str] = (),
+    averaged: AveragedMasters | None = None,
 ) -> str:
     """Content hash of the inputs of a reduction (mesh, body, material, order, constraints,
     ND, masters, modes, recovery nodes, patches, names of the projected loads, format
     version). Load vectors enter by name only: those ``reduce_body`` projects are functions
     of mesh, body, material and order, already in the hash."""
     body = model.body
-    return _key(body.mesh_hash, body.body, body.order, body.material, model.clamped_nodes,
-                model.nodal_diameter, method, master_nodes, n_modes, recovery_nodes, patches,
-                cutoff, f_max, loads, model.supports)
+    key = _key(body.mesh_hash, body.body, body.order, body.material, model.clamped_nodes,
+               model.nodal_diameter, method, master_nodes, n_modes, recovery_nodes, patches,
+               cutoff, f_max, loads, model.supports)
+    return key if averaged is None else _hash([key, averaged.digest])
 
 
 def _key(mesh_hash: str, body: str, order: int, material: Material, clamped: IntArray,
@@ -423,6 +425,74 @@ def _recovery_rows(model: cyclic.SectorModel, nodes: IntArray) -> sp.csr_matrix:
     return model.expansion[dofs]
 
 
+@dataclass(frozen=True)
+class AveragedMasters:
+    """Masters that are weighted averages of body nodes (``geometry.mesh.Mesh.averages``:
+    contact points standing for patches of a finer surface mesh).
+
+    points: (p,) their indices; rows, nodes, weights: (a,) the averaging, u(points[rows[k]])
+    gets weights[k] u(nodes[k]); xyz: (p, 3) their positions [m].
+    """
+
+    points: IntArray
+    rows: IntArray
+    nodes: IntArray
+    weights: NDArray[np.float64]
+    xyz: NDArray[np.float64]
+
+    @property
+    def digest(self) -> str:
+        h = hashlib.sha256()
+        for a in (self.points, self.rows, self.nodes, self.weights):
+            h.update(np.ascontiguousarray(a).tobytes())
+        return h.hexdigest()
+
+
+def averaged_masters(mesh: MeshLike, masters: IntArray) -> AveragedMasters | None:
+    """The averaged points among ``masters`` (None: every master is a node)."""
+    averages = getattr(mesh, "averages", None)
+    if averages is None or not len(averages):
+        return None
+    points = np.intersect1d(masters, mesh.averaged_points)
+    if not len(points):
+        return None
+    rows, nodes, weights = mesh.averaging(points)
+    return AveragedMasters(points, rows, nodes, weights, mesh.points[points])
+
+
+def _averaging(model: cyclic.SectorModel, averaged: AveragedMasters, order: IntArray
+               ) -> sp.csr_matrix:
+    """(3p, n_f) W: row 3 i + d is direction d of averaged point ``order[i]`` as a
+    combination of the free coordinates (through the cyclic expansion: a node on the
+    face that follows the other enters by its image there)."""
+    where = np.empty(len(averaged.points), np.int64)
+    where[np.searchsorted(averaged.points, order)] = np.arange(len(order))
+    dofs = model.body.dofs_of_nodes(averaged.nodes, "averaged nodes")  # (a, 3)
+    rows = 3 * where[averaged.rows][:, None] + np.arange(3)
+    W = sp.csr_matrix((np.repeat(averaged.weights, 3), (rows.ravel(), dofs.ravel())),
+                      shape=(3 * len(order), model.body.n_dofs))
+    return (W @ model.expansion).tocsr()
+
+
+def _master_block(A_mm: NDArray, A_sm: sp.spmatrix, A_ss: sp.spmatrix, Psi: NDArray,
+                  cols: IntArray) -> NDArray:
+    """[E; Psi]^H A [E; Psi] (c, c) of a Hermitian A partitioned into masters m and slaves
+    s: E (n_m, c) puts the master nodes' coordinates at ``cols`` of the c master
+    coordinates, Psi (n_s, c) the static modes. Blockwise, so that only Psi and one block
+    are held."""
+    c = Psi.shape[1]
+    X = A_sm.conj().T @ Psi  # (n_m, c)
+    out = np.zeros((c, c), dtype=np.result_type(Psi.dtype, A_mm.dtype))
+    out[np.ix_(cols, cols)] = A_mm
+    out[cols] += X
+    out[:, cols] += X.conj().T
+    for j in range(0, c, _BLOCK):
+        block = slice(j, min(j + _BLOCK, c))
+        W = linalg.spmm(A_ss, Psi[:, block])
+        out[:, block] += (W.conj().T @ Psi).conj().T  # Psi^H W without copying Psi^H
+    return 0.5 * (out + out.conj().T)
+
+
 def craig_bampton(
     model: cyclic.SectorModel,
     master_nodes: Sequence[int] | IntArray,
@@ -436,6 +506,7 @@ def craig_bampton(
     f_max: float | None = None,
     eigen_method: str = "block",
     loads: Mapping[str, NDArray] | None = None,
+    averaged: AveragedMasters | None = None,
 ) -> ReducedModel:
     """Craig-Bampton reduction of a sector model (one body, one ND).
 
@@ -452,6 +523,10 @@ def craig_bampton(
         see ``linalg.lowest_modes``.
     loads: name -> (N,) FE load vector on the body DOFs (e.g. ``fem.centrifugal_load``),
         projected as T^H P_h^H f = [f_m + Psi^H f_s ; Phi_s^H f_s] into ``ReducedModel.loads``.
+    averaged: the masters that are averages of body nodes (``averaged_masters``): their
+        coordinates are W u, the static modes the least-energy fields with W u = e_j (and
+        W u = 0 for the nodes' columns), the fixed-interface modes those with W u = 0
+        (``linalg.ConstrainedFactor``); a force on them reaches the nodes as W^H f.
     All inputs are checked before any factorization.
     """
     selection = n_modes
@@ -459,7 +534,10 @@ def craig_bampton(
     recovery = np.unique(np.asarray(recovery_nodes, dtype=np.int64))
     if len(masters) == 0:
         raise ValueError("master_nodes: at least one master node is required for Craig-Bampton")
-    m_idx = model.free_index(masters, "master_nodes").ravel()
+    is_averaged = (np.isin(masters, averaged.points) if averaged is not None
+                   else np.zeros(len(masters), bool))
+    m_idx = model.free_index(masters[~is_averaged], "master_nodes").ravel()
+    cols = (3 * np.flatnonzero(~is_averaged)[:, None] + np.arange(3)).ravel()
     n_f = model.n_free
     n_s = n_f - len(m_idx)
     _check_selection(n_modes, cutoff, f_max, n_s)
@@ -489,13 +567,26 @@ def craig_bampton(
     dtype = np.result_type(K.dtype, M.dtype)
 
     t0 = time.perf_counter()
-    factor = linalg.factorize(K_ss, backend=backend, positive_definite=True)
+    n_m, n_c = len(m_idx), 3 * len(masters)
+    if is_averaged.any():
+        W = _averaging(model, averaged, masters[is_averaged])
+        W_s, W_m = W[:, s_idx], W[:, m_idx].tocsc()
+        factor = linalg.ConstrainedFactor(K_ss, W_s, backend)
+    else:
+        factor = linalg.factorize(K_ss, backend=backend, positive_definite=True)
     t1 = time.perf_counter()
-    n_m = len(m_idx)
-    Psi = np.empty((n_s, n_m), dtype=dtype, order="F")
+    Psi = np.empty((n_s, n_c), dtype=dtype, order="F")
     for j in range(0, n_m, _BLOCK):
-        cols = slice(j, min(j + _BLOCK, n_m))
-        Psi[:, cols] = factor.solve((-K_sm[:, cols]).toarray())  # negated while sparse
+        block = slice(j, min(j + _BLOCK, n_m))
+        if is_averaged.any():  # u_m = e_j, W u = 0
+            Psi[:, cols[block]] = factor.solve((-K_sm[:, block]).toarray(),
+                                               (-W_m[:, block]).toarray())
+        else:
+            Psi[:, cols[block]] = factor.solve((-K_sm[:, block]).toarray())  # negated sparse
+    if is_averaged.any():  # u_m = 0, W u = e_j
+        tied = (3 * np.flatnonzero(is_averaged)[:, None] + np.arange(3)).ravel()
+        Psi[:, tied] = factor.solve(np.zeros((n_s, len(tied)), dtype),
+                                    np.eye(len(tied), dtype=dtype))
     t2 = time.perf_counter()
     if n_modes == "auto" and n_s > 0:
         if f_max is None:
@@ -515,40 +606,39 @@ def craig_bampton(
     factor.free()
     t3 = time.perf_counter()
 
-    # Reduced stiffness: Schur complement (Hermitian part) and the modal diagonal.
-    K_hat = K_mm + (K_sm.conj().T @ Psi)
-    K_hat = 0.5 * (K_hat + K_hat.conj().T)
-    # Reduced mass, blockwise so that only Psi and one block are held.
-    M_hat = M_mm + M_sm.conj().T @ Psi
-    M_hat = M_hat + M_hat.conj().T - M_mm
-    for j in range(0, n_m, _BLOCK):
-        cols = slice(j, min(j + _BLOCK, n_m))
-        W = linalg.spmm(M_ss, Psi[:, cols])
-        M_hat[:, cols] += (W.conj().T @ Psi).conj().T  # Psi^H W without copying Psi^H
-    M_hat = 0.5 * (M_hat + M_hat.conj().T)
+    # Reduced stiffness: the Schur complement (Hermitian part) where every master is a node
+    # (K_ss Psi = -K_sm), the whole quadratic form where some are averages (there K_ss Psi
+    # = -K_sm - W^H lam); the modal diagonal.
+    if is_averaged.any():
+        K_hat = _master_block(K_mm, K_sm, K_ss, Psi, cols)
+    else:
+        K_hat = K_mm + (K_sm.conj().T @ Psi)
+        K_hat = 0.5 * (K_hat + K_hat.conj().T)
+    M_hat = _master_block(M_mm, M_sm, M_ss, Psi, cols)
     M_SPhi = linalg.spmm(M_ss, Phi)
-    M_meta = M_sm.conj().T @ Phi + (M_SPhi.conj().T @ Psi).conj().T
+    M_meta = (M_SPhi.conj().T @ Psi).conj().T
+    M_meta[cols] += M_sm.conj().T @ Phi
     M_eta = Phi.conj().T @ M_SPhi
     M_eta = 0.5 * (M_eta + M_eta.conj().T)
 
-    r = n_m + n_modes
+    r = n_c + n_modes
     k_red = np.zeros((r, r), dtype=dtype)
     m_red = np.zeros((r, r), dtype=dtype)
-    k_red[:n_m, :n_m] = K_hat
-    k_red[n_m:, n_m:] = np.diag(lam)
-    m_red[:n_m, :n_m] = M_hat
-    m_red[:n_m, n_m:] = M_meta
-    m_red[n_m:, :n_m] = M_meta.conj().T
-    m_red[n_m:, n_m:] = M_eta
+    k_red[:n_c, :n_c] = K_hat
+    k_red[n_c:, n_c:] = np.diag(lam)
+    m_red[:n_c, :n_c] = M_hat
+    m_red[:n_c, n_c:] = M_meta
+    m_red[n_c:, :n_c] = M_meta.conj().T
+    m_red[n_c:, n_c:] = M_eta
 
     # Recovery rows: u_body = P (u_free), u_free[m] = q_m, u_free[s] = Psi q_m + Phi eta.
     if len(recovery):
         rows = _recovery_rows(model, recovery)
         R = np.zeros((rows.shape[0], r), dtype=np.result_type(dtype, rows.dtype))
-        R[:, :n_m] = rows[:, m_idx].toarray()
+        R[:, cols] = rows[:, m_idx].toarray()
         Rs = rows[:, s_idx]
-        R[:, :n_m] += Rs @ Psi
-        R[:, n_m:] = Rs @ Phi
+        R[:, :n_c] += Rs @ Psi
+        R[:, n_c:] = Rs @ Phi
         R = R.reshape(len(recovery), 3, r)
     else:
         R = np.zeros((0, 3, r), dtype=dtype)
@@ -559,8 +649,9 @@ def craig_bampton(
     for name, f in _free_loads(model, loads).items():
         f_s = f[s_idx].conj()
         red = np.empty(r, dtype=np.result_type(dtype, f.dtype))
-        red[:n_m] = f[m_idx] + (Psi.T @ f_s).conj()
-        red[n_m:] = (Phi.T @ f_s).conj()
+        red[:n_c] = (Psi.T @ f_s).conj()
+        red[cols] += f[m_idx]
+        red[n_c:] = (Phi.T @ f_s).conj()
         reduced_loads[name] = red
     t4 = time.perf_counter()
     if timings is not None:
@@ -573,7 +664,7 @@ def craig_bampton(
         stiffness=k_red,
         mass=m_red,
         master_nodes=masters,
-        master_coordinates=model.body.points[model.body.local_nodes(masters)],
+        master_coordinates=_master_xyz(model, masters, is_averaged, averaged),
         n_modes=int(n_modes),
         mode_frequencies=np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi),
         recovery_nodes=recovery,
@@ -583,9 +674,20 @@ def craig_bampton(
         patches=patches,
         damping_spec=damping,
         key=reduction_key(model, "craig-bampton", masters, selection, recovery, patches,
-                          cutoff, f_max, loads),
+                          cutoff, f_max, loads, averaged),
         loads=reduced_loads,
     )
+
+
+def _master_xyz(model: cyclic.SectorModel, masters: IntArray, is_averaged: NDArray,
+                averaged: AveragedMasters | None) -> NDArray[np.float64]:
+    """(n_m, 3) [m] the masters' positions (nodes' and averaged points')."""
+    xyz = np.empty((len(masters), 3))
+    xyz[~is_averaged] = model.body.points[model.body.local_nodes(masters[~is_averaged])]
+    if is_averaged.any():
+        xyz[is_averaged] = averaged.xyz[np.searchsorted(averaged.points,
+                                                        masters[is_averaged])]
+    return xyz
 
 
 def modal_reduction(
@@ -813,7 +915,8 @@ def reduce_body(
             try:
                 model = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
                                       spec.damping, backend, cutoff=spec.cutoff,
-                                      f_max=spec.f_max, loads=loads)
+                                      f_max=spec.f_max, loads=loads,
+                                      averaged=averaged_masters(mesh, master_nodes))
             except linalg.EigenSolverError as err:
                 raise ReductionError(_eigen_failure(spec, h, sector.n_free, backend,
                                                     boundary is not None, err)) from err

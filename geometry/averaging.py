@@ -1,0 +1,111 @@
+"""The contact grid apart from the mesh: each contact point stands for a cell of a finer
+surface mesh and moves with it.
+
+A structured contact face (a planar rectangle ``origin + s e1 + t e2``, s, t in [0, 1]) is
+cut into n1 x n2 equal cells; the face is meshed finer, its element edges on the cell
+borders (so every facet lies in one cell). Contact point (i, j) is the cell's average:
+
+    u_ij = sum_k w_k u_k,   w_k = int_cell N_k dA / A_cell   (N_k: node k's shape function),
+
+at the cell's centre (the same average of the node positions: a linear field is read
+exactly there). Its force F goes back to the nodes as w_k F, so a uniform pressure p
+(F = p A_cell at every point) arrives as p int N_k dA: the consistent nodal loads, as if the
+pressure acted on the fine mesh. Every point holds A / (n1 n2) of the contact's stiffness.
+The weights live in the mesh (``Mesh.averages``); the reduction makes the averaged points
+masters (``fe.reduction.craig_bampton``, ``averaged=``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .mesh import ContactPatch, rotation_z
+from .pairing import nodal_areas_and_normals
+from .params import GeometryBuildError
+from .surfaces import Surface, surface_of
+
+
+def cells_per_edge(length: float, cells: int, size: float) -> int:
+    """Elements along an edge of ``length`` [m] cut into ``cells`` contact cells, at most
+    ``size`` [m] long, a whole number per cell (their edges on the cell borders)."""
+    return cells * max(1, math.ceil(length / (cells * size) - 1e-9))
+
+
+def cell_of_facets(points: np.ndarray, surface: Surface, rect, n1: int, n2: int
+                   ) -> tuple[Surface, np.ndarray]:
+    """(facets, (F,) cell index i n2 + j) of a face's facets on the n1 x n2 cells of
+    ``rect = (origin, e1, e2, ...)``; GeometryBuildError where a facet crosses a cell
+    border (the mesh is not aligned with the cells)."""
+    origin, e1, e2 = (np.asarray(v, float) for v in rect[:3])
+    facets = [f for f in (surface.triangles, surface.quads) if len(f)]
+    corners = [points[f] - origin for f in facets]  # (F, c, 3) each
+    out = []
+    for rel in corners:
+        s = rel @ e1 / (e1 @ e1) * n1
+        t = rel @ e2 / (e2 @ e2) * n2
+        i = np.clip(np.floor(s.mean(axis=1)), 0, n1 - 1).astype(np.int64)
+        j = np.clip(np.floor(t.mean(axis=1)), 0, n2 - 1).astype(np.int64)
+        tol = 1e-6
+        inside = ((s >= i[:, None] - tol) & (s <= i[:, None] + 1 + tol)
+                  & (t >= j[:, None] - tol) & (t <= j[:, None] + 1 + tol))
+        if not inside.all():
+            raise GeometryBuildError(f"contact face: a facet crosses a border of the {n1} x "
+                                     f"{n2} contact cells (the mesh is not aligned with them)")
+        out.append(i * n2 + j)
+    return surface, np.concatenate(out)
+
+
+def cell_averages(points: np.ndarray, surface: Surface, cell: np.ndarray, n_cells: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(rows, nodes, weights) (a,) and positions (n_cells, 3) [m] of the cells' averages:
+    row c holds w_k = int_cell N_k dA / A_cell of the nodes of the facets in cell c
+    (``cell`` (F,), triangles first, then quads, as ``surface`` lists them)."""
+    n_tri = len(surface.triangles)
+    rows, nodes, weights = [], [], []
+    xyz = np.zeros((n_cells, 3))
+    for c in range(n_cells):
+        mine = np.flatnonzero(cell == c)
+        tri, quad = mine[mine < n_tri], mine[mine >= n_tri] - n_tri
+        part = Surface(surface.triangles[tri].reshape(-1, 3), surface.quads[quad].reshape(-1, 4))
+        if not len(part.nodes):
+            raise GeometryBuildError(f"contact cell {c}: no facet of the face lies in it")
+        k, area, _ = nodal_areas_and_normals(points, part)
+        w = area / area.sum()
+        rows.append(np.full(len(k), c))
+        nodes.append(k)
+        weights.append(w)
+        xyz[c] = w @ points[k]
+    return np.concatenate(rows), np.concatenate(nodes), np.concatenate(weights), xyz
+
+
+def averaged_patch(name: str, points: np.ndarray, first: int,
+                   sides: tuple[tuple[str, dict, np.ndarray], tuple[str, dict, np.ndarray]],
+                   rect, n1: int, n2: int, b_angle: float = 0.0, b_sector_offset: int = 0
+                   ) -> tuple[ContactPatch, np.ndarray, np.ndarray, np.ndarray]:
+    """A contact patch of n1 x n2 averaged points on each side.
+
+    sides: ((body, cells, face nodes), ...) of side a and side b (cells: the body's
+    elements by shape, as ``Mesh.body_cells``); rect = (origin, e1, e2, normal) in side
+    a's (assembled) position; side b's face is its image turned by ``b_angle``. New points
+    are numbered from ``first``. Returns (patch, new points (2 n1 n2, 3), averages (a, 2),
+    weights (a,)).
+    """
+    origin, e1, e2, normal = (np.asarray(v, float) for v in rect)
+    rot = rotation_z(-b_angle)  # side b's own face
+    k = n1 * n2
+    new, pairs, weights, grids = [], [], [], []
+    for side, (_, cells, face) in enumerate(sides):
+        r = (origin, e1, e2) if side == 0 else (rot @ origin, rot @ e1, rot @ e2)
+        surface, cell = cell_of_facets(points, surface_of(cells, face), r, n1, n2)
+        rows, nodes, w, xyz = cell_averages(points, surface, cell, k)
+        ids = first + side * k + np.arange(k)
+        new.append(xyz)
+        pairs.append(np.column_stack([ids[rows], nodes]))
+        weights.append(w)
+        grids.append(ids.reshape(n1, n2))
+    area = float(np.linalg.norm(np.cross(e1, e2)))
+    patch = ContactPatch(name, sides[0][0], sides[1][0], grids[0], grids[1], normal, area,
+                         b_sector_offset)
+    return patch, np.vstack(new), np.vstack(pairs), np.concatenate(weights)
