@@ -109,3 +109,54 @@ def averaged_patch(name: str, points: np.ndarray, first: int,
     patch = ContactPatch(name, sides[0][0], sides[1][0], grids[0], grids[1], normal, area,
                          b_sector_offset)
     return patch, np.vstack(new), np.vstack(pairs), np.concatenate(weights)
+
+
+class ContactGrids:
+    """The structured contact patches of a parametric model as its mesh is read: node grids
+    (``size`` 0: the contact grid is the mesh) or averaged points over a finer mesh."""
+
+    def __init__(self, points: np.ndarray, size: float) -> None:
+        self.points, self.size = points, float(size)
+        self._averages: list[np.ndarray] = []
+        self._weights: list[np.ndarray] = []
+
+    def mesh_nodes(self, n1: int, n2: int, e1: np.ndarray, e2: np.ndarray
+                   ) -> tuple[int, int]:
+        """Nodes of a contact face's structured mesh along e1 and e2 [m]: the contact
+        grid's, or a finer mesh whose edges lie on the cells' borders."""
+        if self.size <= 0.0:
+            return n1, n2
+        return (cells_per_edge(float(np.linalg.norm(e1)), n1, self.size) + 1,
+                cells_per_edge(float(np.linalg.norm(e2)), n2, self.size) + 1)
+
+    def patch(self, name: str, side_a: tuple[str, dict, np.ndarray],
+              side_b: tuple[str, dict, np.ndarray], rect, n1: int, n2: int,
+              b_angle: float = 0.0, b_sector_offset: int = 0) -> ContactPatch:
+        """The patch of faces ``side_a``/``side_b`` = (body, cells, face nodes) on
+        ``rect = (origin, e1, e2, normal)``."""
+        if self.size <= 0.0:
+            from ._gmsh import contact_patch
+
+            return contact_patch(name, self.points, side_a[0], side_a[2], side_b[0],
+                                 side_b[2], rect, n1, n2, b_angle, b_sector_offset)
+        patch, xyz, rows, w = averaged_patch(name, self.points, len(self.points),
+                                             (side_a, side_b), rect, n1, n2, b_angle,
+                                             b_sector_offset)
+        self.points = np.vstack([self.points, xyz])
+        self._averages.append(rows)
+        self._weights.append(w)
+        return patch
+
+    def mesh_fields(self) -> dict:
+        """The Mesh fields the patches add: points, averages, average_weights."""
+        return {"points": self.points,
+                "averages": (np.vstack(self._averages) if self._averages
+                             else np.empty((0, 2), np.int64)),
+                "average_weights": (np.concatenate(self._weights) if self._weights
+                                    else np.empty(0))}
+
+
+def patch_sets(patch: ContactPatch) -> tuple[np.ndarray, np.ndarray]:
+    """The node sets "contact/<name>/<body>" of a patch: its points on side a and side b,
+    sorted."""
+    return np.sort(patch.nodes_a.ravel()), np.sort(patch.nodes_b.ravel())

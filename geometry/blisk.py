@@ -65,7 +65,7 @@ from ._shapes import (
     rotate_z,
     staggered_blade,
 )
-from .averaging import averaged_patch, cells_per_edge
+from .averaging import ContactGrids, patch_sets
 from .mesh import Mesh
 from .params import (
     GeometryBuildError,
@@ -299,16 +299,6 @@ def _blade(p: BliskParameters) -> int:
                            p.blade_thickness, p.blade_stagger)
 
 
-def _flank_nodes(p: BliskParameters, e1: np.ndarray, e2: np.ndarray) -> tuple[int, int]:
-    """Nodes of a flank's mesh along its axis (e1) and up the flank (e2): the contact
-    grid's, or with ``contact_size`` a finer mesh whose edges lie on the contact cells'
-    borders."""
-    if p.contact_size <= 0.0:
-        return p.contact_n_axial, p.contact_n_flank
-    return (cells_per_edge(float(np.linalg.norm(e1)), p.contact_n_axial, p.contact_size) + 1,
-            cells_per_edge(float(np.linalg.norm(e2)), p.contact_n_flank, p.contact_size) + 1)
-
-
 def _patch_surfaces(p: BliskParameters, blisk: int, damper: int, rects) -> dict:
     """{patch: (damper face, blisk face)} located by centre and area."""
     blisk_faces = g.boundary_surfaces([(3, blisk)])
@@ -331,9 +321,10 @@ def _mesh_and_read(p: BliskParameters, blisk: int, damper: int, rects) -> Mesh:
     g.set_periodic_rotation(left, right, p.phi)
     patches = _patch_surfaces(p, blisk, damper, rects)
     spacing = 0.0
+    grids = ContactGrids(np.empty((0, 3)), p.contact_size)
     for name, faces in patches.items():
         e1, e2 = rects[name][1:3]
-        n1, n2 = _flank_nodes(p, e1, e2)
+        n1, n2 = grids.mesh_nodes(p.contact_n_axial, p.contact_n_flank, e1, e2)
         for face in faces:
             g.set_transfinite_rectangle(face, e1, n1, n2)
         spacing = max(spacing, np.linalg.norm(e1) / (n1 - 1), np.linalg.norm(e2) / (n2 - 1))
@@ -372,25 +363,14 @@ def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
         "cyclic/blisk/right": right_n,
         "damper/all": np.unique(t_damper),
     }
-    contacts = {}
-    points, averages, weights = r.points, [], []
+    grids, contacts = ContactGrids(r.points, p.contact_size), {}
     for name, (f_damper, f_blisk) in patches.items():
-        nd, nb = r.surface_nodes([f_damper]), r.surface_nodes([f_blisk])
         offset = 1 if name == "damper_right" else 0
-        if p.contact_size > 0.0:  # points averaging cells of the finer flank mesh
-            sides = (("damper", {"tetra": t_damper}, nd), ("blisk", {"tetra": t_blisk}, nb))
-            patch, xyz, rows, w = averaged_patch(
-                name, points, len(points), sides, rects[name], p.contact_n_axial,
-                p.contact_n_flank, b_angle=offset * p.phi, b_sector_offset=offset)
-            points = np.vstack([points, xyz])
-            averages.append(rows)
-            weights.append(w)
-            nd, nb = np.sort(patch.nodes_a.ravel()), np.sort(patch.nodes_b.ravel())
-        else:
-            patch = g.contact_patch(
-                name, r.points, "damper", nd, "blisk", nb, rects[name], p.contact_n_axial,
-                p.contact_n_flank, b_angle=offset * p.phi, b_sector_offset=offset)
-        sets[f"contact/{name}/damper"], sets[f"contact/{name}/blisk"] = nd, nb
+        patch = grids.patch(name, ("damper", {"tetra": t_damper}, r.surface_nodes([f_damper])),
+                            ("blisk", {"tetra": t_blisk}, r.surface_nodes([f_blisk])),
+                            rects[name], p.contact_n_axial, p.contact_n_flank,
+                            b_angle=offset * p.phi, b_sector_offset=offset)
+        sets[f"contact/{name}/damper"], sets[f"contact/{name}/blisk"] = patch_sets(patch)
         contacts[name] = patch
     derived = {
         "sector_angle": p.phi,
@@ -404,9 +384,7 @@ def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
     }
     return Mesh(
         model="blisk_sector",
-        points=points,
-        averages=np.vstack(averages) if averages else np.empty((0, 2), np.int64),
-        average_weights=np.concatenate(weights) if weights else np.empty(0),
+        **grids.mesh_fields(),
         curved_edges=r.curved_edges,
         edge_nodes=r.edge_nodes,
         tetrahedra=tets,

@@ -33,6 +33,7 @@ def disk_node_map(sector: Mesh) -> np.ndarray:
     used = np.zeros(n, dtype=bool)
     for c in sector.cells.values():
         used[c.ravel()] = True
+    used[sector.averaged_points] = True  # (a contact point averaging nodes: copied too)
     own = np.flatnonzero(used & ~shared_left)
     node_map[:, own] = np.arange(ns * len(own)).reshape(ns, len(own))
     for cyc in sector.cyclic.values():
@@ -107,7 +108,10 @@ def full_disk(sector: Mesh) -> Mesh:
                 node_map[k][p.nodes_a], node_map[kb % ns][p.nodes_b],
                 rotation_z(k * phi) @ p.normal, p.area)
     curved_edges, edge_nodes = _copied_curved_edges(sector, node_map, phi)
+    averages = np.vstack([node_map[k][sector.averages] for k in range(ns)])
     return Mesh(
+        averages=averages.reshape(-1, 2),
+        average_weights=np.tile(sector.average_weights, ns),
         model=f"{sector.model}_full",
         points=points,
         curved_edges=curved_edges,

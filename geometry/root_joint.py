@@ -52,6 +52,7 @@ from ._shapes import (
     rectangle_face,
     staggered_blade,
 )
+from .averaging import ContactGrids, patch_sets
 from .mesh import Mesh
 from .params import (
     GeometryBuildError,
@@ -88,8 +89,10 @@ class RootJointParameters:
     blade_stagger: float = param(30.0, "deg", 0.0, 80.0, "chord angle to the axial direction")
     size: float = positive_length(0.01, "global tet size")
     blade_size: float = positive_length(0.004, "tet size in the blade")
-    contact_n_axial: int = grid_count(9, "contact grid nodes along the axis (n1)")
-    contact_n_flank: int = grid_count(4, "contact grid nodes along the flank (n2)")
+    contact_n_axial: int = grid_count(9, "contact points along the axis (n1)")
+    contact_n_flank: int = grid_count(4, "contact points along the flank (n2)")
+    contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the contact flanks; "
+                                "0: the contact grid is the mesh (one node per point)")
 
     @property
     def phi(self) -> float:
@@ -226,11 +229,14 @@ def _build(p: RootJointParameters) -> Mesh:
     left, right = cyclic_faces([disk], p.sectors)
     g.set_periodic_rotation(left, right, p.phi)
     patches = _patch_surfaces(disk, blade, rects)
+    grids, spacing = ContactGrids(np.empty((0, 3)), p.contact_size), 0.0
     for name, faces in patches.items():
+        e1, e2 = rects[name][1:3]
+        n1, n2 = grids.mesh_nodes(p.contact_n_axial, p.contact_n_flank, e1, e2)
         for face in faces:
-            g.set_transfinite_rectangle(face, rects[name][1], p.contact_n_axial,
-                                        p.contact_n_flank)
-    _size_fields(p, rects, [f for faces in patches.values() for f in faces])
+            g.set_transfinite_rectangle(face, e1, n1, n2)
+        spacing = max(spacing, np.linalg.norm(e1) / (n1 - 1), np.linalg.norm(e2) / (n2 - 1))
+    _size_fields(p, rects, [f for faces in patches.values() for f in faces], spacing)
     gmsh.model.addPhysicalGroup(3, [disk], name="disk")
     gmsh.model.addPhysicalGroup(3, [blade], name="blade")
     gmsh.model.mesh.generate(3)
@@ -267,9 +273,8 @@ def _patch_surfaces(disk: int, blade: int, rects) -> dict[str, tuple[int, int]]:
     return out
 
 
-def _size_fields(p: RootJointParameters, rects, patch_faces: list[int]) -> None:
-    spacing = max(p.width / (p.contact_n_axial - 1),
-                  np.linalg.norm(rects["root_left"][2]) / (p.contact_n_flank - 1))
+def _size_fields(p: RootJointParameters, rects, patch_faces: list[int], spacing: float
+                 ) -> None:
     ty, tz = blade_half_extent(p.blade_chord, p.blade_thickness, p.blade_stagger)
     g.set_background_min([
         g.constant_field(p.size),
@@ -294,16 +299,17 @@ def _read(p, disk, blade, rects, patches, left, right, cad) -> Mesh:
         "blade/excitation": r.point_node(exc),
         "blade/response": r.point_node(resp),
     }
-    contacts = {}
+    grids, contacts = ContactGrids(r.points, p.contact_size), {}
     for name, (f_blade, f_disk) in patches.items():
-        nb, nd = r.surface_nodes([f_blade]), r.surface_nodes([f_disk])
-        sets[f"contact/{name}/blade"], sets[f"contact/{name}/disk"] = nb, nd
-        contacts[name] = g.contact_patch(name, r.points, "blade", nb, "disk", nd, rects[name],
-                                         p.contact_n_axial, p.contact_n_flank)
+        patch = grids.patch(name, ("blade", {"tetra": t_blade}, r.surface_nodes([f_blade])),
+                            ("disk", {"tetra": t_disk}, r.surface_nodes([f_disk])),
+                            rects[name], p.contact_n_axial, p.contact_n_flank)
+        sets[f"contact/{name}/blade"], sets[f"contact/{name}/disk"] = patch_sets(patch)
+        contacts[name] = patch
     derived = {"sector_angle": p.phi, "cad_volume": cad, "gmsh_min_sicn": g.gmsh_min_sicn()}
     return Mesh(
         model="root_joint",
-        points=r.points,
+        **grids.mesh_fields(),
         curved_edges=r.curved_edges,
         edge_nodes=r.edge_nodes,
         tetrahedra=tets,

@@ -37,6 +37,7 @@ import numpy as np
 
 from . import _gmsh as g
 from ._shapes import blade_half_extent, local_to_xyz, radial_frame, staggered_blade
+from .averaging import ContactGrids, patch_sets
 from .mesh import Mesh
 from .params import (
     GeometryBuildError,
@@ -70,8 +71,10 @@ class ShroudParameters:
     arm_clearance: float = positive_length(0.0005, "tangential gap between the shroud arms")
     size: float = positive_length(0.008, "global tet size")
     blade_size: float = positive_length(0.004, "tet size in the blade and shroud")
-    contact_n_radial: int = grid_count(3, "contact grid nodes across the shroud (n1)")
-    contact_n_along: int = grid_count(6, "contact grid nodes along the interlock (n2)")
+    contact_n_radial: int = grid_count(3, "contact points across the shroud (n1)")
+    contact_n_along: int = grid_count(6, "contact points along the interlock (n2)")
+    contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the interlock faces; "
+                                "0: the contact grid is the mesh (one node per point)")
 
     @property
     def phi(self) -> float:
@@ -192,15 +195,20 @@ def _mesh_and_read(p: ShroudParameters, blisk: int) -> Mesh:
     faces = g.boundary_surfaces([(3, blisk)])
     rect_a, rect_b = p.interlock(p.phi / 2), p.interlock(-p.phi / 2)
     patch = []
+    grids = ContactGrids(np.empty((0, 3)), p.contact_size)
     for origin, e1, e2 in (rect_a, rect_b):
         area = float(np.linalg.norm(np.cross(e1, e2)))
         face = g.surface_with_centre(faces, origin + 0.5 * (e1 + e2), area)
-        g.set_transfinite_rectangle(face, e1, p.contact_n_radial, p.contact_n_along)
+        g.set_transfinite_rectangle(face, e1, *grids.mesh_nodes(
+            p.contact_n_radial, p.contact_n_along, e1, e2))
         patch.append(face)
     ty, tz = blade_half_extent(p.blade_chord, p.blade_thickness, p.blade_stagger)
     fields = [g.constant_field(p.size),
               g.box_field(p.blade_size, p.size, (p.r_rim - p.width / 10, -p.r_tip, -p.width),
                           (p.r_tip + 2 * p.shroud_thickness, p.r_tip, p.width))]
+    if p.contact_size > 0.0:  # grade the finer interlock mesh into the shroud's
+        fields.append(g.add_distance_refinement(patch, min(p.contact_size, p.blade_size),
+                                                p.size, 3 * p.shroud_thickness))
     g.set_background_min(fields)
     gmsh.model.addPhysicalGroup(3, [blisk], name="blisk")
     gmsh.model.mesh.generate(3)
@@ -210,7 +218,6 @@ def _mesh_and_read(p: ShroudParameters, blisk: int) -> Mesh:
     bore = [f for f in faces if g.on_cylinder(f, p.r_bore)]
     outer = [f for theta in (p.phi / 2, -p.phi / 2) for f in g.surfaces_on_plane(
         faces, (p.r_tip + p.shroud_thickness) * radial_frame(theta)[0], radial_frame(theta)[0])]
-    na, nb = r.surface_nodes([patch[0]]), r.surface_nodes([patch[1]])
     mid = p.r_rim + 0.5 * p.blade_height
     edges = _blade_edges(r.points, np.unique(tets), mid, tz)
     origin, e1, e2 = rect_a
@@ -218,12 +225,15 @@ def _mesh_and_read(p: ShroudParameters, blisk: int) -> Mesh:
     normal /= np.linalg.norm(normal)
     if normal @ radial_frame(p.phi / 2)[1] < 0:  # from side a into the neighbour (+t)
         normal = -normal
-    contact = g.contact_patch("shroud", r.points, "blisk", na, "blisk", nb,
-                              (origin, e1, e2, normal), p.contact_n_radial,
-                              p.contact_n_along, b_angle=p.phi, b_sector_offset=1)
+    grids = ContactGrids(r.points, p.contact_size)
+    contact = grids.patch("shroud", ("blisk", {"tetra": tets}, r.surface_nodes([patch[0]])),
+                          ("blisk", {"tetra": tets}, r.surface_nodes([patch[1]])),
+                          (origin, e1, e2, normal), p.contact_n_radial, p.contact_n_along,
+                          b_angle=p.phi, b_sector_offset=1)
+    na, nb = patch_sets(contact)
     return Mesh(
         model="shrouded_blisk",
-        points=r.points,
+        **grids.mesh_fields(),
         curved_edges=r.curved_edges,
         edge_nodes=r.edge_nodes,
         tetrahedra=tets,

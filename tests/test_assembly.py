@@ -197,6 +197,10 @@ def test_jacobian_matches_central_differences(sector):
 
 @pytest.fixture(scope="module")
 def full_disk(sector):
+    return _full_disk(sector)
+
+
+def _full_disk(sector):
     """The same blisk as Ns rotated copies: one blisk body, Ns dampers, 2 Ns plain patches."""
     mesh, _ = sector
     full = geometry.full_disk(mesh)
@@ -249,6 +253,35 @@ def test_cyclic_sector_equals_the_full_disk(sector, full_disk, eo, mu, amplitude
                       / amp(ref.output_coefficients(*solved(ref, w))) - 1)
                   for w in (0.98 * w0, w0, 1.02 * w0))
         assert (err <= tol) == same, err
+
+
+@pytest.fixture(scope="module")
+def averaged():
+    """The sector and its full disk with each contact point averaging a cell of a finer
+    flank mesh (every point an averaged master; full disk: the averages copied)."""
+    mesh = geometry.blisk_sector(**GEOMETRY, contact_size=0.004)
+    assert len(mesh.averaged_points) == 4 * 6
+    sector = mesh, structure.reduce_structure(mesh, {**REDUCTION, "nodal_diameters": [0, 1]},
+                                              None, progress=lambda s: None)
+    return sector, _full_disk(sector)
+
+
+@pytest.mark.parametrize("mu, amplitude, rtol", [(1e4, 1.0, 1e-7), (0.5, 15.0, 1e-4)])
+def test_averaged_contact_points_cyclic_sector_equals_the_full_disk(averaged, mu, amplitude,
+                                                                    rtol):
+    """As test_cyclic_sector_equals_the_full_disk (same tolerances, same reasons), with the
+    contact points averages of the flank mesh: the averages' weights go through the cyclic
+    expansion and the neighbour's rotation as the nodes do."""
+    sector, full = averaged
+    h = Harmonics.up_to(1, 64)
+    cyc = model(sector, mu, h=h, amplitude=amplitude)
+    ref = full_disk_model(full, mu, 1, h, amplitude)
+    w0 = first_bending(sector)
+    amp = lambda c: np.hypot(c[0, 1], c[0, 2])  # noqa: E731  first-harmonic amplitude
+    err = max(abs(amp(cyc.output_coefficients(*solved(cyc, w)))
+                  / amp(ref.output_coefficients(*solved(ref, w))) - 1)
+              for w in (0.98 * w0, w0, 1.02 * w0))
+    assert err <= rtol, err
 
 
 def test_a_damper_nothing_holds_is_reported_not_solved(sector):

@@ -27,6 +27,9 @@ CASES = Path(__file__).parents[1] / "cases"
 MESHES = {
     "blisk_sector": lambda: geometry.blisk_sector(sectors=6, size=0.03, blade_size=0.012,
                                                   contact_n_axial=3, contact_n_flank=2),
+    "blisk_sector_averaged": lambda: geometry.blisk_sector(
+        sectors=6, size=0.03, blade_size=0.012, contact_n_axial=3, contact_n_flank=2,
+        contact_size=0.004),
     "root_joint": lambda: geometry.root_joint(size=0.02, blade_size=0.01),
     "shrouded_blisk": lambda: geometry.shrouded_blisk(size=0.02, blade_size=0.01),
     "beam": lambda: geometry.beam(size=0.02),
