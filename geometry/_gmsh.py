@@ -210,11 +210,12 @@ def set_periodic_rotation(left: list[int], right: list[int], angle: float) -> No
 
 
 def add_distance_refinement(surfaces: list[int], size_min: float, size_max: float,
-                            dist_max: float) -> int:
-    """Threshold field: size_min on ``surfaces`` growing to size_max at ``dist_max``."""
+                            dist_max: float, dim: int = 2) -> int:
+    """Threshold field: size_min on ``surfaces`` (curves with ``dim`` 1) growing to
+    size_max at ``dist_max``."""
     f = gmsh.model.mesh.field
     dist = f.add("Distance")
-    f.setNumbers(dist, "SurfacesList", surfaces)
+    f.setNumbers(dist, "SurfacesList" if dim == 2 else "CurvesList", surfaces)
     f.setNumber(dist, "Sampling", 20)
     thr = f.add("Threshold")
     f.setNumber(thr, "InField", dist)
@@ -223,6 +224,61 @@ def add_distance_refinement(surfaces: list[int], size_min: float, size_max: floa
     f.setNumber(thr, "DistMin", 0.0)
     f.setNumber(thr, "DistMax", dist_max)
     return thr
+
+
+def split_blade(volume: int, x_split: float, x_tip: float, chord: float, thickness: float,
+                stagger_deg: float) -> list[int]:
+    """The blade of ``volume`` cut at x = ``x_split``: [the volume below, the blade box
+    above up to ``x_tip``] (conformal at the cut, for :func:`mesh_in_layers`)."""
+    from ._shapes import staggered_blade
+
+    occ = gmsh.model.occ
+    top = staggered_blade(x_split, x_tip, chord, thickness, stagger_deg)
+    out, _ = occ.fragment([(3, volume)], [(3, top)])
+    parts = sorted((t for d, t in out if d == 3), key=lambda t: occ.getCenterOfMass(3, t)[0])
+    if len(parts) != 2:
+        raise GeometryBuildError(f"the blade split into {len(parts)} volumes, expected 2")
+    return parts
+
+
+def mesh_in_layers(volume: int, layers: int, chord: float, thickness: float, n_c: int,
+                   n_t: int) -> float:
+    """Mesh a blade box (radial along x, a chord x thickness section) in ``layers`` prism
+    layers along x, its section n_c x n_t cells cut into triangles (transfinite, the side
+    faces recombined). Returns the section's cell size [m]."""
+    faces = boundary_surfaces([(3, volume)])
+    curves = {abs(t) for _, t in gmsh.model.getBoundary([(2, f) for f in faces],
+                                                         combined=False, oriented=False)}
+    for c in curves:
+        a, b = (np.array(gmsh.model.getValue(0, t, [])) for _, t in
+                gmsh.model.getBoundary([(1, c)], oriented=False))
+        d = b - a
+        length = float(np.linalg.norm(d))
+        n = (layers if abs(d[0]) > 0.5 * length
+             else n_c if length > 0.5 * (chord + thickness) else n_t)
+        gmsh.model.mesh.setTransfiniteCurve(c, n + 1)
+    for f in faces:
+        gmsh.model.mesh.setTransfiniteSurface(f)
+        if abs(gmsh.model.getNormal(f, [0.5, 0.5])[0]) < 0.5:  # a side face: quads
+            gmsh.model.mesh.setRecombine(2, f)
+    gmsh.model.mesh.setTransfiniteVolume(volume)
+    return min(chord / n_c, thickness / n_t)
+
+
+def root_edges(volume: int, on_root: Callable[[np.ndarray], bool]) -> list[int]:
+    """The curves of ``volume``'s faces whose sampled points (k, 3) [m] all satisfy
+    ``on_root``: where a blade's sides meet its platform (its root edges)."""
+    curves = {abs(t) for _, t in gmsh.model.getBoundary(
+        [(2, f) for f in boundary_surfaces([(3, volume)])], combined=False, oriented=False)}
+    out = []
+    for c in sorted(curves):
+        lo, hi = gmsh.model.getParametrizationBounds(1, c)
+        xyz = np.array(gmsh.model.getValue(1, c, np.linspace(lo[0], hi[0], 5).tolist()))
+        if on_root(xyz.reshape(-1, 3)):
+            out.append(c)
+    if not out:
+        raise GeometryBuildError("no blade root edge found on the platform")
+    return out
 
 
 def set_background_min(fields: list[int]) -> None:
@@ -262,22 +318,25 @@ def constant_field(size: float) -> int:
 
 # ------------------------------------------------------------------ mesh extraction
 class MeshReader:
-    """Reads the current Gmsh mesh into 0-based arrays (nodes of tets only), and the curved
-    edges of its second-order image: ``curved_edges`` (c, 2) sorted node pairs and
-    ``edge_nodes`` (c, 3) their mid-edge points (m) where Gmsh places them on a curved
-    geometry (arcs, cylinders) off the straight midpoint."""
+    """Reads the current Gmsh mesh into 0-based arrays (nodes of its volume elements only:
+    tetrahedra, and the prisms of a structured blade), and the curved edges of its
+    second-order image: ``curved_edges`` (c, 2) sorted node pairs and ``edge_nodes`` (c, 3)
+    their mid-edge points (m) where Gmsh places them on a curved geometry (arcs, cylinders)
+    off the straight midpoint (tetrahedra's edges: a prism volume is straight-edged)."""
 
     def __init__(self) -> None:
         tags, coords, _ = gmsh.model.mesh.getNodes()
         coords = np.asarray(coords).reshape(-1, 3)
-        tets_by_vol = {}
+        tets_by_vol, prisms_by_vol = {}, {}
         used = []
         for _, vol in gmsh.model.getEntities(3):
             types, _, nodes = gmsh.model.mesh.getElements(3, vol)
-            if list(types) != [4]:
-                raise GeometryBuildError(f"volume {vol}: non-tet elements {list(types)}")
-            t = np.asarray(nodes[0], dtype=np.int64).reshape(-1, 4)
-            tets_by_vol[vol] = t
+            if list(types) not in ([4], [6]):
+                raise GeometryBuildError(f"volume {vol}: elements {list(types)}, expected "
+                                         "tetrahedra or prisms alone")
+            corners = 4 if types[0] == 4 else 6
+            t = np.asarray(nodes[0], dtype=np.int64).reshape(-1, corners)
+            (tets_by_vol if corners == 4 else prisms_by_vol)[vol] = t
             used.append(t.ravel())
         used_tags = np.unique(np.concatenate(used))
         order = np.argsort(tags)
@@ -285,7 +344,7 @@ class MeshReader:
         pos = np.searchsorted(sorted_tags, used_tags)
         self.points = coords[order][pos]
         self._tags = used_tags  # sorted gmsh tags of used nodes; index = position
-        self._tets_by_vol = tets_by_vol
+        self._tets_by_vol, self._prisms_by_vol = tets_by_vol, prisms_by_vol
         self.curved_edges, self.edge_nodes = self._curved_edges()
 
     def _curved_edges(self) -> tuple[np.ndarray, np.ndarray]:
@@ -324,8 +383,22 @@ class MeshReader:
             raise GeometryBuildError("a node of a named set belongs to no tetrahedron")
         return idx
 
+    def wedges(self, volumes: list[int]) -> np.ndarray:
+        """(m, 6) positively oriented wedges (prisms) of those of the given volumes that
+        hold prisms (0-2 the bottom triangle, counter-clockwise seen from the top 3-5)."""
+        parts = [self._prisms_by_vol[v] for v in volumes if v in self._prisms_by_vol]
+        if not parts:
+            return np.empty((0, 6), np.int64)
+        w = self.index(np.concatenate(parts).ravel()).reshape(-1, 6)
+        p = self.points[w]
+        up = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]),
+                       p[:, 3] - p[:, 0])
+        w[up < 0] = w[up < 0][:, [0, 2, 1, 3, 5, 4]]
+        return w
+
     def tets(self, volumes: list[int]) -> np.ndarray:
-        """(m, 4) positively oriented tets of the given volumes."""
+        """(m, 4) positively oriented tets of the given volumes (those that hold tets)."""
+        volumes = [v for v in volumes if v in self._tets_by_vol]
         t = self.index(np.concatenate([self._tets_by_vol[v] for v in volumes]).ravel())
         t = t.reshape(-1, 4)
         p = self.points[t]

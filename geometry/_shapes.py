@@ -60,3 +60,10 @@ def staggered_blade(x0: float, x1: float, chord: float, thickness: float,
     box = gmsh.model.occ.addBox(x0, -thickness / 2, -chord / 2, x1 - x0, thickness, chord)
     gmsh.model.occ.rotate([(3, box)], 0, 0, 0, 1, 0, 0, np.radians(stagger_deg))
     return box
+
+
+def blade_cells(chord: float, thickness: float, size: float) -> tuple[int, int]:
+    """(along the chord, through the thickness) cells of a prism-layered blade's section of
+    cell size ``size`` [m] at most, two through the thickness at least."""
+    return (max(2, int(np.ceil(chord / size - 1e-9))),
+            max(2, int(np.ceil(thickness / size - 1e-9))))

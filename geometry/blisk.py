@@ -58,6 +58,7 @@ import numpy as np
 from . import _gmsh as g
 from ._shapes import (
     axial_prism,
+    blade_cells,
     blade_half_extent,
     local_to_xyz,
     radial_frame,
@@ -108,6 +109,12 @@ class BliskParameters:
     contact_n_flank: int = grid_count(4, "contact points along the flank (n2)")
     contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the contact flanks; "
                                 "0: the contact grid is the mesh (one node per point)")
+    root_size: float = param(0.0, "m", 0.0, 10.0, "element size along the blade's root "
+                             "edges, graded to the blade's over 3 x blade_size (the "
+                             "corner's stress singularity); 0: none")
+    blade_layers: int = param(0, "-", 0, 400, "prism layers along the blade above its root "
+                              "(its section meshed at blade_size, two cells through the "
+                              "thickness at least); 0: tetrahedra", integer=True)
 
     # ------------------------------------------------------------ derived shape
     @property
@@ -146,6 +153,15 @@ class BliskParameters:
         drop = self.r_flank_top - rho
         return (-(self.platform_gap / 2 + drop * np.tan(np.radians(self.alpha_left))),
                 self.platform_gap / 2 + drop * np.tan(np.radians(self.alpha_right)))
+
+    @property
+    def blade_split(self) -> float:
+        """x [m] where a prism-layered blade (``blade_layers``) starts: above the platform's
+        cylinder everywhere under the blade section, the short root below it meshed with
+        the disk."""
+        ty = self.blade_half_extent[0]
+        sag = self.r_platform - np.sqrt(self.r_platform**2 - ty**2)
+        return self.r_platform + max(3.0 * sag, 0.25 * self.blade_thickness)
 
     @property
     def damper_area(self) -> float:
@@ -285,7 +301,10 @@ def _build(p: BliskParameters) -> Mesh:
     right = rectangle_face(*rects["damper_right"][:3])
     rotate_z([(2, right)], -phi)
     imprint["damper_right"] = right
-    blisk = g.imprint_faces(fused[0][1], list(imprint.values()))
+    blisk = [g.imprint_faces(fused[0][1], list(imprint.values()))]
+    if p.blade_layers:  # the blade above its root: a box meshed in prism layers
+        blisk = g.split_blade(blisk[0], p.blade_split, p.r_platform + p.blade_height,
+                              p.blade_chord, p.blade_thickness, p.blade_stagger)
     damper = axial_prism(phi / 2, _damper_profile(p), -p.damper_length / 2,
                          p.damper_length / 2)
     occ.synchronize()
@@ -293,15 +312,16 @@ def _build(p: BliskParameters) -> Mesh:
 
 
 def _blade(p: BliskParameters) -> int:
-    """Blade prism along +x rooted inside the platform, above the pocket flanks."""
+    """Blade prism along +x rooted inside the platform, above the pocket flanks (up to
+    ``blade_split`` where its layers take over)."""
     x0 = p.r_platform - p.platform_thickness / 2
-    return staggered_blade(x0, p.r_platform + p.blade_height, p.blade_chord,
-                           p.blade_thickness, p.blade_stagger)
+    x1 = p.blade_split if p.blade_layers else p.r_platform + p.blade_height
+    return staggered_blade(x0, x1, p.blade_chord, p.blade_thickness, p.blade_stagger)
 
 
-def _patch_surfaces(p: BliskParameters, blisk: int, damper: int, rects) -> dict:
+def _patch_surfaces(p: BliskParameters, blisk: list[int], damper: int, rects) -> dict:
     """{patch: (damper face, blisk face)} located by centre and area."""
-    blisk_faces = g.boundary_surfaces([(3, blisk)])
+    blisk_faces = g.boundary_surfaces([(3, v) for v in blisk])
     damper_faces = g.boundary_surfaces([(3, damper)])
     rot = g.rotation_z(-p.phi)
     found = {}
@@ -314,10 +334,10 @@ def _patch_surfaces(p: BliskParameters, blisk: int, damper: int, rects) -> dict:
     return found
 
 
-def _mesh_and_read(p: BliskParameters, blisk: int, damper: int, rects) -> Mesh:
+def _mesh_and_read(p: BliskParameters, blisk: list[int], damper: int, rects) -> Mesh:
     occ = gmsh.model.occ
-    cad = {"blisk": occ.getMass(3, blisk), "damper": occ.getMass(3, damper)}
-    left, right = cyclic_faces([blisk], p.sectors)
+    cad = {"blisk": sum(occ.getMass(3, v) for v in blisk), "damper": occ.getMass(3, damper)}
+    left, right = cyclic_faces(blisk, p.sectors)
     g.set_periodic_rotation(left, right, p.phi)
     patches = _patch_surfaces(p, blisk, damper, rects)
     spacing = 0.0
@@ -331,15 +351,30 @@ def _mesh_and_read(p: BliskParameters, blisk: int, damper: int, rects) -> Mesh:
     patch_faces = [f for faces in patches.values() for f in faces]
     x_blade = p.r_platform
     ty, tz = p.blade_half_extent
+    # the blade's tets at blade_size, or a layered blade's root at its section's cells
+    blade_size = p.blade_size
+    if p.blade_layers:
+        n_c, n_t = blade_cells(p.blade_chord, p.blade_thickness, p.blade_size)
+        blade_size = g.mesh_in_layers(blisk[-1], p.blade_layers, p.blade_chord,
+                                      p.blade_thickness, n_c, n_t)
     fields = [
         g.constant_field(p.size),
         g.add_distance_refinement(patch_faces, min(spacing, p.size), p.size,
                                   3 * p.pocket_flank_height),
-        g.box_field(p.blade_size, p.size, (x_blade - p.platform_thickness, -ty, -tz),
+        g.box_field(min(blade_size, p.blade_size), p.size,
+                    (x_blade - p.platform_thickness, -ty, -tz),
                     (p.r_platform + p.blade_height + 1e-3, ty, tz)),
     ]
+    if p.root_size > 0.0:
+        def on_root(xyz: np.ndarray) -> bool:  # on the platform's cylinder, under the blade
+            return bool(np.abs(np.hypot(xyz[:, 0], xyz[:, 1]) - p.r_platform).max() < 1e-9
+                        and np.all(np.abs(xyz[:, 1]) <= ty + 1e-9)
+                        and np.all(np.abs(xyz[:, 2]) <= tz + 1e-9))
+
+        fields.append(g.add_distance_refinement(g.root_edges(blisk[0], on_root), p.root_size,
+                                                p.size, 3 * p.blade_size, dim=1))
     g.set_background_min(fields)
-    gmsh.model.addPhysicalGroup(3, [blisk], name="blisk")
+    gmsh.model.addPhysicalGroup(3, blisk, name="blisk")
     gmsh.model.addPhysicalGroup(3, [damper], name="damper")
     gmsh.model.mesh.generate(3)
     return _read(p, blisk, damper, rects, patches, left, right, cad)
@@ -347,13 +382,14 @@ def _mesh_and_read(p: BliskParameters, blisk: int, damper: int, rects) -> Mesh:
 
 def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
     r = g.MeshReader()
-    t_blisk, t_damper = r.tets([blisk]), r.tets([damper])
+    t_blisk, t_damper, w_blisk = r.tets(blisk), r.tets([damper]), r.wedges(blisk)
     tets = np.vstack([t_blisk, t_damper])
-    bodies = {"blisk": np.arange(len(t_blisk)),
+    bodies = {"blisk": np.concatenate([np.arange(len(t_blisk)),
+                                       len(tets) + np.arange(len(w_blisk))]),
               "damper": np.arange(len(t_blisk), len(tets))}
     left_n, right_n = r.surface_nodes(left), r.surface_nodes(right)
-    tip, exc, resp = g.tip_face_and_corners(blisk, p.r_platform + p.blade_height)
-    bore = [f for f in g.boundary_surfaces([(3, blisk)]) if g.on_cylinder(f, p.r_bore)]
+    tip, exc, resp = g.tip_face_and_corners(blisk[-1], p.r_platform + p.blade_height)
+    bore = [f for f in g.boundary_surfaces([(3, blisk[0])]) if g.on_cylinder(f, p.r_bore)]
     sets = {
         "blisk/bore": r.surface_nodes(bore),
         "blisk/blade_tip": r.surface_nodes(tip),
@@ -367,7 +403,8 @@ def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
     for name, (f_damper, f_blisk) in patches.items():
         offset = 1 if name == "damper_right" else 0
         patch = grids.patch(name, ("damper", {"tetra": t_damper}, r.surface_nodes([f_damper])),
-                            ("blisk", {"tetra": t_blisk}, r.surface_nodes([f_blisk])),
+                            ("blisk", {"tetra": t_blisk, "wedge": w_blisk},
+                             r.surface_nodes([f_blisk])),
                             rects[name], p.contact_n_axial, p.contact_n_flank,
                             b_angle=offset * p.phi, b_sector_offset=offset)
         sets[f"contact/{name}/damper"], sets[f"contact/{name}/blisk"] = patch_sets(patch)
@@ -388,6 +425,7 @@ def _read(p, blisk, damper, rects, patches, left, right, cad) -> Mesh:
         curved_edges=r.curved_edges,
         edge_nodes=r.edge_nodes,
         tetrahedra=tets,
+        wedges=w_blisk,
         bodies=bodies,
         node_sets=sets,
         cyclic={"blisk": g.pair_cyclic(r.points, left_n, right_n, p.sectors)},

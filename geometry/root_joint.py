@@ -47,6 +47,7 @@ import numpy as np
 from . import _gmsh as g
 from ._shapes import (
     axial_prism,
+    blade_cells,
     blade_half_extent,
     local_to_xyz,
     rectangle_face,
@@ -93,6 +94,12 @@ class RootJointParameters:
     contact_n_flank: int = grid_count(4, "contact points along the flank (n2)")
     contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the contact flanks; "
                                 "0: the contact grid is the mesh (one node per point)")
+    root_size: float = param(0.0, "m", 0.0, 10.0, "element size along the airfoil's root "
+                             "edges on the platform, graded to the blade's over 3 x "
+                             "blade_size (the corner's stress singularity); 0: none")
+    blade_layers: int = param(0, "-", 0, 400, "prism layers along the airfoil above its "
+                              "root (its section meshed at blade_size, two cells through "
+                              "the thickness at least); 0: tetrahedra", integer=True)
 
     @property
     def phi(self) -> float:
@@ -119,6 +126,17 @@ class RootJointParameters:
     def flank_t(self, rho: float) -> float:
         """Half-width of the slot at rho on the flanks (m)."""
         return self.neck_width / 2 + (self.r_neck - rho) * np.tan(np.radians(self.flank_angle))
+
+    @property
+    def x_platform_top(self) -> float:
+        """x [m] of the platform's top face (the airfoil's root)."""
+        return self.r_platform + self.platform_thickness
+
+    @property
+    def blade_split(self) -> float:
+        """x [m] where a prism-layered airfoil (``blade_layers``) starts: a quarter of its
+        thickness above the platform (the root below meshed with it)."""
+        return self.x_platform_top + 0.25 * self.blade_thickness
 
     @property
     def platform_half_width(self) -> float:
@@ -223,9 +241,12 @@ def _build(p: RootJointParameters) -> Mesh:
         raise GeometryBuildError(f"disk is not one solid after cutting the slot: {cut}")
     rects = flank_rectangles(p)
     disk = g.imprint_faces(cut[0][1], [rectangle_face(*r[:3]) for r in rects.values()])
-    blade = _blade(p)
+    blade = [_blade(p)]
+    if p.blade_layers:  # the airfoil above its root: a box meshed in prism layers
+        blade = g.split_blade(blade[0], p.blade_split, p.r_tip, p.blade_chord,
+                              p.blade_thickness, p.blade_stagger)
     occ.synchronize()
-    cad = {"disk": occ.getMass(3, disk), "blade": occ.getMass(3, blade)}
+    cad = {"disk": occ.getMass(3, disk), "blade": sum(occ.getMass(3, v) for v in blade)}
     left, right = cyclic_faces([disk], p.sectors)
     g.set_periodic_rotation(left, right, p.phi)
     patches = _patch_surfaces(disk, blade, rects)
@@ -236,9 +257,9 @@ def _build(p: RootJointParameters) -> Mesh:
         for face in faces:
             g.set_transfinite_rectangle(face, e1, n1, n2)
         spacing = max(spacing, np.linalg.norm(e1) / (n1 - 1), np.linalg.norm(e2) / (n2 - 1))
-    _size_fields(p, rects, [f for faces in patches.values() for f in faces], spacing)
+    _size_fields(p, rects, [f for faces in patches.values() for f in faces], spacing, blade)
     gmsh.model.addPhysicalGroup(3, [disk], name="disk")
-    gmsh.model.addPhysicalGroup(3, [blade], name="blade")
+    gmsh.model.addPhysicalGroup(3, blade, name="blade")
     gmsh.model.mesh.generate(3)
     return _read(p, disk, blade, rects, patches, left, right, cad)
 
@@ -253,17 +274,18 @@ def _blade(p: RootJointParameters) -> int:
                                  (p.r_platform + p.platform_thickness, -hw)],
                            -p.width / 2, p.width / 2)
     x0 = p.r_platform + p.platform_thickness / 2
-    airfoil = staggered_blade(x0, p.r_tip, p.blade_chord, p.blade_thickness, p.blade_stagger)
+    x1 = p.blade_split if p.blade_layers else p.r_tip
+    airfoil = staggered_blade(x0, x1, p.blade_chord, p.blade_thickness, p.blade_stagger)
     fused, _ = occ.fuse([(3, root)], [(3, platform), (3, airfoil)])
     if len(fused) != 1:
         raise GeometryBuildError(f"blade is not one solid: {fused}")
     return fused[0][1]
 
 
-def _patch_surfaces(disk: int, blade: int, rects) -> dict[str, tuple[int, int]]:
+def _patch_surfaces(disk: int, blade: list[int], rects) -> dict[str, tuple[int, int]]:
     """{patch: (blade face, disk face)} located by centre and area."""
     disk_faces = g.boundary_surfaces([(3, disk)])
-    blade_faces = g.boundary_surfaces([(3, blade)])
+    blade_faces = g.boundary_surfaces([(3, v) for v in blade])
     out = {}
     for name, (origin, e1, e2, _) in rects.items():
         centre = origin + 0.5 * (e1 + e2)
@@ -273,23 +295,37 @@ def _patch_surfaces(disk: int, blade: int, rects) -> dict[str, tuple[int, int]]:
     return out
 
 
-def _size_fields(p: RootJointParameters, rects, patch_faces: list[int], spacing: float
-                 ) -> None:
+def _size_fields(p: RootJointParameters, rects, patch_faces: list[int], spacing: float,
+                 blade: list[int]) -> None:
     ty, tz = blade_half_extent(p.blade_chord, p.blade_thickness, p.blade_stagger)
-    g.set_background_min([
+    size = p.blade_size  # the airfoil's tets, or a layered airfoil's root at its section's
+    if p.blade_layers:
+        n_c, n_t = blade_cells(p.blade_chord, p.blade_thickness, p.blade_size)
+        size = min(size, g.mesh_in_layers(blade[-1], p.blade_layers, p.blade_chord,
+                                          p.blade_thickness, n_c, n_t))
+    fields = [
         g.constant_field(p.size),
         g.add_distance_refinement(patch_faces, min(spacing, p.size), p.size,
                                   2 * p.flank_height),
-        g.box_field(p.blade_size, p.size, (p.r_platform, -ty, -tz), (p.r_tip + 1e-3, ty, tz)),
-    ])
+        g.box_field(size, p.size, (p.r_platform, -ty, -tz), (p.r_tip + 1e-3, ty, tz)),
+    ]
+    if p.root_size > 0.0:
+        def on_root(xyz: np.ndarray) -> bool:  # on the platform's top, under the airfoil
+            return bool(np.abs(xyz[:, 0] - p.x_platform_top).max() < 1e-9
+                        and np.all(np.abs(xyz[:, 1]) <= ty + 1e-9)
+                        and np.all(np.abs(xyz[:, 2]) <= tz + 1e-9))
+
+        fields.append(g.add_distance_refinement(g.root_edges(blade[0], on_root), p.root_size,
+                                                p.size, 3 * p.blade_size, dim=1))
+    g.set_background_min(fields)
 
 
 def _read(p, disk, blade, rects, patches, left, right, cad) -> Mesh:
     r = g.MeshReader()
-    t_disk, t_blade = r.tets([disk]), r.tets([blade])
+    t_disk, t_blade, w_blade = r.tets([disk]), r.tets(blade), r.wedges(blade)
     tets = np.vstack([t_disk, t_blade])
     left_n, right_n = r.surface_nodes(left), r.surface_nodes(right)
-    tip, exc, resp = g.tip_face_and_corners(blade, p.r_tip)
+    tip, exc, resp = g.tip_face_and_corners(blade[-1], p.r_tip)
     bore = [f for f in g.boundary_surfaces([(3, disk)]) if g.on_cylinder(f, p.r_bore)]
     sets = {
         "disk/bore": r.surface_nodes(bore),
@@ -301,7 +337,8 @@ def _read(p, disk, blade, rects, patches, left, right, cad) -> Mesh:
     }
     grids, contacts = ContactGrids(r.points, p.contact_size), {}
     for name, (f_blade, f_disk) in patches.items():
-        patch = grids.patch(name, ("blade", {"tetra": t_blade}, r.surface_nodes([f_blade])),
+        patch = grids.patch(name, ("blade", {"tetra": t_blade, "wedge": w_blade},
+                                     r.surface_nodes([f_blade])),
                             ("disk", {"tetra": t_disk}, r.surface_nodes([f_disk])),
                             rects[name], p.contact_n_axial, p.contact_n_flank)
         sets[f"contact/{name}/blade"], sets[f"contact/{name}/disk"] = patch_sets(patch)
@@ -313,7 +350,10 @@ def _read(p, disk, blade, rects, patches, left, right, cad) -> Mesh:
         curved_edges=r.curved_edges,
         edge_nodes=r.edge_nodes,
         tetrahedra=tets,
-        bodies={"disk": np.arange(len(t_disk)), "blade": np.arange(len(t_disk), len(tets))},
+        wedges=w_blade,
+        bodies={"disk": np.arange(len(t_disk)),
+                "blade": np.concatenate([np.arange(len(t_disk), len(tets)),
+                                         len(tets) + np.arange(len(w_blade))])},
         node_sets=sets,
         cyclic={"disk": g.pair_cyclic(r.points, left_n, right_n, p.sectors)},
         contacts=contacts,

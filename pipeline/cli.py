@@ -21,6 +21,7 @@ BENCHES = {
     "teaching": "microslip.pipeline.bench.teaching",
     "assembly": "microslip.pipeline.bench.assembly",
     "trade": "microslip.pipeline.bench.trade",
+    "convergence": "microslip.pipeline.bench.convergence",
     "elements": "microslip.pipeline.bench.elements",
     "cluster": "microslip.pipeline.bench.cluster",
     "solvers": "microslip.pipeline.bench.solvers",
@@ -661,6 +662,7 @@ def main(argv: list[str] | None = None) -> int:
               "  bench teaching   harmonic balance against time integration; the teaching set\n"
               "  bench assembly   blisk + damper assembly: time per point against contact grid\n"
               "  bench trade      the blisk-damper study's knobs: accuracy against time\n"
+              "  bench convergence  mesh convergence of the linear limits, then the grid\n"
               "  bench elements   element shapes and orders: frequency error, DOFs, time\n"
               "  bench cluster    Dask: overhead per task, speed-up and memory of studies\n"
               "\n"
