@@ -113,7 +113,8 @@ def mesh_table(rows: list[dict], limits: dict, zeta: float) -> str:
             f"{err['stuck']:+.3f} % | {(r['stuck'] - limits['stuck'][1]) / band:+.2f} | "
             f"{r['omega']:.2f} | {err['omega']:+.3f} % | {r['model_s']:.0f} | "
             f"{r['memory_mb']:.0f} |")
-    lines.append("| limit (Richardson) | | | " + " | ".join(
+    lines.append("| limit (Richardson; nan: a peak on the window's edge, or changes not "
+                 "shrinking) | | | " + " | ".join(
         f"{limits[k][1]:.2f} (p = {limits[k][0]:.2f}) | " for k in ("free", "stuck"))
         + f"| {limits['omega'][1]:.2f} (p = {limits['omega'][0]:.2f}) | | | |")
     return "\n".join(lines)
@@ -134,10 +135,19 @@ def grid_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _inside(omega: float, data: dict) -> float:
+    """A peak frequency, or NaN where it sits on the FRF window's edge (the peak lies
+    outside: widen --start/--stop)."""
+    a = data["analysis"][0]
+    return float("nan") if min(abs(omega - a["start"]), abs(omega - a["stop"])) < 1e-6 * \
+        a["stop"] else omega
+
+
 def _summary(r: dict, factor: float, data: dict) -> dict:
     p = data["geometry"]["parameters"]
     return {"factor": factor, "sizes": [p.get(k, 0.0) for k in SIZES], "nodes": r["nodes"],
-            "free": r["free"][0], "stuck": r["stuck"][0], "omega": r["omega"],
+            "free": _inside(r["free"][0], data), "stuck": _inside(r["stuck"][0], data),
+            "omega": _inside(r["omega"], data),
             "amplitude": r["amplitude"], "unknowns": r["unknowns"], "status": r["status"],
             "model_s": r["mesh_s"] + r["reduction_s"] + r["coupling_s"], "frf_s": r["frf_s"],
             "memory_mb": r["memory_mb"],
