@@ -34,16 +34,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .trade import measure
+from .trade import SIZES, measure, scaled_mesh
 
 #: Element size of the contact faces at factor 1 [m], where the case gives none: finer
 #: than the grid (2 x 36 pairs: cells 2.7 x 1.4 mm on the blisk's flanks).
 CONTACT_SIZE = 0.002
 FACTORS = (2.0, math.sqrt(2.0), 1.0, math.sqrt(0.5), 0.5)
 GRIDS = ("6x2", "9x4", "12x6", "18x8")
-SIZES = ("size", "blade_size", "contact_size", "root_size")
-#: Element counts along a length (scaled by 1 / factor), where the model has them
-COUNTS = ("blade_layers",)
 GRID = ("contact_n_axial", "contact_n_flank")
 
 
@@ -52,20 +49,12 @@ def level_data(base: dict, factor: float, grid: tuple[int, int] | None, start: f
     """The case's table with every element size times ``factor`` (the contact faces'
     included), the grid ``grid`` (None: the case's), one FRF over start..stop."""
     data = copy.deepcopy(base)
-    params = data["geometry"].setdefault("parameters", {})
-    from microslip.geometry import PARAMETERS
-
-    defaults = PARAMETERS[data["geometry"]["model"]]()
-    for name in SIZES:
-        value = params.get(name, getattr(defaults, name, None))
-        if name == "contact_size" and not value:
-            value = contact_size
-        if value is not None:
-            params[name] = value * factor
-    for name in COUNTS:
-        if params.get(name):
-            params[name] = max(1, round(params[name] / factor))
+    scaled_mesh(data, factor, contact_size)
+    params = data["geometry"]["parameters"]
     if grid is None:
+        from microslip.geometry import PARAMETERS
+
+        defaults = PARAMETERS[data["geometry"]["model"]]()
         grid = tuple(params.get(k, getattr(defaults, k)) for k in GRID)
     params["contact_n_axial"], params["contact_n_flank"] = grid
     output = data["assembly"]["outputs"][0]["name"]

@@ -3,7 +3,7 @@ costs. The knobs: contact grid per damper flank, harmonics, fixed-interface mode
 body, mesh size.
 
     microslip bench trade                       # every setting of SETTINGS (~1 h)
-    microslip bench trade --only coarse,quick   # some of them
+    microslip bench trade --only mesh-2,quick   # some of them
     microslip bench trade --out trade/          # also trade.json and trade.png
 
 Each setting runs cold in a fresh process: mesh, Craig-Bampton reduction of every body and
@@ -43,23 +43,25 @@ import numpy as np
 
 from .assembly import unknowns
 
-FINE = (0.008, 0.004)  # m: tet size of the sector and of the blade (the case's defaults)
-COARSE = (0.010, 0.005)
+#: The element sizes a mesh factor scales, and the element counts it divides
+SIZES = ("size", "blade_size", "contact_size", "root_size")
+COUNTS = ("blade_layers",)
 
 
 @dataclass(frozen=True)
 class Setting:
     """One combination of the knobs.
 
-    grid: node pairs per flank (axial, along the flank); harmonics: highest order H (orders
-    0..H, static included); modes: fixed-interface modes per body ("auto": every one below
-    4x the 10th); mesh: "fine" or "coarse" (FINE, COARSE tet sizes)."""
+    grid: contact points per flank (axial, along the flank); harmonics: highest order H
+    (orders 0..H, static included); modes: fixed-interface modes per body ("auto": every
+    one below 4x the 10th); mesh: the factor of every element size of the case's mesh (1:
+    the case's, converged; 2: twice as coarse), the contact grid apart from it."""
 
     name: str
     grid: tuple[int, int]
     harmonics: int
     modes: str | int
-    mesh: str
+    mesh: float
 
     @property
     def pairs(self) -> int:
@@ -67,35 +69,55 @@ class Setting:
         return self.grid[0] * self.grid[1]
 
     def describe(self) -> str:
-        return (f"2x{self.pairs} pairs, H 0-{self.harmonics}, modes {self.modes}, "
-                f"{self.mesh} mesh")
+        return (f"2x{self.pairs} points, H 0-{self.harmonics}, modes {self.modes}, "
+                f"mesh x{self.mesh:g}")
 
 
 # The finest setting first: every other is measured against it. The grids and H of the case
-# around it one at a time, then the modes and the mesh at the case's grid and H, then the
-# cheap corners (the README's quick case among them).
+# around it one at a time on the case's (converged) mesh, then the modes, then the mesh
+# alone at the case's grid and H, then the cheap corners (the README's quick case: the mesh
+# twice as coarse, 2 x 12 points).
 SETTINGS = (
-    Setting("finest", (12, 6), 3, "auto", "fine"),
-    Setting("grid-72-H1", (12, 6), 1, "auto", "fine"),
-    Setting("grid-36-H3", (9, 4), 3, "auto", "fine"),
-    Setting("case", (9, 4), 1, "auto", "fine"),
-    Setting("grid-12-H3", (6, 2), 3, "auto", "fine"),
-    Setting("grid-12-H1", (6, 2), 1, "auto", "fine"),
-    Setting("modes-20", (9, 4), 1, 20, "fine"),
-    Setting("modes-8", (9, 4), 1, 8, "fine"),
-    Setting("coarse", (9, 4), 1, "auto", "coarse"),
-    Setting("quick", (6, 2), 1, "auto", "coarse"),
-    Setting("cheapest", (6, 2), 1, 8, "coarse"),
+    Setting("finest", (12, 6), 3, "auto", 1.0),
+    Setting("grid-72-H1", (12, 6), 1, "auto", 1.0),
+    Setting("grid-36-H3", (9, 4), 3, "auto", 1.0),
+    Setting("case", (9, 4), 1, "auto", 1.0),
+    Setting("grid-12-H3", (6, 2), 3, "auto", 1.0),
+    Setting("grid-12-H1", (6, 2), 1, "auto", 1.0),
+    Setting("modes-20", (9, 4), 1, 20, 1.0),
+    Setting("modes-8", (9, 4), 1, 8, 1.0),
+    Setting("mesh-1.4", (9, 4), 1, "auto", 1.41),
+    Setting("mesh-2", (9, 4), 1, "auto", 2.0),
+    Setting("quick", (6, 2), 1, "auto", 2.0),
+    Setting("cheapest", (6, 2), 1, 8, 2.0),
 )
+
+
+def scaled_mesh(data: dict, factor: float, contact_size: float = 0.0) -> None:
+    """Every element size of the case's geometry parameters times ``factor`` and every
+    element count over it, in place (``contact_size`` [m]: the contact faces' size at factor
+    1 where the case gives none; 0: keep the grid as the mesh)."""
+    from microslip.geometry import PARAMETERS
+
+    params = data["geometry"].setdefault("parameters", {})
+    defaults = PARAMETERS[data["geometry"]["model"]]()
+    for name in SIZES:
+        value = params.get(name, getattr(defaults, name, None))
+        if name == "contact_size" and not value:
+            value = contact_size
+        if value:
+            params[name] = value * factor
+    for name in COUNTS:
+        if params.get(name):
+            params[name] = max(1, round(params[name] / factor))
 
 
 def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
     """The base case's table with the setting's knobs and one FRF analysis (no maps, no
     pictures: the bench reads the refined peak itself)."""
     data = copy.deepcopy(base)
-    size, blade = FINE if s.mesh == "fine" else COARSE
-    data["geometry"].setdefault("parameters", {}).update(
-        contact_n_axial=s.grid[0], contact_n_flank=s.grid[1], size=size, blade_size=blade)
+    scaled_mesh(data, s.mesh)
+    data["geometry"]["parameters"].update(contact_n_axial=s.grid[0], contact_n_flank=s.grid[1])
     data["reduction"]["modes"] = s.modes
     data["reduction"].pop("harmonics", None)  # the NDs follow [harmonics] max
     data["harmonics"] = {**data.get("harmonics", {}), "max": s.harmonics}
@@ -231,7 +253,7 @@ def table(rows: list[dict]) -> str:
         model_s = r["mesh_s"] + r["reduction_s"] + r["coupling_s"]
         lines.append(
             f"| {s['name']} | 2x{s['grid'][0] * s['grid'][1]} | 0-{s['harmonics']} | "
-            f"{s['modes']} ({modes}) | {s['mesh']} ({r['nodes']} vertices) | {r['unknowns']} | "
+            f"{s['modes']} ({modes}) | x{s['mesh']:g} ({r['nodes']} vertices) | {r['unknowns']} | "
             f"{r['omega']:.2f} | {r['d_omega']:+.2f} | {1e3 * r['amplitude']:.4f} | "
             f"{r['d_amplitude_pct']:+.2f} % | {r['frf_error_pct']:.1f} % | "
             f"{r['d_stuck_omega']:+.2f} | {r['d_ratio_pct']:+.2f} % | "
@@ -258,7 +280,7 @@ def picture(rows: list[dict], path: Path) -> Path:
     for k, (r, x, y) in enumerate(zip(rows, t, shown)):
         s = r["setting"]
         marker = "o" if s["harmonics"] == 1 else "s"
-        colour = "tab:blue" if s["mesh"] == "fine" else "tab:orange"
+        colour = "tab:blue" if s["mesh"] == 1.0 else "tab:orange"
         name = s["name"] + (" (the reference: 0 %)" if err[k] == 0 else "")
         ax.scatter(x, y, marker="*" if err[k] == 0 else marker, s=90 if err[k] == 0 else 36,
                    color=colour, zorder=3)
@@ -268,7 +290,7 @@ def picture(rows: list[dict], path: Path) -> Path:
     ax.plot(t[front], shown[front], "k--", lw=1, label="Pareto front", zorder=2)
     for marker, label in (("o", "H 0-1"), ("s", "H 0-3")):
         ax.scatter([], [], marker=marker, color="grey", label=label)
-    for colour, label in (("tab:blue", "fine mesh"), ("tab:orange", "coarse mesh")):
+    for colour, label in (("tab:blue", "the case's mesh"), ("tab:orange", "coarser mesh")):
         ax.scatter([], [], marker="o", color=colour, label=label)
     ax.set(xscale="log", yscale="log", xlabel="time, cold: model + FRF [s]",
            ylabel="FRF error against the finest [% of its peak]",

@@ -98,7 +98,9 @@ class ReducedModel:
     stiffness, mass: (r, r) dense, float64 or complex128 Hermitian [N/m], [kg]
         (modal block in mass-normalised units).
     damping_spec: linear damping applied to the reduced model (``damping`` gives the matrix).
-    master_nodes: (n_m,) global mesh node indices; master_coordinates (n_m, 3) [m].
+    master_nodes: (n_m,) global mesh point indices (nodes, or points averaging nodes: a
+        contact grid apart from the mesh, ``AveragedMasters``); master_coordinates (n_m, 3)
+        [m].
     n_modes: fixed-interface (CB) or normal (modal) modes kept; r = 3 n_m + n_modes.
     mode_frequencies: (n_modes,) [Hz] of those modes.
     patches: contact-patch name -> (k,) global node indices of that patch in this body
