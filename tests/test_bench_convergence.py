@@ -31,13 +31,14 @@ def test_richardson_refuses_changes_that_do_not_shrink():
 
 def test_mesh_levels_scale_every_size_and_hold_the_grid():
     base = cases.load("cases/blisk_damper.toml").data
-    params = base["geometry"]["parameters"]
+    params = {"size": 0.008, "contact_size": 0.002, **convergence.REFINED}  # (the defaults')
     for f in (2.0, 0.5):
         data = convergence.level_data(base, f, None, 3040.0, 3160.0, 0.002)
         cases.check(data, "convergence")
         p = data["geometry"]["parameters"]
-        for name in ("size", "blade_size", "contact_size", "root_size"):
+        for name in ("size", "blade_size", "contact_size"):
             assert p[name] == pytest.approx(f * params[name])
+        assert p["root_size"] == params["root_size"]  # (the corner's own knob: held)
         assert p["blade_layers"] == round(params["blade_layers"] / f)
         assert (p["contact_n_axial"], p["contact_n_flank"]) == (9, 4)  # the model's default
     grid = convergence.level_data(base, 1.0, (12, 6), 3040.0, 3160.0, 0.002)
@@ -47,6 +48,7 @@ def test_mesh_levels_scale_every_size_and_hold_the_grid():
 def test_a_peak_on_the_window_edge_is_no_frequency():
     data = {"analysis": [{"start": 3100.0, "stop": 3200.0}]}
     assert np.isnan(convergence._inside(3100.0, data))
+    assert np.isnan(convergence._inside(3199.5, data))  # within the search grid's step
     assert convergence._inside(3150.0, data) == 3150.0
 
 

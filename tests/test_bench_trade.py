@@ -21,9 +21,9 @@ def test_every_setting_is_a_valid_case_with_its_knobs_set():
         assert (p["contact_n_axial"], p["contact_n_flank"]) == s.grid
         assert data["harmonics"]["max"] == s.harmonics
         assert data["reduction"]["modes"] == s.modes
-        assert p["size"] == pytest.approx(s.mesh * base["geometry"]["parameters"]["size"])
-        assert p["blade_layers"] == round(base["geometry"]["parameters"]["blade_layers"]
-                                          / s.mesh)
+        sizes = {"size": 0.008, "blade_size": 0.004, **base["geometry"]["parameters"]}
+        for name in ("size", "blade_size"):  # (the model's defaults where the case has none)
+            assert p[name] == pytest.approx(s.mesh * sizes[name])
         assert [a["type"] for a in data["analysis"]] == ["frf"]
     assert base["analysis"][0]["name"] == "frf"  # the base case itself is left alone
     # the reference is the finest in every knob

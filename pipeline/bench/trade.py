@@ -43,8 +43,10 @@ import numpy as np
 
 from .assembly import unknowns
 
-#: The element sizes a mesh factor scales, and the element counts it divides
-SIZES = ("size", "blade_size", "contact_size", "root_size")
+#: The element sizes a mesh factor scales, and the element counts it divides (the blade
+#: root's grading, ``root_size``, is the sharp corner's own knob: held, its convergence
+#: measured on its own)
+SIZES = ("size", "blade_size", "contact_size")
 COUNTS = ("blade_layers",)
 
 
