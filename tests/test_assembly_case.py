@@ -45,7 +45,7 @@ def test_a_geometry_fault_is_one_line_and_only_that():
     (unknown until the geometry is right)."""
     found = faults(lambda d: d["geometry"]["parameters"].update(contact_n_axial=0))
     assert found == ["geometry.parameters.contact_n_axial = 0: must be an integer in [2, 500] "
-                     "(contact grid nodes along the axis (n1))"]
+                     "(contact points along the axis (n1))"]
 
 
 def test_the_shipped_case_is_valid():
