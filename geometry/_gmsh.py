@@ -16,6 +16,7 @@ import gmsh
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import elements
 from .mesh import CURVED, MATCH_TOL, ContactPatch, CyclicBoundary, Mesh, rotation_z
 from .params import GeometryBuildError
 
@@ -226,6 +227,18 @@ def add_distance_refinement(surfaces: list[int], size_min: float, size_max: floa
     return thr
 
 
+def fillet_root(volume: int, on_root: Callable[[np.ndarray], bool], radius: float) -> int:
+    """Round the edges of ``volume`` where its blade meets the platform (``root_edges``) with
+    a fillet of ``radius`` [m]; the volume's new tag."""
+    out = gmsh.model.occ.fillet([volume], root_edges(volume, on_root), [radius],
+                                removeVolume=True)
+    gmsh.model.occ.synchronize()
+    vols = [t for d, t in out if d == 3]
+    if len(vols) != 1:
+        raise GeometryBuildError(f"the root fillet left {len(vols)} volumes")
+    return vols[0]
+
+
 def split_blade(volume: int, x_split: float, x_tip: float, chord: float, thickness: float,
                 stagger_deg: float) -> list[int]:
     """The blade of ``volume`` cut at x = ``x_split``: [the volume below, the blade box
@@ -353,6 +366,7 @@ class MeshReader:
         nodes, so the corners are matched element by element, not by tag)."""
         edges = _tet10_edges()
         pairs, mids = [], []
+        gmsh.option.setNumber("Mesh.HighOrderOptimize", 2)  # untangle curved elements
         gmsh.model.mesh.setOrder(2)
         try:
             tags, coords, _ = gmsh.model.mesh.getNodes()
@@ -373,7 +387,33 @@ class MeshReader:
         a, b = self.points[pairs[:, 0]], self.points[pairs[:, 1]]
         off = (np.linalg.norm(xyz - 0.5 * (a + b), axis=1)
                > CURVED * np.linalg.norm(b - a, axis=1))
-        return pairs[off], xyz[off]
+        return self._unfolded(pairs[off], xyz[off])
+
+    def _unfolded(self, pairs: np.ndarray, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The curved edges less those of tetrahedra their mid nodes fold (a small element
+        on a tight curve, as a blade root's fillet): those edges straight (their element
+        maps; the geometry there within a fraction of the element's size)."""
+        if not len(pairs) or not self._tets_by_vol:
+            return pairs, xyz
+        tets = self.index(np.concatenate(list(self._tets_by_vol.values())).ravel())
+        tets = tets.reshape(-1, 4)
+        edges = np.sort(tets[:, elements.EDGES["tetra"]], axis=2)  # (m, 6, 2)
+        base = np.int64(len(self.points))
+        keys = pairs[:, 0] * base + pairs[:, 1]
+        for _ in range(3):  # straightening an edge can only unfold its neighbours
+            mids = 0.5 * self.points[edges].sum(axis=2)
+            where = np.searchsorted(keys, edges[..., 0] * base + edges[..., 1])
+            where = np.minimum(where, len(keys) - 1)
+            curved = keys[where] == edges[..., 0] * base + edges[..., 1]
+            mids[curved] = xyz[where[curved]]
+            bad = elements.folded_tets(self.points, tets, mids)
+            if not bad.size:
+                break
+            drop = np.isin(keys, (edges[bad, :, 0] * base + edges[bad, :, 1]).ravel())
+            pairs, xyz, keys = pairs[~drop], xyz[~drop], keys[~drop]
+            if not len(pairs):
+                break
+        return pairs, xyz
 
     def index(self, gmsh_tags) -> np.ndarray:
         """0-based indices of Gmsh node tags (all must belong to tets)."""

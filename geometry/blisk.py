@@ -109,9 +109,11 @@ class BliskParameters:
     contact_n_flank: int = grid_count(4, "contact points along the flank (n2)")
     contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the contact flanks; "
                                 "0: the contact grid is the mesh (one node per point)")
-    root_size: float = param(0.0, "m", 0.0, 10.0, "element size along the blade's root "
-                             "edges, graded to the blade's over 3 x blade_size (the "
-                             "corner's stress singularity); 0: none")
+    root_fillet: float = param(0.0, "m", 0.0, 0.02, "radius of the fillet where the blade "
+                               "meets the platform; 0: a sharp corner")
+    root_size: float = param(0.0, "m", 0.0, 10.0, "element size at the blade's root: along "
+                             "its edges graded to the blade's over 3 x blade_size (a sharp "
+                             "corner's stress singularity), or over its fillet; 0: none")
     blade_layers: int = param(0, "-", 0, 400, "prism layers along the blade above its root "
                               "(its section meshed at blade_size, two cells through the "
                               "thickness at least); 0: tetrahedra", integer=True)
@@ -161,7 +163,7 @@ class BliskParameters:
         the disk."""
         ty = self.blade_half_extent[0]
         sag = self.r_platform - np.sqrt(self.r_platform**2 - ty**2)
-        return self.r_platform + max(3.0 * sag, 0.25 * self.blade_thickness)
+        return self.r_platform + max(3.0 * sag, 0.25 * self.blade_thickness) + self.root_fillet
 
     @property
     def damper_area(self) -> float:
@@ -218,6 +220,10 @@ class BliskParameters:
                 "the damper does not fit the pocket: its flanks would run past the pocket flanks")
         require(self.damper_length <= self.width, "damper_length", self.damper_length,
                 f"<= width = {self.width:g} m", "the damper does not fit the pocket axially")
+        room_f = min(self.width / 2 - tz, pitch / 2 - self.platform_gap / 2 - ty)
+        require(self.root_fillet < room_f, "root_fillet", self.root_fillet,
+                f"< {room_f:.4g} m (the platform's room round the blade)",
+                "the fillet would run over the platform's edge")
         volume = np.pi * (self.r_platform**2 - self.r_bore**2) * self.width / self.sectors
         check_element_budget(volume, self.size)
         check_element_budget(4 * ty * tz * self.blade_height, self.blade_size, "blade_size")
@@ -294,6 +300,9 @@ def _build(p: BliskParameters) -> Mesh:
     fused, _ = occ.fuse(cut, [(3, blade)])
     if len(fused) != 1:
         raise GeometryBuildError(f"blisk is not one solid after fusing the blade: {fused}")
+    if p.root_fillet > 0.0:
+        occ.synchronize()
+        fused = [(3, g.fillet_root(fused[0][1], _on_root(p), p.root_fillet))]
     rects = flank_rectangles(p)
     # Imprint the damper flanks on the pocket flanks: the right flank touches the NEXT
     # blade, whose left platform is the image of ours, so imprint its rotation by -phi.
@@ -317,6 +326,35 @@ def _blade(p: BliskParameters) -> int:
     x0 = p.r_platform - p.platform_thickness / 2
     x1 = p.blade_split if p.blade_layers else p.r_platform + p.blade_height
     return staggered_blade(x0, x1, p.blade_chord, p.blade_thickness, p.blade_stagger)
+
+
+def _fillet_faces(p: BliskParameters, disk: int) -> list[int]:
+    """The faces of the root's fillet: centred within its radius above the platform, under
+    the blade and the fillet round it, off the platform's cylinder."""
+    ty, tz = p.blade_half_extent
+    f = p.root_fillet
+    out = []
+    for face in g.boundary_surfaces([(3, disk)]):
+        x, y, z = g.surface_centre(face)
+        if (p.r_platform - f < np.hypot(x, y) < p.r_platform + f and abs(y) <= ty + f
+                and abs(z) <= tz + f and not g.on_cylinder(face, p.r_platform)):
+            out.append(face)
+    if not out:
+        raise GeometryBuildError("no face of the root's fillet found")
+    return out
+
+
+def _on_root(p: BliskParameters):
+    """Whether sampled points (k, 3) [m] lie where the blade meets the platform: on its
+    cylinder, under the blade's section."""
+    ty, tz = p.blade_half_extent
+
+    def on_root(xyz: np.ndarray) -> bool:
+        return bool(np.abs(np.hypot(xyz[:, 0], xyz[:, 1]) - p.r_platform).max() < 1e-9
+                    and np.all(np.abs(xyz[:, 1]) <= ty + 1e-9)
+                    and np.all(np.abs(xyz[:, 2]) <= tz + 1e-9))
+
+    return on_root
 
 
 def _patch_surfaces(p: BliskParameters, blisk: list[int], damper: int, rects) -> dict:
@@ -365,14 +403,12 @@ def _mesh_and_read(p: BliskParameters, blisk: list[int], damper: int, rects) -> 
                     (x_blade - p.platform_thickness, -ty, -tz),
                     (p.r_platform + p.blade_height + 1e-3, ty, tz)),
     ]
-    if p.root_size > 0.0:
-        def on_root(xyz: np.ndarray) -> bool:  # on the platform's cylinder, under the blade
-            return bool(np.abs(np.hypot(xyz[:, 0], xyz[:, 1]) - p.r_platform).max() < 1e-9
-                        and np.all(np.abs(xyz[:, 1]) <= ty + 1e-9)
-                        and np.all(np.abs(xyz[:, 2]) <= tz + 1e-9))
-
-        fields.append(g.add_distance_refinement(g.root_edges(blisk[0], on_root), p.root_size,
-                                                p.size, 3 * p.blade_size, dim=1))
+    if p.root_size > 0.0 and p.root_fillet > 0.0:  # on the fillet, graded off it
+        fields.append(g.add_distance_refinement(_fillet_faces(p, blisk[0]), p.root_size,
+                                                p.size, 3 * p.blade_size))
+    elif p.root_size > 0.0:
+        fields.append(g.add_distance_refinement(g.root_edges(blisk[0], _on_root(p)),
+                                                p.root_size, p.size, 3 * p.blade_size, dim=1))
     g.set_background_min(fields)
     gmsh.model.addPhysicalGroup(3, blisk, name="blisk")
     gmsh.model.addPhysicalGroup(3, [damper], name="damper")

@@ -157,3 +157,27 @@ def volumes(points: np.ndarray, shape: str, cells: np.ndarray) -> np.ndarray:
                    else (_WEDGE_X, np.full(6, 1 / 12), _wedge_gradients(_WEDGE_X)))
     jac = np.einsum("mai,qaj->mqij", p, grads)  # (m, q, 3, 3) dx_i / dX_j
     return np.linalg.det(jac) @ w
+
+
+def _tet10_gradients() -> np.ndarray:
+    """(10, 10, 3): the reference gradients of the 10-node tetrahedron's shape functions
+    (corners, then the mid-edge nodes in ``EDGES["tetra"]`` order) at its 10 nodes."""
+    corners = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    at = np.vstack([corners, [0.5 * (corners[a] + corners[b]) for a, b in EDGES["tetra"]]])
+    L = np.column_stack([1.0 - at.sum(axis=1), at])  # (10 points, 4) barycentric
+    dL = np.vstack([-np.ones(3), np.eye(3)])  # (4, 3): dL_i / dxi
+    G = np.empty((10, 10, 3))
+    for i in range(4):  # corners: L (2 L - 1)
+        G[:, i] = (4.0 * L[:, i] - 1.0)[:, None] * dL[i]
+    for k, (a, b) in enumerate(EDGES["tetra"]):  # mid-edge: 4 L_a L_b
+        G[:, 4 + k] = 4.0 * (L[:, b, None] * dL[a] + L[:, a, None] * dL[b])
+    return G
+
+
+def folded_tets(points: np.ndarray, tets: np.ndarray, mids: np.ndarray) -> np.ndarray:
+    """(k,) indices of the tetrahedra (m, 4) whose quadratic map, mid-edge nodes ``mids``
+    (m, 6, 3) [m] in ``EDGES["tetra"]`` order, has det J <= 0 at one of its ten nodes (a
+    curved edge bent across the element)."""
+    X = np.concatenate([points[tets], mids], axis=1)  # (m, 10, 3)
+    J = np.einsum("mai,paj->mpij", X, _tet10_gradients())
+    return np.flatnonzero((np.linalg.det(J) <= 0.0).any(axis=1))
