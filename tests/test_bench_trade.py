@@ -106,3 +106,10 @@ def test_the_cheapest_setting_runs_end_to_end(tmp_path, capsys):
     assert cheapest["total_s"] > 0
     assert (tmp_path / "trade.png").stat().st_size > 10_000
     assert "Pareto front" in capsys.readouterr().out
+
+
+def test_a_setting_that_fails_in_its_process_is_one_error_here():
+    """The fresh process's fault comes back as a RuntimeError naming it (not a hang, not a
+    child left running)."""
+    with pytest.raises(RuntimeError, match="Error"):
+        trade.cold({"geometry": {"model": "nonsense"}}, "trade")

@@ -25,18 +25,16 @@ varied: the stuck and friction peaks' changes against the finest grid.
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import copy
 import json
 import math
-import multiprocessing
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .trade import SIZES, measure, scaled_mesh
+from .trade import SIZES, cold, scaled_mesh, stop_with_signals
 
 #: Element size of the contact faces at factor 1 [m], where the case gives none: finer
 #: than the grid (2 x 36 points: cells 2.7 x 1.4 mm on the blisk's flanks).
@@ -90,12 +88,6 @@ def richardson(h: np.ndarray, w: np.ndarray) -> tuple[float, float]:
         return float("nan"), float("nan")
     p = math.log(d32 / d21) / math.log(r)
     return p, w1 - d21 / (r**p - 1.0)
-
-
-def _run(data: dict, source: str) -> dict:
-    ctx = multiprocessing.get_context("spawn")
-    with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
-        return pool.submit(measure, data, source).result()
 
 
 def mesh_table(rows: list[dict], limits: dict, zeta: float) -> str:
@@ -205,9 +197,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print(f"{args.case}: {len(meshes)} mesh levels, then {len(grids)} grids at factor "
           f"{g_factor:g}; each cold in its own process", flush=True)
+    stop_with_signals()
     rows, t0 = [], time.perf_counter()
     for k, (f, data) in enumerate(zip(factors, meshes)):
-        rows.append(_summary(_run(data, str(args.case)), f, data))
+        rows.append(_summary(cold(data, str(args.case)), f, data))
         r = rows[-1]
         print(f"[mesh {k + 1}/{len(meshes)}] factor {f:.3g}: {r['nodes']} vertices, free "
               f"{r['free']:.2f}, stuck {r['stuck']:.2f}, friction peak {r['omega']:.2f} "
@@ -220,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     print(mesh_table(rows, limits, zeta))
     grid_rows = []
     for g, data in zip(grids, grid_runs):
-        grid_rows.append(_summary(_run(data, str(args.case)), g_factor, data))
+        grid_rows.append(_summary(cold(data, str(args.case)), g_factor, data))
         print(f"[grid {g[0]}x{g[1]}] stuck {grid_rows[-1]['stuck']:.2f}, friction peak "
               f"{grid_rows[-1]['omega']:.2f} rad/s", flush=True)
     if grid_rows:

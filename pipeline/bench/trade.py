@@ -28,11 +28,11 @@ settings that no other setting beats in both.
 from __future__ import annotations
 
 import argparse
-import concurrent.futures as cf
 import copy
 import json
 import multiprocessing
 import resource
+import signal
 import sys
 import tempfile
 import time
@@ -188,6 +188,41 @@ def measure(data: dict, source: str) -> dict:
             "modes": modes, "mesh_s": t1 - t0, "reduction_s": t2 - t1, "coupling_s": t3 - t2,
             "frf_s": t4 - t3, "total_s": t4 - t0,
             "memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+def _measured(conn, data: dict, source: str) -> None:
+    """The child's side of :func:`cold`: its result or its error, through the pipe."""
+    try:
+        conn.send(("ok", measure(data, source)))
+    except BaseException as err:  # (sent, not raised: the parent says it)
+        conn.send(("error", f"{type(err).__name__}: {err}"))
+
+
+def cold(data: dict, source: str) -> dict:
+    """:func:`measure` in a fresh process (spawned: nothing cached from this one), ended
+    with this one: Ctrl-C or SIGTERM here (``stop_with_signals``) terminates it too, and a
+    child that dies (out of memory) is a RuntimeError, not a hang."""
+    ctx = multiprocessing.get_context("spawn")
+    here, there = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_measured, args=(there, data, source), daemon=True)
+    child.start()
+    there.close()
+    try:
+        kind, value = here.recv()
+    except EOFError:
+        kind, value = "error", f"the setting's process ended (exit code {child.exitcode})"
+    finally:
+        if child.is_alive():
+            child.terminate()
+        child.join()
+    if kind != "ok":
+        raise RuntimeError(value)
+    return value
+
+
+def stop_with_signals() -> None:
+    """SIGTERM as Ctrl-C: unwinds this process (and :func:`cold`'s child with it)."""
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
 def weight(s: Setting) -> float:
@@ -357,11 +392,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(settings)} settings of {args.case}, FRF {args.start:g}..{args.stop:g} rad/s, "
           f"each cold in its own process", flush=True)
     rows: list[dict] = []
-    ctx = multiprocessing.get_context("spawn")
+    stop_with_signals()
     t_all = time.perf_counter()
     for k, (s, data) in enumerate(zip(settings, datas)):
-        with cf.ProcessPoolExecutor(1, mp_context=ctx) as pool:
-            r = pool.submit(measure, data, str(args.case)).result()
+        r = cold(data, str(args.case))
         rows.append(r | {"setting": asdict(s)})
         spent = time.perf_counter() - t_all
         weights = [weight(x) for x in settings]
