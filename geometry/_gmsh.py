@@ -239,6 +239,17 @@ def fillet_root(volume: int, on_root: Callable[[np.ndarray], bool], radius: floa
     return vols[0]
 
 
+def faces_within(volume: int, lo, hi, but_not: Callable[[int], bool]) -> list[int]:
+    """The faces of ``volume`` centred in the box [lo, hi] [m] that ``but_not`` does not
+    exclude (a fillet's faces: near the root, off the platform's own face)."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    out = [t for t in boundary_surfaces([(3, volume)])
+           if np.all((lo <= surface_centre(t)) & (surface_centre(t) <= hi)) and not but_not(t)]
+    if not out:
+        raise GeometryBuildError("no face of the root's fillet found")
+    return out
+
+
 def split_blade(volume: int, x_split: float, x_tip: float, chord: float, thickness: float,
                 stagger_deg: float) -> list[int]:
     """The blade of ``volume`` cut at x = ``x_split``: [the volume below, the blade box

@@ -328,22 +328,6 @@ def _blade(p: BliskParameters) -> int:
     return staggered_blade(x0, x1, p.blade_chord, p.blade_thickness, p.blade_stagger)
 
 
-def _fillet_faces(p: BliskParameters, disk: int) -> list[int]:
-    """The faces of the root's fillet: centred within its radius above the platform, under
-    the blade and the fillet round it, off the platform's cylinder."""
-    ty, tz = p.blade_half_extent
-    f = p.root_fillet
-    out = []
-    for face in g.boundary_surfaces([(3, disk)]):
-        x, y, z = g.surface_centre(face)
-        if (p.r_platform - f < np.hypot(x, y) < p.r_platform + f and abs(y) <= ty + f
-                and abs(z) <= tz + f and not g.on_cylinder(face, p.r_platform)):
-            out.append(face)
-    if not out:
-        raise GeometryBuildError("no face of the root's fillet found")
-    return out
-
-
 def _on_root(p: BliskParameters):
     """Whether sampled points (k, 3) [m] lie where the blade meets the platform: on its
     cylinder, under the blade's section."""
@@ -404,8 +388,12 @@ def _mesh_and_read(p: BliskParameters, blisk: list[int], damper: int, rects) -> 
                     (p.r_platform + p.blade_height + 1e-3, ty, tz)),
     ]
     if p.root_size > 0.0 and p.root_fillet > 0.0:  # on the fillet, graded off it
-        fields.append(g.add_distance_refinement(_fillet_faces(p, blisk[0]), p.root_size,
-                                                p.size, 3 * p.blade_size))
+        f = p.root_fillet
+        faces = g.faces_within(blisk[0], (p.r_platform - f, -ty - f, -tz - f),
+                               (p.r_platform + f, ty + f, tz + f),
+                               lambda t: g.on_cylinder(t, p.r_platform))
+        fields.append(g.add_distance_refinement(faces, p.root_size, p.size,
+                                                3 * p.blade_size))
     elif p.root_size > 0.0:
         fields.append(g.add_distance_refinement(g.root_edges(blisk[0], _on_root(p)),
                                                 p.root_size, p.size, 3 * p.blade_size, dim=1))

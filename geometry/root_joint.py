@@ -94,9 +94,12 @@ class RootJointParameters:
     contact_n_flank: int = grid_count(4, "contact points along the flank (n2)")
     contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the contact flanks; "
                                 "0: the contact grid is the mesh (one node per point)")
-    root_size: float = param(0.0, "m", 0.0, 10.0, "element size along the airfoil's root "
-                             "edges on the platform, graded to the blade's over 3 x "
-                             "blade_size (the corner's stress singularity); 0: none")
+    root_fillet: float = param(0.0, "m", 0.0, 0.02, "radius of the fillet where the "
+                               "airfoil meets the platform; 0: a sharp corner")
+    root_size: float = param(0.0, "m", 0.0, 10.0, "element size at the airfoil's root: "
+                             "along its edges graded to the blade's over 3 x blade_size (a "
+                             "sharp corner's stress singularity), or over its fillet; 0: "
+                             "none")
     blade_layers: int = param(0, "-", 0, 400, "prism layers along the airfoil above its "
                               "root (its section meshed at blade_size, two cells through "
                               "the thickness at least); 0: tetrahedra", integer=True)
@@ -136,7 +139,7 @@ class RootJointParameters:
     def blade_split(self) -> float:
         """x [m] where a prism-layered airfoil (``blade_layers``) starts: a quarter of its
         thickness above the platform (the root below meshed with it)."""
-        return self.x_platform_top + 0.25 * self.blade_thickness
+        return self.x_platform_top + 0.25 * self.blade_thickness + self.root_fillet
 
     @property
     def platform_half_width(self) -> float:
@@ -177,6 +180,10 @@ class RootJointParameters:
         require(tz <= self.width / 2, "blade_chord", self.blade_chord,
                 f"such that the blade axial extent {2 * tz:.4g} m <= width = {self.width:g} m",
                 "blade longer than the platform")
+        room = min(self.width / 2 - tz, self.platform_half_width - ty)
+        require(self.root_fillet < room, "root_fillet", self.root_fillet,
+                f"< {room:.4g} m (the platform's room round the airfoil)",
+                "the fillet would run over the platform's edge")
         volume = np.pi * (self.r_rim**2 - self.r_bore**2) * self.width / self.sectors
         check_element_budget(volume, self.size)
         check_element_budget(4 * ty * tz * self.blade_height, self.blade_size, "blade_size")
@@ -242,6 +249,9 @@ def _build(p: RootJointParameters) -> Mesh:
     rects = flank_rectangles(p)
     disk = g.imprint_faces(cut[0][1], [rectangle_face(*r[:3]) for r in rects.values()])
     blade = [_blade(p)]
+    if p.root_fillet > 0.0:
+        occ.synchronize()
+        blade = [g.fillet_root(blade[0], _on_root(p), p.root_fillet)]
     if p.blade_layers:  # the airfoil above its root: a box meshed in prism layers
         blade = g.split_blade(blade[0], p.blade_split, p.r_tip, p.blade_chord,
                               p.blade_thickness, p.blade_stagger)
@@ -282,6 +292,19 @@ def _blade(p: RootJointParameters) -> int:
     return fused[0][1]
 
 
+def _on_root(p: RootJointParameters):
+    """Whether sampled points (k, 3) [m] lie where the airfoil meets the platform: on its
+    top face, under the airfoil's section."""
+    ty, tz = blade_half_extent(p.blade_chord, p.blade_thickness, p.blade_stagger)
+
+    def on_root(xyz: np.ndarray) -> bool:
+        return bool(np.abs(xyz[:, 0] - p.x_platform_top).max() < 1e-9
+                    and np.all(np.abs(xyz[:, 1]) <= ty + 1e-9)
+                    and np.all(np.abs(xyz[:, 2]) <= tz + 1e-9))
+
+    return on_root
+
+
 def _patch_surfaces(disk: int, blade: list[int], rects) -> dict[str, tuple[int, int]]:
     """{patch: (blade face, disk face)} located by centre and area."""
     disk_faces = g.boundary_surfaces([(3, disk)])
@@ -309,14 +332,17 @@ def _size_fields(p: RootJointParameters, rects, patch_faces: list[int], spacing:
                                   2 * p.flank_height),
         g.box_field(size, p.size, (p.r_platform, -ty, -tz), (p.r_tip + 1e-3, ty, tz)),
     ]
-    if p.root_size > 0.0:
-        def on_root(xyz: np.ndarray) -> bool:  # on the platform's top, under the airfoil
-            return bool(np.abs(xyz[:, 0] - p.x_platform_top).max() < 1e-9
-                        and np.all(np.abs(xyz[:, 1]) <= ty + 1e-9)
-                        and np.all(np.abs(xyz[:, 2]) <= tz + 1e-9))
-
-        fields.append(g.add_distance_refinement(g.root_edges(blade[0], on_root), p.root_size,
-                                                p.size, 3 * p.blade_size, dim=1))
+    if p.root_size > 0.0 and p.root_fillet > 0.0:  # on the fillet, graded off it
+        f = p.root_fillet
+        faces = g.faces_within(blade[0], (p.x_platform_top - f, -ty - f, -tz - f),
+                               (p.x_platform_top + f, ty + f, tz + f),
+                               lambda t: bool(g.surfaces_on_plane([t], (p.x_platform_top, 0,
+                                                                        0), (1, 0, 0))))
+        fields.append(g.add_distance_refinement(faces, p.root_size, p.size,
+                                                3 * p.blade_size))
+    elif p.root_size > 0.0:
+        fields.append(g.add_distance_refinement(g.root_edges(blade[0], _on_root(p)),
+                                                p.root_size, p.size, 3 * p.blade_size, dim=1))
     g.set_background_min(fields)
 
 
