@@ -27,6 +27,8 @@ def test_richardson_refuses_changes_that_do_not_shrink():
     assert np.isnan(order) and np.isnan(limit)
     with pytest.raises(ValueError, match="constant ratio"):
         convergence.richardson(np.array([0.004, 0.002, 0.0015]), np.ones(3))
+    # factors typed to two digits (1.41, 1, 0.71) are a constant ratio
+    convergence.richardson(np.array([1.41, 1.0, 0.71]), np.array([3.0, 2.0, 1.6]))
 
 
 def test_mesh_levels_scale_every_size_and_hold_the_grid():
@@ -56,6 +58,7 @@ def test_a_peak_on_the_window_edge_is_no_frequency():
 @pytest.mark.parametrize("args, expected", [
     (["--factors", "1", "0.5"], "three or more positive factors"),
     (["--grids", "9by4"], "is not N1xN2"),
+    (["--factors", "2", "1", "0.7", "0.3"], "must be in a constant ratio"),
 ])
 def test_bad_input_is_one_line_and_exit_2(capsys, args, expected):
     assert main(["bench", "convergence", *args]) == 2

@@ -51,6 +51,10 @@ REFINED = {
 FACTORS = (2.0, math.sqrt(2.0), 1.0, math.sqrt(0.5), 0.5)
 GRIDS = ("6x2", "9x4", "12x6", "18x8")
 GRID = ("contact_n_axial", "contact_n_flank")
+#: How far the two ratios of the three finest sizes may differ (factors typed as 1.41 and
+#: 0.71 for sqrt 2 and its inverse: 0.3 %; the extrapolation's error from it is of that
+#: order times the last change, far below what it extrapolates)
+RATIO_TOL = 1e-2
 
 
 def level_data(base: dict, factor: float, grid: tuple[int, int] | None, start: float,
@@ -81,7 +85,7 @@ def richardson(h: np.ndarray, w: np.ndarray) -> tuple[float, float]:
     order = np.argsort(h)[:3]
     (h1, h2, h3), (w1, w2, w3) = h[order], w[order]
     r = h2 / h1
-    if not np.isclose(h3 / h2, r, rtol=1e-3):
+    if not np.isclose(h3 / h2, r, rtol=RATIO_TOL):
         raise ValueError("richardson: the three finest sizes must be in a constant ratio")
     d21, d32 = w2 - w1, w3 - w2
     if d21 == 0.0 or d32 / d21 <= 1.0:
@@ -182,6 +186,11 @@ def main(argv: list[str] | None = None) -> int:
         factors = sorted(args.factors, reverse=True)
         if len(factors) < 3 or min(factors) <= 0:
             raise ValueError("--factors: three or more positive factors")
+        f1, f2, f3 = factors[-1], factors[-2], factors[-3]
+        if not np.isclose(f3 / f2, f2 / f1, rtol=RATIO_TOL):
+            raise ValueError(f"--factors: the three finest ({f3:g}, {f2:g}, {f1:g}) must be in "
+                             f"a constant ratio (within {RATIO_TOL:.0%}) for Richardson's "
+                             "extrapolation")
         base = load(args.case).data
         zeta = float(np.atleast_1d(base["reduction"].get("damping", {}).get(
             "modal_ratios", 0.001))[0])
