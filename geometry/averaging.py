@@ -9,8 +9,12 @@ borders (so every facet lies in one cell). Contact point (i, j) is the cell's av
 
 at the cell's centre (the same average of the node positions: a linear field is read
 exactly there). Its force F goes back to the nodes as w_k F, so a uniform pressure p
-(F = p A_cell at every point) arrives as p int N_k dA: the consistent nodal loads, as if the
-pressure acted on the fine mesh. Every point holds A / (n1 n2) of the contact's stiffness.
+(F = p A_cell at every point) arrives as p int N_k dA: the consistent nodal loads of the
+linear facets, as if the pressure acted on the fine mesh. The nodes are the mesh's
+vertices (N_k their linear shape functions): with quadratic elements the averages hold the
+vertex DOFs, and a uniform pressure reaches the vertices, not the mid-edge DOFs its
+quadratic consistent loads would (statically the same; locally, within a fine cell).
+Every point holds A / (n1 n2) of the contact's stiffness.
 The weights live in the mesh (``Mesh.averages``); the reduction makes the averaged points
 masters (``fe.reduction.craig_bampton``, ``averaged=``).
 """

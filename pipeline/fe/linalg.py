@@ -360,8 +360,8 @@ class ConstrainedFactor:
     solution for any a (W x = g makes the added term vanish), so it is factorized once
     (Cholesky), with Z = K_a^-1 W^H (n, c) and the capacitance C = W Z (c, c):
     x = y - Z C^-1 (W y - g), y = K_a^-1 (b + a W^H g). ``a`` is the mean diagonal of K
-    over that of W^H W on its columns: the ties as stiff as the elements they hold, so
-    K_a is conditioned as K is.
+    over the mean ||w_i||^2 of W's rows: the ties as stiff as the elements they hold, so
+    K_a is conditioned as K is. Z is dense (n, c): c = 3 per averaged point.
 
     ``solve(b)`` (g = 0) is the constrained inverse of K on the null space of W: the
     shift-invert operator of the fixed-interface modes (``constraint`` tells
@@ -371,8 +371,11 @@ class ConstrainedFactor:
     def __init__(self, K: sp.spmatrix, W: sp.spmatrix, backend: str | None = None) -> None:
         W = sp.csr_matrix(W)
         WHW = (W.conj().T @ W).tocsr()
-        held = WHW.diagonal().real
-        self.alpha = float(np.abs(K.diagonal()).mean() / held[held > 0].mean())
+        rows = np.asarray(abs(W).power(2).sum(axis=1)).ravel()  # ||w_i||^2
+        if not rows.all():
+            raise ValueError(f"averaged masters: constraint {int(np.argmin(rows))} holds no "
+                             "free DOF (every node it averages is clamped or a master)")
+        self.alpha = float(np.abs(K.diagonal()).mean() / rows.mean())
         self.factor = factorize(K + self.alpha * WHW, backend=backend, positive_definite=True)
         self.n, self.backend, self.constraint = K.shape[0], self.factor.backend, W
         self.Z = np.asarray(self.factor.solve(W.conj().T.toarray()))
@@ -447,10 +450,13 @@ def lowest_modes(
     W = getattr(factor, "constraint", None)
     if n <= _DENSE_LIMIT or (k >= n // 2 and upper is None):
         # Small or nearly complete spectra: dense LAPACK is faster and always complete.
-        N = np.eye(n) if W is None else sla.null_space(W.toarray())
-        KN, MN = (np.asarray(A @ N) for A in (K, M))
-        lam, V = sla.eigh(N.conj().T @ KN, N.conj().T @ MN)
-        V = N @ V
+        if W is None:
+            lam, V = sla.eigh(K.toarray(), M.toarray())
+        else:  # on W's null space (the averaged masters held)
+            N = sla.null_space(W.toarray())
+            KN, MN = (np.asarray(A @ N) for A in (K, M))
+            lam, V = sla.eigh(N.conj().T @ KN, N.conj().T @ MN)
+            V = N @ V
         count = k if upper is None else max(k, int(np.sum(lam <= _bound(upper, lam[:k]))))
         return lam[:count], V[:, :count]
     if factor is None:

@@ -442,6 +442,18 @@ class AveragedMasters:
     weights: NDArray[np.float64]
     xyz: NDArray[np.float64]
 
+    def among(self, masters: IntArray) -> AveragedMasters | None:
+        """Those of the averaged points that are in ``masters`` (None: none is)."""
+        keep = np.isin(self.points, masters)
+        if keep.all():
+            return self
+        if not keep.any():
+            return None
+        new = np.cumsum(keep) - 1
+        rows = keep[self.rows]
+        return AveragedMasters(self.points[keep], new[self.rows[rows]], self.nodes[rows],
+                               self.weights[rows], self.xyz[keep])
+
     @property
     def digest(self) -> str:
         h = hashlib.sha256()
@@ -536,13 +548,16 @@ def craig_bampton(
     recovery = np.unique(np.asarray(recovery_nodes, dtype=np.int64))
     if len(masters) == 0:
         raise ValueError("master_nodes: at least one master node is required for Craig-Bampton")
+    if averaged is not None:
+        averaged = averaged.among(masters)
     is_averaged = (np.isin(masters, averaged.points) if averaged is not None
                    else np.zeros(len(masters), bool))
     m_idx = model.free_index(masters[~is_averaged], "master_nodes").ravel()
     cols = (3 * np.flatnonzero(~is_averaged)[:, None] + np.arange(3)).ravel()
     n_f = model.n_free
     n_s = n_f - len(m_idx)
-    _check_selection(n_modes, cutoff, f_max, n_s)
+    n_s_free = n_s - 3 * int(is_averaged.sum())  # (the slave space less the averages held)
+    _check_selection(n_modes, cutoff, f_max, n_s_free)
     if eigen_method not in ("block", "arpack") or (eigen_method == "arpack"
                                                    and isinstance(n_modes, str)):
         raise ValueError(f"eigen_method={eigen_method!r}: 'block', or 'arpack' with an integer "
@@ -592,7 +607,7 @@ def craig_bampton(
     t2 = time.perf_counter()
     if n_modes == "auto" and n_s > 0:
         if f_max is None:
-            k0 = min(INTEREST, n_s)
+            k0 = min(INTEREST, n_s_free)
             upper = lambda lam: cutoff**2 * lam[-1]  # noqa: E731
         else:
             k0, upper = 1, (2.0 * np.pi * cutoff * f_max) ** 2
