@@ -250,6 +250,22 @@ def faces_within(volume: int, lo, hi, but_not: Callable[[int], bool]) -> list[in
     return out
 
 
+def root_refinement(volume: int, x_root: float, half_y: float, half_z: float,
+                    fillet: float, size: float, size_max: float, reach: float,
+                    on_platform: Callable[[int], bool],
+                    on_root: Callable[[np.ndarray], bool]) -> int:
+    """Threshold field at a blade's root, ``size`` graded to ``size_max`` over ``reach``
+    [m]: on the faces of its ``fillet`` (centred within the fillet of the root plane x =
+    ``x_root`` round the section's half extents, off the platform's own face), or with no
+    fillet on its sharp root edges (``root_edges``)."""
+    if fillet > 0.0:
+        f = fillet
+        faces = faces_within(volume, (x_root - f, -half_y - f, -half_z - f),
+                             (x_root + f, half_y + f, half_z + f), on_platform)
+        return add_distance_refinement(faces, size, size_max, reach)
+    return add_distance_refinement(root_edges(volume, on_root), size, size_max, reach, dim=1)
+
+
 def split_blade(volume: int, x_split: float, x_tip: float, chord: float, thickness: float,
                 stagger_deg: float) -> list[int]:
     """The blade of ``volume`` cut at x = ``x_split``: [the volume below, the blade box

@@ -115,6 +115,16 @@ def averaged_patch(name: str, points: np.ndarray, first: int,
     return patch, np.vstack(new), np.vstack(pairs), np.concatenate(weights)
 
 
+def face_nodes(n1: int, n2: int, e1: np.ndarray, e2: np.ndarray, size: float
+               ) -> tuple[int, int]:
+    """Nodes of a contact face's structured mesh along e1 and e2 [m]: the contact grid's
+    (``size`` 0), or a finer mesh at ``size`` [m] whose edges lie on the cells' borders."""
+    if size <= 0.0:
+        return n1, n2
+    return (cells_per_edge(float(np.linalg.norm(e1)), n1, size) + 1,
+            cells_per_edge(float(np.linalg.norm(e2)), n2, size) + 1)
+
+
 class ContactGrids:
     """The structured contact patches of a parametric model as its mesh is read: node grids
     (``size`` 0: the contact grid is the mesh) or averaged points over a finer mesh."""
@@ -123,15 +133,6 @@ class ContactGrids:
         self.points, self.size = points, float(size)
         self._averages: list[np.ndarray] = []
         self._weights: list[np.ndarray] = []
-
-    def mesh_nodes(self, n1: int, n2: int, e1: np.ndarray, e2: np.ndarray
-                   ) -> tuple[int, int]:
-        """Nodes of a contact face's structured mesh along e1 and e2 [m]: the contact
-        grid's, or a finer mesh whose edges lie on the cells' borders."""
-        if self.size <= 0.0:
-            return n1, n2
-        return (cells_per_edge(float(np.linalg.norm(e1)), n1, self.size) + 1,
-                cells_per_edge(float(np.linalg.norm(e2)), n2, self.size) + 1)
 
     def patch(self, name: str, side_a: tuple[str, dict, np.ndarray],
               side_b: tuple[str, dict, np.ndarray], rect, n1: int, n2: int,

@@ -66,17 +66,21 @@ from ._shapes import (
     rotate_z,
     staggered_blade,
 )
-from .averaging import ContactGrids, patch_sets
+from .averaging import ContactGrids, face_nodes, patch_sets
 from .mesh import Mesh
 from .params import (
     GeometryBuildError,
     angle_deg,
     as_dict,
+    blade_layers_param,
     check_ranges,
+    contact_size_param,
     grid_count,
     param,
     positive_length,
     require,
+    root_fillet_param,
+    root_size_param,
 )
 from .simple import check_element_budget, cyclic_faces, revolve_sector
 
@@ -107,16 +111,10 @@ class BliskParameters:
     blade_size: float = positive_length(0.004, "tet size in the blade")
     contact_n_axial: int = grid_count(9, "contact points along the axis (n1)")
     contact_n_flank: int = grid_count(4, "contact points along the flank (n2)")
-    contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the contact flanks; "
-                                "0: the contact grid is the mesh (one node per point)")
-    root_fillet: float = param(0.0, "m", 0.0, 0.02, "radius of the fillet where the blade "
-                               "meets the platform; 0: a sharp corner")
-    root_size: float = param(0.0, "m", 0.0, 10.0, "element size at the blade's root: along "
-                             "its edges graded to the blade's over 3 x blade_size (a sharp "
-                             "corner's stress singularity), or over its fillet; 0: none")
-    blade_layers: int = param(0, "-", 0, 400, "prism layers along the blade above its root "
-                              "(its section meshed at blade_size, two cells through the "
-                              "thickness at least); 0: tetrahedra", integer=True)
+    contact_size: float = contact_size_param()
+    root_fillet: float = root_fillet_param()
+    root_size: float = root_size_param()
+    blade_layers: int = blade_layers_param()
 
     # ------------------------------------------------------------ derived shape
     @property
@@ -363,10 +361,9 @@ def _mesh_and_read(p: BliskParameters, blisk: list[int], damper: int, rects) -> 
     g.set_periodic_rotation(left, right, p.phi)
     patches = _patch_surfaces(p, blisk, damper, rects)
     spacing = 0.0
-    grids = ContactGrids(np.empty((0, 3)), p.contact_size)
     for name, faces in patches.items():
         e1, e2 = rects[name][1:3]
-        n1, n2 = grids.mesh_nodes(p.contact_n_axial, p.contact_n_flank, e1, e2)
+        n1, n2 = face_nodes(p.contact_n_axial, p.contact_n_flank, e1, e2, p.contact_size)
         for face in faces:
             g.set_transfinite_rectangle(face, e1, n1, n2)
         spacing = max(spacing, np.linalg.norm(e1) / (n1 - 1), np.linalg.norm(e2) / (n2 - 1))
@@ -387,16 +384,10 @@ def _mesh_and_read(p: BliskParameters, blisk: list[int], damper: int, rects) -> 
                     (x_blade - p.platform_thickness, -ty, -tz),
                     (p.r_platform + p.blade_height + 1e-3, ty, tz)),
     ]
-    if p.root_size > 0.0 and p.root_fillet > 0.0:  # on the fillet, graded off it
-        f = p.root_fillet
-        faces = g.faces_within(blisk[0], (p.r_platform - f, -ty - f, -tz - f),
-                               (p.r_platform + f, ty + f, tz + f),
-                               lambda t: g.on_cylinder(t, p.r_platform))
-        fields.append(g.add_distance_refinement(faces, p.root_size, p.size,
-                                                3 * p.blade_size))
-    elif p.root_size > 0.0:
-        fields.append(g.add_distance_refinement(g.root_edges(blisk[0], _on_root(p)),
-                                                p.root_size, p.size, 3 * p.blade_size, dim=1))
+    if p.root_size > 0.0:
+        fields.append(g.root_refinement(blisk[0], p.r_platform, ty, tz, p.root_fillet,
+                                        p.root_size, p.size, 3 * p.blade_size,
+                                        lambda t: g.on_cylinder(t, p.r_platform), _on_root(p)))
     g.set_background_min(fields)
     gmsh.model.addPhysicalGroup(3, blisk, name="blisk")
     gmsh.model.addPhysicalGroup(3, [damper], name="damper")

@@ -72,6 +72,33 @@ def grid_count(default: int, doc: str):
     return param(default, "-", 2, 500, doc, integer=True)
 
 
+def contact_size_param(faces: str = "contact flanks"):
+    """The contact faces' element size [m] apart from the contact grid (0: the grid is the
+    mesh), as ``geometry.averaging`` reads it."""
+    return param(0.0, "m", 0.0, 10.0, f"element size on the {faces}; 0: the contact grid "
+                 "is the mesh (one node per point)")
+
+
+def root_fillet_param(part: str = "blade"):
+    """Radius [m] of a fillet where ``part`` meets its platform (0: a sharp corner)."""
+    return param(0.0, "m", 0.0, 0.02, f"radius of the fillet where the {part} meets the "
+                 "platform; 0: a sharp corner")
+
+
+def root_size_param(part: str = "blade"):
+    """Element size [m] at ``part``'s root: its edges graded, or its fillet (0: none)."""
+    return param(0.0, "m", 0.0, 10.0, f"element size at the {part}'s root: along its edges "
+                 "graded to the blade's over 3 x blade_size (a sharp corner's stress "
+                 "singularity), or over its fillet; 0: none")
+
+
+def blade_layers_param(part: str = "blade"):
+    """Prism layers along ``part`` above its root (0: tetrahedra)."""
+    return param(0, "-", 0, 400, f"prism layers along the {part} above its root (its "
+                 "section meshed at blade_size, two cells through the thickness at least); "
+                 "0: tetrahedra", integer=True)
+
+
 def check_ranges(params) -> None:
     """Raise GeometryParameterError for the first field outside its declared range."""
     owner = type(params).__name__

@@ -37,13 +37,14 @@ import numpy as np
 
 from . import _gmsh as g
 from ._shapes import blade_half_extent, local_to_xyz, radial_frame, staggered_blade
-from .averaging import ContactGrids, patch_sets
+from .averaging import ContactGrids, face_nodes, patch_sets
 from .mesh import Mesh
 from .params import (
     GeometryBuildError,
     angle_deg,
     as_dict,
     check_ranges,
+    contact_size_param,
     grid_count,
     param,
     positive_length,
@@ -73,8 +74,7 @@ class ShroudParameters:
     blade_size: float = positive_length(0.004, "tet size in the blade and shroud")
     contact_n_radial: int = grid_count(3, "contact points across the shroud (n1)")
     contact_n_along: int = grid_count(6, "contact points along the interlock (n2)")
-    contact_size: float = param(0.0, "m", 0.0, 10.0, "element size on the interlock faces; "
-                                "0: the contact grid is the mesh (one node per point)")
+    contact_size: float = contact_size_param("interlock faces")
 
     @property
     def phi(self) -> float:
@@ -195,12 +195,11 @@ def _mesh_and_read(p: ShroudParameters, blisk: int) -> Mesh:
     faces = g.boundary_surfaces([(3, blisk)])
     rect_a, rect_b = p.interlock(p.phi / 2), p.interlock(-p.phi / 2)
     patch = []
-    grids = ContactGrids(np.empty((0, 3)), p.contact_size)
     for origin, e1, e2 in (rect_a, rect_b):
         area = float(np.linalg.norm(np.cross(e1, e2)))
         face = g.surface_with_centre(faces, origin + 0.5 * (e1 + e2), area)
-        g.set_transfinite_rectangle(face, e1, *grids.mesh_nodes(
-            p.contact_n_radial, p.contact_n_along, e1, e2))
+        g.set_transfinite_rectangle(face, e1, *face_nodes(
+            p.contact_n_radial, p.contact_n_along, e1, e2, p.contact_size))
         patch.append(face)
     ty, tz = blade_half_extent(p.blade_chord, p.blade_thickness, p.blade_stagger)
     fields = [g.constant_field(p.size),
