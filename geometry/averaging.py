@@ -17,16 +17,26 @@ quadratic consistent loads would (statically the same; locally, within a fine ce
 Every point holds A / (n1 n2) of the contact's stiffness.
 The weights live in the mesh (``Mesh.averages``); the reduction makes the averaged points
 masters (``fe.reduction.craig_bampton``, ``averaged=``).
+
+Named surfaces of any mesh (an imported deck's) get the same choice by a spacing
+(:func:`averaged_surfaces`): side a's contact nodes are gathered into patches about that
+wide (spacing^2 each on average; farthest-point seeds, then Lloyd's sweeps: compact, of
+even size on any surface), and
+each patch is one point on each side, averaged over the part of the surfaces its nodes'
+shape functions cover (``pairing.patch_weights``: consistent on both sides, non-matching
+meshes included).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
-from .mesh import ContactPatch, rotation_z
-from .pairing import nodal_areas_and_normals
+from .mesh import AveragedContact, ContactPatch, Mesh, SurfaceContact, rotation_z
+from .pairing import OUTSIDE, nodal_areas_and_normals, paired_contact, patch_weights
 from .params import GeometryBuildError
 from .surfaces import Surface, surface_of
 
@@ -165,3 +175,110 @@ def patch_sets(patch: ContactPatch) -> tuple[np.ndarray, np.ndarray]:
     """The node sets "contact/<name>/<body>" of a patch: its points on side a and side b,
     sorted."""
     return np.sort(patch.nodes_a.ravel()), np.sort(patch.nodes_b.ravel())
+
+
+def surface_patches(xyz: np.ndarray, areas: np.ndarray, spacing: float, sweeps: int = 8
+                    ) -> np.ndarray:
+    """(k,) patch index of each of k surface nodes ``xyz`` (k, 3) [m] with tributary
+    ``areas`` (k,) [m^2]: patches of spacing^2 on average (the total area over spacing^2 of
+    them, as a square grid of that spacing would cut), about ``spacing`` [m] wide. Seeds by
+    farthest points, then Lloyd's sweeps (each node to the nearest seed, each seed to its
+    patch's area centre); patch indices ordered along the seeds' coordinates
+    (deterministic)."""
+    k = len(xyz)
+    count = min(k, max(1, round(areas.sum() / spacing**2)))
+    centre = areas @ xyz / areas.sum()
+    seeds = [int(np.argmax(np.linalg.norm(xyz - centre, axis=1)))]
+    dist = np.linalg.norm(xyz - xyz[seeds[0]], axis=1)
+    while len(seeds) < count:
+        seeds.append(int(np.argmax(dist)))
+        dist = np.minimum(dist, np.linalg.norm(xyz - xyz[seeds[-1]], axis=1))
+    centres = xyz[seeds]
+    for _ in range(sweeps):
+        label = cKDTree(centres).query(xyz)[1]
+        used = np.unique(label)
+        mass = np.bincount(label, areas, len(centres))[used]
+        centres = np.stack([np.bincount(label, areas * xyz[:, d], len(centres))[used]
+                            for d in range(3)], axis=1) / mass[:, None]
+    label = cKDTree(centres).query(xyz)[1]
+    used, label = np.unique(label, return_inverse=True)
+    order = np.lexsort(centres[used].T[::-1])  # by x, then y, then z
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return rank[label]
+
+
+def patch_faces(surface: Surface, group: np.ndarray) -> np.ndarray:
+    """(F, 4) the patches three or four at a time that meet at a facet of ``surface`` (its
+    corners in three or four patches; a triangle's 4th -1): the dual cells a map draws
+    over the patches' points. ``group`` (k,) patch of each of ``surface.nodes`` (-1:
+    none)."""
+    nodes = surface.nodes
+    out = []
+    for facets in (surface.triangles, surface.quads):
+        if not len(facets):
+            continue
+        lab = group[np.searchsorted(nodes, facets)]
+        for row in lab[(lab >= 0).all(axis=1)]:
+            distinct = list(dict.fromkeys(row.tolist()))  # in the facet's corner order
+            if len(distinct) >= 3:
+                out.append(distinct + [-1] * (4 - len(distinct)))
+    if not out:
+        return np.empty((0, 4), np.int64)
+    faces = np.array(out, np.int64)
+    key = np.sort(np.where(faces < 0, np.iinfo(np.int64).max, faces), axis=1)
+    _, first = np.unique(key, axis=0, return_index=True)
+    return faces[np.sort(first)]
+
+
+def averaged_surfaces(mesh: Mesh, name: str, spacing: float) -> Mesh:
+    """``mesh`` with its :class:`~.mesh.SurfaceContact` ``name`` made an
+    :class:`~.mesh.AveragedContact` of points about ``spacing`` [m] apart: side a's touching
+    nodes gathered into patches (:func:`surface_patches`), each patch a pair of averaged
+    points (``pairing.patch_weights``), new points of the mesh with their averages.
+    ValueError naming the contact where the spacing leaves fewer than one patch."""
+    c = mesh.contacts[name]
+    if not isinstance(c, SurfaceContact):
+        raise ValueError(f"contacts.{name}: spacing applies to named surfaces only")
+    pc = paired_contact(mesh, name)
+    surface_a = pc.facets
+    nodes_a, whole, normals_a = nodal_areas_and_normals(mesh.points, surface_a)
+    touching = np.isin(nodes_a, pc.pairing.nodes_a)
+    group = np.full(len(nodes_a), -1)
+    group[touching] = surface_patches(mesh.points[nodes_a[touching]], whole[touching],
+                                      spacing)
+    surface_b, xyz_b, outside = None, None, 0.0
+    if c.body_b is not None:
+        surface_b = surface_of(mesh.body_cells(c.body_b), mesh.node_sets[c.set_b])
+        turn = np.eye(3) if not c.b_sector_offset else rotation_z(
+            c.b_sector_offset * mesh.cyclic[c.body_b].angle)
+        xyz_b = mesh.points @ turn.T
+        size = float(np.linalg.norm(np.ptp(xyz_b[surface_b.nodes], axis=0)))
+        outside = c.tolerance or OUTSIDE * size
+    try:
+        Wa, Wb, areas = patch_weights(mesh.points, surface_a, xyz_b, surface_b, group,
+                                      outside)
+    except ValueError as err:
+        raise ValueError(f"contacts.{name}: {err}") from None
+    first, g = len(mesh.points), len(areas)
+    points, rows, weights = [mesh.points], [mesh.averages], [mesh.average_weights]
+    sides = [(Wa, nodes_a)] + ([] if Wb is None else [(Wb, surface_b.nodes)])
+    for side, (W, nodes) in enumerate(sides):
+        W = W.tocoo()
+        keep = W.data > 0.0
+        ids = first + side * g + np.arange(g)
+        rows.append(np.column_stack([ids[W.row[keep]], nodes[W.col[keep]]]))
+        weights.append(W.data[keep])
+        points.append(W.tocsr() @ mesh.points[nodes])
+    normals = Wa @ normals_a
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    xa = points[1]
+    gaps = (np.zeros(g) if Wb is None
+            else np.einsum("ij,ij->i", Wb @ xyz_b[surface_b.nodes] - xa, normals))
+    contact = AveragedContact(
+        name, c.body_a, c.body_b, first + np.arange(g),
+        first + g + np.arange(g) if Wb is not None else np.empty(0, np.int64), normals,
+        areas, gaps, patch_faces(surface_a, group), c.b_sector_offset, c.spread, spacing)
+    return replace(mesh, points=np.vstack(points), averages=np.vstack(rows),
+                   average_weights=np.concatenate(weights),
+                   contacts={**mesh.contacts, name: contact})

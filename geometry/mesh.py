@@ -246,6 +246,65 @@ class SurfaceContact:
         object.__setattr__(self, "tolerance", float(self.tolerance))
 
 
+@dataclass(frozen=True)
+class AveragedContact:
+    """A contact between named surfaces whose points stand for patches of them, about
+    ``spacing`` apart (``geometry.averaging.averaged_surfaces``): the contact grid apart from
+    an imported mesh. Each point of side a and its partner on side b are averaged points of
+    the mesh (``Mesh.averages``) over the same part of the surfaces.
+
+    name; body_a; body_b (None: the ground); nodes_a: (k,) side a's points; nodes_b: (k,)
+    their partners on body b (empty with the ground); normals: (k, 3) unit normals from body
+    a into body b; areas: (k,) [m^2] the areas the points stand for; gaps: (k,) [m] normal
+    gaps (positive: open); faces: (F, 4) int64 side a's points three or four at a time
+    (a triangle's 4th -1): the map's cells; b_sector_offset, spread: as
+    :class:`SurfaceContact`'s; spacing: [m] the points' spacing asked for.
+    """
+
+    name: str
+    body_a: str
+    body_b: str | None
+    nodes_a: np.ndarray
+    nodes_b: np.ndarray
+    normals: np.ndarray
+    areas: np.ndarray
+    gaps: np.ndarray
+    faces: np.ndarray
+    b_sector_offset: int = 0
+    spread: str = "area"
+    spacing: float = 0.0
+
+    def __post_init__(self) -> None:
+        pre = f"AveragedContact {self.name!r}"
+        nodes_a = _index_array(f"{pre}: nodes_a", self.nodes_a, 1)
+        nodes_b = _index_array(f"{pre}: nodes_b", self.nodes_b, 1)
+        k = len(nodes_a)
+        if k == 0 or len(nodes_b) not in ((0,) if self.body_b is None else (k,)):
+            raise MeshValidationError(f"{pre}: {k} points on side a and {len(nodes_b)} on "
+                                      "side b (one partner each, none with the ground)")
+        normals = np.asarray(self.normals, dtype=np.float64).reshape(-1, 3)
+        areas = np.asarray(self.areas, dtype=np.float64).reshape(-1)
+        gaps = np.asarray(self.gaps, dtype=np.float64).reshape(-1)
+        if len(normals) != k or len(areas) != k or len(gaps) != k:
+            raise MeshValidationError(f"{pre}: normals, areas and gaps need one row per "
+                                      f"point ({k})")
+        if not (np.all(areas > 0) and np.allclose(np.linalg.norm(normals, axis=1), 1.0)):
+            raise MeshValidationError(f"{pre}: every area must be > 0 and every normal a "
+                                      "unit vector")
+        faces = _index_array(f"{pre}: faces", np.asarray(self.faces) + 1, 2).reshape(-1, 4) - 1
+        if np.any(faces[:, :3] < 0) or faces.max(initial=-1) >= k:
+            raise MeshValidationError(f"{pre}: faces must index the {k} points (-1 only as a "
+                                      "triangle's 4th corner)")
+        if self.spread not in ("area", "nodes"):
+            raise MeshValidationError(f"{pre}: spread = {self.spread!r}, expected 'area' or "
+                                      "'nodes'")
+        for name, value in (("nodes_a", nodes_a), ("nodes_b", nodes_b), ("normals", normals),
+                            ("areas", areas), ("gaps", gaps), ("faces", faces)):
+            object.__setattr__(self, name, _frozen(value))
+        object.__setattr__(self, "b_sector_offset", int(self.b_sector_offset))
+        object.__setattr__(self, "spacing", float(self.spacing))
+
+
 #: The frames a support's directions are given in, with the names of their directions
 FRAMES = {"global": ("x", "y", "z"), "rectangular": ("x", "y", "z"),
           "cylindrical": ("r", "theta", "z")}
@@ -338,8 +397,9 @@ class Mesh:
                 the elements and share no node
     node_sets:  name -> sorted unique int64 node indices
     cyclic:     body name -> its :class:`CyclicBoundary` (sector bodies only)
-    contacts:   contact name -> :class:`ContactPatch` (a structured grid, node for node)
-                or :class:`SurfaceContact` (named surfaces, paired by ``geometry.pairing``)
+    contacts:   contact name -> :class:`ContactPatch` (a structured grid, node for node),
+                :class:`SurfaceContact` (named surfaces, paired by ``geometry.pairing``) or
+                :class:`AveragedContact` (named surfaces, points averaging patches of them)
     parameters: JSON-serialisable parameters that built the mesh (plus derived values
                 under "derived", e.g. CAD volumes and the damper's nominal mass)
     hexahedra:  (n_hex, 8) int64 corner node indices, wedges: (n_wedge, 6): the other
@@ -366,7 +426,8 @@ class Mesh:
     bodies: dict[str, np.ndarray]
     node_sets: dict[str, np.ndarray] = field(default_factory=dict)
     cyclic: dict[str, CyclicBoundary] = field(default_factory=dict)
-    contacts: dict[str, ContactPatch | SurfaceContact] = field(default_factory=dict)
+    contacts: dict[str, ContactPatch | SurfaceContact | AveragedContact] = field(
+        default_factory=dict)
     parameters: dict = field(default_factory=dict)
     hexahedra: np.ndarray = field(default_factory=lambda: elements.empty("hexahedron"))
     wedges: np.ndarray = field(default_factory=lambda: elements.empty("wedge"))
@@ -528,6 +589,8 @@ class Mesh:
                 self._check_surface_contact(name, patch)
                 continue
             for body, nodes in ((patch.body_a, patch.nodes_a), (patch.body_b, patch.nodes_b)):
+                if body is None and isinstance(patch, AveragedContact):  # the ground
+                    continue
                 if body not in self.bodies:
                     raise MeshValidationError(f"contacts[{name!r}]: unknown body {body!r}")
                 if not np.all(np.isin(nodes, self.body_points(body))):
@@ -536,6 +599,8 @@ class Mesh:
                 raise MeshValidationError(
                     f"contacts[{name!r}]: b_sector_offset needs a cyclic body_b"
                 )
+            if isinstance(patch, AveragedContact):  # its partners apart by the gaps
+                continue
             err = np.abs(self.patch_points(name, "a") - self.patch_points(name, "b")).max()
             if err > MATCH_TOL:
                 raise MeshValidationError(
@@ -697,6 +762,12 @@ class Mesh:
             if isinstance(p, SurfaceContact):
                 put(f"surface-contact/{name}/{p.body_a}/{p.set_a}/{p.body_b}/{p.set_b}/"
                     f"{p.b_sector_offset}/{p.tolerance!r}/{p.spread}")
+                continue
+            if isinstance(p, AveragedContact):
+                put(f"averaged-contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/"
+                    f"{p.spread}/{p.spacing!r}")
+                for part in (p.nodes_a, p.nodes_b, p.normals, p.areas, p.gaps, p.faces):
+                    put("", part)
                 continue
             put(f"contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/{p.area!r}")
             put("a", p.nodes_a)

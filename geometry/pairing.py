@@ -42,7 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from .mesh import ContactPatch, Mesh, SurfaceContact, rotation_z
+from .mesh import AveragedContact, ContactPatch, Mesh, SurfaceContact, rotation_z
 from .surfaces import (
     Surface,
     interpolation,
@@ -174,29 +174,97 @@ def mortar_weights(points: np.ndarray, surface_a: Surface, xyz_b: np.ndarray,
     (``int N_i N_j^b dA / int N_i dA``, the area-weighted mean: stable where the dual one
     is not). Points of side a projecting farther than ``outside`` [m] beyond side b touch
     nothing."""
-    nodes_a, nodes_b = surface_a.nodes, surface_b.nodes
-    at, shape, dual, corners, weight = _facet_quadrature(points, surface_a, subcells)
-    where = project(at, xyz_b, surface_b)
-    on = (where.gap - where.distance) <= outside
-    (rows, nodes, values), _ = interpolation(surface_b, where)
-    keep = on[rows]
-    Nb = sp.csr_matrix((values[keep], (rows[keep], np.searchsorted(nodes_b, nodes[keep]))),
-                       shape=(len(at), len(nodes_b)))
-    q = np.repeat(np.arange(len(at)), corners.shape[1])
-    cols = np.searchsorted(nodes_a, corners).ravel()
-
-    def on_a(f, w):  # (q, k) CSR of per-point values f (q, c) at side a's corners
-        return sp.csr_matrix(((f * w[:, None]).ravel(), (q, cols)),
-                             shape=(len(at), len(nodes_a)))
-
-    area = np.asarray(on_a(shape, weight).sum(axis=0)).ravel()
-    standard = (on_a(shape, weight).T @ Nb).tocsr()
+    q = _mortar_quadrature(points, surface_a, xyz_b, surface_b, outside, subcells)
+    standard = (q.shape_w.T @ q.Nb).tocsr()
+    area = np.asarray(q.shape_w.sum(axis=0)).ravel()
     covered = np.asarray(standard.sum(axis=1)).ravel()
     whole = covered >= area * (1.0 - 1e-9)
-    per_dual = sp.diags(np.where(whole, 1.0 / area, 0.0)) @ (on_a(dual, weight).T @ Nb)
+    per_dual = sp.diags(np.where(whole, 1.0 / area, 0.0)) @ (q.dual_w.T @ q.Nb)
     per_own = sp.diags(np.divide(1.0, covered, out=np.zeros(len(covered)),
                                  where=~whole & (covered > 0))) @ standard
     return (per_dual + per_own).tocsr(), covered
+
+
+@dataclass(frozen=True)
+class MortarQuadrature:
+    """Side a's facet quadrature (q points) with side b's shape functions there: shape_w,
+    dual_w: (q, k) CSR side a's shape functions N_i and dual basis psi_i at each point
+    times its weight [m^2] (k: side a's nodes, sorted); shape: (q, k) CSR N_i alone; Nb:
+    (q, m) CSR side b's N_j at the points that touch it (zero rows elsewhere; None: the
+    ground, which every point touches)."""
+
+    shape_w: sp.csr_matrix
+    dual_w: sp.csr_matrix
+    shape: sp.csr_matrix
+    Nb: sp.csr_matrix | None
+
+    @property
+    def touching(self) -> np.ndarray:
+        """(q,) bool: the points on side b."""
+        if self.Nb is None:
+            return np.ones(self.shape.shape[0], bool)
+        return np.diff(self.Nb.indptr) > 0
+
+
+def _mortar_quadrature(points: np.ndarray, surface_a: Surface, xyz_b: np.ndarray | None,
+                       surface_b: Surface | None, outside: float, subcells: int = SUBCELLS
+                       ) -> MortarQuadrature:
+    """:class:`MortarQuadrature` of side a over side b (``xyz_b`` its turned node positions;
+    None with ``surface_b``: the ground)."""
+    nodes_a = surface_a.nodes
+    at, shape, dual, corners, weight = _facet_quadrature(points, surface_a, subcells)
+    q = np.repeat(np.arange(len(at)), corners.shape[1])
+    cols = np.searchsorted(nodes_a, corners).ravel()
+
+    def on_a(f):  # (q, k) CSR of per-point values f (q, c) at side a's corners
+        return sp.csr_matrix((f.ravel(), (q, cols)), shape=(len(at), len(nodes_a)))
+
+    Nb = None
+    if surface_b is not None:
+        nodes_b = surface_b.nodes
+        where = project(at, xyz_b, surface_b)
+        on = (where.gap - where.distance) <= outside
+        (rows, nodes, values), _ = interpolation(surface_b, where)
+        keep = on[rows]
+        Nb = sp.csr_matrix((values[keep], (rows[keep], np.searchsorted(nodes_b, nodes[keep]))),
+                           shape=(len(at), len(nodes_b)))
+    return MortarQuadrature(on_a(shape * weight[:, None]), on_a(dual * weight[:, None]),
+                            on_a(shape), Nb)
+
+
+def patch_weights(points: np.ndarray, surface_a: Surface, xyz_b: np.ndarray | None,
+                  surface_b: Surface | None, group: np.ndarray, outside: float,
+                  subcells: int = SUBCELLS
+                  ) -> tuple[sp.csr_matrix, sp.csr_matrix | None, np.ndarray]:
+    """Averaged contact points over patches of two surfaces.
+
+    Patch c is side a's nodes with ``group`` == c ((k,) over ``surface_a.nodes``, -1: in
+    none); it stands for the part of the surfaces under phi_c = sum of their shape
+    functions N_i (phi_c sum to 1 where every node is in a patch), where side a touches
+    side b. Its point on side a moves as ``int phi_c u_a dA / int phi_c dA`` and its
+    partner on side b as ``int phi_c u_b dA / int phi_c dA`` (side b's field at side a's
+    projected quadrature points): the same average of both sides, so coincident surfaces
+    give coincident points, a linear field is read exactly at each point, and a uniform
+    pressure (force p int phi_c dA at point c) arrives on each side as its consistent
+    nodal loads. Every weight is >= 0 (linear shape functions on both sides).
+
+    Returns (Wa (g, k) CSR over ``surface_a.nodes``, Wb (g, m) CSR over
+    ``surface_b.nodes`` (None: the ground), areas (g,) [m^2] int phi_c dA on side b); rows
+    sum to 1.
+    """
+    q = _mortar_quadrature(points, surface_a, xyz_b, surface_b, outside, subcells)
+    member = np.flatnonzero(group >= 0)
+    g = int(group.max()) + 1
+    G = sp.csr_matrix((np.ones(len(member)), (member, group[member])),
+                      shape=(len(group), g))
+    phi_w = sp.diags(q.touching.astype(float)) @ (q.shape_w @ G)  # (q, g) phi_c w there
+    Wa = (phi_w.T @ q.shape).tocsr()
+    areas = np.asarray(Wa.sum(axis=1)).ravel()
+    if np.any(areas <= 0.0):
+        raise ValueError(f"patch {int(np.argmin(areas))} lies wholly beyond the other surface")
+    scale = sp.diags(1.0 / areas)
+    Wb = None if q.Nb is None else (scale @ (phi_w.T @ q.Nb)).tocsr()
+    return (scale @ Wa).tocsr(), Wb, areas
 
 
 def _facet_quadrature(points: np.ndarray, surface: Surface, s: int
@@ -350,6 +418,7 @@ def paired_contact(mesh: Mesh, name: str) -> PairedContact:
     if key not in mesh.derived:
         c = mesh.contacts[name]
         mesh.derived[key] = (_patch_pairs(mesh, name, c) if isinstance(c, ContactPatch)
+                             else _averaged_pairs(c) if isinstance(c, AveragedContact)
                              else _surface_pairs(mesh, c))
     return mesh.derived[key]
 
@@ -370,6 +439,19 @@ def _patch_pairs(mesh: Mesh, name: str, patch: ContactPatch) -> PairedContact:
     d = (a[-1] - a[0]).mean(axis=0)
     return PairedContact(name, patch.body_a, patch.body_b, patch.b_sector_offset, pairing,
                          Surface(np.empty((0, 3), np.int64), quads), (n1, n2), d)
+
+
+def _averaged_pairs(c: AveragedContact) -> PairedContact:
+    """Averaged points over patches of two surfaces: point for point, its own areas,
+    normals and gaps; the map's cells its faces."""
+    k = len(c.nodes_a)
+    weights = sp.identity(k, format="csr") if c.body_b is not None else sp.csr_matrix((k, 0))
+    pairing = SurfacePairing(c.nodes_a, c.nodes_b, weights, c.normals, c.areas, c.gaps,
+                             np.zeros(k), True)
+    faces = c.nodes_a[np.maximum(c.faces, 0)]
+    tri = c.faces[:, 3] < 0
+    return PairedContact(c.name, c.body_a, c.body_b, c.b_sector_offset, pairing,
+                         Surface(faces[tri, :3], faces[~tri]))
 
 
 def _surface_pairs(mesh: Mesh, c: SurfaceContact) -> PairedContact:

@@ -19,12 +19,19 @@ from typing import Any
 
 import numpy as np
 
-from .mesh import ContactPatch, CyclicBoundary, Mesh, Support, SurfaceContact
+from .mesh import (
+    AveragedContact,
+    ContactPatch,
+    CyclicBoundary,
+    Mesh,
+    Support,
+    SurfaceContact,
+)
 
 FORMAT = 1
 #: The dataclasses a mesh holds in its mappings, by the name written with each.
 KINDS = {cls.__name__: cls for cls in (CyclicBoundary, ContactPatch, SurfaceContact,
-                                       Support)}
+                                       AveragedContact, Support)}
 #: The attributes of a mapping's entry: its key and (a dataclass) its kind; a dataclass'
 #: fields are attributes too, so these are names no field has.
 KEY, KIND = "__key__", "__kind__"

@@ -36,6 +36,10 @@
                                      # point may project and still touch it
     spread = "area"                  # the stiffness shared by tributary area, or "nodes":
                                      # equally (what a model's structured patch does)
+    spacing = 0.004                  # [m] optional: contact points about this far apart,
+                                     # each the average of a patch of both surfaces (the
+                                     # contact grid apart from the mesh; default 0: every
+                                     # node of the finer surface is a point)
 
 Each contact is then named like a model's patch in [[assembly.contacts]] (``patch``).
 
@@ -56,6 +60,7 @@ from pathlib import Path
 from typing import Any
 
 from microslip import geometry
+from microslip.geometry.averaging import averaged_surfaces
 from microslip.geometry.imported import (
     UNITS,
     ImportedMesh,
@@ -72,7 +77,8 @@ from .checks import is_int, is_number, unknown_keys
 IMPORT = "import"
 PARAMETRIC_KEYS = {"model", "parameters", "contacts"}
 IMPORT_KEYS = {"model", "file", "units", "bodies", "sector", "sets", "size", "contacts"}
-CONTACT_KEYS = {"surfaces", "bodies", "ground", "neighbour", "tolerance", "spread"}
+CONTACT_KEYS = {"surfaces", "bodies", "ground", "neighbour", "tolerance", "spread",
+                "spacing"}
 SECTOR_KEYS = {"sectors", "axis", "origin", "tolerance", "faces"}
 SELECTION_KEYS = {"box", "plane", "radius", "tolerance", "body"}
 
@@ -89,6 +95,7 @@ class ContactDeclaration:
     neighbour: bool = False
     tolerance: float = 0.0  # [m] (0: the pairing's default)
     spread: str = "area"  # the stiffness shared by tributary area, or equally ("nodes")
+    spacing: float = 0.0  # [m] points averaging patches this wide (0: side a's nodes)
 
     def declare(self, mesh: geometry.Mesh) -> SurfaceContact:
         """The contact on ``mesh`` (ValueError naming the key and the fault)."""
@@ -116,6 +123,12 @@ def with_contacts(mesh: geometry.Mesh, contacts: tuple[ContactDeclaration, ...]
             paired_contact(out, name)
         except ValueError as err:
             raise ValueError(f"geometry.{err}") from None
+    for c in contacts:
+        if c.spacing > 0.0:
+            try:
+                out = averaged_surfaces(out, c.name, c.spacing)
+            except ValueError as err:
+                raise ValueError(f"geometry.{err}") from None
     return out
 
 
@@ -141,7 +154,8 @@ class GeometryTable:
         contacts = tuple(ContactDeclaration(
             name, tuple(t["surfaces"]), tuple(t["bodies"]) if "bodies" in t else None,
             bool(t.get("ground", False)), bool(t.get("neighbour", False)),
-            float(t.get("tolerance", 0.0)), t.get("spread", ContactDeclaration.spread))
+            float(t.get("tolerance", 0.0)), t.get("spread", ContactDeclaration.spread),
+            float(t.get("spacing", 0.0)))
             for name, t in table.get("contacts", {}).items())
         if table["model"] != IMPORT:
             return cls(table["model"], dict(table.get("parameters", {})), base=Path(base),
@@ -362,6 +376,10 @@ def _check_contacts(contacts: Any, out: list[str]) -> None:
         tol = t.get("tolerance", 1.0)
         if not (is_number(tol) and tol > 0):
             out.append(f"{pre}.tolerance = {tol!r}: expected a distance > 0 [m]")
+        spacing = t.get("spacing", 0.0)
+        if not (is_number(spacing) and spacing >= 0):
+            out.append(f"{pre}.spacing = {spacing!r}: expected a distance >= 0 [m] (0: "
+                       "every node of the finer surface a contact point)")
         if t.get("spread", "area") not in ("area", "nodes"):
             out.append(f"{pre}.spread = {t['spread']!r}: expected \"area\" (the stiffness "
                        "by tributary area) or \"nodes\" (equal shares)")
