@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 from blocks import two_blocks
-from test_surface_contacts import H, K_AREA, PRESS, E, L, P, model, reduced
+from test_surface_contacts import K_AREA, PRESS, E, H, L, P, model, reduced
 
 from microslip.geometry.averaging import averaged_surfaces, surface_patches
 from microslip.geometry.mesh import AveragedContact

@@ -59,6 +59,7 @@ def test_a_peak_on_the_window_edge_is_no_frequency():
     (["--factors", "1", "0.5"], "three or more positive factors"),
     (["--grids", "9by4"], "is not N1xN2"),
     (["--factors", "2", "1", "0.7", "0.3"], "must be in a constant ratio"),
+    (["--start", "3200", "--stop", "3100"], "expected 0 < start < stop"),
 ])
 def test_bad_input_is_one_line_and_exit_2(capsys, args, expected):
     assert main(["bench", "convergence", *args]) == 2

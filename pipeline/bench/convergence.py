@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .trade import SIZES, cold, scaled_mesh, stop_with_signals
+from .trade import SIZES, check_window, cold, scaled_mesh, stop_with_signals
 
 #: Element size of the contact faces at factor 1 [m], where the case gives none: finer
 #: than the grid (2 x 36 points: cells 2.7 x 1.4 mm on the blisk's flanks).
@@ -182,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
     from microslip.pipeline.case import CaseError, check, load
 
     try:
+        check_window(args.start, args.stop)
         grids = [_grid(g) for g in args.grids]
         factors = sorted(args.factors, reverse=True)
         if len(factors) < 3 or min(factors) <= 0:

@@ -114,6 +114,12 @@ def scaled_mesh(data: dict, factor: float, contact_size: float = 0.0) -> None:
             params[name] = max(1, round(params[name] / factor))
 
 
+def check_window(start: float, stop: float) -> None:
+    """ValueError naming --start and --stop unless 0 < start < stop [rad/s]."""
+    if not 0 < start < stop:
+        raise ValueError(f"--start {start:g}, --stop {stop:g}: expected 0 < start < stop")
+
+
 def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
     """The base case's table with the setting's knobs and one FRF analysis (no maps, no
     pictures: the bench reads the refined peak itself)."""
@@ -379,9 +385,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         settings = _pick(args.only)
-        if not 0 < args.start < args.stop:
-            raise ValueError(f"--start {args.start:g}, --stop {args.stop:g}: expected "
-                             "0 < start < stop")
+        check_window(args.start, args.stop)
         base = load(args.case).data
         datas = [case_data(base, s, args.start, args.stop) for s in settings]
         for d in datas:
