@@ -251,11 +251,14 @@ def local_cluster(workers: int):
     """(cluster, client) of ``workers`` local worker processes, one thread each (the
     kernels are single-threaded; so is each worker's BLAS, by Dask's default), no dashboard
     (the scheduler's HTTP routes on a free port: two runs at once do not collide on 8787)
-    and Dask's own log lines below errors silenced."""
+    and Dask's own log lines silenced: a task's fault reaches the run through its future
+    (:func:`_result`), and what Dask logs besides is nothing a user acts on (a worker's
+    heartbeat that finds the scheduler closed first, on a loaded machine, printed a
+    traceback after a complete run)."""
     from distributed import Client, LocalCluster
 
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR,
+                           dashboard_address=None, silence_logs=logging.CRITICAL,
                            scheduler_kwargs={"dashboard_address": ":0"},
                            preload=["microslip.pipeline.app.worker"])  # its dask_setup
     return cluster, Client(cluster)
