@@ -33,8 +33,11 @@ def test_richardson_refuses_changes_that_do_not_shrink():
 
 def test_mesh_levels_scale_every_size_and_hold_the_grid():
     base = cases.load("cases/blisk_damper.toml").data
-    params = {"size": 0.008, "contact_size": 0.002,
-              **convergence.REFINED["blisk_sector"]}  # (the model's defaults and REFINED)
+    from microslip.geometry import PARAMETERS
+
+    # the case's values, REFINED's where it has none, else the model's defaults
+    params = {"size": PARAMETERS["blisk_sector"]().size, "contact_size": 0.002,
+              **convergence.REFINED["blisk_sector"], **base["geometry"]["parameters"]}
     for f in (2.0, 0.5):
         data = convergence.level_data(base, f, None, 3040.0, 3160.0, 0.002)
         cases.check(data, "convergence")

@@ -56,7 +56,7 @@ def test_the_stuck_blisk_goes_over_its_lift_off_peak(tmp_path, amplitude):
 
 @pytest.mark.slow
 def test_the_light_dampers_fold_has_an_unstable_middle(tmp_path):
-    """Firrone & Zucca Fig. 23 right (cases/blisk_damper.toml's low_mass: the 5 x damper at
+    """Firrone & Zucca Fig. 23 right (cases/blisk_damper.toml's low_mass: the 3 x damper at
     mu = 1, partial lift-off): two folds located around the frequency the case maps (three
     solutions there), the points between them unstable and their neighbours stable; of the
     three solutions at that frequency (the map points) the middle amplitude is the unstable
@@ -77,14 +77,17 @@ def test_the_light_dampers_fold_has_an_unstable_middle(tmp_path):
         c = f["low_mass/curve_000"]
         assert c.attrs["status"] == "complete"
         kinds = np.array([k.decode() for k in c["bifurcations/kind"][()]])
-        folds = kinds == "fold"
+        omega = c["bifurcations/omega"][()]
+        # the fold pair around w_fold (the FRF's overhang, ~4 rad/s wide); elsewhere the
+        # curve has zero-width bifurcation pairs at the kinks where lift-off ends
+        folds = (kinds == "fold") & (np.abs(omega - w_fold) < 5.0)
         assert folds.sum() == 2
         i, j = np.sort(c["bifurcations/index"][()][folds])
         stable = c["stable"][()]
         assert stable[i - 5: i + 1].all() and not stable[i + 1: j + 1].any()
         assert stable[j + 1: j + 6].all()
-        lo, hi = sorted(c["bifurcations/omega"][()][folds])
-        assert lo < w_fold < hi and hi - lo < 0.1
+        lo, hi = sorted(omega[folds])
+        assert lo < w_fold < hi
         solutions = [c["maps"][p] for p in sorted(c["maps"]) if
                      attr_text(c["maps"][p].attrs["what"]) != "peak"]
         assert len(solutions) == 3
