@@ -236,7 +236,8 @@ def averaged_surfaces(mesh: Mesh, name: str, spacing: float) -> Mesh:
     :class:`~.mesh.AveragedContact` of points about ``spacing`` [m] apart: side a's touching
     nodes gathered into patches (:func:`surface_patches`), each patch a pair of averaged
     points (``pairing.patch_weights``), new points of the mesh with their averages.
-    ValueError naming the contact where the spacing leaves fewer than one patch."""
+    ValueError naming the contact where it is not between named surfaces (or averaged
+    already), or a patch lies wholly beyond the other surface."""
     c = mesh.contacts[name]
     if not isinstance(c, SurfaceContact):
         raise ValueError(f"contacts.{name}: spacing applies to named surfaces only")
