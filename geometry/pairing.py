@@ -243,14 +243,16 @@ def patch_weights(points: np.ndarray, surface_a: Surface, xyz_b: np.ndarray | No
     functions N_i (phi_c sum to 1 where every node is in a patch), where side a touches
     side b. Its point on side a moves as ``int phi_c u_a dA / int phi_c dA`` and its
     partner on side b as ``int phi_c u_b dA / int phi_c dA`` (side b's field at side a's
-    projected quadrature points): the same average of both sides, so coincident surfaces
-    give coincident points, a linear field is read exactly at each point, and a uniform
-    pressure (force p int phi_c dA at point c) arrives on each side as its consistent
-    nodal loads. Every weight is >= 0 (linear shape functions on both sides).
+    projected quadrature points): the same average of both sides, so coincident flat
+    surfaces give coincident points (curved ones faceted apart differ by the sag), a
+    linear field is read exactly at each point, and a uniform pressure (force p int phi_c
+    dA at point c) arrives on each side as its consistent nodal loads. Every weight is
+    >= 0 where side a's points project onto side b (linear shape functions on both sides;
+    within the tolerance beyond its edge they extrapolate).
 
     Returns (Wa (g, k) CSR over ``surface_a.nodes``, Wb (g, m) CSR over
-    ``surface_b.nodes`` (None: the ground), areas (g,) [m^2] int phi_c dA on side b); rows
-    sum to 1.
+    ``surface_b.nodes`` (None: the ground), areas (g,) [m^2] int phi_c dA over side a where
+    it touches side b); rows sum to 1.
     """
     q = _mortar_quadrature(points, surface_a, xyz_b, surface_b, outside, subcells)
     member = np.flatnonzero(group >= 0)

@@ -65,6 +65,12 @@ def pressed(lower, upper, tol):
     """(pressure per pair / P, top displacement [m], the mesh) of the blocks under P; the
     tangential loads of the pairs within ``tol`` of the total load."""
     mesh = stack(lower, upper)
+    return (*pressed_mesh(mesh, tol), mesh)
+
+
+def pressed_mesh(mesh, tol):
+    """(pressure per pair / P, top displacement [m]) of a mesh of the blocks under P, stiff
+    contact, mu large; the tangential loads of the pairs within ``tol`` of the total."""
     cm = model(mesh, reduced(mesh), 1e3, PRESS)
     p = OperatingPoint(100.0)
     r = solve_point(cm.hb, p)
@@ -72,7 +78,7 @@ def pressed(lower, upper, tol):
     state = cm.patches(r.x, p)["interface"]
     areas = paired_contact(mesh, "interface").pairing.areas
     assert np.abs(state.static[:, :2]).max() < tol * P * L * L  # no tangential load
-    return state.static[:, 2] / areas / P, cm.output_coefficients(r.x, p)[0, 0], mesh
+    return state.static[:, 2] / areas / P, cm.output_coefficients(r.x, p)[0, 0]
 
 
 # Pressure error (max over the pairs) of the weighted (dual mortar) coupling by sub-cells per
