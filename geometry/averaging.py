@@ -40,6 +40,10 @@ from .pairing import OUTSIDE, nodal_areas_and_normals, paired_contact, patch_wei
 from .params import GeometryBuildError
 from .surfaces import Surface, surface_of
 
+#: The least length of a patch's mean unit normal: below it (its nodes' normals spread
+#: over more than ~120 degrees) the patch spans faces round a sharp edge or a tight bend.
+TURN = 0.5
+
 
 def cells_per_edge(length: float, cells: int, size: float) -> int:
     """Elements along an edge of ``length`` [m] cut into ``cells`` contact cells, at most
@@ -177,58 +181,49 @@ def patch_sets(patch: ContactPatch) -> tuple[np.ndarray, np.ndarray]:
     return np.sort(patch.nodes_a.ravel()), np.sort(patch.nodes_b.ravel())
 
 
-def surface_patches(xyz: np.ndarray, areas: np.ndarray, spacing: float, sweeps: int = 8
-                    ) -> np.ndarray:
+def surface_patches(xyz: np.ndarray, areas: np.ndarray, spacing: float,
+                    normals: np.ndarray | None = None, sweeps: int = 8) -> np.ndarray:
     """(k,) patch index of each of k surface nodes ``xyz`` (k, 3) [m] with tributary
     ``areas`` (k,) [m^2]: patches of spacing^2 on average (the total area over spacing^2 of
     them, as a square grid of that spacing would cut), about ``spacing`` [m] wide. Seeds by
     farthest points, then Lloyd's sweeps (each node to the nearest seed, each seed to its
     patch's area centre); patch indices ordered along the seeds' coordinates
-    (deterministic)."""
+    (deterministic). With the nodes' unit ``normals`` (k, 3) the distance also counts
+    spacing x their turn (|n_i - n_j|): a patch keeps to one face of a sharp edge (a right
+    angle puts the other face 1.4 spacings further away)."""
     k = len(xyz)
     count = min(k, max(1, round(areas.sum() / spacing**2)))
-    centre = areas @ xyz / areas.sum()
-    seeds = [int(np.argmax(np.linalg.norm(xyz - centre, axis=1)))]
-    dist = np.linalg.norm(xyz - xyz[seeds[0]], axis=1)
+    at = xyz if normals is None else np.hstack([xyz, spacing * np.asarray(normals)])
+    centre = areas @ at / areas.sum()
+    seeds = [int(np.argmax(np.linalg.norm(at - centre, axis=1)))]
+    dist = np.linalg.norm(at - at[seeds[0]], axis=1)
     while len(seeds) < count:
         seeds.append(int(np.argmax(dist)))
-        dist = np.minimum(dist, np.linalg.norm(xyz - xyz[seeds[-1]], axis=1))
-    centres = xyz[seeds]
+        dist = np.minimum(dist, np.linalg.norm(at - at[seeds[-1]], axis=1))
+    centres = at[seeds]
     for _ in range(sweeps):
-        label = cKDTree(centres).query(xyz)[1]
+        label = cKDTree(centres).query(at)[1]
         used = np.unique(label)
         mass = np.bincount(label, areas, len(centres))[used]
-        centres = np.stack([np.bincount(label, areas * xyz[:, d], len(centres))[used]
-                            for d in range(3)], axis=1) / mass[:, None]
-    label = cKDTree(centres).query(xyz)[1]
+        centres = np.stack([np.bincount(label, areas * at[:, d], len(centres))[used]
+                            for d in range(at.shape[1])], axis=1) / mass[:, None]
+    label = cKDTree(centres).query(at)[1]
     used, label = np.unique(label, return_inverse=True)
-    order = np.lexsort(centres[used].T[::-1])  # by x, then y, then z
+    order = np.lexsort(centres[used, :3].T[::-1])  # by x, then y, then z
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     return rank[label]
 
 
-def patch_faces(surface: Surface, group: np.ndarray) -> np.ndarray:
-    """(F, 4) the patches three or four at a time that meet at a facet of ``surface`` (its
-    corners in three or four patches; a triangle's 4th -1): the dual cells a map draws
-    over the patches' points. ``group`` (k,) patch of each of ``surface.nodes`` (-1:
-    none)."""
-    nodes = surface.nodes
-    out = []
-    for facets in (surface.triangles, surface.quads):
-        if not len(facets):
-            continue
-        lab = group[np.searchsorted(nodes, facets)]
-        for row in lab[(lab >= 0).all(axis=1)]:
-            distinct = list(dict.fromkeys(row.tolist()))  # in the facet's corner order
-            if len(distinct) >= 3:
-                out.append(distinct + [-1] * (4 - len(distinct)))
-    if not out:
-        return np.empty((0, 4), np.int64)
-    faces = np.array(out, np.int64)
-    key = np.sort(np.where(faces < 0, np.iinfo(np.int64).max, faces), axis=1)
-    _, first = np.unique(key, axis=0, return_index=True)
-    return faces[np.sort(first)]
+def touching_facets(surface: Surface, touching: np.ndarray) -> np.ndarray:
+    """(F, 4) mesh nodes of the facets of ``surface`` whose every corner is ``touching``
+    ((k,) bool over ``surface.nodes``; a triangle's 4th corner -1): the part of side a an
+    averaged contact's map draws, each node's share in its patch's colour."""
+    inside = surface.nodes[touching]
+    parts = [np.column_stack([surface.triangles, np.full(len(surface.triangles), -1)]),
+             surface.quads]
+    faces = np.vstack([f for f in parts if len(f)] or [np.empty((0, 4), np.int64)])
+    return faces[np.isin(faces, np.append(inside, -1)).all(axis=1)]
 
 
 def averaged_surfaces(mesh: Mesh, name: str, spacing: float) -> Mesh:
@@ -247,7 +242,7 @@ def averaged_surfaces(mesh: Mesh, name: str, spacing: float) -> Mesh:
     touching = np.isin(nodes_a, pc.pairing.nodes_a)
     group = np.full(len(nodes_a), -1)
     group[touching] = surface_patches(mesh.points[nodes_a[touching]], whole[touching],
-                                      spacing)
+                                      spacing, normals_a[touching])
     surface_b, xyz_b, outside = None, None, 0.0
     if c.body_b is not None:
         surface_b = surface_of(mesh.body_cells(c.body_b), mesh.node_sets[c.set_b])
@@ -272,14 +267,23 @@ def averaged_surfaces(mesh: Mesh, name: str, spacing: float) -> Mesh:
         weights.append(W.data[keep])
         points.append(W.tocsr() @ mesh.points[nodes])
     normals = Wa @ normals_a
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    length = np.linalg.norm(normals, axis=1)
+    if length.min() < TURN:
+        i = int(np.argmin(length))
+        at = ", ".join(f"{1e3 * v:.4g}" for v in points[1][i])
+        raise ValueError(f"contacts.{name}: spacing = {spacing:g} m puts a patch over faces "
+                         f"turned too far apart at ({at}) mm: a smaller spacing keeps each "
+                         "patch on one face")
+    normals /= length[:, None]
     xa = points[1]
     gaps = (np.zeros(g) if Wb is None
             else np.einsum("ij,ij->i", Wb @ xyz_b[surface_b.nodes] - xa, normals))
+    faces = touching_facets(surface_a, touching)
     contact = AveragedContact(
         name, c.body_a, c.body_b, first + np.arange(g),
         first + g + np.arange(g) if Wb is not None else np.empty(0, np.int64), normals,
-        areas, gaps, patch_faces(surface_a, group), c.b_sector_offset, c.spread, spacing)
+        areas, gaps, faces, group[np.searchsorted(nodes_a, np.unique(faces[faces >= 0]))],
+        c.b_sector_offset, c.spread, spacing, c.set_a, c.set_b or "", *pc.dropped)
     return replace(mesh, points=np.vstack(points), averages=np.vstack(rows),
                    average_weights=np.concatenate(weights),
                    contacts={**mesh.contacts, name: contact})

@@ -256,9 +256,12 @@ class AveragedContact:
     name; body_a; body_b (None: the ground); nodes_a: (k,) side a's points; nodes_b: (k,)
     their partners on body b (empty with the ground); normals: (k, 3) unit normals from body
     a into body b; areas: (k,) [m^2] the areas the points stand for; gaps: (k,) [m] normal
-    gaps (positive: open); faces: (F, 4) int64 side a's points three or four at a time
-    (a triangle's 4th -1): the map's cells; b_sector_offset, spread: as
-    :class:`SurfaceContact`'s; spacing: [m] the points' spacing asked for.
+    gaps (positive: open); faces: (F, 4) int64 side a's touching facets, mesh nodes (a
+    triangle's 4th -1): the map's cells; owner: (m,) the point each of their nodes (sorted)
+    stands in; b_sector_offset, spread: as :class:`SurfaceContact`'s; spacing: [m] the
+    points' spacing asked for; set_a, set_b: the named surfaces it joins; dropped: side a's
+    nodes left out, touching nothing (their count); reach: [m] how far beyond side b the
+    farthest of them projects.
     """
 
     name: str
@@ -270,9 +273,14 @@ class AveragedContact:
     areas: np.ndarray
     gaps: np.ndarray
     faces: np.ndarray
+    owner: np.ndarray
     b_sector_offset: int = 0
     spread: str = "area"
     spacing: float = 0.0
+    set_a: str = ""
+    set_b: str = ""
+    dropped: int = 0
+    reach: float = 0.0
 
     def __post_init__(self) -> None:
         pre = f"AveragedContact {self.name!r}"
@@ -292,17 +300,24 @@ class AveragedContact:
             raise MeshValidationError(f"{pre}: every area must be > 0 and every normal a "
                                       "unit vector")
         faces = _index_array(f"{pre}: faces", np.asarray(self.faces) + 1, 2).reshape(-1, 4) - 1
-        if np.any(faces[:, :3] < 0) or faces.max(initial=-1) >= k:
-            raise MeshValidationError(f"{pre}: faces must index the {k} points (-1 only as a "
-                                      "triangle's 4th corner)")
+        owner = _index_array(f"{pre}: owner", self.owner, 1)
+        if len(faces) == 0 or np.any(faces[:, :3] < 0):
+            raise MeshValidationError(f"{pre}: faces must be side a's facets, mesh nodes (-1 "
+                                      "only as a triangle's 4th corner)")
+        if len(owner) != len(np.unique(faces[faces >= 0])) or owner.max() >= k:
+            raise MeshValidationError(f"{pre}: owner needs one point (< {k}) per node of the "
+                                      "faces")
         if self.spread not in ("area", "nodes"):
             raise MeshValidationError(f"{pre}: spread = {self.spread!r}, expected 'area' or "
                                       "'nodes'")
         for name, value in (("nodes_a", nodes_a), ("nodes_b", nodes_b), ("normals", normals),
-                            ("areas", areas), ("gaps", gaps), ("faces", faces)):
+                            ("areas", areas), ("gaps", gaps), ("faces", faces),
+                            ("owner", owner)):
             object.__setattr__(self, name, _frozen(value))
         object.__setattr__(self, "b_sector_offset", int(self.b_sector_offset))
         object.__setattr__(self, "spacing", float(self.spacing))
+        object.__setattr__(self, "dropped", int(self.dropped))
+        object.__setattr__(self, "reach", float(self.reach))
 
 
 #: The frames a support's directions are given in, with the names of their directions
@@ -600,6 +615,10 @@ class Mesh:
                     f"contacts[{name!r}]: b_sector_offset needs a cyclic body_b"
                 )
             if isinstance(patch, AveragedContact):  # its partners apart by the gaps
+                faces = patch.faces[patch.faces >= 0]
+                if not np.all(np.isin(faces, self.body_points(patch.body_a))):
+                    raise MeshValidationError(f"contacts[{name!r}]: faces outside body "
+                                              f"{patch.body_a!r}")
                 continue
             err = np.abs(self.patch_points(name, "a") - self.patch_points(name, "b")).max()
             if err > MATCH_TOL:
@@ -766,7 +785,8 @@ class Mesh:
             if isinstance(p, AveragedContact):
                 put(f"averaged-contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/"
                     f"{p.spread}/{p.spacing!r}")
-                for part in (p.nodes_a, p.nodes_b, p.normals, p.areas, p.gaps, p.faces):
+                for part in (p.nodes_a, p.nodes_b, p.normals, p.areas, p.gaps, p.faces,
+                             p.owner):
                     put("", part)
                 continue
             put(f"contact/{name}/{p.body_a}/{p.body_b}/{p.b_sector_offset}/{p.area!r}")

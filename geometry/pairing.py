@@ -46,6 +46,7 @@ from .mesh import AveragedContact, ContactPatch, Mesh, SurfaceContact, rotation_
 from .surfaces import (
     Surface,
     interpolation,
+    onto_facets,
     project,
     quad_map,
     quad_shapes,
@@ -207,10 +208,12 @@ class MortarQuadrature:
 
 
 def _mortar_quadrature(points: np.ndarray, surface_a: Surface, xyz_b: np.ndarray | None,
-                       surface_b: Surface | None, outside: float, subcells: int = SUBCELLS
-                       ) -> MortarQuadrature:
+                       surface_b: Surface | None, outside: float, subcells: int = SUBCELLS,
+                       inside: bool = False) -> MortarQuadrature:
     """:class:`MortarQuadrature` of side a over side b (``xyz_b`` its turned node positions;
-    None with ``surface_b``: the ground)."""
+    None with ``surface_b``: the ground); ``inside``: side b read at the nearest point of
+    the facet each quadrature point projects onto (its feet within the tolerance beyond
+    side b's edge moved onto it: no extrapolated, negative weight)."""
     nodes_a = surface_a.nodes
     at, shape, dual, corners, weight = _facet_quadrature(points, surface_a, subcells)
     q = np.repeat(np.arange(len(at)), corners.shape[1])
@@ -224,6 +227,8 @@ def _mortar_quadrature(points: np.ndarray, surface_a: Surface, xyz_b: np.ndarray
         nodes_b = surface_b.nodes
         where = project(at, xyz_b, surface_b)
         on = (where.gap - where.distance) <= outside
+        if inside:
+            where = onto_facets(where)
         (rows, nodes, values), _ = interpolation(surface_b, where)
         keep = on[rows]
         Nb = sp.csr_matrix((values[keep], (rows[keep], np.searchsorted(nodes_b, nodes[keep]))),
@@ -247,14 +252,14 @@ def patch_weights(points: np.ndarray, surface_a: Surface, xyz_b: np.ndarray | No
     surfaces give coincident points (curved ones faceted apart differ by the sag), a
     linear field is read exactly at each point, and a uniform pressure (force p int phi_c
     dA at point c) arrives on each side as its consistent nodal loads. Every weight is
-    >= 0 where side a's points project onto side b (linear shape functions on both sides;
-    within the tolerance beyond its edge they extrapolate).
+    >= 0 (linear shape functions on both sides; side a's quadrature points within the
+    tolerance beyond side b's edge read side b at its edge).
 
     Returns (Wa (g, k) CSR over ``surface_a.nodes``, Wb (g, m) CSR over
     ``surface_b.nodes`` (None: the ground), areas (g,) [m^2] int phi_c dA over side a where
     it touches side b); rows sum to 1.
     """
-    q = _mortar_quadrature(points, surface_a, xyz_b, surface_b, outside, subcells)
+    q = _mortar_quadrature(points, surface_a, xyz_b, surface_b, outside, subcells, True)
     member = np.flatnonzero(group >= 0)
     g = int(group.max()) + 1
     G = sp.csr_matrix((np.ones(len(member)), (member, group[member])),
@@ -354,7 +359,8 @@ class PairedContact:
     (n1, n2) of a structured patch (pairs row-major), else None; reference: (3,) direction
     the first tangent follows (None: ``normal_frames``' default); dropped: side a's nodes
     left out, touching nothing (their count), and how far beyond side b the farthest one
-    projects [m].
+    projects [m]; owner: averaged points only, (m,) the pair each of the facets' nodes
+    (sorted) stands in (None: the facets' nodes are the pairs' own).
     """
 
     name: str
@@ -366,6 +372,7 @@ class PairedContact:
     grid: tuple[int, int] | None = None
     reference: np.ndarray | None = None
     dropped: tuple[int, float] = (0, 0.0)
+    owner: np.ndarray | None = None
 
     @property
     def frames(self) -> np.ndarray:
@@ -383,6 +390,19 @@ class PairedContact:
         faces = faces[np.isin(faces, np.append(nodes, -1)).all(axis=1)]
         index = order[np.searchsorted(nodes, faces, sorter=order)]
         return np.where(faces < 0, -1, index)
+
+    def map_cells(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What a map of named surfaces draws: (nodes (m,) side a's mesh nodes, owner (m,)
+        the pair each stands in, faces (F, 4) indices into ``nodes``, a triangle's 4th -1);
+        each facet's corners in their pairs' colours. Node pairs: the pairs' own nodes and
+        the facets among them; averaged points: the facets they stand for."""
+        if self.owner is None:
+            return self.pairing.nodes_a, np.arange(len(self.pairing.nodes_a)), self.faces()
+        parts = [np.column_stack([self.facets.triangles, np.full(len(self.facets.triangles),
+                                                                  -1)]), self.facets.quads]
+        faces = np.vstack([f for f in parts if len(f)])
+        nodes = self.facets.nodes
+        return nodes, self.owner, np.where(faces < 0, -1, np.searchsorted(nodes, faces))
 
     def nodes_of(self, body: str) -> np.ndarray:
         """Sorted nodes of ``body`` the contact involves (both sides of a body touching
@@ -445,15 +465,15 @@ def _patch_pairs(mesh: Mesh, name: str, patch: ContactPatch) -> PairedContact:
 
 def _averaged_pairs(c: AveragedContact) -> PairedContact:
     """Averaged points over patches of two surfaces: point for point, its own areas,
-    normals and gaps; the map's cells its faces."""
+    normals and gaps; the map's cells side a's facets it stands for."""
     k = len(c.nodes_a)
     weights = sp.identity(k, format="csr") if c.body_b is not None else sp.csr_matrix((k, 0))
     pairing = SurfacePairing(c.nodes_a, c.nodes_b, weights, c.normals, c.areas, c.gaps,
                              np.zeros(k), True)
-    faces = c.nodes_a[np.maximum(c.faces, 0)]
     tri = c.faces[:, 3] < 0
     return PairedContact(c.name, c.body_a, c.body_b, c.b_sector_offset, pairing,
-                         Surface(faces[tri, :3], faces[~tri]))
+                         Surface(c.faces[tri, :3], c.faces[~tri]),
+                         dropped=(c.dropped, c.reach), owner=c.owner)
 
 
 def _surface_pairs(mesh: Mesh, c: SurfaceContact) -> PairedContact:

@@ -171,12 +171,33 @@ def _beyond(local: np.ndarray, p: np.ndarray, quad: bool) -> np.ndarray:
     renormalised barycentric ones (0 inside)."""
     if quad:
         foot, _ = quad_map(p, local)
-        inside, _ = quad_map(p, np.clip(local, -1.0, 1.0))
+        inside, _ = quad_map(p, _clipped(local, True))
         return np.linalg.norm(foot - inside, axis=1)
+    bary, _ = triangle_shapes(local, 1)
+    inside, _ = triangle_shapes(_clipped(local, False), 1)
+    return np.linalg.norm(np.einsum("nc,nci->ni", bary - inside, p), axis=1)
+
+
+def _clipped(local: np.ndarray, quad: bool) -> np.ndarray:
+    """Local coordinates (n, 2) moved into their facet: a quad's clipped to [-1, 1], a
+    triangle's barycentric ones clipped to >= 0 and renormalised."""
+    if quad:
+        return np.clip(local, -1.0, 1.0)
     bary, _ = triangle_shapes(local, 1)
     clipped = np.clip(bary, 0.0, None)
     clipped /= clipped.sum(axis=1, keepdims=True)
-    return np.linalg.norm(np.einsum("nc,nci->ni", bary - clipped, p), axis=1)
+    return clipped[:, 1:]
+
+
+def onto_facets(where: Projection) -> Projection:
+    """``where`` with every foot moved into its facet (:func:`_clipped`): interpolation
+    there weighs the facet's corners by non-negative shape functions (no extrapolation
+    beyond a surface's edge)."""
+    local = where.local.copy()
+    for quad in (False, True):
+        sel = where.quad == quad
+        local[sel] = _clipped(where.local[sel], quad)
+    return Projection(where.quad, where.facet, local, where.distance, where.outside, where.gap)
 
 
 def _fields(p: Projection) -> tuple[np.ndarray, ...]:

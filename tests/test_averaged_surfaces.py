@@ -15,7 +15,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from blocks import two_blocks
+from blocks import two_blocks, upper_block
 from test_surface_contacts import K_AREA, PRESS, E, H, L, P, model, pressed_mesh, reduced
 
 from microslip.geometry.averaging import averaged_surfaces, surface_patches
@@ -98,6 +98,60 @@ def test_a_uniform_pressure_arrives_as_each_sides_consistent_loads():
     np.testing.assert_allclose(Wb.sum(axis=1), 1.0, rtol=1e-12)
 
 
+def test_side_a_beyond_side_bs_edge_reads_it_at_the_edge():
+    """The upper block 3 mm past the lower one's edge, inside a 5 mm tolerance, cut at
+    2 mm: the patches along that edge lie beyond side b's 8 mm facets, where linear shape
+    functions extrapolate (to -0.75 at 3 mm past an 8 mm facet). Side b is read at its
+    edge instead: every weight >= 0, rows still sum to 1, and every patch stands for its
+    whole area (the whole face touches, within the tolerance)."""
+    mesh = two_blocks(("hexahedron", (5, 5, 2)), ("tetra", (20, 20, 2)), (L, L, H),
+                      (L, L, H), (3e-3, 0.0))
+    sa = surface_of(mesh.body_cells("upper"), mesh.node_sets["upper/bottom"])
+    sb = surface_of(mesh.body_cells("lower"), mesh.node_sets["lower/top"])
+    nodes_a, area_a, _ = nodal_areas_and_normals(mesh.points, sa)
+    group = surface_patches(mesh.points[nodes_a], area_a, 2e-3)
+    Wa, Wb, areas = patch_weights(mesh.points, sa, mesh.points, sb, group, 5e-3)
+    assert Wa.min() >= 0 and Wb.min() >= 0
+    np.testing.assert_allclose(Wb.sum(axis=1), 1.0, rtol=1e-12)
+    assert areas.sum() == pytest.approx(L * L, rel=1e-12)
+
+
+def test_patches_keep_to_one_face_of_a_sharp_edge():
+    """Two faces at a right angle (a folded 30 x 30 mm sheet, nodes every 1 mm) cut at a
+    10 mm spacing: by distance alone a patch at the fold takes nodes of both faces; with
+    the normals' turn counted no patch holds nodes off the fold on both faces."""
+    s = np.linspace(0.0, 0.03, 31)
+    u, v = np.meshgrid(s, s, indexing="ij")
+    flat = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)])  # z = 0, normal +z
+    wall = np.column_stack([np.zeros(u.size), v.ravel(), u.ravel()])[u.ravel() > 0]  # x = 0
+    xyz = np.vstack([flat, wall])
+    normals = np.vstack([np.tile([0.0, 0.0, 1.0], (len(flat), 1)),
+                         np.tile([1.0, 0.0, 0.0], (len(wall), 1))])
+    areas = np.full(len(xyz), 1e-6)
+    on_flat = xyz[:, 0] > 1e-12  # off the fold
+    on_wall = xyz[:, 2] > 1e-12
+
+    def mixed(label):
+        return sum(bool(on_flat[label == c].any() and on_wall[label == c].any())
+                   for c in range(label.max() + 1))
+
+    assert mixed(surface_patches(xyz, areas, 0.01)) > 0  # the check can fail
+    assert mixed(surface_patches(xyz, areas, 0.01, normals)) == 0
+
+
+def test_a_patch_over_opposite_faces_is_refused_in_one_line():
+    """The block's top and bottom as one surface on the ground, cut at a spacing wider
+    than the block: one patch whose normals cancel has no normal; the fault names the
+    contact, the spacing and where."""
+    mesh = upper_block("tetra", (4, 4, 2))
+    skin = np.union1d(mesh.node_sets["upper/top"], mesh.node_sets["upper/bottom"])
+    mesh = dataclasses.replace(mesh, node_sets={**mesh.node_sets, "skin": skin})
+    c = declare_contact(mesh, "wrap", ("skin",), ground=True)
+    with pytest.raises(ValueError, match=r"^contacts.wrap: spacing = 0.2 m puts a patch "
+                       r"over faces turned too far apart at \(20, 20, 30\) mm"):
+        averaged_surfaces(dataclasses.replace(mesh, contacts={"wrap": c}), "wrap", 0.2)
+
+
 def test_pressed_blocks_carry_the_pressure_through_averaged_points(averaged):
     """Stiff contact, the whole chain: each point carries p times its area, and the top
     moves as the exact uniaxial stack plus the contact's compliance. The pressure's error
@@ -116,22 +170,44 @@ def test_the_averaged_contact_is_kept_by_the_stored_mesh(averaged, tmp_path):
     assert isinstance(back.contacts["interface"], AveragedContact)
 
 
-def test_the_map_cells_tile_the_face_between_the_points(averaged):
-    """The dual cells of the patches (three or four patches meeting at a facet): every
-    point a corner of one, no two overlapping (their areas at most the points' convex
-    hull's), and covering it but for slivers along the border where two border patches meet
-    with no third (measured 91 % here; 80 % bounds it)."""
-    from scipy.spatial import ConvexHull
+def drawn_areas(mesh, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(the area [m^2] a contact map draws in each point's colour, the areas the points
+    stand for)."""
+    from microslip.pipeline.draw.maps import PatchGrid, cells
 
-    c = paired_contact(averaged, "interface")
-    faces = c.faces()
-    assert set(np.unique(faces[faces >= 0])) == set(range(len(c.pairing.nodes_a)))
-    xy = averaged.points[c.pairing.nodes_a][:, :2]
-    tri = np.vstack([faces[:, :3], faces[faces[:, 3] >= 0][:, [0, 2, 3]]])
-    e1, e2 = xy[tri[:, 1]] - xy[tri[:, 0]], xy[tri[:, 2]] - xy[tri[:, 0]]
-    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
-    hull = ConvexHull(xy).volume
-    assert 0.8 * hull <= area <= hull * (1 + 1e-9)
+    grid = PatchGrid.from_mesh(mesh, name)
+    k = len(grid.points)
+    poly = cells(grid, np.arange(k), "pair")
+    mm2 = poly.compute_cell_sizes(length=False, volume=False)["Area"]
+    return np.bincount(poly.cell_data["pair"], mm2, k) * 1e-6, \
+        paired_contact(mesh, name).pairing.areas
+
+
+def test_the_map_draws_each_point_over_the_area_it_stands_for(averaged):
+    """A map of averaged points draws side a's facets, each facet's corner quads (corner,
+    edge midpoints, centroid) in the colour of the corner's patch. A corner quad's area is
+    its node's share int N dA of a flat triangle or parallelogram, so the area drawn per
+    point is the area it stands for (int phi_c dA over the face; the whole face touches):
+    equal to round-off, every point drawn."""
+    drawn, areas = drawn_areas(averaged, "interface")
+    assert np.allclose(drawn, areas, rtol=1e-9, atol=0.0)
+
+
+def test_a_narrow_strip_in_one_row_of_patches_is_drawn():
+    """A 40 x 4 mm strip at a 4 mm spacing: ten patches in one row (none three at a facet,
+    which a map of the patches' own dual cells needed); the map still draws each over its
+    area, and the preview draws the face."""
+    from microslip.pipeline.draw.previews import MeshView
+
+    mesh = two_blocks(("hexahedron", (10, 1, 2)), ("tetra", (20, 2, 2)), (L, 0.004, H),
+                      (L, 0.004, H), (0.0, 0.0))
+    c = declare_contact(mesh, "strip", ("upper/bottom", "lower/top"))
+    mesh = averaged_surfaces(dataclasses.replace(mesh, contacts={"strip": c}), "strip", 0.004)
+    drawn, areas = drawn_areas(mesh, "strip")
+    assert len(areas) == 10
+    assert np.allclose(drawn, areas, rtol=1e-9, atol=0.0)
+    view = MeshView.from_mesh(mesh).patches[0]
+    assert view.surface().n_cells == 80  # the upper block's 20 x 2 squares, two triangles each
 
 
 def test_a_case_declares_the_spacing():

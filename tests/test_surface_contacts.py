@@ -17,6 +17,7 @@ import pytest
 from blocks import two_blocks, upper_block
 from derivatives import fd_residual_jacobian
 
+from microslip.geometry.averaging import averaged_surfaces
 from microslip.geometry.mesh import MeshValidationError, SurfaceContact
 from microslip.geometry.pairing import declare_contact, paired_contact
 from microslip.pipeline.app import structure
@@ -248,6 +249,12 @@ def test_the_part_of_a_surface_beyond_the_other_touches_nothing():
     assert p.dropped[1] == pytest.approx(x.max() - L, rel=1e-9)  # a distance in metres
     spacing = L / 7
     assert 0.5 * L * L - spacing * L <= p.pairing.area <= 0.5 * L * L * (1 + 1e-12)
+    # averaged points over the same contact keep the count (the run's note) and the area
+    averaged = averaged_surfaces(dataclasses.replace(mesh, contacts={"half": c}), "half",
+                                 0.012)
+    q = paired_contact(averaged, "half")
+    assert q.dropped == p.dropped
+    assert q.pairing.area == pytest.approx(p.pairing.area, rel=1e-9)
     used = np.unique(p.pairing.weights.indices)
     assert len(used) == len(p.pairing.nodes_b)
     assert mesh.points[p.pairing.nodes_b, 0].min() >= 0.5 * L - L / 4 - 1e-12

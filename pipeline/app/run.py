@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from microslip.geometry.mesh import SurfaceContact
+from microslip.geometry.mesh import AveragedContact, SurfaceContact
 from microslip.geometry.pairing import paired_contact
 from microslip.pipeline.case import (
     Case,
@@ -243,7 +243,8 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
              f"bodies {sorted(m.bodies)}, cyclic {sorted(m.cyclic)}, contacts "
              f"{sorted(m.contacts)} in {elapsed:.2f} s{where}; hash {m.content_hash[:12]}")
     for name, c in sorted(m.contacts.items()):
-        dropped = paired_contact(m, name).dropped if isinstance(c, SurfaceContact) else (0,)
+        dropped = (paired_contact(m, name).dropped
+                   if isinstance(c, SurfaceContact | AveragedContact) else (0,))
         if dropped[0]:
             progress(f"[geometry] note: contact {name}: {dropped[0]} node(s) of {c.set_a} lie "
                      f"beyond {c.set_b} (up to {dropped[1]:.3g} m) and touch nothing (trim the "

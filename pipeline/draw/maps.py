@@ -52,8 +52,9 @@ class PatchGrid:
     in space (up: growing radius; right x up = n); high_edge: index into EDGES of the grid
     edge at the highest mean radius (-1: named surfaces); nodes_a: mesh nodes of the pairs
     (grid-shaped, or (P,)); nodes_b: side b's (none on the ground, body_b "ground"); faces:
-    None for a grid, else (F, 4) side a's facets as indices into the pairs (a triangle's
-    4th corner -1)."""
+    None for a grid, else (F, 4) side a's facets as indices into ``cell_points`` (a
+    triangle's 4th corner -1); cell_points: (m, 3) [m] their nodes (None: the pairs'
+    points); owner: (m,) the pair each of them stands in (None: itself)."""
 
     name: str
     body_a: str
@@ -65,10 +66,25 @@ class PatchGrid:
     nodes_a: np.ndarray
     nodes_b: np.ndarray
     faces: np.ndarray | None = None
+    cell_points: np.ndarray | None = None
+    owner: np.ndarray | None = None
 
     @property
     def structured(self) -> bool:
         return self.faces is None
+
+    @property
+    def cell_plane(self) -> np.ndarray:
+        """(m, 2) map coordinates [m] of the facets' nodes (named surfaces), about the
+        pairs' centre."""
+        if self.cell_points is None:
+            return self.plane
+        return (self.cell_points - self.points.reshape(-1, 3).mean(axis=0)) @ self.axes.T
+
+    @property
+    def cell_owner(self) -> np.ndarray:
+        """(m,) the pair each facet node stands in (named surfaces)."""
+        return np.arange(len(self.points)) if self.owner is None else self.owner
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -112,24 +128,30 @@ class PatchGrid:
         n = mean if np.linalg.norm(mean) > 0.5 * p.areas.sum() else p.normals[
             np.argmax(p.areas)]
         frame = normal_frames(n[None])[0]
+        nodes, owner, faces = c.map_cells()
         return cls(name, c.body_a, body_b, points, frame, map_axes(points, frame), -1,
-                   p.nodes_a, p.nodes_b, c.faces())
+                   p.nodes_a, p.nodes_b, faces, mesh.points[nodes], owner)
 
     def datasets(self) -> dict[str, np.ndarray]:
         """What results.h5 keeps under /contact_grids/<patch> (attrs: body_a, body_b,
         high_edge)."""
-        return {"points": self.points, "frame": self.frame, "map_axes": self.axes,
-                "map_coordinates": self.plane, "connectivity": self.connectivity,
-                "nodes_a": self.nodes_a, "nodes_b": self.nodes_b}
+        out = {"points": self.points, "frame": self.frame, "map_axes": self.axes,
+               "map_coordinates": self.plane, "connectivity": self.connectivity,
+               "nodes_a": self.nodes_a, "nodes_b": self.nodes_b}
+        if not self.structured:
+            out |= {"cell_points": self.cell_points if self.cell_points is not None
+                    else self.points, "cell_owner": self.cell_owner}
+        return out
 
     @classmethod
     def from_group(cls, name: str, g) -> PatchGrid:
         """A PatchGrid read back from its results.h5 group (h5py)."""
         points = g["points"][()]
+        cells = [g[k][()] if k in g else None for k in ("cell_points", "cell_owner")]
         return cls(name, str(g.attrs["body_a"]), str(g.attrs["body_b"]), points,
                    g["frame"][()], g["map_axes"][()], int(g.attrs["high_edge"]),
                    g["nodes_a"][()], g["nodes_b"][()],
-                   None if points.ndim == 3 else g["connectivity"][()])
+                   None if points.ndim == 3 else g["connectivity"][()], *cells)
 
 
 def map_axes(points: np.ndarray, frame: np.ndarray) -> np.ndarray:
@@ -177,7 +199,8 @@ def cells(grid: PatchGrid, values: np.ndarray, name: str):
     """pyvista grid of the nodes' tributary cells in map coordinates [mm] with ``values``
     (P,) or (P, k) per node (grid order) as cell data ``name``: a structured patch's dual
     grid, or for named surfaces each facet cut into one quad per corner (the corner, its
-    edges' midpoints and the facet's centroid)."""
+    edges' midpoints and the facet's centroid) in its corner's pair's value (averaged
+    points: the patch the corner belongs to)."""
     import pyvista as pv
 
     if not grid.structured:
@@ -195,7 +218,8 @@ def cells(grid: PatchGrid, values: np.ndarray, name: str):
 def _dual_cells(grid: PatchGrid, values: np.ndarray, name: str):
     import pyvista as pv
 
-    xy = 1e3 * grid.plane
+    xy = 1e3 * grid.cell_plane
+    pair = grid.cell_owner
     pts, quads, owner = [], [], []
     for face in grid.faces:
         corners = face[face >= 0]
@@ -206,7 +230,7 @@ def _dual_cells(grid: PatchGrid, values: np.ndarray, name: str):
             start = len(pts)
             pts += [c[k], mids[k], centre, mids[k - 1]]
             quads.append([4, start, start + 1, start + 2, start + 3])
-            owner.append(node)
+            owner.append(pair[node])
     xyz = np.column_stack([np.array(pts), np.zeros(len(pts))])
     mesh = pv.PolyData(xyz, faces=np.array(quads).ravel())
     v = np.asarray(values).reshape(len(grid.points), -1)
@@ -270,10 +294,11 @@ def _outline(pl, grid: PatchGrid) -> None:
         edges = [(c[0], c[-1], c[:, 0], c[:, -1])[grid.high_edge]]
         flat = c.reshape(-1, 2)
     else:
-        xy = 1e3 * grid.plane
+        xy = 1e3 * grid.cell_plane
         outline = boundary_edges(grid.faces)
         pl.add_mesh(_segments(xy, outline, 0.01), color="black", line_width=2)
-        r = np.hypot(grid.points[:, 0], grid.points[:, 1])
+        at = grid.points if grid.cell_points is None else grid.cell_points
+        r = np.hypot(at[:, 0], at[:, 1])
         top = r.max() - 0.05 * max(np.ptp(r), 1e-300)
         high = outline[(r[outline] >= top).all(axis=1)]
         edges = [xy[e] for e in high]
@@ -313,7 +338,7 @@ def _view(pl, caption: str, grid: PatchGrid, aspect: float) -> None:
     pl.view_xy()
     pl.enable_parallel_projection()
     pl.reset_camera()
-    c = 1e3 * (cell_corners(grid.plane) if grid.structured else grid.plane).reshape(-1, 2)
+    c = 1e3 * (cell_corners(grid.plane) if grid.structured else grid.cell_plane).reshape(-1, 2)
     w, h = np.ptp(c, axis=0)
     scale = 0.5 * max(h, w / aspect) / FILL  # half the panel's height in mm
     centre = c.min(axis=0) + 0.5 * np.array([w, h]) + np.array([0.0, 2 * LOWER * scale])

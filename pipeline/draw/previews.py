@@ -56,9 +56,10 @@ class CyclicView:
 
 @dataclass(frozen=True)
 class PatchView:
-    """A contact: side a's node grid (n1, n2, 3) [m] (named surfaces: (P, 3) and their
-    ``faces`` (F, 4), a triangle's 4th corner -1), side b's own (fundamental sector) nodes
-    (..., 3) [m] (none on the ground) and its sector offset (a neighbour's patch: +-1)."""
+    """A contact: side a's node grid (n1, n2, 3) [m] (named surfaces: (P, 3) and side a's
+    ``faces`` (F, 4) into ``cell_points`` (m, 3) [m], a triangle's 4th corner -1; None:
+    into the points), side b's own (fundamental sector) nodes (..., 3) [m] (none on the
+    ground) and its sector offset (a neighbour's patch: +-1)."""
 
     name: str
     body_a: str
@@ -67,13 +68,15 @@ class PatchView:
     points_b: np.ndarray
     b_sector_offset: int
     faces: np.ndarray | None = None
+    cell_points: np.ndarray | None = None
 
     def surface(self) -> pv.DataSet:
         """Side a as a surface: the grid's quads, or the facets."""
         if self.faces is None:
             return patch_surface(self.points_a)
         cells = [[int((f >= 0).sum()), *f[f >= 0]] for f in self.faces]
-        return pv.PolyData(self.points_a, faces=np.concatenate(cells))
+        at = self.points_a if self.cell_points is None else self.cell_points
+        return pv.PolyData(at, faces=np.concatenate(cells))
 
     @property
     def size(self) -> str:
@@ -120,7 +123,8 @@ class MeshView:
         patches = tuple(PatchView(name, attr_text(g.attrs["body_a"]), attr_text(g.attrs["body_b"]),
                                   g["points"][()], g["points_b"][()],
                                   int(g.attrs["b_sector_offset"]),
-                                  None if g["points"].ndim == 3 else g["connectivity"][()])
+                                  None if g["points"].ndim == 3 else g["connectivity"][()],
+                                  g["cell_points"][()] if "cell_points" in g else None)
                         for name, g in sorted(f.get(schema.CONTACT_GRIDS, {}).items()))
         elements = (attr_text(geo.attrs["elements"]) if "elements" in geo.attrs
                     else f"{int(geo.attrs['tetrahedra'])} tetrahedra")  # (before 0.24)
@@ -143,10 +147,12 @@ def _patch_view(mesh: Mesh, name: str) -> PatchView:
     c = paired_contact(mesh, name)
     p = c.pairing
     points = mesh.points[p.nodes_a]
-    return PatchView(name, c.body_a, c.body_b or "ground",
-                     points if c.grid is None else points.reshape(*c.grid, 3),
-                     mesh.points[p.nodes_b], c.b_sector_offset,
-                     None if c.grid is not None else c.faces())
+    if c.grid is not None:
+        return PatchView(name, c.body_a, c.body_b or "ground", points.reshape(*c.grid, 3),
+                         mesh.points[p.nodes_b], c.b_sector_offset)
+    nodes, _, faces = c.map_cells()
+    return PatchView(name, c.body_a, c.body_b or "ground", points, mesh.points[p.nodes_b],
+                     c.b_sector_offset, faces, mesh.points[nodes])
 
 
 def patch_surface(points: np.ndarray) -> pv.StructuredGrid:
