@@ -197,6 +197,7 @@ def test_a_narrow_strip_in_one_row_of_patches_is_drawn():
     """A 40 x 4 mm strip at a 4 mm spacing: ten patches in one row (none three at a facet,
     which a map of the patches' own dual cells needed); the map still draws each over its
     area, and the preview draws the face."""
+    from microslip.pipeline.draw.maps import PatchGrid, patch_borders
     from microslip.pipeline.draw.previews import MeshView
 
     mesh = two_blocks(("hexahedron", (10, 1, 2)), ("tetra", (20, 2, 2)), (L, 0.004, H),
@@ -206,6 +207,12 @@ def test_a_narrow_strip_in_one_row_of_patches_is_drawn():
     drawn, areas = drawn_areas(mesh, "strip")
     assert len(areas) == 10
     assert np.allclose(drawn, areas, rtol=1e-9, atol=0.0)
+    # the borders between the ten: each crosses the 4 mm strip (mid-edge to centroid
+    # segments, so at least 4 mm each across it), within it
+    grid = PatchGrid.from_mesh(mesh, "strip")
+    borders = patch_borders(grid)
+    across = np.abs(np.diff(borders @ grid.axes @ [0, 1.0, 0], axis=1)).sum()
+    assert across >= 9 * 4.0 * (1 - 1e-9)
     view = MeshView.from_mesh(mesh).patches[0]
     assert view.surface().n_cells == 80  # the upper block's 20 x 2 squares, two triangles each
 

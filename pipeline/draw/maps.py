@@ -174,6 +174,10 @@ def high_radius_edge(points: np.ndarray) -> int:
     return int(np.argmax([r[0].mean(), r[-1].mean(), r[:, 0].mean(), r[:, -1].mean()]))
 
 
+#: Grey of the lines between node pairs' cells, and of the borders of averaged points'
+CELL_EDGES, BORDERS = "#c8c8c8", "#707070"
+
+
 def cell_corners(plane: np.ndarray) -> np.ndarray:
     """(n1 + 1, n2 + 1, 2) corners of the nodes' tributary cells: halfway between
     neighbouring nodes, half a spacing beyond the outer ones (a grid of one node along an
@@ -280,11 +284,35 @@ def _panel_width(cols: int, panel: tuple[int, int]) -> int:
     return panel[0] * (2 if cols == 1 else 1)
 
 
+def patch_borders(grid: PatchGrid) -> np.ndarray:
+    """(e, 2, 2) [mm] map segments between averaged points' areas: in each facet, from an
+    edge's midpoint to the centroid where the edge's two corners stand in different points
+    (the corner quads of :func:`cells` meet there); none for node pairs."""
+    if grid.owner is None:
+        return np.empty((0, 2, 2))
+    xy, owner, out = 1e3 * grid.cell_plane, grid.owner, []
+    for face in grid.faces:
+        corners = face[face >= 0]
+        c = xy[corners]
+        centre = c.mean(axis=0)
+        for k, (a, b) in enumerate(zip(corners, np.roll(corners, -1))):
+            if owner[a] != owner[b]:
+                out.append([0.5 * (c[k] + c[(k + 1) % len(c)]), centre])
+    return np.array(out).reshape(-1, 2, 2)
+
+
 def _outline(pl, grid: PatchGrid) -> None:
     """The patch outline (black) and its high-radius edge (thick, labelled): a grid's
     outer row or column at the highest radius; named surfaces' outline edges within a
-    twentieth of the radius range of the highest."""
+    twentieth of the radius range of the highest; averaged points' borders (grey)."""
     import pyvista as pv
+
+    borders = patch_borders(grid)
+    if len(borders):
+        pts = np.column_stack([borders.reshape(-1, 2), np.full(2 * len(borders), 0.005)])
+        lines = np.column_stack([np.full(len(borders), 2),
+                                 np.arange(2 * len(borders)).reshape(-1, 2)]).ravel()
+        pl.add_mesh(pv.PolyData(pts, lines=lines), color=BORDERS, line_width=1.5)
 
     if grid.structured:
         c = 1e3 * cell_corners(grid.plane)
@@ -392,7 +420,8 @@ def status_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]],
         for j, p in enumerate(row):
             pl.subplot(i + 1, j)
             pl.add_mesh(cells(p.grid, state_rgb(p.values, colours), "rgb"), scalars="rgb",
-                        rgb=True, show_edges=True, edge_color="#c8c8c8", lighting=False)
+                        rgb=True, show_edges=p.grid.owner is None, edge_color=CELL_EDGES,
+                        lighting=False)
             _outline(pl, p.grid)
             _view(pl, p.caption, p.grid, _panel_width(cols, panel) / panel[1])
     pl.subplot(rows + 1, 0)
@@ -415,8 +444,8 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
         for j, p in enumerate(row):
             pl.subplot(i + 1, j)
             pl.add_mesh(cells(p.grid, p.values, "force"), scalars="force", cmap=cmap,
-                        clim=clim, show_edges=True, edge_color="#c8c8c8", lighting=False,
-                        show_scalar_bar=False)
+                        clim=clim, show_edges=p.grid.owner is None, edge_color=CELL_EDGES,
+                        lighting=False, show_scalar_bar=False)
             _outline(pl, p.grid)
             _view(pl, p.caption, p.grid, _panel_width(cols, panel) / panel[1])
     pl.subplot(rows + 1, 0)
