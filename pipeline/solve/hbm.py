@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -92,6 +92,22 @@ def _field(name: str) -> str:
     return _FIELDS[name]
 
 
+def _combined(M: np.ndarray, m: float, K: np.ndarray | None, C: np.ndarray | None,
+              c: float) -> np.ndarray:
+    """m M + K + i c C as a new array (real where all are real and C is None), in place
+    after the first product (a Newton iterate forms every order's at a new frequency: half
+    the memory traffic of the expression's temporaries)."""
+    D = np.multiply(M, m, dtype=np.result_type(M, K if K is not None else M,
+                                               float if C is None else complex))
+    if K is not None:
+        D += K
+    if C is not None:
+        if np.iscomplexobj(C):
+            D.real -= c * C.imag
+        D.imag += c * C.real
+    return D
+
+
 def _per_order(name: str, value, orders: tuple[int, ...],
                sizes: tuple[int, ...] | None) -> tuple[np.ndarray, ...]:
     """Per-order square complex matrices; a single matrix serves every order."""
@@ -139,6 +155,8 @@ class LinearDynamics:
     M_part: tuple[np.ndarray, ...]
     orders: tuple[int, ...]
     n_dof: int
+    #: the masses at the last mass multiplier asked (:meth:`mass`)
+    _scaled: dict = field(default_factory=dict, init=False, repr=False)
 
     @classmethod
     def create(cls, K, M, C=None, *, harmonics: Harmonics, mass_part=None,
@@ -179,10 +197,15 @@ class LinearDynamics:
         The one mechanism of mass studies (a damper's mass as a multiple of its nominal
         mass): exact for a reduced body, whose basis does not depend on its density.
         """
-        if point.mass_multiplier == 1.0:
+        s = point.mass_multiplier
+        if s == 1.0:
             return self.M
-        return tuple(M + (point.mass_multiplier - 1.0) * Mp if scaled else M
-                     for M, Mp, scaled in zip(self.M, self.M_part, self._nonzero[1]))
+        if s not in self._scaled:  # a sweep at one mass forms it once, not per iterate
+            self._scaled.clear()
+            self._scaled[s] = tuple(M + (s - 1.0) * Mp if scaled else M
+                                    for M, Mp, scaled in zip(self.M, self.M_part,
+                                                             self._nonzero[1]))
+        return self._scaled[s]
 
     @cached_property
     def _nonzero(self) -> tuple[tuple[bool, ...], tuple[bool, ...]]:
@@ -195,7 +218,7 @@ class LinearDynamics:
         """Per order D_n = K_n - (n w)^2 M_n + i n w C_n at the point; order 0 is K_0 itself
         (real if stored real: read it, do not write it)."""
         w, damped = point.omega, self._nonzero[0]
-        return tuple(K if o == 0 else K - (o * w) ** 2 * M + (1j * o * w * C if d else 0.0)
+        return tuple(K if o == 0 else _combined(M, -((o * w) ** 2), K, C if d else None, o * w)
                      for o, K, M, C, d in zip(self.orders, self.K, self.mass(point), self.C,
                                               damped))
 
@@ -203,10 +226,11 @@ class LinearDynamics:
                             ) -> tuple[np.ndarray | None, ...] | None:
         """Per order dD_n / d parameter (None at order 0, where D does not depend on w or
         the mass), or None where no order's D depends on it."""
-        w = point.omega
+        w, damped = point.omega, self._nonzero[0]
         if parameter == "frequency":
-            return tuple(None if o == 0 else -2.0 * o**2 * w * M + 1j * o * C
-                         for o, M, C in zip(self.orders, self.mass(point), self.C))
+            return tuple(None if o == 0 else _combined(M, -2.0 * o**2 * w, None,
+                                                       C if d else None, o)
+                         for o, M, C, d in zip(self.orders, self.mass(point), self.C, damped))
         if parameter == "mass":
             return tuple(None if o == 0 else -((o * w) ** 2) * Mp
                          for o, Mp in zip(self.orders, self.M_part))
