@@ -318,3 +318,24 @@ def test_a_curve_without_a_start_point_fails_in_one_line_and_the_run_goes_on(tmp
         assert f.attrs["status"] == "partial"
     failed = [line for line in lines if "0 points, failed" in line]
     assert len(failed) == 1 and "found no start" in failed[0]
+
+
+def test_a_ramp_that_reaches_the_load_but_not_its_polish_says_so(monkeypatch):
+    """The excitation ramp's continuation reaches the full load but Newton at the exact
+    point then fails: the message says that, with Newton's reason (it read "reached 1 x",
+    as if the ramp had stopped short)."""
+    from microslip.pipeline.solve import response
+
+    model = jenkins_oscillator(H=1, n_samples=16)
+    real = cont.newton
+
+    def failing(fun, x0, lam, **kw):  # the polish at the exact load fails
+        r = real(fun, x0, lam, **kw)
+        return cont.NewtonResult(r.x, False, r.iterations, r.residual, "stalled (test)")
+
+    monkeypatch.setattr(response.cont, "newton", failing)
+    found, message = response.excitation_ramp(model, OperatingPoint(1.0))
+    assert found is None
+    # (natural's own start fails with the patched Newton; arclength starts otherwise)
+    assert "arclength reached the full value, where Newton then failed (stalled (test))" \
+        in message

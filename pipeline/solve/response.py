@@ -555,6 +555,9 @@ def excitation_ramp(
             if r.converged:
                 return r, (f"reached by {name} continuation in the excitation from "
                            f"{RAMP_START:g} x its value ({len(b)} points)")
+            reached.append(f"{name} reached the full value, where Newton then failed "
+                           f"({r.reason})")
+            continue
         reached.append(f"{name} reached {b.values[-1] / full:.3g} x" if len(b) else
                        f"{name} found no start")
     return None, (f"; retried by continuation in the excitation from {RAMP_START:g} x its "
