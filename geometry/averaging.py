@@ -219,11 +219,8 @@ def touching_facets(surface: Surface, touching: np.ndarray) -> np.ndarray:
     """(F, 4) mesh nodes of the facets of ``surface`` whose every corner is ``touching``
     ((k,) bool over ``surface.nodes``; a triangle's 4th corner -1): the part of side a an
     averaged contact's map draws, each node's share in its patch's colour."""
-    inside = surface.nodes[touching]
-    parts = [np.column_stack([surface.triangles, np.full(len(surface.triangles), -1)]),
-             surface.quads]
-    faces = np.vstack([f for f in parts if len(f)] or [np.empty((0, 4), np.int64)])
-    return faces[np.isin(faces, np.append(inside, -1)).all(axis=1)]
+    faces = surface.facets
+    return faces[np.isin(faces, np.append(surface.nodes[touching], -1)).all(axis=1)]
 
 
 def averaged_surfaces(mesh: Mesh, name: str, spacing: float) -> Mesh:

@@ -382,26 +382,22 @@ class PairedContact:
     def faces(self) -> np.ndarray:
         """(F, 4) side a's facets as indices into the pairs (a triangle's 4th corner -1),
         those whose every corner is a pair (a map's cells)."""
-        parts = [np.column_stack([self.facets.triangles, np.full(len(self.facets.triangles),
-                                                                  -1)]), self.facets.quads]
-        faces = np.vstack([f for f in parts if len(f)] or [np.empty((0, 4), np.int64)])
+        faces = self.facets.facets
         nodes = self.pairing.nodes_a
         order = np.argsort(nodes)
         faces = faces[np.isin(faces, np.append(nodes, -1)).all(axis=1)]
         index = order[np.searchsorted(nodes, faces, sorter=order)]
         return np.where(faces < 0, -1, index)
 
-    def map_cells(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def map_cells(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """What a map of named surfaces draws: (nodes (m,) side a's mesh nodes, owner (m,)
-        the pair each stands in, faces (F, 4) indices into ``nodes``, a triangle's 4th -1);
-        each facet's corners in their pairs' colours. Node pairs: the pairs' own nodes and
-        the facets among them; averaged points: the facets they stand for."""
+        the pair each stands in (None: each its own, node pairs), faces (F, 4) indices into
+        ``nodes``, a triangle's 4th -1); each facet's corners in their pairs' colours. Node
+        pairs: the pairs' own nodes and the facets among them; averaged points: the facets
+        they stand for."""
         if self.owner is None:
-            return self.pairing.nodes_a, np.arange(len(self.pairing.nodes_a)), self.faces()
-        parts = [np.column_stack([self.facets.triangles, np.full(len(self.facets.triangles),
-                                                                  -1)]), self.facets.quads]
-        faces = np.vstack([f for f in parts if len(f)])
-        nodes = self.facets.nodes
+            return self.pairing.nodes_a, None, self.faces()
+        faces, nodes = self.facets.facets, self.facets.nodes
         return nodes, self.owner, np.where(faces < 0, -1, np.searchsorted(nodes, faces))
 
     def nodes_of(self, body: str) -> np.ndarray:

@@ -36,6 +36,13 @@ class Surface:
         """Sorted unique nodes of the surface."""
         return np.unique(np.concatenate([self.triangles.ravel(), self.quads.ravel()]))
 
+    @property
+    def facets(self) -> np.ndarray:
+        """(F, 4) the triangles (4th corner -1), then the quads."""
+        parts = [np.column_stack([self.triangles, np.full(len(self.triangles), -1)]),
+                 self.quads]
+        return np.vstack([f for f in parts if len(f)] or [np.empty((0, 4), np.int64)])
+
 
 @dataclass(frozen=True)
 class Projection:

@@ -74,12 +74,16 @@ class PatchGrid:
         return self.faces is None
 
     @property
+    def cell_xyz(self) -> np.ndarray:
+        """(m, 3) [m] the facets' nodes (named surfaces): the pairs' own points but for
+        averaged points."""
+        return self.points if self.cell_points is None else self.cell_points
+
+    @property
     def cell_plane(self) -> np.ndarray:
         """(m, 2) map coordinates [m] of the facets' nodes (named surfaces), about the
         pairs' centre."""
-        if self.cell_points is None:
-            return self.plane
-        return (self.cell_points - self.points.reshape(-1, 3).mean(axis=0)) @ self.axes.T
+        return (self.cell_xyz - self.points.reshape(-1, 3).mean(axis=0)) @ self.axes.T
 
     @property
     def cell_owner(self) -> np.ndarray:
@@ -130,7 +134,8 @@ class PatchGrid:
         frame = normal_frames(n[None])[0]
         nodes, owner, faces = c.map_cells()
         return cls(name, c.body_a, body_b, points, frame, map_axes(points, frame), -1,
-                   p.nodes_a, p.nodes_b, faces, mesh.points[nodes], owner)
+                   p.nodes_a, p.nodes_b, faces, None if owner is None else mesh.points[nodes],
+                   owner)
 
     def datasets(self) -> dict[str, np.ndarray]:
         """What results.h5 keeps under /contact_grids/<patch> (attrs: body_a, body_b,
@@ -138,9 +143,8 @@ class PatchGrid:
         out = {"points": self.points, "frame": self.frame, "map_axes": self.axes,
                "map_coordinates": self.plane, "connectivity": self.connectivity,
                "nodes_a": self.nodes_a, "nodes_b": self.nodes_b}
-        if not self.structured:
-            out |= {"cell_points": self.cell_points if self.cell_points is not None
-                    else self.points, "cell_owner": self.cell_owner}
+        if self.owner is not None:  # averaged points
+            out |= {"cell_points": self.cell_xyz, "cell_owner": self.owner}
         return out
 
     @classmethod
@@ -325,8 +329,7 @@ def _outline(pl, grid: PatchGrid) -> None:
         xy = 1e3 * grid.cell_plane
         outline = boundary_edges(grid.faces)
         pl.add_mesh(_segments(xy, outline, 0.01), color="black", line_width=2)
-        at = grid.points if grid.cell_points is None else grid.cell_points
-        r = np.hypot(at[:, 0], at[:, 1])
+        r = np.hypot(grid.cell_xyz[:, 0], grid.cell_xyz[:, 1])
         top = r.max() - 0.05 * max(np.ptp(r), 1e-300)
         high = outline[(r[outline] >= top).all(axis=1)]
         edges = [xy[e] for e in high]

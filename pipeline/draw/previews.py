@@ -150,9 +150,9 @@ def _patch_view(mesh: Mesh, name: str) -> PatchView:
     if c.grid is not None:
         return PatchView(name, c.body_a, c.body_b or "ground", points.reshape(*c.grid, 3),
                          mesh.points[p.nodes_b], c.b_sector_offset)
-    nodes, _, faces = c.map_cells()
+    nodes, owner, faces = c.map_cells()
     return PatchView(name, c.body_a, c.body_b or "ground", points, mesh.points[p.nodes_b],
-                     c.b_sector_offset, faces, mesh.points[nodes])
+                     c.b_sector_offset, faces, None if owner is None else mesh.points[nodes])
 
 
 def patch_surface(points: np.ndarray) -> pv.StructuredGrid:

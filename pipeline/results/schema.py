@@ -227,11 +227,12 @@ LAYOUT = group(
                      "right x up = n: seen from body b onto body a)"),
                 data("map_coordinates", "(n1, n2, 2) m"),
                 data("connectivity", "((n1-1)(n2-1), 4) quads of the node grid (i n2 + j); "
-                     "named surfaces: (F, 4) side a's facets into cell_points (a triangle's "
-                     "4th -1)"),
-                data("cell_points", "(m, 3) m, named surfaces only: the facets' nodes"),
-                data("cell_owner", "(m,) named surfaces only: the pair each of them stands "
-                     "in (averaged points: its patch)"))),
+                     "named surfaces: (F, 4) side a's facets into the points (averaged points: "
+                     "into cell_points; a triangle's 4th -1)"),
+                data("cell_points", "(m, 3) m, averaged points only: side a's facets' "
+                     "nodes (connectivity indexes them)"),
+                data("cell_owner", "(m,) averaged points only: the point (patch) each of "
+                     "them stands in"))),
     group(SURFACES, "(meshed cases)", ("sectors (0: no cyclic body)",),
           group("<body>", "", ("cyclic",),
                 data("nodes", "(p,) mesh nodes of the body's outer surface"),
