@@ -12,7 +12,7 @@ shrouded_blisk, ShroudParameters         blisk sector with a z-notch tip shroud 
 full_disk, disk_node_map                 Ns rotated copies joined at the cyclic faces
 sicn                                     element quality (geometry.quality)
 GeometryParameterError, GeometryBuildError
-Previews: microslip.pipeline.draw.previews.render_previews(mesh, out_dir) (pyvista).
+Previews: microslip.draw.previews.render_previews(mesh, out_dir) (pyvista).
 """
 
 from .blisk import BliskParameters, blisk_sector

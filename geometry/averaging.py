@@ -16,7 +16,7 @@ vertex DOFs, and a uniform pressure reaches the vertices, not the mid-edge DOFs 
 quadratic consistent loads would (statically the same; locally, within a fine cell).
 Every point holds A / (n1 n2) of the contact's stiffness.
 The weights live in the mesh (``Mesh.averages``); the reduction makes the averaged points
-masters (``fe.reduction.craig_bampton``, ``averaged=``).
+masters (``fe.craig_bampton``, ``averaged=``).
 
 Named surfaces of any mesh (an imported deck's) get the same choice by a spacing
 (:func:`averaged_surfaces`): side a's contact nodes are gathered into patches about that

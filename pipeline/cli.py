@@ -15,26 +15,26 @@ from pathlib import Path
 import numpy as np
 
 BENCHES = {
-    "core": "microslip.pipeline.bench.core",
-    "mesh": "microslip.pipeline.bench.meshing",
-    "reduction": "microslip.pipeline.bench.reduction",
-    "teaching": "microslip.pipeline.bench.teaching",
-    "assembly": "microslip.pipeline.bench.assembly",
-    "trade": "microslip.pipeline.bench.trade",
-    "convergence": "microslip.pipeline.bench.convergence",
-    "elements": "microslip.pipeline.bench.elements",
-    "cluster": "microslip.pipeline.bench.cluster",
-    "solvers": "microslip.pipeline.bench.solvers",
+    "core": "microslip.bench.core",
+    "mesh": "microslip.bench.meshing",
+    "reduction": "microslip.bench.reduction_cost",
+    "teaching": "microslip.bench.teaching",
+    "assembly": "microslip.bench.assembly_scale",
+    "trade": "microslip.bench.trade",
+    "convergence": "microslip.bench.convergence",
+    "elements": "microslip.bench.element_orders",
+    "cluster": "microslip.bench.cluster",
+    "solvers": "microslip.bench.solvers",
 }
 
 
 def demo(argv: list[str]) -> int:
     """Frequency response of the single-DOF Jenkins oscillator, as a table."""
-    from microslip.pipeline.app.run import ticker
-    from microslip.pipeline.bench.demos import jenkins_oscillator
-    from microslip.pipeline.case.checks import samples_rule
-    from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import sweep
+    from microslip.app.run import ticker
+    from microslip.bench.demos import jenkins_oscillator
+    from microslip.case.checks import samples_rule
+    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.response import sweep
 
     parser = argparse.ArgumentParser(prog="microslip demo", description=demo.__doc__)
     parser.add_argument("--harmonics", type=int, default=7, help="highest harmonic H (>= 1)")
@@ -84,9 +84,9 @@ DEMO_MAX_S = 120.0
 def _demo_estimate(harmonics: int, samples: int) -> tuple[float, str]:
     """(rough seconds of the demo's sweep, "" or why it is refused: more memory than is
     available, or longer than DEMO_MAX_S)."""
-    from microslip.pipeline.bench.demos import jenkins_case
-    from microslip.pipeline.case import specs
-    from microslip.pipeline.case.estimate import memory_faults, task_seconds
+    from microslip.bench.demos import jenkins_case
+    from microslip.case import specs
+    from microslip.case.estimate import memory_faults, task_seconds
 
     data = jenkins_case(harmonics, samples)
     found: list[str] = []
@@ -112,7 +112,7 @@ BROKEN_PIPE = 141  # stdout closed early, e.g. `| head` (128 + SIGPIPE, as for o
 
 def _load_case(command: str, path):
     """The validated case, or None after printing its faults (one line when one fault)."""
-    from microslip.pipeline.case import CaseError, load
+    from microslip.case import CaseError, load
 
     try:
         case = load(path)
@@ -176,7 +176,7 @@ def _report_run(path: Path, out: Path, start: float) -> tuple[str, str]:
     """Print the summary of a finished run; its (status, message)."""
     import h5py
 
-    from microslip.pipeline.results.file import summary
+    from microslip.results.writer import summary
 
     print(summary(path))
     print(f"wrote {out} in {time.perf_counter() - start:.1f} s")
@@ -186,10 +186,10 @@ def _report_run(path: Path, out: Path, start: float) -> tuple[str, str]:
 
 def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
-    from microslip.pipeline.app.folder import FolderBusy, NoSpace
-    from microslip.pipeline.app.run import run_case
-    from microslip.pipeline.app.tasks import BLAS_THREADS
-    from microslip.pipeline.case import InputError
+    from microslip.app.folder import FolderBusy, NoSpace
+    from microslip.app.run import run_case
+    from microslip.app.tasks import BLAS_THREADS
+    from microslip.case import InputError
 
     parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML)")
@@ -235,7 +235,7 @@ def run(argv: list[str]) -> int:
         if shared is None:
             return 2
     if args.dry_run:
-        from microslip.pipeline.app import plan
+        from microslip.app import plan
 
         factor = plan.machine_factor()
         stages = plan.scaled(plan.plan(c, out, cache=not args.no_cache, shared=shared),
@@ -282,7 +282,7 @@ def run(argv: list[str]) -> int:
 def _shared_cache(command: str):
     """The shared cache of meshes and reduced models (``app.cache``), or None after one
     line saying why it cannot be used (a bad setting, a folder that cannot be written)."""
-    from microslip.pipeline.app.cache import CacheSettingError, SharedCache
+    from microslip.app.cache import CacheSettingError, SharedCache
 
     try:
         shared = SharedCache.from_environment()
@@ -300,7 +300,7 @@ def _shared_cache(command: str):
 def cache(argv: list[str]) -> int:
     """The cache of meshes and reduced models every run shares: where it is, what it holds
     and its bound (MICROSLIP_CACHE, MICROSLIP_CACHE_SIZE); --clear empties it."""
-    from microslip.pipeline.app.folder import size_text
+    from microslip.app.folder import size_text
 
     parser = argparse.ArgumentParser(prog="microslip cache", description=cache.__doc__)
     parser.add_argument("--clear", action="store_true",
@@ -325,7 +325,7 @@ def cache(argv: list[str]) -> int:
 def _workers_fault(workers: int | None, scheduler: str | None) -> str:
     """"" when --workers and --scheduler are allowed (checked before the case runs), else
     one line saying why."""
-    from microslip.pipeline.app.tasks import workers_fault
+    from microslip.app.tasks import workers_fault
 
     if workers is not None and scheduler is not None:
         return (f"--workers {workers} with --scheduler {scheduler}: give one (the workers of "
@@ -340,7 +340,7 @@ def _executor(workers: int | None, scheduler: str | None):
     workers), a local cluster started on first need (by default one worker per core, for
     analyses whose curves are worth it: tasks.WORTH_S), or the cluster at ``scheduler``,
     connected now."""
-    from microslip.pipeline.app.tasks import (
+    from microslip.app.tasks import (
         WORTH_S,
         Distributed,
         Serial,
@@ -360,9 +360,9 @@ def check(argv: list[str]) -> int:
     """Validate a case file without running it."""
     from pathlib import Path
 
-    from microslip.pipeline.case import CaseError, load, notes, sizes
-    from microslip.pipeline.case.geometry import imported_contents
-    from microslip.pipeline.case.units import case_unit_lines
+    from microslip.case import CaseError, load, notes, sizes
+    from microslip.case.geometry_table import imported_contents
+    from microslip.case.units import case_unit_lines
 
     parser = argparse.ArgumentParser(prog="microslip check", description=check.__doc__)
     parser.add_argument("case", type=Path, nargs="+", help="case file(s) (TOML)")
@@ -382,8 +382,8 @@ def check(argv: list[str]) -> int:
             for line in contents:
                 print(f"{path}: {line}")
             if contents and "reduction" in c.data:
-                from microslip.pipeline.app.plan import reduction_estimate
-                from microslip.pipeline.solve.memory import memory_text
+                from microslip.app.plan import reduction_estimate
+                from microslip.solve.memory import memory_text
 
                 seconds, nbytes = reduction_estimate(c.geometry_table.build(),
                                                      c.reduction_table)
@@ -402,7 +402,7 @@ def check(argv: list[str]) -> int:
 
 def show(argv: list[str]) -> int:
     """Summarise a results file (or the results.h5 of an output folder)."""
-    from microslip.pipeline.results.file import ResultsError, leftover, summary
+    from microslip.results.writer import ResultsError, leftover, summary
 
     parser = argparse.ArgumentParser(prog="microslip show", description=show.__doc__)
     parser.add_argument("path", type=Path, help="results.h5 or its folder")
@@ -434,9 +434,9 @@ def _render_options(args) -> tuple[object, list[str]]:
     """The pictures.Options of `render`'s arguments, and one line per bad one."""
     from matplotlib.colors import is_color_like
 
-    from microslip.pipeline.case.specs import MAP_TYPES
-    from microslip.pipeline.draw import maps, pictures
-    from microslip.pipeline.friction.states import STATE_NAMES
+    from microslip.case.specs import MAP_TYPES
+    from microslip.draw import maps, pictures
+    from microslip.laws.states import STATE_NAMES
 
     faults: list[str] = []
     colours = dict(maps.STATE_COLOURS)
@@ -472,8 +472,8 @@ def render(argv: list[str]) -> int:
     """Redraw the pictures of a results folder from its results.h5 alone (FRFs, peak
     curves, contact-status and static-load maps, deformed shapes): other colours, another
     point, another size. Nothing is recomputed."""
-    from microslip.pipeline.draw import pictures
-    from microslip.pipeline.results.file import ResultsError
+    from microslip.draw import pictures
+    from microslip.results.writer import ResultsError
 
     parser = argparse.ArgumentParser(prog="microslip render", description=render.__doc__)
     parser.add_argument("path", type=Path, help="results folder (or its results.h5)")
@@ -526,7 +526,7 @@ def render(argv: list[str]) -> int:
 
 def _analysis_faults(target: Path, names: list[str] | None) -> list[str]:
     """A line per ``--analysis`` NAME the results file does not hold."""
-    from microslip.pipeline.results.file import analysis_names
+    from microslip.results.writer import analysis_names
 
     if not names:
         return []
@@ -536,7 +536,7 @@ def _analysis_faults(target: Path, names: list[str] | None) -> list[str]:
 
 
 def maps_panel() -> str:
-    from microslip.pipeline.draw import maps, shapes
+    from microslip.draw import maps, shapes
 
     return (f"{maps.PANEL[0]}x{maps.PANEL[1]} per map, {shapes.PANEL[0]}x{shapes.PANEL[1]} "
             "per shape panel")
@@ -544,7 +544,7 @@ def maps_panel() -> str:
 
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
-    from microslip.pipeline.app.run import mesh_geometry, say_units
+    from microslip.app.run import mesh_geometry, say_units
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML) with a [geometry] table")
@@ -575,8 +575,8 @@ def mesh(argv: list[str]) -> int:
 def compare(argv: list[str]) -> int:
     """Compare two results files (or folders) dataset by dataset: exit 0 when every number
     agrees to --rtol, 1 when some differ (listed)."""
-    from microslip.pipeline.results.compare import report, results_path
-    from microslip.pipeline.results.file import ResultsError, open_results
+    from microslip.results.compare import report, results_path
+    from microslip.results.writer import ResultsError, open_results
 
     parser = argparse.ArgumentParser(prog="microslip compare", description=compare.__doc__)
     parser.add_argument("old", type=Path, help="results.h5 or the output folder holding it")
@@ -669,7 +669,7 @@ def main(argv: list[str] | None = None) -> int:
               "microslip COMMAND --help: the options of a command; --version: the version",
               file=sys.stdout if asked else sys.stderr)
         return 0 if asked else 2
-    from microslip.pipeline.fe.linalg import retain_freed_memory
+    from microslip.fe.linalg import retain_freed_memory
 
     retain_freed_memory()  # a command is one process doing large numerical work
     try:

@@ -4,7 +4,7 @@ import copy
 
 import pytest
 
-from microslip.pipeline import case as cases
+from microslip import case as cases
 
 #: A valid lumped case: 2 DOFs, one law-B contact (variable normal load), one FRF
 TWO_DOF = {

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.solve.dti import LoadSteps, TimeModel
+from microslip.laws.coulomb import ContactElements
+from microslip.solve.dti import LoadSteps, TimeModel
 
 
 def blade_damper_blade(

@@ -12,14 +12,14 @@ from derivatives import fd_residual_jacobian
 from scipy.optimize import linear_sum_assignment
 
 from microslip import geometry
-from microslip.pipeline.app import structure
-from microslip.pipeline.assembly.join import join
-from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
-from microslip.pipeline.case.reduction import body_specs
-from microslip.pipeline.fe import cyclic, fem
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
+from microslip.app import structure
+from microslip.assembly.join import join
+from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
+from microslip.case.reduction_table import body_specs
+from microslip.fe import cyclic, fem
+from microslip.fourier import Harmonics
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
 
 NS = 6
 SPEED = 1000.0  # rad/s: centrifugal load on the damper, ~2 kN: contacts well closed
@@ -342,7 +342,7 @@ def test_hill_exponents_of_the_reduced_model(sector, mu, factor, monkeypatch):
     form of a linear system's exponents). Within the disc |lambda| < 0.45 w (the edge of
     the strip is where the truncated copies differ); to 1e-8 w (ARPACK's 1e-10 relative
     tolerance on 1 / lambda, and the dense eigensolver's round-off on ~500 unknowns)."""
-    from microslip.pipeline.solve import stability as st
+    from microslip.solve import stability as st
 
     cm = model(sector, mu, amplitude=20.0)
     w = factor * first_bending(sector)

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from case_helpers import case_faults
 
+from microslip import case as cases
 from microslip import geometry
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.case import GeometryTable
-from microslip.pipeline.cli import main
+from microslip.app.run import run_case
+from microslip.case import GeometryTable
+from microslip.cli import main
 
 CASE = {
     "title": "coarse blisk assembly",
@@ -138,7 +138,7 @@ def test_an_assembly_case_runs_end_to_end(coarse_run):
 
 def test_a_patch_draws_its_total_static_forces_per_component():
     # 3 node pairs x [T1, T2, N]: three lines, each the sum over the pairs (not nine)
-    from microslip.pipeline.draw.pictures import static_lines
+    from microslip.draw.pictures import static_lines
 
     static = np.arange(18.0).reshape(2, 9)  # 2 points of the curve
     patch = static_lines(static, ["T0_1", "T0_2", "N0"])
@@ -152,14 +152,14 @@ def test_a_patch_draws_its_total_static_forces_per_component():
 
 
 def test_the_results_file_follows_the_layout(coarse_run):
-    from microslip.pipeline.results import schema
+    from microslip.results import schema
 
     with h5py.File(coarse_run / "results.h5") as f:  # geometry, reduction, maps, shapes
         assert schema.undescribed(f) == []
 
 
 def test_the_patches_hold_each_pairs_state_and_the_share_of_slipping_pairs(coarse_run):
-    from microslip.pipeline.friction.states import GROSS_SLIP, STICK_SLIP
+    from microslip.laws.states import GROSS_SLIP, STICK_SLIP
 
     with h5py.File(coarse_run / "results.h5") as f:
         curve = f["frf/curve_000"]
@@ -204,7 +204,7 @@ def test_the_map_points_are_solutions_at_the_peak_and_at_the_asked_frequency(coa
 def test_the_map_colours_of_the_nodes_equal_their_stored_states(coarse_run):
     from matplotlib.colors import to_rgb
 
-    from microslip.pipeline.draw import maps
+    from microslip.draw import maps
 
     with h5py.File(coarse_run / "results.h5") as f:
         point = f["frf/curve_000/maps/point_00/patches"]
@@ -264,7 +264,7 @@ def test_the_shapes_at_the_map_points_are_the_solution_on_the_contact_nodes(coar
 
 
 def test_the_full_disk_is_continuous_across_every_sector_boundary(coarse_run):
-    from microslip.pipeline.draw import shapes
+    from microslip.draw import shapes
 
     # copy s's right cyclic face is copy s+1's left face: one node of the disk, one motion.
     # Wrong phases (or a wrong sign of the wave) tear the disk apart at these faces.
@@ -296,7 +296,7 @@ def test_a_shape_picture_is_a_non_blank_png_of_the_asked_size(coarse_run, tmp_pa
     assert image.shape == (300 + round(300 / 9), 800, 3)
     assert (image.min(axis=2) < 200).mean() > 0.05  # a drawn model, not a white page
     # the summary names the surfaces, not as an analysis of no points
-    from microslip.pipeline.results.file import summary
+    from microslip.results.writer import summary
 
     text = summary(coarse_run / "results.h5")
     assert "surfaces (of the previews and shapes): blisk" in text and " 0 points" not in text
@@ -348,7 +348,7 @@ def test_a_rerun_reuses_every_unchanged_curve_and_recomputes_a_changed_one(coars
 
 
 def test_no_cache_computes_afresh_and_keeps_nothing(tmp_path):
-    from microslip.pipeline.app.store import CurveStore
+    from microslip.app.store import CurveStore
 
     store = CurveStore(None)
     key = store.key({"a": 1}, {"type": "frf"}, method="arclength")
@@ -361,8 +361,8 @@ def test_no_cache_computes_afresh_and_keeps_nothing(tmp_path):
 
 
 def test_a_dry_run_lists_what_comes_from_the_caches_and_what_runs(coarse_run, monkeypatch):
-    from microslip.pipeline.app import plan
-    from microslip.pipeline.solve import response
+    from microslip.app import plan
+    from microslip.solve import response
 
     monkeypatch.setattr(response, "sweep", lambda *a, **k: pytest.fail("a dry run solved"))
     stages = plan.plan(cases.Case(copy.deepcopy(CASE), "coarse.toml"), coarse_run)
@@ -389,10 +389,10 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     # Craig-Bampton keeps the masters' DOFs as they are (identity rows of the recovery):
     # the response node, a master of the blisk and one of its recovery nodes, moves as the
     # harmonic balance's shared DOFs say, order by order (the ND's complex wave included)
-    from microslip.pipeline.app.models import AssemblyModels
-    from microslip.pipeline.app.run import mesh_geometry
-    from microslip.pipeline.app.structure import reduce_structure
-    from microslip.pipeline.solve.hbm import OperatingPoint
+    from microslip.app.models import AssemblyModels
+    from microslip.app.run import mesh_geometry
+    from microslip.app.structure import reduce_structure
+    from microslip.solve.hbm import OperatingPoint
 
     case = cases.Case(copy.deepcopy(CASE), "coarse.toml")
     mesh = mesh_geometry(GeometryTable.of(CASE["geometry"]), tmp_path, progress=lambda s: None,
@@ -425,7 +425,7 @@ def test_the_code_digest_follows_the_computing_sources_only(tmp_path):
     import shutil
     from pathlib import Path
 
-    from microslip.pipeline.app import store
+    from microslip.app import store
 
     root = Path(store.__file__).resolve().parents[2]
     for part in store.COMPUTING:  # a copy of both folders

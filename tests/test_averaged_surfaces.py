@@ -18,6 +18,7 @@ import pytest
 from blocks import two_blocks, upper_block
 from test_surface_contacts import K_AREA, PRESS, E, H, L, P, model, pressed_mesh, reduced
 
+from microslip.case.geometry_table import ContactDeclaration, with_contacts
 from microslip.geometry.averaging import averaged_surfaces, surface_patches
 from microslip.geometry.mesh import AveragedContact
 from microslip.geometry.pairing import (
@@ -29,9 +30,8 @@ from microslip.geometry.pairing import (
 )
 from microslip.geometry.stored import load_mesh, save_mesh
 from microslip.geometry.surfaces import surface_of
-from microslip.pipeline.case.geometry import ContactDeclaration, with_contacts
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point
 
 SPACING = 0.012  # [m]: about 3 x 3 patches on the 40 mm faces
 
@@ -173,7 +173,7 @@ def test_the_averaged_contact_is_kept_by_the_stored_mesh(averaged, tmp_path):
 def drawn_areas(mesh, name: str) -> tuple[np.ndarray, np.ndarray]:
     """(the area [m^2] a contact map draws in each point's colour, the areas the points
     stand for)."""
-    from microslip.pipeline.draw.maps import PatchGrid, cells
+    from microslip.draw.maps import PatchGrid, cells
 
     grid = PatchGrid.from_mesh(mesh, name)
     k = len(grid.points)
@@ -197,8 +197,8 @@ def test_a_narrow_strip_in_one_row_of_patches_is_drawn():
     """A 40 x 4 mm strip at a 4 mm spacing: ten patches in one row (none three at a facet,
     which a map of the patches' own dual cells needed); the map still draws each over its
     area, and the preview draws the face."""
-    from microslip.pipeline.draw.maps import PatchGrid, patch_borders
-    from microslip.pipeline.draw.previews import MeshView
+    from microslip.draw.maps import PatchGrid, patch_borders
+    from microslip.draw.previews import MeshView
 
     mesh = two_blocks(("hexahedron", (10, 1, 2)), ("tetra", (20, 2, 2)), (L, 0.004, H),
                       (L, 0.004, H), (0.0, 0.0))
@@ -231,7 +231,7 @@ def test_a_case_declares_the_spacing():
 
 @pytest.mark.parametrize("value", [-0.001, "4 mm"])
 def test_a_bad_spacing_is_one_line(value):
-    from microslip.pipeline.case.geometry import _check_contacts
+    from microslip.case.geometry_table import _check_contacts
 
     out = []
     _check_contacts({"i": {"surfaces": ["a", "b"], "spacing": value}}, out)

@@ -11,11 +11,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from microslip import geometry
+from microslip.fe import craig_bampton, cyclic, fem, linalg, reduced_model
 from microslip.geometry.averaging import cell_averages
 from microslip.geometry.mesh import MeshValidationError
 from microslip.geometry.pairing import nodal_areas_and_normals
 from microslip.geometry.surfaces import Surface, surface_of
-from microslip.pipeline.fe import cyclic, fem, linalg, reduction
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 NS = 6
@@ -69,8 +69,8 @@ def test_complete_basis_with_averaged_masters_is_exact(coarse, h):
     node = np.setdiff1d(fem.node_set(mesh, "disk/rim"), mesh.cyclic["disk"].right)[:1]
     masters = np.concatenate([node, ids])
     n_slave = model.n_free - 3 * len(masters)
-    red = reduction.craig_bampton(model, masters, n_slave,
-                                  averaged=reduction.averaged_masters(mesh, masters))
+    red = craig_bampton.craig_bampton(model, masters, n_slave,
+                                  averaged=craig_bampton.averaged_masters(mesh, masters))
     lam_full = sla.eigh(model.stiffness.toarray(), model.mass.toarray(), eigvals_only=True)
     lam_red = sla.eigh(red.stiffness, red.mass, eigvals_only=True)
     # A change of basis: round-off of dense LAPACK on a few hundred DOFs (1e-9 relative of
@@ -95,8 +95,8 @@ def test_static_condensation_equals_the_constrained_unreduced_model(fine):
     augmented-Lagrangian path of the reduction is independent of it."""
     mesh, body, ids = fine
     model = cyclic.sector_model(body, fem.node_set(mesh, "disk/bore"), mesh.cyclic["disk"], 1)
-    red = reduction.craig_bampton(model, ids, "auto",
-                                  averaged=reduction.averaged_masters(mesh, ids))
+    red = craig_bampton.craig_bampton(model, ids, "auto",
+                                  averaged=craig_bampton.averaged_masters(mesh, ids))
     W = _constraints(mesh, model, ids)
     c = W.shape[0]
     A = sp.bmat([[model.stiffness, W.conj().T], [W, None]]).tocsc()
@@ -111,12 +111,12 @@ def test_static_condensation_equals_the_constrained_unreduced_model(fine):
 def test_free_vibration_frequencies_converge_to_the_unreduced_model(fine):
     """The masters free, the reduced model's lowest frequencies are the unreduced model's
     within the Craig-Bampton error of the default cut-off (< 0.1 % on the first ten, see
-    reduction.CUTOFF); the constrained modes come from the block Krylov solver here (a
+    reduced_model.CUTOFF); the constrained modes come from the block Krylov solver here (a
     few thousand DOFs)."""
     mesh, body, ids = fine
     model = cyclic.sector_model(body, fem.node_set(mesh, "disk/bore"), mesh.cyclic["disk"], 2)
-    red = reduction.craig_bampton(model, ids, "auto",
-                                  averaged=reduction.averaged_masters(mesh, ids))
+    red = craig_bampton.craig_bampton(model, ids, "auto",
+                                  averaged=craig_bampton.averaged_masters(mesh, ids))
     assert model.n_free > 2000  # (the Krylov path, not the dense one)
     lam, _ = linalg.lowest_modes(model.stiffness, model.mass, 10)
     f_full = np.sqrt(lam) / (2 * np.pi)
@@ -134,10 +134,10 @@ def test_an_averaged_point_of_one_node_is_that_node_as_master(coarse):
                                average_weights=np.ones(2))
     body_t = fem.assemble(tied, "disk", STEEL, order=1)
     bore = fem.node_set(mesh, "disk/bore")
-    plain = reduction.craig_bampton(cyclic.sector_model(body, bore, mesh.cyclic["disk"], 1),
+    plain = craig_bampton.craig_bampton(cyclic.sector_model(body, bore, mesh.cyclic["disk"], 1),
                                     node, 12)
-    avg = reduction.craig_bampton(cyclic.sector_model(body_t, bore, tied.cyclic["disk"], 1),
-                                  point, 12, averaged=reduction.averaged_masters(tied, point))
+    avg = craig_bampton.craig_bampton(cyclic.sector_model(body_t, bore, tied.cyclic["disk"], 1),
+                                  point, 12, averaged=craig_bampton.averaged_masters(tied, point))
     np.testing.assert_allclose(avg.frequencies(), plain.frequencies(), rtol=1e-9)
     # The master block (static condensation) alike: round-off of two factorizations.
     np.testing.assert_allclose(avg.stiffness[:6, :6], plain.stiffness[:6, :6],
@@ -167,9 +167,10 @@ def test_blisk_cells_carry_a_uniform_pressure_as_its_consistent_loads():
     ids = mesh.averaged_points[np.isin(mesh.averaged_points,
                                        mesh.body_points("damper"))]
     model = cyclic.sector_model(damper, np.empty(0, np.int64), None, 0)
-    red = reduction.craig_bampton(model, ids, 4, averaged=reduction.averaged_masters(mesh, ids))
+    red = craig_bampton.craig_bampton(model, ids, 4,
+                                      averaged=craig_bampton.averaged_masters(mesh, ids))
     f = red.frequencies()
-    assert np.sum(f < reduction.RIGID * f[-1]) == 6
+    assert np.sum(f < reduced_model.RIGID * f[-1]) == 6
 
 
 def test_a_point_off_its_average_is_refused(coarse):
@@ -203,11 +204,11 @@ def test_averages_among_the_masters_only_and_the_modes_they_leave(coarse):
     broadcast error deep in the eigen-solve)."""
     mesh, body, ids = coarse
     model = cyclic.sector_model(body, fem.node_set(mesh, "disk/bore"), mesh.cyclic["disk"], 1)
-    every = reduction.averaged_masters(mesh, ids)
-    one = reduction.craig_bampton(model, ids[:1], 5, averaged=every)
-    alone = reduction.craig_bampton(model, ids[:1], 5,
-                                    averaged=reduction.averaged_masters(mesh, ids[:1]))
+    every = craig_bampton.averaged_masters(mesh, ids)
+    one = craig_bampton.craig_bampton(model, ids[:1], 5, averaged=every)
+    alone = craig_bampton.craig_bampton(model, ids[:1], 5,
+                                    averaged=craig_bampton.averaged_masters(mesh, ids[:1]))
     np.testing.assert_allclose(one.stiffness, alone.stiffness, rtol=1e-12, atol=1e-9)
     n_slave = model.n_free - 3 * len(ids)
     with pytest.raises(ValueError, match="n_modes"):
-        reduction.craig_bampton(model, ids, n_slave + 1, averaged=every)
+        craig_bampton.craig_bampton(model, ids, n_slave + 1, averaged=every)

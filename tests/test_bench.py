@@ -3,7 +3,7 @@
 
 import pytest
 
-from microslip.pipeline.cli import main
+from microslip.cli import main
 
 
 def test_bench_core_prints_time_per_point_and_contact_cost(capsys):
@@ -49,11 +49,11 @@ def test_bench_assembly_smallest_grid(tmp_path, capsys):
 def test_bench_elements_converges_for_every_shape(monkeypatch, capsys):
     """On two coarse grids and a reference one grid finer, every shape's error falls with
     the grid and the quadratic elements beat the linear ones on the same grid."""
-    from microslip.pipeline.bench import elements
+    from microslip.bench import element_orders
 
-    monkeypatch.setattr(elements, "GRIDS", ((5, 1, 1), (10, 1, 1)))
-    monkeypatch.setattr(elements, "REFERENCE_GRID", (20, 2, 2))
-    assert elements.main(["--repeats", "1"]) == 0
+    monkeypatch.setattr(element_orders, "GRIDS", ((5, 1, 1), (10, 1, 1)))
+    monkeypatch.setattr(element_orders, "REFERENCE_GRID", (20, 2, 2))
+    assert element_orders.main(["--repeats", "1"]) == 0
     rows = [line.split() for line in capsys.readouterr().out.splitlines()[2:]]
     error = {(r[0], r[1], r[2] + r[3] + r[4]): abs(float(r[7].rstrip("%"))) for r in rows}
     for shape in ("hexahedron", "wedge", "tetra"):

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.bench import convergence
-from microslip.pipeline.cli import main
+from microslip import case as cases
+from microslip.bench import convergence
+from microslip.cli import main
 
 
 @pytest.mark.parametrize("p", [1.0, 2.0, 3.7])

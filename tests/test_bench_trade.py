@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.bench import trade
-from microslip.pipeline.cli import main
+from microslip import case as cases
+from microslip.bench import trade
+from microslip.cli import main
 
 
 def test_every_setting_is_a_valid_case_with_its_knobs_set():

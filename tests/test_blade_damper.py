@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.friction.states import SAMPLE_SLIP
-from microslip.pipeline.solve import dti
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
+from microslip import case as cases
+from microslip.laws.states import SAMPLE_SLIP
+from microslip.solve import dti
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 X2L = 2  # DOF index of the left airfoil tip x2_l

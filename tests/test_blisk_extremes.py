@@ -10,9 +10,9 @@ import h5py
 import numpy as np
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.results.file import attr_text
+from microslip import case as cases
+from microslip.app.run import run_case
+from microslip.results.writer import attr_text
 
 
 def quick(mu: float, amplitude: float, samples: int = 64) -> cases.Case:
@@ -61,11 +61,11 @@ def test_the_light_dampers_fold_has_an_unstable_middle(tmp_path):
     solutions there), the points between them unstable and their neighbours stable; of the
     three solutions at that frequency (the map points) the middle amplitude is the unstable
     one by Hill's method (3 min)."""
-    from microslip.pipeline.app.models import AssemblyModels
-    from microslip.pipeline.app.run import mesh_geometry
-    from microslip.pipeline.app.structure import reduce_structure
-    from microslip.pipeline.case import curve_variants
-    from microslip.pipeline.solve.stability import hill_stability
+    from microslip.app.models import AssemblyModels
+    from microslip.app.run import mesh_geometry
+    from microslip.app.structure import reduce_structure
+    from microslip.case import curve_variants
+    from microslip.solve.stability import hill_stability
 
     data = copy.deepcopy(cases.load("cases/blisk_damper.toml").data)
     data["analysis"] = [a for a in data["analysis"] if a["name"] == "low_mass"]

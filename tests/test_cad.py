@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spl
 
+from microslip.fe import cyclic, fem
 from microslip.geometry.imported import MeshImportError, import_mesh
 from microslip.geometry.sector import SectorSpec
-from microslip.pipeline.fe import cyclic, fem
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 

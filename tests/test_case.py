@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from case_helpers import TWO_DOF, case_faults
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
+from microslip import case as cases
+from microslip.app.run import run_case
 
 CASES = Path(__file__).parents[1] / "cases"
 
@@ -134,7 +134,7 @@ def test_interrupted_run_leaves_a_valid_partial_file(tmp_path):
 def test_a_stopped_curve_makes_the_run_partial_and_exit_1(tmp_path, monkeypatch):
     """A curve cut short (3 points cannot cover 0.5..2 rad/s) is not a complete run:
     the file says partial and which analysis stopped, and `microslip run` exits 1."""
-    from microslip.pipeline import cli
+    from microslip import cli
 
     data = copy.deepcopy(GOOD)
     data["solver"] = {"max_points": 3}
@@ -201,7 +201,7 @@ def test_linear_model_and_response_measures(tmp_path):
 def test_the_old_coupling_table_is_read_as_assembly_with_a_note(tmp_path, capsys):
     # [coupling] was renamed [assembly] ("coupled" is the contact form of eqs. 24-28):
     # an old file still runs, read as the new table, and check says to rename it
-    from microslip.pipeline.cli import main
+    from microslip.cli import main
 
     new = (Path(__file__).parents[1] / "cases" / "blisk_damper.toml").read_text()
     assert "[assembly]" in new and "coupling" not in new and '"assembly.' in new
@@ -232,8 +232,8 @@ def test_a_dti_without_compare_is_valid():
 
 
 def test_reserved_analysis_names_are_the_results_file_s_groups():
-    from microslip.pipeline.case.validate import RESERVED
-    from microslip.pipeline.results import schema
+    from microslip.case.faults import RESERVED
+    from microslip.results import schema
 
     assert set(RESERVED) == {schema.CASE, schema.GEOMETRY, schema.CONTACT_GRIDS,
                              schema.SURFACES, schema.REDUCTION}
@@ -242,8 +242,8 @@ def test_reserved_analysis_names_are_the_results_file_s_groups():
 def test_an_unnamed_analysis_is_estimated_under_its_name(tmp_path):
     """An [[analysis]] without a name is 'analysis<i>' everywhere: the estimate found it
     under '<i>' and the run and dry run ended in StopIteration."""
-    from microslip.pipeline.app import plan
-    from microslip.pipeline.case.estimate import task_seconds
+    from microslip.app import plan
+    from microslip.case.estimate import task_seconds
 
     data = copy.deepcopy(GOOD)
     del data["analysis"][0]["name"]

@@ -8,11 +8,11 @@ from pathlib import Path
 import pytest
 from case_helpers import case_faults
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.case import estimate
-from microslip.pipeline.cli import main
-from microslip.pipeline.friction.harmonics import Harmonics, least_samples
-from microslip.pipeline.solve.hbm import HarmonicBalance
+from microslip import case as cases
+from microslip.case import estimate
+from microslip.cli import main
+from microslip.fourier import Harmonics, least_samples
+from microslip.solve.hbm import HarmonicBalance
 
 CASES = Path(__file__).parents[1] / "cases"
 

@@ -9,8 +9,8 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from microslip import geometry
+from microslip.fe import bodies, craig_bampton, cyclic, fem, linalg, modal, reduced_model
 from microslip.geometry.mesh import signed_volumes
-from microslip.pipeline.fe import cyclic, fem, linalg, reduction
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 NS = 6
@@ -159,7 +159,7 @@ def test_load_is_the_mass_times_the_position_field(blisk_mesh, order):
 
 
 def _damper_spec(n_modes=5):
-    return reduction.BodySpec(body="damper", material=STEEL, patches=("damper_left",
+    return bodies.BodySpec(body="damper", material=STEEL, patches=("damper_left",
                                                                       "damper_right"),
                               n_modes=n_modes)
 
@@ -177,7 +177,7 @@ def _clamped_reactions(K, f, m_idx):
 def test_reactions_on_clamped_masters_are_exact_damper(blisk_mesh):
     """Damper (no cyclic symmetry, no clamp) held on its contact patches. Reduced: q_m = 0,
     the master rows give r = -(f_m + Psi^H f_s); unreduced: solve the slaves."""
-    red = reduction.reduce_body(blisk_mesh, _damper_spec(), [0])[0]
+    red = bodies.reduce_body(blisk_mesh, _damper_spec(), [0])[0]
     load = red.loads["centrifugal"]
     assert load.shape == (red.size,) and load.dtype == np.float64
     body = fem.assemble(blisk_mesh, "damper", STEEL)
@@ -210,7 +210,7 @@ def test_reactions_on_clamped_masters_are_exact_cyclic_nd0(disk_mesh):
     sector = cyclic.sector_model(body, fem.node_set(disk_mesh, "disk/bore"),
                                  disk_mesh.cyclic["disk"], 0)
     f = fem.centrifugal_load(body)
-    red = reduction.craig_bampton(sector, masters, 8, loads={"centrifugal": f})
+    red = craig_bampton.craig_bampton(sector, masters, 8, loads={"centrifugal": f})
     load = red.loads["centrifugal"]
     assert load.dtype == np.float64
     f_free = sector.expansion.T @ f
@@ -225,7 +225,7 @@ def test_free_free_damper_rigid_motion_gives_resultant_and_moment(blisk_mesh):
     """No clamps: rigid motions of all masters are reproduced by the static modes (eta = 0),
     so q^T f_red is the virtual work of the FE load on the rigid motion: the resultant for a
     translation, the moment about the rotation's centre for a rotation."""
-    red = reduction.reduce_body(blisk_mesh, _damper_spec(), [0])[0]
+    red = bodies.reduce_body(blisk_mesh, _damper_spec(), [0])[0]
     load = red.loads["centrifugal"]
     idx = red.dof_index(red.master_nodes)  # (n, 3)
     x = red.master_coordinates
@@ -251,7 +251,7 @@ def test_free_free_damper_rigid_motion_gives_resultant_and_moment(blisk_mesh):
         # Same relative round-off on the moment, scaled by the moment arm.
         assert q @ load == pytest.approx(moment[k], abs=1e-12 * scale * arm)
     # The damper model serves every ND with its load (a body without cyclic symmetry).
-    models = reduction.reduce_body(blisk_mesh, _damper_spec(), [0, 3])
+    models = bodies.reduce_body(blisk_mesh, _damper_spec(), [0, 3])
     assert models[0] is models[3] and "centrifugal" in models[3].loads
 
 
@@ -260,7 +260,7 @@ def test_modal_reduction_projects_loads(disk_mesh):
     sector = cyclic.sector_model(body, fem.node_set(disk_mesh, "disk/bore"),
                                  disk_mesh.cyclic["disk"], 0)
     f = fem.centrifugal_load(body)
-    red = reduction.modal_reduction(sector, 6, loads={"centrifugal": f})
+    red = modal.modal_reduction(sector, 6, loads={"centrifugal": f})
     _, V = linalg.lowest_modes(sector.stiffness, sector.mass, 6)
     # Modal forces Phi^H P^H f, up to the sign of each mode (real at ND 0). Same solver on the
     # same matrices (measured identical); 1e-8 would still admit modes converged only to the
@@ -281,9 +281,9 @@ def test_bad_load_before_factorization(disk_mesh, monkeypatch):
 
     monkeypatch.setattr(linalg, "factorize", no_factorization)
     with pytest.raises(ValueError, match=r"loads\['c'\]: shape"):
-        reduction.craig_bampton(sector, masters, 2, loads={"c": np.zeros(body.n_dofs - 1)})
+        craig_bampton.craig_bampton(sector, masters, 2, loads={"c": np.zeros(body.n_dofs - 1)})
     with pytest.raises(ValueError, match="finite"):
-        reduction.craig_bampton(sector, masters, 2, loads={"c": np.full(body.n_dofs, np.nan)})
+        craig_bampton.craig_bampton(sector, masters, 2, loads={"c": np.full(body.n_dofs, np.nan)})
 
 
 # --- storage and cache --------------------------------------------------------------------
@@ -292,10 +292,10 @@ def test_bad_load_before_factorization(disk_mesh, monkeypatch):
 def test_loads_in_hdf5_and_cache(disk_mesh, tmp_path, monkeypatch):
     rim = _rim_masters(disk_mesh)
     mesh = dataclasses.replace(disk_mesh, node_sets={**disk_mesh.node_sets, "disk/patch": rim})
-    spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/patch",),
+    spec = bodies.BodySpec(body="disk", material=STEEL, master_sets=("disk/patch",),
                               clamped_sets=("disk/bore",), n_modes=4, order=1)
     nds = [0, 1, NS // 2]
-    first = reduction.reduce_body(mesh, spec, nds, cache_dir=tmp_path)
+    first = bodies.reduce_body(mesh, spec, nds, cache_dir=tmp_path)
     # Axisymmetric: only ND 0 carries it; ND 1 (complex) and ND Ns/2 (real) have no loads.
     assert set(first[0].loads) == {"centrifugal"}
     assert first[1].loads == {} and first[NS // 2].loads == {}
@@ -306,13 +306,13 @@ def test_loads_in_hdf5_and_cache(disk_mesh, tmp_path, monkeypatch):
 
     # Round trip through a group of another file: bitwise.
     path = first[0].save(tmp_path / "other.h5", group="/models/nd0")
-    back = reduction.ReducedModel.load(path, group="/models/nd0")
+    back = reduced_model.ReducedModel.load(path, group="/models/nd0")
     assert set(back.loads) == {"centrifugal"}
     np.testing.assert_array_equal(back.loads["centrifugal"], load)
     assert back.loads["centrifugal"].dtype == load.dtype
     with h5py.File(path, "r") as f:
         assert list(f["models/nd0/loads"]) == ["centrifugal"]
-        assert f["models/nd0"].attrs["format_version"] == reduction.FORMAT_VERSION
+        assert f["models/nd0"].attrs["format_version"] == reduced_model.FORMAT_VERSION
 
     calls = []
     assemble = fem.assemble
@@ -322,7 +322,7 @@ def test_loads_in_hdf5_and_cache(disk_mesh, tmp_path, monkeypatch):
         return assemble(*args, **kwargs)
 
     monkeypatch.setattr(fem, "assemble", counting)
-    second = reduction.reduce_body(mesh, spec, nds, cache_dir=tmp_path)
+    second = bodies.reduce_body(mesh, spec, nds, cache_dir=tmp_path)
     assert calls == []  # every ND from the cache
     for h in nds:
         assert second[h].key == first[h].key
@@ -330,18 +330,18 @@ def test_loads_in_hdf5_and_cache(disk_mesh, tmp_path, monkeypatch):
     np.testing.assert_array_equal(second[0].loads["centrifugal"], load)
 
     # A file of an older format (no loads) is reduced again and replaced, with its load.
-    old = reduction.model_path(mesh, spec, 0, tmp_path)
+    old = bodies.model_path(mesh, spec, 0, tmp_path)
     with h5py.File(old, "a") as f:
-        f.attrs["format_version"] = reduction.FORMAT_VERSION - 1
+        f.attrs["format_version"] = reduced_model.FORMAT_VERSION - 1
         del f["loads"]
-    third = reduction.reduce_body(mesh, spec, [0], cache_dir=tmp_path)
+    third = bodies.reduce_body(mesh, spec, [0], cache_dir=tmp_path)
     assert len(calls) == 1
     np.testing.assert_allclose(third[0].loads["centrifugal"], load, rtol=0,
                                atol=1e-9 * np.abs(load).max())  # a fresh reduction: round-off
-    assert reduction.ReducedModel.load(old).loads.keys() == {"centrifugal"}
+    assert reduced_model.ReducedModel.load(old).loads.keys() == {"centrifugal"}
     assert not list(tmp_path.glob("*.part"))
     # The load enters the key by name: a model without it is a different reduction.
     sector = cyclic.sector_model(assemble(mesh, "disk", STEEL, 1),
                                  fem.node_set(mesh, "disk/bore"), mesh.cyclic["disk"], 0)
-    bare = reduction.craig_bampton(sector, rim, 4)
+    bare = craig_bampton.craig_bampton(sector, rim, 4)
     assert bare.loads == {} and bare.key != first[0].key

@@ -2,7 +2,7 @@
 
 import pytest
 
-from microslip.pipeline.cli import main
+from microslip.cli import main
 
 
 def test_demo_prints_the_peak(capsys):
@@ -74,19 +74,19 @@ def test_help_names_the_real_program(capsys, command):
 def test_bench_reduction_prints_each_row_once(capsys):
     """The coarse blisk sector, one ND: each table row once on stdout (progress goes to
     stderr), and a single run is not called a median."""
-    from microslip.pipeline.bench import reduction
+    from microslip.bench import reduction_cost
 
-    mesh = reduction.blisk_mesh(4.0)
-    reduction.bench_reduction(mesh, [0], 5, ["superlu"], order=1, bodies=("blisk",))
+    mesh = reduction_cost.blisk_mesh(4.0)
+    reduction_cost.bench_reduction(mesh, [0], 5, ["superlu"], order=1, bodies=("blisk",))
     out = capsys.readouterr().out
     assert "single run" in out and "median of" not in out
     rows = [line for line in out.splitlines() if line.split()[:3] == ["superlu", "blisk", "0"]]
     assert len(rows) == 1, out
-    assert reduction._runs(3) == "median of 3 runs"
+    assert reduction_cost._runs(3) == "median of 3 runs"
 
 
 def test_run_dry_run_lists_the_stages_and_computes_nothing(tmp_path, capsys):
-    from microslip.pipeline.cli import main
+    from microslip.cli import main
 
     assert main(["run", "cases/sdof_wall.toml", "--dry-run", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out

@@ -11,11 +11,11 @@ import h5py
 import numpy as np
 import pytest
 
-from microslip.pipeline.app import run as app_run
-from microslip.pipeline.cli import main
-from microslip.pipeline.results.file import ResultsWriter
+from microslip.app import run as app_run
+from microslip.cli import main
+from microslip.results.writer import ResultsWriter
 
-CLI = [sys.executable, "-m", "microslip.pipeline.cli"]
+CLI = [sys.executable, "-m", "microslip.cli"]
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 # One FRF curve of tiny steps: the sweep takes ~30 s, so a signal lands inside it.
@@ -107,7 +107,7 @@ def test_sigterm_during_run_saves_a_partial_results_file(tmp_path):
 
 
 def test_ctrl_c_in_any_command_exits_130_without_traceback(tmp_path, monkeypatch, capsys):
-    from microslip.pipeline.results import file as results
+    from microslip.results import writer as results
 
     write_results(tmp_path)
 
@@ -160,7 +160,7 @@ def test_run_threads_out_of_range(case, no_run, capsys, threads):
 
 def test_threads_reach_every_task():
     """The BLAS threads a task computes with are the executor's (``--threads``)."""
-    from microslip.pipeline.app.tasks import Serial, Task
+    from microslip.app.tasks import Serial, Task
 
     seen = []
     task = Task(_blas_threads, (seen,))
@@ -172,7 +172,7 @@ def test_threads_reach_every_task():
 def _blas_threads(models, seen, progress, live):
     from threadpoolctl import threadpool_info
 
-    from microslip.pipeline.app.tasks import Outcome
+    from microslip.app.tasks import Outcome
 
     seen.append(max((i["num_threads"] for i in threadpool_info()
                      if i["user_api"] == "blas"), default=0))

@@ -5,8 +5,8 @@ import h5py
 import numpy as np
 import pytest
 
-from microslip.pipeline.cli import main
-from microslip.pipeline.results.compare import differences
+from microslip.cli import main
+from microslip.results.compare import differences
 
 
 def _results(path, *, scale=1.0, extra=False, label="a", created="2026-01-01"):

@@ -4,10 +4,10 @@ against plain dense references built here."""
 import numpy as np
 import pytest
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.solve import hbm
-from microslip.pipeline.solve.hbm import (
+from microslip.fourier import Harmonics
+from microslip.laws.coulomb import ContactElements
+from microslip.solve import hbm
+from microslip.solve.hbm import (
     Contact,
     Excitation,
     HarmonicBalance,

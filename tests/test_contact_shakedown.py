@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 from derivatives import fd_contact_jacobian
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.friction.states import (
+from microslip.fourier import Harmonics
+from microslip.laws.coulomb import ContactElements
+from microslip.laws.states import (
     GROSS_SLIP,
     PARTIAL_LIFTOFF,
     SAMPLE_OPEN,

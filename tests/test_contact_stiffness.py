@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from microslip.fe import contact_stiffness as cs
+from microslip.fe.fem import Material
 from microslip.geometry import ContactPatch
-from microslip.pipeline.fe import contact_stiffness as cs
-from microslip.pipeline.fe.fem import Material
 
 STEEL = Material(2.0e11, 0.3, 7850.0)
 TITANIUM = Material(1.1e11, 0.34, 4430.0)

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from models import jenkins_oscillator, normal_oscillator
 
-from microslip.pipeline.solve import arclength, newton
-from microslip.pipeline.solve import continuation as cont
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
+from microslip.solve import arclength, newton
+from microslip.solve import continuation as cont
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
 
 
 def s_curve(x, lam, jac=True):
@@ -111,7 +111,7 @@ def test_fig24_natural_sweeps_jump_at_both_folds():
     assert up.amplitude([0])[j, 0] < 0.5 * up.amplitude([0])[i, 0]
     # the middle branch, between the turning points, is the unstable one (Hill's method;
     # points next to a fold may go either way: its exponent is nearly zero there)
-    from microslip.pipeline.solve.stability import hill_stability
+    from microslip.solve.stability import hill_stability
 
     stable = np.array([hill_stability(hb, x, arc.point(k)).stable
                        for k, x in enumerate(arc.branch.x)])
@@ -207,7 +207,7 @@ def test_failure_is_reported_with_the_branch_kept():
 def test_peak_tracking_matches_full_sweeps():
     """The optimization curve traced by continuation of the peak equals the
     peaks of full FRFs (where the peak is single-humped), with fewer solves."""
-    from microslip.pipeline.solve.response import peak_curve
+    from microslip.solve.response import peak_curve
 
     hb = jenkins_oscillator(H=1, n_samples=128, fs=1.0)  # the preload multiplier is N0
     values = np.linspace(0.0, 1.5, 16)

@@ -9,9 +9,9 @@ import pytest
 import scipy.sparse.linalg as spla
 from exports import write
 
+from microslip.fe import fem
 from microslip.geometry.imported import import_mesh
 from microslip.geometry.structured import annulus
-from microslip.pipeline.fe import fem
 
 STEEL = fem.Material(2.1e11, 0.3, 7850.0)
 R0, R1, WIDTH, SECTORS = 0.09, 0.11, 0.01, 4  # [m]: a quarter of a ring
@@ -136,8 +136,8 @@ def test_a_mid_node_that_folds_its_element_is_one_line(shape):
     is refused by name, from the assembly and from the reduction stage as an input fault."""
     import dataclasses
 
-    from microslip.pipeline.app.structure import reduce_structure
-    from microslip.pipeline.case import InputError
+    from microslip.app.structure import reduce_structure
+    from microslip.case import InputError
 
     mesh = _ring(shape, (1, 8, 1), True)
     nodes = mesh.edge_nodes.copy()

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from microslip import geometry
+from microslip.fe import cyclic, fem, linalg
 from microslip.geometry.mesh import rotation_z
-from microslip.pipeline.fe import cyclic, fem, linalg
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 NS = 4  # ND 0 and 2 real, ND 1 complex with mode pairs

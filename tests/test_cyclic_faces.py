@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spl
 
+from microslip.fe import cyclic, fem
 from microslip.geometry import Mesh
 from microslip.geometry.imported import import_mesh
 from microslip.geometry.sector import SectorSpec, cyclic_boundaries
 from microslip.geometry.structured import annulus
-from microslip.pipeline.fe import cyclic, fem
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 SECTORS = 12

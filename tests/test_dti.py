@@ -1,4 +1,4 @@
-"""Direct time integration (microslip.pipeline.solve.dti) against independent references:
+"""Direct time integration (microslip.solve.dti) against independent references:
 an event-driven integration (tests/jenkins_dti.py), harmonic balance, closed
 forms of the energy per cycle, hand-computed static equilibria, and its own
 convergence in the time step."""
@@ -8,19 +8,19 @@ import pytest
 from dti_models import blade_damper_blade
 from jenkins_dti import steady_peak
 
-from microslip.pipeline.bench.demos import jenkins_oscillator
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.friction.states import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK
-from microslip.pipeline.solve import dti
-from microslip.pipeline.solve.hbm import (
+from microslip.bench.demos import jenkins_oscillator
+from microslip.fourier import Harmonics
+from microslip.laws.coulomb import ContactElements
+from microslip.laws.states import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK
+from microslip.solve import dti
+from microslip.solve.hbm import (
     Contact,
     Excitation,
     HarmonicBalance,
     LinearDynamics,
     OperatingPoint,
 )
-from microslip.pipeline.solve.response import solve_point
+from microslip.solve.response import solve_point
 
 W_PEAK = 1.00192  # rad/s, peak of the Jenkins oscillator's FRF (issue 2, H = 7)
 JENKINS = dict(m=1.0, c=0.02, k=1.0, kt=3.0, fs=0.05, P=0.1)

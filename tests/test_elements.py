@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
+from microslip.fe import fem
+from microslip.fe.basis import ElementWedgeS2, wedge_quadrature
 from microslip.geometry import elements as shapes
 from microslip.geometry.structured import block
-from microslip.pipeline.fe import fem
-from microslip.pipeline.fe.elements import ElementWedgeS2, wedge_quadrature
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 KINDS = ["tetra", "hexahedron", "wedge", "mixed"]

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app import plan
-from microslip.pipeline.app.cache import SharedCache
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.friction import kernels_cached, warm_up
+from microslip import case as cases
+from microslip.app import plan
+from microslip.app.cache import SharedCache
+from microslip.app.run import run_case
+from microslip.laws import kernels_cached, warm_up
 
 CASES = Path(__file__).parents[1] / "cases"
 #: The README's promise: a run takes between half and twice its estimate.
@@ -53,7 +53,7 @@ def test_the_estimates_of_the_shipped_cases_hold(name, tmp_path):
     for p in shared.files():  # the plan meshed: the run meshes again, as a cold run does
         p.unlink()
     t = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "microslip.pipeline.cli", "run",
+    subprocess.run([sys.executable, "-m", "microslip.cli", "run",
                     str(CASES / f"{name}.toml"), "--out", str(tmp_path / "o"), "--workers",
                     "0"], check=True, env=env, capture_output=True)
     ratio = (time.perf_counter() - t) / (estimate * factor)

@@ -11,8 +11,8 @@ from pathlib import Path
 import h5py
 import pytest
 
-from microslip.pipeline.app.folder import LOCK_NAME, FolderBusy, FolderLock
-from microslip.pipeline.cli import main
+from microslip.app.folder import LOCK_NAME, FolderBusy, FolderLock
+from microslip.cli import main
 
 CASES = Path(__file__).parents[1] / "cases"
 
@@ -36,9 +36,9 @@ def _run_on_tmpfs(tmp_path: Path, size: str) -> tuple[subprocess.CompletedProces
     disk.mkdir()
     out = disk / "o"
     script = (f"mount -t tmpfs -o size={size} none {disk} && "
-              f"{sys.executable} -m microslip.pipeline.cli run {CASES / 'sdof_wall.toml'} "
+              f"{sys.executable} -m microslip.cli run {CASES / 'sdof_wall.toml'} "
               f"--out {out} --workers 0; echo \"exit=$?\" >&2; "
-              f"{sys.executable} -m microslip.pipeline.cli show {out} >&2; "
+              f"{sys.executable} -m microslip.cli show {out} >&2; "
               f"find {disk} -type f >&2")
     env = {**os.environ, "MICROSLIP_RETAIN_MEMORY": "0"}
     done = subprocess.run(["unshare", "--user", "--map-root-user", "--mount", "sh", "-c",
@@ -104,7 +104,7 @@ def test_two_runs_at_once_one_is_refused_and_the_other_complete(tmp_path):
     """Two `microslip run` processes into one folder: the one that comes second is refused
     (exit 2, one line); the first completes and its results file reads."""
     out = tmp_path / "o"
-    command = [sys.executable, "-m", "microslip.pipeline.cli", "run",
+    command = [sys.executable, "-m", "microslip.cli", "run",
                str(CASES / "sdof_wall.toml"), "--out", str(out), "--workers", "0"]
     env = {**os.environ, "MICROSLIP_RETAIN_MEMORY": "0"}
     first = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,

@@ -5,7 +5,7 @@ import pytest
 import skfem as fe
 
 from microslip import geometry
-from microslip.pipeline.fe import cyclic, fem, linalg
+from microslip.fe import cyclic, fem, linalg
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 L, W, H = 1.0, 0.03, 0.02  # slender: L/H = 50, L/W = 33

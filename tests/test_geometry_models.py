@@ -257,7 +257,7 @@ def test_writes_msh_and_vtu(tmp_path, root):
 @pytest.mark.parametrize("build", [blisk_sector, root_joint])
 def test_size_sweep_keeps_every_guarantee(build, factor):
     """Coarse to fine meshes (bench sweep): validated contract, quality, CAD volume."""
-    from microslip.pipeline.bench.meshing import scaled
+    from microslip.bench.meshing import scaled
 
     defaults = BliskParameters() if build is blisk_sector else RootJointParameters()
     m = build(scaled(defaults, factor))  # Mesh validation: periodic + coincident grids

@@ -3,9 +3,9 @@
 import matplotlib.image as mpimg
 import numpy as np
 
+from microslip.bench.meshing import main as bench_main
+from microslip.draw.previews import render_previews
 from microslip.geometry.root_joint import root_joint
-from microslip.pipeline.bench.meshing import main as bench_main
-from microslip.pipeline.draw.previews import render_previews
 
 
 def test_previews_are_written_and_not_blank(tmp_path):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from microslip.pipeline.friction.harmonics import Harmonics, default_samples
+from microslip.fourier import Harmonics, default_samples
 
 
 @pytest.mark.parametrize("orders,ns", [([0, 1, 2, 3], 16), ([1, 3, 5], 11), ([0], 1), ([7], 15)])

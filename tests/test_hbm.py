@@ -6,16 +6,16 @@ from derivatives import fd_residual_jacobian
 from jenkins_dti import steady_peak
 from models import jenkins_oscillator, normal_oscillator, three_dof_cyclic_like
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.solve.continuation import Settings
-from microslip.pipeline.solve.hbm import (
+from microslip.fourier import Harmonics
+from microslip.solve.continuation import Settings
+from microslip.solve.hbm import (
     Contact,
     Excitation,
     HarmonicBalance,
     LinearDynamics,
     OperatingPoint,
 )
-from microslip.pipeline.solve.response import solve_point, sweep
+from microslip.solve.response import solve_point, sweep
 
 
 @pytest.fixture(scope="module")

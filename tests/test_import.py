@@ -14,11 +14,11 @@ import pytest
 from exports import write
 
 from microslip import geometry
+from microslip.cli import main
+from microslip.fe import fem
 from microslip.geometry.imported import UNITS, MeshImportError, Selection, import_mesh
 from microslip.geometry.sector import SectorSpec, sector_frame
 from microslip.geometry.structured import block
-from microslip.pipeline.cli import main
-from microslip.pipeline.fe import fem
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 AXIS = np.array([1.0, 0.2, -0.3]) / np.linalg.norm([1.0, 0.2, -0.3])
@@ -270,8 +270,8 @@ def test_round_trip_gives_the_native_reduced_frequencies(blisk, tmp_path, suffix
     """The blisk case reduced (Craig-Bampton, NDs 0 and 3) from its own mesh and from the
     file read back, as `microslip run` does it: the same frequencies per body and ND, to 1e-9
     (the damper's six rigid-body zeros to 1e-6 of its highest, their round-off)."""
-    from microslip.pipeline.app.run import run_case
-    from microslip.pipeline.case import load
+    from microslip.app.run import run_case
+    from microslip.case import load
 
     # quadratic in every format: the native model's mid nodes are on its arcs
     path = _moved(blisk, tmp_path / f"blisk{suffix}", quadratic=True)
@@ -309,8 +309,8 @@ def test_materials_from_the_file(tmp_path):
     """material = "file": each deck's cards in its units, read back in SI (210 GPa, 0.3,
     7850 kg/m^3 written in mm-t-s as 2.1e5 MPa, 0.3, 7.85e-9 t/mm^3), through `check` and
     the body specs; a body without cards, and "file" with a parametric model, refused."""
-    from microslip.pipeline.case import load
-    from microslip.pipeline.case.reduction import body_specs
+    from microslip.case import load
+    from microslip.case.reduction_table import body_specs
 
     mesh = block("hexahedron", cells=(4, 1, 1))
     deck = write(mesh, tmp_path / "b.inp")
@@ -440,12 +440,12 @@ def test_round_trip_gives_the_native_frf(tmp_path, model, suffix, quadratic, bod
     damper flanks), to what the reduction's eigen-solves leave (below)."""
     import dataclasses
 
-    from microslip.pipeline.app import structure
-    from microslip.pipeline.assembly.join import join
-    from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
-    from microslip.pipeline.friction.harmonics import Harmonics
-    from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import solve_point
+    from microslip.app import structure
+    from microslip.assembly.join import join
+    from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
+    from microslip.fourier import Harmonics
+    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.response import solve_point
 
     parameters, (loaded, force, extras), interference = MODELS[model]
     native = geometry.MODELS[model](**parameters)

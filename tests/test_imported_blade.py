@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from blade_file import deck
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.cli import main
-from microslip.pipeline.friction.states import OPEN, STICK
+from microslip import case as cases
+from microslip.app.run import run_case
+from microslip.cli import main
+from microslip.laws.states import OPEN, STICK
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "imported_blade.toml"
 

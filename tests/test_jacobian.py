@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from models import friction_grid, three_dof_cyclic_like
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.solve import continuation as cont
-from microslip.pipeline.solve import hbm, jacobian
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
+from microslip.fourier import Harmonics
+from microslip.solve import continuation as cont
+from microslip.solve import hbm, jacobian
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
 
 MODELS = {
     "grid, disjoint, cyclic": lambda: friction_grid(6, H=3, cyclic=True),
@@ -157,7 +157,7 @@ def test_continuation_with_structured_solves_follows_the_dense_branch(model, mon
 def test_hill_exponents_through_gmres_are_those_through_the_lu(monkeypatch):
     """Hill's shift-and-invert with every solve by GMRES (to HILL_RTOL) finds the exponents
     nearest zero that the dense LU finds (ARPACK on both, to its 1e-10)."""
-    from microslip.pipeline.solve import stability
+    from microslip.solve import stability
 
     hb = friction_grid(6, H=1)
     x, p = _slipping_state(hb, 1.95)

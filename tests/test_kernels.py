@@ -9,10 +9,10 @@ import numba
 import numpy as np
 import pytest
 
-from microslip.pipeline.friction import kernels_cached, returnmap, warm_up
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.friction.returnmap import cycle, kinks, point, steps
+from microslip.fourier import Harmonics
+from microslip.laws import kernels_cached, returnmap, warm_up
+from microslip.laws.coulomb import ContactElements
+from microslip.laws.returnmap import cycle, kinks, point, steps
 
 
 def contact_state(law: str, P: int, seed: int = 0):
@@ -103,7 +103,7 @@ def test_empty_cache_is_not_cached(tmp_path):
     """A fresh NUMBA_CACHE_DIR holds no kernel (checked without compiling)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     out = subprocess.run(
-        [sys.executable, "-c", "from microslip.pipeline.friction import kernels_cached; "
+        [sys.executable, "-c", "from microslip.laws import kernels_cached; "
          "print(kernels_cached())"], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

@@ -1,4 +1,4 @@
-"""A contact law is an entry of one registry (friction.registry.LAWS) that the case reader and
+"""A contact law is an entry of one registry (laws.registry.LAWS) that the case reader and
 the harmonic balance find it in: a law written outside the friction kernel, a linear spring
 between DOFs, runs a case end to end and gives the closed-form linear response."""
 
@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from case_helpers import TWO_DOF
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.friction.laws import ContactResponse
-from microslip.pipeline.friction.registry import LAWS
-from microslip.pipeline.solve.continuation import Settings
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
+from microslip import case as cases
+from microslip.laws.coulomb import ContactResponse
+from microslip.laws.registry import LAWS
+from microslip.solve.continuation import Settings
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ import pytest
 import scipy.linalg as sla
 
 from microslip import geometry
-from microslip.pipeline.fe import fem
+from microslip.fe import fem
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 
@@ -87,7 +87,7 @@ def test_a_filleted_root_converges_fast_and_its_curved_elements_do_not_fold():
     3159.78, 3156.22, 3155.52 rad/s at 1, 0.5, 0.25 mm: order 2.3); Gmsh's curved mid nodes
     on the tight fillet fold some small tetrahedra, whose edges are then straight (before,
     the assembly refused the mesh)."""
-    from microslip.pipeline.fe import cyclic, linalg
+    from microslip.fe import cyclic, linalg
 
     w = []
     for size in (0.001, 0.0005):

@@ -14,32 +14,35 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-TOPS = {"geometry": "microslip.geometry", "pipeline": "microslip.pipeline"}
+TOPS = {"geometry": "microslip.geometry", "pipeline": "microslip"}
 
 # Each stage and the stages below it that it may import (besides its own modules). Read top
-# down, this is the data flow: cli -> bench -> app -> case -> assembly -> solve -> friction,
+# down, this is the data flow: cli -> bench -> app -> case -> assembly -> solve -> laws,
 # fe -> geometry; app reads cases (case), writes results (results) and draws them (draw);
 # draw reads only results, the analysis specs that name what they hold, and the numerical
 # stages' constants (states, harmonics, frames), never app.
-_GEO, _FE, _FRICTION = "microslip.geometry", "microslip.pipeline.fe", "microslip.pipeline.friction"
-_SOLVE, _ASSEMBLY = "microslip.pipeline.solve", "microslip.pipeline.assembly"
-_RESULTS, _DRAW = "microslip.pipeline.results", "microslip.pipeline.draw"
-_CASE, _APP = "microslip.pipeline.case", "microslip.pipeline.app"
-_BENCH = "microslip.pipeline.bench"
-_NUMERICS = {_ASSEMBLY, _SOLVE, _FRICTION, _FE, _GEO}
+_GEO, _FE, _LAWS = "microslip.geometry", "microslip.fe", "microslip.laws"
+_FOURIER = "microslip.fourier"  # the harmonic-balance layout: the floor of the numerics
+_SOLVE, _ASSEMBLY = "microslip.solve", "microslip.assembly"
+_RESULTS, _DRAW = "microslip.results", "microslip.draw"
+_CASE, _APP = "microslip.case", "microslip.app"
+_BENCH = "microslip.bench"
+_NUMERICS = {_ASSEMBLY, _SOLVE, _LAWS, _FOURIER, _FE, _GEO}
 BELOW = {
     _GEO: set(),
     _FE: {_GEO},
-    _FRICTION: set(),
-    _SOLVE: {_FRICTION, _FE, _GEO},
-    _ASSEMBLY: {_SOLVE, _FRICTION, _FE, _GEO},
+    _FOURIER: set(),
+    _LAWS: {_FOURIER},
+    _SOLVE: {_LAWS, _FOURIER, _FE, _GEO},
+    _ASSEMBLY: {_SOLVE, _LAWS, _FOURIER, _FE, _GEO},
     _CASE: _NUMERICS,
     _RESULTS: set(),
-    _DRAW: {_RESULTS, _CASE, _FRICTION, _FE, _GEO},
+    _DRAW: {_RESULTS, _CASE, _LAWS, _FOURIER, _FE, _GEO},
     _APP: {_CASE, _DRAW, _RESULTS} | _NUMERICS,
     _BENCH: {_APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
-    "microslip.pipeline.cli": {_BENCH, _APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
-    "microslip.pipeline": set(),  # the package's __init__: documentation only
+    "microslip.cli": {_BENCH, _APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
+    # the package's __init__: the public API (``from microslip import ...``), over every stage
+    "microslip": {_BENCH, _APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
 }
 
 
@@ -89,7 +92,7 @@ def _project_imports():
 
 def test_every_module_has_a_stage():
     assert len(MODULES) > 30
-    assert {_stage(m) for m in MODULES} >= {_GEO, _FE, _FRICTION, _SOLVE, _APP, _BENCH}
+    assert {_stage(m) for m in MODULES} >= {_GEO, _FE, _LAWS, _SOLVE, _APP, _BENCH}
 
 
 def test_imports_use_the_microslip_name():
@@ -145,7 +148,7 @@ def test_the_distribution_installs_only_the_microslip_name(tmp_path):
     assert (dist.read_text("top_level.txt") or "").split() == ["microslip"]
     # Outside the checkout (whose folders Python would find in the working directory), only
     # `microslip` imports: the folders' own names are not installed.
-    code = ("import importlib.util as u, microslip.pipeline.cli, microslip.geometry; "
+    code = ("import importlib.util as u, microslip.cli, microslip.geometry; "
             "print(u.find_spec('pipeline'), u.find_spec('geometry'))")
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                          text=True, check=True).stdout.split()
@@ -158,20 +161,20 @@ def test_every_package_folder_is_installed():
     two sub-packages were not, and the installed command could not import them)."""
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
                  ["packages"])
-    folders = {"microslip." + ".".join(p.parent.relative_to(ROOT).parts)
-               for top in ("geometry", "pipeline") for p in (ROOT / top).rglob("__init__.py")}
+    folders = {".".join([TOPS[top], *p.parent.relative_to(ROOT / top).parts])
+               for top in TOPS for p in (ROOT / top).rglob("__init__.py")}
     assert listed == folders
 
 
 @pytest.mark.slow
 def test_the_wheel_holds_only_microslip(tmp_path):
     """`pip install .` installs the wheel built here: every file under microslip/ (and the
-    distribution's metadata), the two folders mapped to microslip.geometry/.pipeline."""
+    distribution's metadata): pipeline/ mapped to microslip/, geometry/ to microslip/geometry/."""
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path),
                     str(ROOT)], check=True, capture_output=True)
     (wheel,) = tmp_path.glob("microslip-*.whl")
     tops = {n.split("/")[0] for n in zipfile.ZipFile(wheel).namelist()}
     assert {t for t in tops if not t.endswith(".dist-info")} == {"microslip"}
     names = set(zipfile.ZipFile(wheel).namelist())
-    assert "microslip/pipeline/solve/hbm.py" in names
+    assert "microslip/solve/hbm.py" in names
     assert "microslip/geometry/blisk.py" in names

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
 
-from microslip.pipeline.draw import maps
-from microslip.pipeline.friction.laws import slip_share
-from microslip.pipeline.friction.states import GROSS_SLIP, OPEN, PARTIAL_LIFTOFF, STICK, STICK_SLIP
+from microslip.draw import maps
+from microslip.laws.coulomb import slip_share
+from microslip.laws.states import GROSS_SLIP, OPEN, PARTIAL_LIFTOFF, STICK, STICK_SLIP
 
 
 def flank(n1: int = 5, n2: int = 3) -> maps.PatchGrid:
@@ -103,7 +103,7 @@ def test_an_off_screen_status_map_is_a_png_of_the_asked_size(tmp_path):
 def test_the_slip_at_each_peak_is_the_share_of_slipping_pairs_against_the_family(tmp_path):
     import h5py
 
-    from microslip.pipeline.draw import pictures
+    from microslip.draw import pictures
 
     states = {1.0: ([STICK] * 5 + [STICK_SLIP], [STICK] * 6),
               3.0: ([STICK_SLIP] * 3 + [STICK] * 3, [GROSS_SLIP, PARTIAL_LIFTOFF] + [STICK] * 4)}
@@ -135,11 +135,11 @@ def test_the_refined_peaks_are_the_maximum_of_a_fine_grid_of_direct_solves():
     # the Jenkins oscillator's FRF: the maps' peak (to 1e-4 of the bracket) and Response.peak
     # (to 1e-9), both by refine_peak, against an independent reference: the largest of
     # 801 direct Newton solves spread over the bracket of the computed maximum
-    from microslip.pipeline.app.solutions import map_solutions
-    from microslip.pipeline.bench.demos import jenkins_oscillator
-    from microslip.pipeline.solve.continuation import Settings
-    from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import solve_point, sweep
+    from microslip.app.solutions import map_solutions
+    from microslip.bench.demos import jenkins_oscillator
+    from microslip.solve.continuation import Settings
+    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.response import solve_point, sweep
 
     hb = jenkins_oscillator(3, 128)
     r = sweep(hb, "frequency", 0.5, 2.5, OperatingPoint(0.5), settings=Settings(max_step=0.2))
@@ -178,10 +178,10 @@ def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
     # the three solutions match those solved from the fine branch's own short brackets
     import dataclasses
 
-    from microslip.pipeline import case as cases
-    from microslip.pipeline.app.solutions import map_solutions, response_at
-    from microslip.pipeline.solve.continuation import Settings
-    from microslip.pipeline.solve.response import solve_point, sweep
+    from microslip import case as cases
+    from microslip.app.solutions import map_solutions, response_at
+    from microslip.solve.continuation import Settings
+    from microslip.solve.response import solve_point, sweep
 
     case = cases.load(Path(__file__).parents[1] / "cases" / "normal_load.toml")
     hb = cases.lumped_model(case.with_value("contacts.wall.n0", -0.5))

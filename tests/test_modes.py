@@ -10,10 +10,10 @@ import pytest
 import scipy.linalg as sla
 from test_supports import _pie
 
+from microslip.cli import main
+from microslip.fe import bodies, cyclic, fem
+from microslip.fe.modes import body_modes, frequencies_hz
 from microslip.geometry.structured import block
-from microslip.pipeline.cli import main
-from microslip.pipeline.fe import cyclic, fem, reduction
-from microslip.pipeline.fe.modes import body_modes, frequencies_hz
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 
@@ -26,9 +26,9 @@ def test_unreduced_modes_are_the_dense_eigenpairs_and_bound_the_reduced_ones(h):
                       cyclic=mesh.cyclic, hexahedra=mesh.hexahedra, wedges=mesh.wedges)
     errors = []
     for count in (6, 24):
-        spec = reduction.BodySpec("disk", STEEL, master_sets=("disk/response",),
+        spec = bodies.BodySpec("disk", STEEL, master_sets=("disk/response",),
                                   clamped_sets=("disk/rim",), n_modes=count)
-        (model,) = reduction.reduce_body(mesh, spec, (h,)).values()
+        (model,) = bodies.reduce_body(mesh, spec, (h,)).values()
         found = body_modes(mesh, spec, model, 5, h)
         body = fem.assemble(mesh, "disk", STEEL)
         sector = cyclic.sector_model(body, mesh.node_sets["disk/rim"], mesh.cyclic["disk"], h)
@@ -50,8 +50,8 @@ def test_a_free_body_keeps_its_rigid_modes_apart():
     """Neither clamped nor supported: six rigid modes at 0 Hz, then the elastic ones, as a
     dense solve has them."""
     mesh = block("hexahedron", (0.2, 0.02, 0.02), (6, 2, 2))
-    spec = reduction.BodySpec("block", STEEL, master_sets=("block/tip",), n_modes=20)
-    (model,) = reduction.reduce_body(mesh, spec).values()
+    spec = bodies.BodySpec("block", STEEL, master_sets=("block/tip",), n_modes=20)
+    (model,) = bodies.reduce_body(mesh, spec).values()
     found = body_modes(mesh, spec, model, 9)
     body = fem.assemble(mesh, "block", STEEL)
     dense = frequencies_hz(sla.eigh(body.stiffness.toarray(), body.mass.toarray(),

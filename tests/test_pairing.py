@@ -74,8 +74,8 @@ def test_stiffness_shared_by_area_and_frames_per_normal():
     """The flat punch of the paired area shared by tributary area: the pairs' stiffnesses
     sum to the patch's flat punch of 0.06 x 0.03 m; frames orthonormal, right-handed, n
     the pair's normal."""
-    from microslip.pipeline.fe import contact_stiffness as cs
-    from microslip.pipeline.fe.fem import Material
+    from microslip.fe import contact_stiffness as cs
+    from microslip.fe.fem import Material
 
     steel = Material(2.0e11, 0.3, 7850.0)
     mesh = _two_blocks("tetra", (5, 4, 1), (7, 5, 1))

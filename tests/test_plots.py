@@ -13,9 +13,9 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.draw import plots
+from microslip import case as cases
+from microslip.app.run import run_case
+from microslip.draw import plots
 
 CASES = Path(__file__).parents[1] / "cases"
 
@@ -142,7 +142,7 @@ def test_loop_legends_say_amplitude_and_energy(tmp_path, monkeypatch):
 
 PREVIEW = """
 import sys
-from microslip.pipeline.draw.previews import render_previews
+from microslip.draw.previews import render_previews
 from microslip.geometry.simple import annular_sector
 for p in render_previews(annular_sector(size=0.02), sys.argv[1]):
     print(p)
@@ -172,7 +172,7 @@ def test_a_branch_line_puts_the_bifurcations_between_their_points(tmp_path):
     stability -1: where the solid and the dashed parts meet), the turning points and the
     jumps moved to the computed points' new places."""
 
-    from microslip.pipeline.draw.pictures import branch_line
+    from microslip.draw.pictures import branch_line
 
     with h5py.File(tmp_path / "c.h5", "w") as f:
         c = f.create_group("curve_000")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from microslip.pipeline.case import assembly, reduction, specs, validate
+from microslip.case import assembly_table, faults, reduction_table, specs
 
 README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
 
@@ -137,26 +137,27 @@ def _accepted() -> set[str]:
     def under(prefix, names):
         return {f"{prefix}.{k}" for k in names}
 
-    from microslip.pipeline.friction.registry import LAWS
+    from microslip.laws.registry import LAWS
 
     springs = {k for law in LAWS.values() for k in (*law.parameters, *getattr(law, "keys", ()))}
-    tables = {"model": validate.MODEL_KEYS,
-              "contacts": validate.CONTACT_KEYS | springs | {"coef", "lag"},
-              "loads": validate.LOAD_KEYS, "harmonics": validate.HARMONIC_KEYS,
-              "solver": validate.SOLVER_KEYS, "geometry": {"model", "parameters"},
-              "analysis.family": validate.FAMILY_KEYS,
-              "reduction": reduction.KEYS - {"material", "damping", "bodies",
+    tables = {"model": faults.MODEL_KEYS,
+              "contacts": faults.CONTACT_KEYS | springs | {"coef", "lag"},
+              "loads": faults.LOAD_KEYS, "harmonics": faults.HARMONIC_KEYS,
+              "solver": faults.SOLVER_KEYS, "geometry": {"model", "parameters"},
+              "analysis.family": faults.FAMILY_KEYS,
+              "reduction": reduction_table.KEYS - {"material", "damping", "bodies",
                                              "contact_stiffness"},
-              "reduction.material": reduction.MATERIAL_KEYS,
-              "reduction.damping": reduction.DAMPING_KEYS,
-              "reduction.bodies.<body>": reduction.BODY_KEYS,
-              "reduction.contact_stiffness.<patch>": reduction.STIFFNESS_KEYS,
-              "assembly": assembly.KEYS - {"contacts", "loads", "outputs"},
-              "assembly.contacts": assembly.CONTACT_KEYS, "assembly.loads": assembly.LOAD_KEYS,
-              "assembly.outputs": assembly.OUTPUT_KEYS}
+              "reduction.material": reduction_table.MATERIAL_KEYS,
+              "reduction.damping": reduction_table.DAMPING_KEYS,
+              "reduction.bodies.<body>": reduction_table.BODY_KEYS,
+              "reduction.contact_stiffness.<patch>": reduction_table.STIFFNESS_KEYS,
+              "assembly": assembly_table.KEYS - {"contacts", "loads", "outputs"},
+              "assembly.contacts": assembly_table.CONTACT_KEYS,
+              "assembly.loads": assembly_table.LOAD_KEYS,
+              "assembly.outputs": assembly_table.OUTPUT_KEYS}
     tables |= {f"analysis.{kind}": specs.keys(kind) for kind in specs.ANALYSES}
     # every top-level key is a table above (or text): no table of the reader is left out
-    assert validate.TOP_KEYS == {"title", "description"} | {p.split(".")[0] for p in tables}
+    assert faults.TOP_KEYS == {"title", "description"} | {p.split(".")[0] for p in tables}
     out = {"title", "description"}
     for prefix, names in tables.items():
         out |= under(prefix, names)
@@ -174,7 +175,7 @@ def test_every_documented_case_key_is_accepted():
 
 
 def test_the_commands_table_lists_every_command():
-    from microslip.pipeline.cli import BENCHES, COMMANDS
+    from microslip.cli import BENCHES, COMMANDS
 
     text = _section("Commands")
     listed = set(re.findall(r"^\| `microslip (\w+)", text, re.M))
@@ -183,7 +184,7 @@ def test_the_commands_table_lists_every_command():
 
 
 def test_the_results_layout_section_is_the_schema():
-    from microslip.pipeline.results import schema
+    from microslip.results import schema
 
     block = re.search(r"^### Results \(`results.h5`\).*?^```\n(.*?)^```", README,
                       re.M | re.S).group(1)

@@ -7,10 +7,10 @@ import pytest
 import scipy.linalg as sla
 
 from microslip import geometry
+from microslip.fe import bodies, craig_bampton, cyclic, fem, linalg, modal, reduced_model
+from microslip.fourier import Harmonics
 from microslip.geometry.mesh import rotation_z
-from microslip.pipeline.fe import cyclic, fem, linalg, reduction
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.solve.hbm import LinearDynamics, OperatingPoint
+from microslip.solve.hbm import LinearDynamics, OperatingPoint
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 NS = 6
@@ -41,7 +41,7 @@ def test_complete_slave_basis_is_exact():
     model = cyclic.sector_model(body, fem.node_set(mesh, "disk/bore"), mesh.cyclic["disk"], 1)
     masters = np.setdiff1d(fem.node_set(mesh, "disk/rim"), mesh.cyclic["disk"].right)[:4]
     n_slave = model.n_free - 3 * len(masters)
-    red = reduction.craig_bampton(model, masters, n_slave)
+    red = craig_bampton.craig_bampton(model, masters, n_slave)
     lam_full = sla.eigh(model.stiffness.toarray(), model.mass.toarray(), eigvals_only=True)
     lam_red = sla.eigh(red.stiffness, red.mass, eigvals_only=True)
     # Round-off only (dense LAPACK on a few hundred DOFs): 1e-9 relative.
@@ -68,7 +68,7 @@ def _cb_errors(model, masters, selections):
     f_ref = np.sqrt(lam) / (2 * np.pi)
     errors, counts = [], []
     for n_modes in selections:
-        red = reduction.craig_bampton(model, masters, n_modes)
+        red = craig_bampton.craig_bampton(model, masters, n_modes)
         f = red.frequencies(10)
         assert np.all(f >= f_ref * (1 - 1e-10))  # CB is a Rayleigh-Ritz: upper bounds
         errors.append(np.abs(f / f_ref - 1))
@@ -84,8 +84,8 @@ def _cb_errors(model, masters, selections):
 # ND 2 repeats what ND 1 (complex) and ND 3 (real, the other end) check: slow.
 @pytest.mark.parametrize("h", [0, 1, pytest.param(2, marks=pytest.mark.slow), 3])
 def test_craig_bampton_default_within_a_tenth_of_a_percent(disk, h):
-    errors, counts = _cb_errors(_sector(disk, h), disk[2], (10, 30, reduction.DEFAULT_MODES))
-    assert reduction.DEFAULT_MODES == "auto" and counts[-1] > 30
+    errors, counts = _cb_errors(_sector(disk, h), disk[2], (10, 30, reduced_model.DEFAULT_MODES))
+    assert reduced_model.DEFAULT_MODES == "auto" and counts[-1] > 30
     assert np.all(np.diff(errors.max(axis=1)) < 0)  # converging with more modes
     # The default: all ten within 0.1 % (measured max 4.1e-4, a margin of 2.4).
     assert errors[-1].max() < 1e-3
@@ -101,7 +101,7 @@ def test_craig_bampton_default_within_a_tenth_of_a_percent(disk, h):
 def test_craig_bampton_default_blisk(blisk, h):
     mesh, body, masters = blisk
     model = cyclic.sector_model(body, fem.node_set(mesh, "blisk/bore"), mesh.cyclic["blisk"], h)
-    errors, counts = _cb_errors(model, masters, (reduction.DEFAULT_MODES,))
+    errors, counts = _cb_errors(model, masters, (reduced_model.DEFAULT_MODES,))
     assert errors[0].max() < 1e-3
 
 
@@ -109,23 +109,23 @@ def test_mode_selection_by_cutoff(disk):
     """'auto' keeps exactly the fixed-interface modes below the cut-off, whichever reference."""
     model = _sector(disk, 1)
     masters = disk[2]
-    red = reduction.craig_bampton(model, masters, "auto", cutoff=3.0)
+    red = craig_bampton.craig_bampton(model, masters, "auto", cutoff=3.0)
     f = red.mode_frequencies
     # All modes below 3 x the 10th, and the next fixed-interface mode above it: compare with a
     # complete computation of one more mode than were kept.
-    full = reduction.craig_bampton(model, masters, red.n_modes + 1).mode_frequencies
+    full = craig_bampton.craig_bampton(model, masters, red.n_modes + 1).mode_frequencies
     np.testing.assert_allclose(f, full[:-1], rtol=1e-9)
     assert f[-1] <= 3.0 * f[9] < full[-1]
     # With the highest frequency of interest given instead:
-    red = reduction.craig_bampton(model, masters, "auto", cutoff=2.0, f_max=10_000.0)
+    red = craig_bampton.craig_bampton(model, masters, "auto", cutoff=2.0, f_max=10_000.0)
     assert 0 < red.n_modes < len(full)  # 20 kHz is below 3 x f_10 (~90 kHz)
     assert red.mode_frequencies[-1] <= 20_000.0 < full[red.n_modes]
-    assert red.key != reduction.craig_bampton(model, masters, red.n_modes).key
+    assert red.key != craig_bampton.craig_bampton(model, masters, red.n_modes).key
 
 
 def test_reduced_matrices_hermitian_and_definite(disk):
     for h in (0, 1, NS // 2):
-        red = reduction.craig_bampton(_sector(disk, h), disk[2], 20)
+        red = craig_bampton.craig_bampton(_sector(disk, h), disk[2], 20)
         K, M = red.stiffness, red.mass
         assert np.iscomplexobj(K) == (0 < h < NS / 2)
         assert np.abs(K - K.conj().T).max() == 0.0
@@ -143,7 +143,7 @@ def test_free_free_damper_has_six_rigid_body_modes():
     model = cyclic.sector_model(body)  # no clamps, no cyclic symmetry
     masters = fem.node_sets_union(mesh, ["contact/damper_left/damper",
                                          "contact/damper_right/damper"])
-    red = reduction.craig_bampton(model, masters)
+    red = craig_bampton.craig_bampton(model, masters)
     lam = sla.eigh(red.stiffness, red.mass, eigvals_only=True)
     # Six zeros up to round-off (relative to the first elastic eigenvalue), then elastic modes.
     assert np.all(np.abs(lam[:6]) < 1e-8 * lam[6])
@@ -162,11 +162,11 @@ def test_free_free_damper_has_six_rigid_body_modes():
 def test_mass_scaling_equals_re_reduction(disk):
     mesh, body, masters = disk
     scale = 2.5
-    red = reduction.craig_bampton(_sector(disk, 1), masters, 15)
+    red = craig_bampton.craig_bampton(_sector(disk, 1), masters, 15)
     heavy_body = fem.assemble(mesh, "disk", fem.Material(2.1e11, 0.3, 7800.0 * scale))
     heavy = cyclic.sector_model(heavy_body, fem.node_set(mesh, "disk/bore"),
                                 mesh.cyclic["disk"], 1)
-    red_heavy = reduction.craig_bampton(heavy, masters, 15)
+    red_heavy = craig_bampton.craig_bampton(heavy, masters, 15)
     # The one mechanism of mass studies: the harmonic balance's mass multiplier on the whole
     # reduced body (mass_part = M), no re-reduction.
     linear = LinearDynamics.create(red.stiffness, red.mass, harmonics=Harmonics((1,)),
@@ -187,7 +187,7 @@ def test_recovery_and_master_map(disk):
     right = mesh.cyclic["disk"].right[:2]
     left = mesh.cyclic["disk"].left[:2]
     recovery = np.concatenate([masters[:3], left, right])
-    red = reduction.craig_bampton(_sector(disk, 1), masters, 10, recovery_nodes=recovery,
+    red = craig_bampton.craig_bampton(_sector(disk, 1), masters, 10, recovery_nodes=recovery,
                                   patches={"rim_patch": masters[:5]})
     idx = red.dof_index(masters[:3])  # (3, 3)
     np.testing.assert_array_equal(idx, 3 * np.arange(3)[:, None] + np.arange(3))
@@ -207,17 +207,17 @@ def test_recovery_and_master_map(disk):
 def test_hdf5_roundtrip_and_cache(disk, tmp_path, monkeypatch):
     mesh, _, masters = disk
     mesh = dataclasses.replace(mesh, node_sets={**mesh.node_sets, "disk/patch": masters})
-    spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/patch",),
+    spec = bodies.BodySpec(body="disk", material=STEEL, master_sets=("disk/patch",),
                               recovery_sets=("disk/rim",), clamped_sets=("disk/bore",),
                               n_modes=5, order=1, damping=fem.Damping(rayleigh_beta=1e-6))
-    first = reduction.reduce_body(mesh, spec, [0, 1], cache_dir=tmp_path)
+    first = bodies.reduce_body(mesh, spec, [0, 1], cache_dir=tmp_path)
     assert len(list(tmp_path.glob("*.h5"))) == 2
 
     def no_assembly(*args, **kwargs):
         raise AssertionError("cache miss: assembled again")
 
     monkeypatch.setattr(fem, "assemble", no_assembly)
-    second = reduction.reduce_body(mesh, spec, [0, 1], cache_dir=tmp_path)
+    second = bodies.reduce_body(mesh, spec, [0, 1], cache_dir=tmp_path)
     for h in (0, 1):
         a, b = first[h], second[h]
         assert a.key == b.key and a.nodal_diameter == h
@@ -228,19 +228,19 @@ def test_hdf5_roundtrip_and_cache(disk, tmp_path, monkeypatch):
         assert b.stiffness.dtype == (np.complex128 if h == 1 else np.float64)
     # A damaged cache file is reduced again and replaced, not taken for a model.
     monkeypatch.undo()
-    damaged = reduction.model_path(mesh, spec, 1, tmp_path)
+    damaged = bodies.model_path(mesh, spec, 1, tmp_path)
     damaged.write_bytes(b"not an HDF5 file")
-    third = reduction.reduce_body(mesh, spec, [1], cache_dir=tmp_path)
+    third = bodies.reduce_body(mesh, spec, [1], cache_dir=tmp_path)
     np.testing.assert_allclose(third[1].stiffness, first[1].stiffness, rtol=1e-10,
                                atol=1e-12 * np.abs(first[1].stiffness).max())
-    assert reduction.ReducedModel.load(damaged).key == first[1].key
+    assert reduced_model.ReducedModel.load(damaged).key == first[1].key
     assert not list(tmp_path.glob("*.part"))
 
 
 def test_modal_superposition(disk):
     model = _sector(disk, 1)
     nodes = disk[2][:4]
-    red = reduction.modal_reduction(model, 6, recovery_nodes=nodes)
+    red = modal.modal_reduction(model, 6, recovery_nodes=nodes)
     lam, V = linalg.lowest_modes(model.stiffness, model.mass, 6)
     np.testing.assert_allclose(np.diag(red.stiffness).real, lam, rtol=1e-10)
     np.testing.assert_allclose(red.mass, np.eye(6), atol=1e-14)
@@ -361,37 +361,37 @@ def test_bad_input_before_factorization(disk, monkeypatch):
     monkeypatch.setattr(linalg, "factorize", no_factorization)
     n_slave = model.n_free - 3 * len(masters)
     with pytest.raises(ValueError, match="n_modes"):
-        reduction.craig_bampton(model, masters, n_slave + 1)
+        craig_bampton.craig_bampton(model, masters, n_slave + 1)
     with pytest.raises(ValueError, match="n_modes"):
-        reduction.craig_bampton(model, masters, "many")
+        craig_bampton.craig_bampton(model, masters, "many")
     with pytest.raises(ValueError, match="cutoff"):
-        reduction.craig_bampton(model, masters, "auto", cutoff=0.5)
+        craig_bampton.craig_bampton(model, masters, "auto", cutoff=0.5)
     with pytest.raises(ValueError, match="f_max"):
-        reduction.craig_bampton(model, masters, "auto", f_max=-1.0)
+        craig_bampton.craig_bampton(model, masters, "auto", f_max=-1.0)
     with pytest.raises(ValueError, match="eigen_method"):
-        reduction.craig_bampton(model, masters, 5, eigen_method="lanczos")
+        craig_bampton.craig_bampton(model, masters, 5, eigen_method="lanczos")
     with pytest.raises(ValueError, match="clamped"):
-        reduction.craig_bampton(model, fem.node_set(mesh, "disk/bore")[:2], 5)
+        craig_bampton.craig_bampton(model, fem.node_set(mesh, "disk/bore")[:2], 5)
     with pytest.raises(ValueError, match="patches"):
-        reduction.craig_bampton(model, masters[:2], 5, patches={"p": masters[2:4]})
+        craig_bampton.craig_bampton(model, masters[:2], 5, patches={"p": masters[2:4]})
     with pytest.raises(ValueError, match="backend"):
-        reduction.craig_bampton(model, masters, 5, backend="cholmod-magic")
-    spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/nope",))
+        craig_bampton.craig_bampton(model, masters, 5, backend="cholmod-magic")
+    spec = bodies.BodySpec(body="disk", material=STEEL, master_sets=("disk/nope",))
     with pytest.raises(ValueError, match="node set 'disk/nope' does not exist"):
-        reduction.reduce_body(mesh, spec, [0])
-    spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/rim",))
+        bodies.reduce_body(mesh, spec, [0])
+    spec = bodies.BodySpec(body="disk", material=STEEL, master_sets=("disk/rim",))
     with pytest.raises(ValueError, match="on the cyclic face that follows the other"):
-        reduction.reduce_body(mesh, spec, [0])
+        bodies.reduce_body(mesh, spec, [0])
     mesh = dataclasses.replace(mesh, node_sets={**mesh.node_sets, "disk/m": masters})
-    spec = reduction.BodySpec(body="disk", material=STEEL, master_sets=("disk/m",))
+    spec = bodies.BodySpec(body="disk", material=STEEL, master_sets=("disk/m",))
     with pytest.raises(ValueError, match="nodal_diameter"):
-        reduction.reduce_body(mesh, spec, [NS // 2 + 1])
+        bodies.reduce_body(mesh, spec, [NS // 2 + 1])
 
 
 def test_bench_reduction_prints_its_tables(capsys):
     """`microslip bench reduction` on a coarse sector: both tables, one row per body and ND,
     and the reduced model's f7 matching the unreduced sector's to the CB tolerance."""
-    from microslip.pipeline.bench import reduction as bench_reduction
+    from microslip.bench import reduction_cost as bench_reduction
 
     assert bench_reduction.main(["--refine", "2", "--nds", "0", "--backends", "superlu"]) == 0
     out = capsys.readouterr().out
@@ -412,7 +412,7 @@ def test_retain_freed_memory_in_its_own_process(setting, expected):
     import sys
 
     env = {**os.environ, "MICROSLIP_RETAIN_MEMORY": setting}
-    code = ("import numpy as np; from microslip.pipeline.fe import linalg; "
+    code = ("import numpy as np; from microslip.fe import linalg; "
             "r = linalg.retain_freed_memory(); a = np.ones(2**24); del a; b = np.ones(2**24); "
             "print(r, b.sum() == 2**24)")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,

@@ -9,11 +9,11 @@ import matplotlib.image as mpimg
 import numpy as np
 from case_helpers import TWO_DOF
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.cli import main
-from microslip.pipeline.draw.pictures import DRAWERS, analysis_spec
-from microslip.pipeline.results import schema
+from microslip import case as cases
+from microslip.app.run import run_case
+from microslip.cli import main
+from microslip.draw.pictures import DRAWERS, analysis_spec
+from microslip.results import schema
 
 # the 2-DOF law-B case (variable normal load), more damped, with every lumped analysis type;
 # the time integration is compared with the FRF

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from models import jenkins_oscillator, normal_oscillator
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app import structure
-from microslip.pipeline.app.run import run_case, ticker, time_left
-from microslip.pipeline.results.file import summary
-from microslip.pipeline.solve import continuation as cont
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import resonance_hint, sampling_shift, solve_point, sweep
+from microslip import case as cases
+from microslip.app import structure
+from microslip.app.run import run_case, ticker, time_left
+from microslip.results.writer import summary
+from microslip.solve import continuation as cont
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import resonance_hint, sampling_shift, solve_point, sweep
 
 # ------------------------------------------------------------------ undersampled curves
 # kt / k = 1e3 against (64 / 2 pi)^2 = 104: every stick arc of the stiff curve falls within
@@ -324,7 +324,7 @@ def test_a_ramp_that_reaches_the_load_but_not_its_polish_says_so(monkeypatch):
     """The excitation ramp's continuation reaches the full load but Newton at the exact
     point then fails: the message says that, with Newton's reason (it read "reached 1 x",
     as if the ramp had stopped short)."""
-    from microslip.pipeline.solve import response
+    from microslip.solve import response
 
     model = jenkins_oscillator(H=1, n_samples=16)
     real = cont.newton

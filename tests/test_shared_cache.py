@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 
 from microslip import geometry
-from microslip.geometry.stored import load_mesh, save_mesh
-from microslip.pipeline.app.cache import (
+from microslip.app.cache import (
     CacheSettingError,
     SharedCache,
     built_mesh,
     size_bytes,
 )
-from microslip.pipeline.case import GeometryTable
-from microslip.pipeline.cli import main
+from microslip.case import GeometryTable
+from microslip.cli import main
+from microslip.geometry.stored import load_mesh, save_mesh
 
 CASES = Path(__file__).parents[1] / "cases"
 

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import h5py
 
-from microslip.pipeline.cli import main
+from microslip.cli import main
 
 CASES = Path(__file__).parents[1] / "cases"
 #: sdof_wall's model (Fig. 4-6), where frf_force's F = 0.1 N curve is frf_N0's N0 = 0.05 N

@@ -7,10 +7,10 @@ import pytest
 import scipy.sparse.linalg as spl
 
 from microslip import geometry
+from microslip.fe import bodies, cyclic, fem
 from microslip.geometry import GeometryParameterError, rotation_z
 from microslip.geometry.quality import sicn
 from microslip.geometry.shroud import ShroudParameters
-from microslip.pipeline.fe import cyclic, fem, reduction
 
 
 @pytest.fixture(scope="module")
@@ -53,14 +53,14 @@ def test_parameters_are_checked_before_meshing():
 
 
 def _spec():
-    return reduction.BodySpec(body="blisk", material=fem.Material(2.0e11, 0.3, 7850.0),
+    return bodies.BodySpec(body="blisk", material=fem.Material(2.0e11, 0.3, 7850.0),
                               patches=("shroud",), clamped_sets=("blisk/bore",),
                               master_sets=("blisk/excitation", "blisk/response"))
 
 
 def test_both_interlock_faces_are_masters(shroud):
     """A body touching its own neighbour: both sides of its patch are its masters."""
-    masters, _, _, _ = reduction.spec_nodes(shroud, _spec())
+    masters, _, _, _ = bodies.spec_nodes(shroud, _spec())
     patch = shroud.contacts["shroud"]
     assert np.isin(patch.nodes_a, masters).all() and np.isin(patch.nodes_b, masters).all()
 
@@ -76,7 +76,7 @@ def test_reduced_model_matches_the_sector(shroud):
     lam = spl.eigsh(sector.stiffness.tocsc(), k=10, M=sector.mass.tocsc(), sigma=0,
                     return_eigenvectors=False)
     full = np.sqrt(np.sort(lam.real)) / (2 * np.pi)
-    reduced = reduction.reduce_body(shroud, spec, (3,), None, None, lambda *a: None)[3]
+    reduced = bodies.reduce_body(shroud, spec, (3,), None, None, lambda *a: None)[3]
     np.testing.assert_allclose(reduced.frequencies(10), full, rtol=1e-3)
 
 
@@ -88,12 +88,12 @@ def test_the_shroud_sector_equals_the_full_disk():
     the stuck resonance, stuck (measured 8e-9) and with stick-slip and partial lift-off at
     30 N (measured 1.3e-4: Newton stops at 1e-9 of the forces, and the interlock's forces
     are ~1e4 x the excitation there)."""
-    from microslip.pipeline.app import structure
-    from microslip.pipeline.assembly.join import join
-    from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
-    from microslip.pipeline.friction.harmonics import Harmonics
-    from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import solve_point
+    from microslip.app import structure
+    from microslip.assembly.join import join
+    from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
+    from microslip.fourier import Harmonics
+    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.response import solve_point
 
     ns = 24  # (the model's blade and shroud part below ~20 blades)
     sector = geometry.shrouded_blisk(sectors=ns, size=0.02, blade_size=0.008)

@@ -16,11 +16,11 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from microslip import case as cases
+from microslip.app.run import run_case
+from microslip.fe import cyclic, fem
 from microslip.geometry.mesh import rotation_z
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.fe import cyclic, fem
-from microslip.pipeline.results import schema
+from microslip.results import schema
 
 CASE = Path(__file__).parent.parent / "cases" / "shrouded_blisk.toml"
 
@@ -144,12 +144,12 @@ def test_the_1N_frf_passes_a_square_root_cusp_by_a_longer_step(tmp_path, monkeyp
     of the arc there): every short arclength step and the fixed-frequency crossings fail,
     and the branch used to stop. A step a few times longer lands past it; the branch it
     skips is there: Newton at fixed frequencies inside the leap converges (1.1 min)."""
-    from microslip.pipeline.app.models import AssemblyModels
-    from microslip.pipeline.app.run import mesh_geometry
-    from microslip.pipeline.app.structure import reduce_structure
-    from microslip.pipeline.case import curve_variants
-    from microslip.pipeline.solve import arclength, response
-    from microslip.pipeline.solve import continuation as cont
+    from microslip.app.models import AssemblyModels
+    from microslip.app.run import mesh_geometry
+    from microslip.app.structure import reduce_structure
+    from microslip.case import curve_variants
+    from microslip.solve import arclength, response
+    from microslip.solve import continuation as cont
 
     case = cases.load(CASE)
     spec = case.analysis_specs[0]

@@ -1,4 +1,4 @@
-"""The benchmark nonlinearities (friction.springs) through the law registry: the cubic
+"""The benchmark nonlinearities (laws.springs) through the law registry: the cubic
 spring of the Duffing oscillator against the closed form of its one-harmonic balance, the
 unilateral spring against the half-wave's Fourier coefficients, both Jacobians against
 central differences, and their case tables (faults, one line each)."""
@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from case_helpers import case_faults
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.registry import LAWS
-from microslip.pipeline.friction.states import OPEN, PARTIAL_LIFTOFF, STICK
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
+from microslip import case as cases
+from microslip.fourier import Harmonics
+from microslip.laws.registry import LAWS
+from microslip.laws.states import OPEN, PARTIAL_LIFTOFF, STICK
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
 
 ZETA, GAMMA, FORCE = 0.05, 0.1, 0.1
 DUFFING = {

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
-from microslip.pipeline.solve.stability import floquet_multipliers, hill_stability
+from microslip import case as cases
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
+from microslip.solve.stability import floquet_multipliers, hill_stability
 
 ZETA, GAMMA = 0.05, 0.1
 
@@ -120,7 +120,7 @@ def test_the_folds_are_located_where_the_closed_form_puts_them(tmp_path):
     the stability datasets say unstable exactly between them, and the terminal lists them."""
     import h5py
 
-    from microslip.pipeline.app.run import run_case
+    from microslip.app.run import run_case
 
     data = cases.load("cases/duffing.toml").data
     data["harmonics"] = {"max": 1, "samples": 64}
@@ -161,7 +161,7 @@ def test_period_doubling_at_the_half_subharmonic_resonance():
     exponent pair through Im = w / 2), the same to 1e-5 at H = 4 and 6, and at each the
     monodromy matrix of SciPy's integration of the variational equations has a multiplier
     at -1 (to 1e-3: the location to 1e-4 of the step and the truncation)."""
-    from microslip.pipeline.solve.bifurcation import find_bifurcations
+    from microslip.solve.bifurcation import find_bifurcations
 
     found = {}
     for H in (4, 6):
@@ -194,7 +194,7 @@ def test_a_branch_circling_a_kink_makes_no_bifurcation():
     """Stability flipping back and forth at points a hair apart (a branch circling a
     stick/slip kink) is one cluster: none when it ends as it began, its first
     change when it does not; changes far apart, or across a natural sweep's jump, stay."""
-    from microslip.pipeline.solve.bifurcation import _changes
+    from microslip.solve.bifurcation import _changes
 
     values = np.array([0.0, 1.0, 2.0, 2.0 + 1e-9, 2.0 - 1e-9, 2.0 + 2e-9, 3.0, 4.0])
     counts = [(k, 0, 0) for k in (0, 0, 0, 1, 0, 1, 1, 0)]

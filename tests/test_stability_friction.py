@@ -38,12 +38,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.friction.states import SAMPLE_OPEN, SAMPLE_SLIP
-from microslip.pipeline.solve import dti
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point, sweep
-from microslip.pipeline.solve.stability import floquet_multipliers, hill_stability
+from microslip import case as cases
+from microslip.laws.states import SAMPLE_OPEN, SAMPLE_SLIP
+from microslip.solve import dti
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point, sweep
+from microslip.solve.stability import floquet_multipliers, hill_stability
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 BRANCHES = ("upper", "middle", "lower")  # by decreasing amplitude

@@ -14,12 +14,12 @@ import scipy.linalg as sla
 from case_helpers import case_faults
 from threadpoolctl import threadpool_limits
 
+from microslip import case as cases
 from microslip import geometry
-from microslip.pipeline import case as cases
-from microslip.pipeline.app import structure
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.case import reduction as reduction_table
-from microslip.pipeline.fe import cyclic, fem, linalg, reduction
+from microslip.app import structure
+from microslip.app.run import run_case
+from microslip.case import reduction_table as reduction_table
+from microslip.fe import craig_bampton, cyclic, fem, linalg, reduced_model
 
 # The default blisk sector meshed twice as coarse: the stage end to end in a few seconds.
 
@@ -147,7 +147,7 @@ def test_stage_reduces_every_body_at_every_nd(stage):
         assert np.all(f_red[h] >= f_full * (1 - 1e-9))  # a Ritz projection: from above
         assert files[h].exists()
         # The stored model is the one summarised.
-        stored = reduction.ReducedModel.load(files[h])
+        stored = reduced_model.ReducedModel.load(files[h])
         with threadpool_limits(limits=1, user_api="blas"):  # (as the run's: --threads 1)
             np.testing.assert_allclose(stored.frequencies(10), f_red[h], rtol=1e-12)
     # The free damper takes the disk's frequency range: f_max = the highest 10th
@@ -155,7 +155,7 @@ def test_stage_reduces_every_body_at_every_nd(stage):
     # (at least one), which a direct eigen-solve of the held damper confirms.
     assert f_max == max(fixed_interface[h][9] for h in (0, 5))
     damper_full = _fixed_interface_frequencies(mesh, "damper", damper_masters, 10)
-    assert damper_modes == max(1, np.sum(damper_full < reduction.CUTOFF * f_max)) < 10
+    assert damper_modes == max(1, np.sum(damper_full < reduced_model.CUTOFF * f_max)) < 10
     # (eigen tolerance 1e-6 on the residual: eigenvalues to ~1e-12)
     np.testing.assert_allclose(damper_fixed_interface, damper_full[:damper_modes], rtol=1e-8)
     # Per-area stiffness from the case on the left patch; flat punch on the right, by hand:
@@ -221,7 +221,7 @@ def test_a_copied_case_in_another_folder_meshes_and_reduces_nothing(stage, tmp_p
 
 
 def test_show_summarises_the_stage(stage):
-    from microslip.pipeline.results.file import summary
+    from microslip.results.writer import summary
 
     _, _, path = stage
     text = summary(path)
@@ -236,14 +236,14 @@ def test_a_failed_eigen_solve_names_body_and_nd(tmp_path, monkeypatch, capsys):
     """An eigen-solve that cannot converge (a tolerance no solver meets) ends the run failed,
     exit 1, with one message naming the body, the ND, what was tried and what to change,
     kept in results.h5; no traceback."""
-    from microslip.pipeline import cli
+    from microslip import cli
 
     path = tmp_path / "coarse.toml"
     path.write_text(
         '[geometry]\nmodel = "blisk_sector"\n'
         "[geometry.parameters]\nsectors = 24\nsize = 0.03\nblade_size = 0.015\n"
         "[reduction]\nnodal_diameters = [5]\nmodes = 6\n")
-    monkeypatch.setattr(reduction, "EIGEN_TOL", 1e-18)  # below any round-off floor
+    monkeypatch.setattr(craig_bampton, "EIGEN_TOL", 1e-18)  # below any round-off floor
     monkeypatch.setattr(linalg, "MAX_RESTARTS", 3)  # it fails the same way, sooner
     code = cli.main(["run", str(path), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
@@ -266,7 +266,7 @@ def test_masters_a_model_names_only_once_meshed_are_one_line(tmp_path, capsys, b
                                                             expected):
     """What a parametric model's names resolve to is known once it is meshed: a body without
     masters, or masters without DOFs of their own, end the run there, one line, exit 2."""
-    from microslip.pipeline import cli
+    from microslip import cli
 
     path = tmp_path / "disk.toml"
     path.write_text('[geometry]\nmodel = "annular_sector"\n[reduction]\nnodal_diameters = '

@@ -8,11 +8,11 @@ import pytest
 import scipy.linalg as sla
 from scipy.spatial import cKDTree
 
+from microslip.fe import bodies, cyclic, fem
 from microslip.geometry import full_disk
 from microslip.geometry.imported import MeshImportError, import_mesh
 from microslip.geometry.mesh import CyclicBoundary, Mesh, Support, rotation_z
 from microslip.geometry.structured import annulus, block
-from microslip.pipeline.fe import cyclic, fem
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 
@@ -203,15 +203,14 @@ def test_a_reduced_body_keeps_its_supports_and_its_cache_key_tells_them_apart(be
     """Craig-Bampton on a beam held at one end in y and z only (free to slide along x): its
     first frequencies against the unreduced supported model's; the cache keeps the two
     support choices apart."""
-    from microslip.pipeline.fe import reduction
 
     mesh, body = beam
     clamp = mesh.node_sets["block/clamp"]
-    specs = {held: reduction.BodySpec("block", STEEL, master_sets=("block/tip",),
+    specs = {held: bodies.BodySpec("block", STEEL, master_sets=("block/tip",),
                                       supports=(Support(clamp, np.array(held)),), n_modes=20)
              for held in ((False, True, True), (True, True, True))}
     for held, spec in specs.items():
-        (model,) = reduction.reduce_body(mesh, spec, cache_dir=tmp_path).values()
+        (model,) = bodies.reduce_body(mesh, spec, cache_dir=tmp_path).values()
         exact = _eigenvalues(*(m for m in (lambda s: (s.stiffness, s.mass))(
             cyclic.sector_model(body, supports=spec.supports))))
         reduced = sla.eigh(model.stiffness, model.mass, eigvals_only=True)
@@ -224,10 +223,10 @@ def test_a_reduced_body_keeps_its_supports_and_its_cache_key_tells_them_apart(be
         np.testing.assert_allclose(reduced[rigid:rigid + 4], exact[rigid:rigid + 4],
                                    rtol=1e-3)
     # held in every direction is clamped: the same reduced model as clamped_sets gives
-    clamped = reduction.BodySpec("block", STEEL, master_sets=("block/tip",),
+    clamped = bodies.BodySpec("block", STEEL, master_sets=("block/tip",),
                                  clamped_sets=("block/clamp",), n_modes=20)
     a, b = (sla.eigh(m.stiffness, m.mass, eigvals_only=True) for m in (
-        model, *reduction.reduce_body(mesh, clamped).values()))
+        model, *bodies.reduce_body(mesh, clamped).values()))
     np.testing.assert_allclose(a, b, rtol=1e-9)
     assert len(list(tmp_path.glob("cb-*.h5"))) == 2
 
@@ -408,7 +407,7 @@ def test_a_body_of_two_materials_is_assembled_element_by_element(tmp_path):
     materials from the deck's cards; its mass is each zone's volume times its density, its
     stiffness each element's, against the two halves assembled on their own and summed
     (elements carry their own stiffness; the shared nodes add)."""
-    from microslip.pipeline.case.reduction import _resolved
+    from microslip.case.reduction_table import _resolved
 
     cards = ("*ELSET, ELSET=STEEL\n1, 2\n*ELSET, ELSET=ALU\n3, 4\n"
              "*MATERIAL, NAME=S\n*ELASTIC, TYPE=ISO\n2.0e11, 0.3\n*DENSITY\n7850.\n"

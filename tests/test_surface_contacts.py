@@ -17,16 +17,16 @@ import pytest
 from blocks import two_blocks, upper_block
 from derivatives import fd_residual_jacobian
 
+from microslip.app import structure
+from microslip.assembly.join import join
+from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
+from microslip.fourier import Harmonics
 from microslip.geometry.averaging import averaged_surfaces
 from microslip.geometry.mesh import MeshValidationError, SurfaceContact
 from microslip.geometry.pairing import declare_contact, paired_contact
-from microslip.pipeline.app import structure
-from microslip.pipeline.assembly.join import join
-from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.states import GROSS_SLIP, SAMPLE_SLIP, STICK_SLIP
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import solve_point
+from microslip.laws.states import GROSS_SLIP, SAMPLE_SLIP, STICK_SLIP
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import solve_point
 
 E, RHO, L, H = 2.0e11, 7800.0, 0.04, 0.02
 P = 1.0e6  # [Pa] the pressure on the top

@@ -17,14 +17,14 @@ import tomllib
 import h5py
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app import tasks
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.app.tasks import Distributed, Outcome, Serial, Task
-from microslip.pipeline.cli import main
-from microslip.pipeline.results.compare import differences
+from microslip import case as cases
+from microslip.app import tasks
+from microslip.app.run import run_case
+from microslip.app.tasks import Distributed, Outcome, Serial, Task
+from microslip.cli import main
+from microslip.results.compare import differences
 
-CLI = [sys.executable, "-m", "microslip.pipeline.cli"]
+CLI = [sys.executable, "-m", "microslip.cli"]
 
 #: The Jenkins oscillator of sdof_wall.toml with a family of FRFs, a peak curve found by a
 #: sweep per value and an uncertainty study: every kind of independent curve, 4 + 3 + 8 tasks.
@@ -351,7 +351,7 @@ class FakeClient:
 
 
 def test_workers_that_cannot_run_microslip_are_named():
-    from microslip.pipeline.app.store import code_digest
+    from microslip.app.store import code_digest
 
     mine = code_digest()
     ok = {"tcp://a:1": "0.1.0", "tcp://b:1": "0.1.0"}

@@ -7,8 +7,8 @@ import h5py
 import numpy as np
 import pytest
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
+from microslip import case as cases
+from microslip.app.run import run_case
 
 CASES = Path(__file__).parents[1] / "cases"
 

@@ -9,10 +9,10 @@ import pytest
 from scipy import optimize, stats
 from test_contact import jenkins_first_harmonic
 
-from microslip.pipeline import case as cases
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.results import schema
-from microslip.pipeline.solve.uncertainty import (
+from microslip import case as cases
+from microslip.app.run import run_case
+from microslip.results import schema
+from microslip.solve.sampling import (
     Distribution,
     design,
     partial_rank_correlation,
@@ -210,7 +210,7 @@ def test_a_sweep_is_stopped_where_it_crawls_under_resolved():
     """UnderResolved: a message once the last CRAWL_POINTS points lie within CRAWL_SPAN of the
     window and stick arcs within two samples are there; none while the sweep moves (the
     contacts not even asked) or where the arcs are resolved."""
-    from microslip.pipeline.app.uncertainty import CRAWL_POINTS, CRAWL_SPAN, UnderResolved
+    from microslip.app.uncertainty import CRAWL_POINTS, CRAWL_SPAN, UnderResolved
 
     asked = []
 

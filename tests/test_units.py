@@ -5,9 +5,9 @@ from pathlib import Path
 
 import pytest
 
+from microslip.case.units import BodyNumbers, faults, read_in, unit_lines
+from microslip.cli import main
 from microslip.geometry.imported import UNITS
-from microslip.pipeline.case.units import BodyNumbers, faults, read_in, unit_lines
-from microslip.pipeline.cli import main
 
 CASES = Path(__file__).parents[1] / "cases"
 

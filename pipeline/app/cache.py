@@ -10,7 +10,7 @@ models again. Now they live in one folder for all runs:
 - what: ``meshes/mesh-<key>.h5`` (a parametric model's Gmsh mesh, keyed by the model, its
   parameters and contacts, the geometry code and the Gmsh version) and
   ``models/cb-<key>.h5`` (a body's Craig-Bampton model at one nodal diameter, keyed by
-  everything that produced it: ``fe.reduction``); HDF5 both, never pickle;
+  everything that produced it: ``fe.reduced_model``); HDF5 both, never pickle;
 - how much: at most ``$MICROSLIP_CACHE_SIZE`` (e.g. ``20GB``, ``500MB``; default 10 GB):
   after a run, the least recently used files go until the rest fit (never those the run
   used); ``microslip cache`` shows it and ``microslip cache --clear`` empties it.
@@ -218,7 +218,7 @@ def built_mesh(table, cache: SharedCache | None) -> tuple[object, Path | None]:
         return table.build(), None
     from .store import code_digest
 
-    # the meshing code, and the declared contacts' (case.geometry.with_contacts)
+    # the meshing code, and the declared contacts' (case.geometry_table.with_contacts)
     code = code_digest(parts=("geometry", "pipeline/case/geometry.py"), leave_out=())
     key = mesh_key(table.model, dict(table.parameters), table.contacts, code)
     return kept_mesh(cache, key, table.build)

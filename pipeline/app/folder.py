@@ -22,7 +22,7 @@ import shutil
 import socket
 from pathlib import Path
 
-from microslip.pipeline.results.file import is_disk_full
+from microslip.results.writer import is_disk_full
 
 try:
     import fcntl

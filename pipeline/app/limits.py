@@ -9,12 +9,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from microslip.pipeline.case import Case, curve_variants, operating_point
-from microslip.pipeline.case.specs import Frf
-from microslip.pipeline.results import schema
-from microslip.pipeline.results.file import ResultsWriter
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import refine_peak, response_measure
+from microslip.case import Case, curve_variants, operating_point
+from microslip.case.specs import Frf
+from microslip.results import schema
+from microslip.results.writer import ResultsWriter
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import refine_peak, response_measure
 
 from .models import AssemblyModels
 

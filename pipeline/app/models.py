@@ -9,11 +9,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from microslip.pipeline.case import Case, assembly, harmonics, lumped_model
-from microslip.pipeline.solve.hbm import HarmonicBalance
+from microslip.case import Case, assembly_table, harmonics, lumped_model
+from microslip.solve.hbm import HarmonicBalance
 
 if TYPE_CHECKING:
-    from microslip.pipeline.assembly.model import AssemblyModel
+    from microslip.assembly.recovery import AssemblyModel
 
 
 class LumpedModels:
@@ -59,7 +59,7 @@ class AssemblyModels:
         return self._surfaces
 
     def assembly(self, case: Case) -> AssemblyModel:
-        from microslip.pipeline.assembly.join import join  # the FE stages, when needed
+        from microslip.assembly.join import join  # the FE stages, when needed
 
         # the mass and excitation multipliers enter per operating point (hb.linear's mass
         # part, the loads' scale): a damper mass study or excitation levels share one model
@@ -72,7 +72,7 @@ class AssemblyModels:
                 self._built.pop(next(iter(self._built)))
             self._built[key] = join(
                 self.mesh, self.structure.models, self.structure.patch_stiffness,
-                assembly.spec(case.data, tuple(sorted(self.mesh.bodies)),
+                assembly_table.spec(case.data, tuple(sorted(self.mesh.bodies)),
                               tuple(self.mesh.cyclic)), harmonics(case),
                 sub_sample=case.solver_table.sub_sample, jacobian=case.solver_table.jacobian)
         return self._built[key]
@@ -81,7 +81,7 @@ class AssemblyModels:
         return self.assembly(case).hb
 
     def names(self, case: Case) -> list[str]:
-        return assembly.output_names(case.data)
+        return assembly_table.output_names(case.data)
 
     def selection(self, case: Case, names: list[str]) -> np.ndarray:
         """(n_outputs, n_dof) rows of the named outputs over the shared DOFs."""

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microslip.pipeline.case import (
+from microslip.case import (
     Case,
     curve_variants,
     harmonics,
@@ -24,16 +24,16 @@ from microslip.pipeline.case import (
     sizes,
     task_seconds,
 )
-from microslip.pipeline.case.build import sample_variants
-from microslip.pipeline.case.estimate import (
+from microslip.case.build import sample_variants
+from microslip.case.estimate import (
     LINEAR_EXPONENT,
     POINT_UNKNOWNS,
     START_S,
     analysis_seconds,
 )
-from microslip.pipeline.case.specs import Frf, Modes, Peak, Uncertainty
-from microslip.pipeline.friction import kernels_cached
-from microslip.pipeline.solve.memory import memory_text
+from microslip.case.specs import Frf, Modes, Peak, Uncertainty
+from microslip.laws import kernels_cached
+from microslip.solve.memory import memory_text
 
 from .cache import SharedCache, built_mesh
 from .store import CurveStore
@@ -94,9 +94,9 @@ def machine_factor(repeat: int = 3) -> float:
 
     from threadpoolctl import threadpool_limits
 
-    from microslip.pipeline.case import Case, lumped_model
-    from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import sweep
+    from microslip.case import Case, lumped_model
+    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.response import sweep
 
     if not kernels_cached():
         return 1.0
@@ -212,8 +212,8 @@ def _reduction(mesh, red, cache: Path | None, orders, surfaces: bool = False
     """Per body and nodal diameter: the reduced model's cache file exists, or it runs
     (``cache`` None: none is cached)."""
 
-    from microslip.pipeline.case.reduction import body_specs, needed_nodal_diameters
-    from microslip.pipeline.fe import reduction
+    from microslip.case.reduction_table import body_specs, needed_nodal_diameters
+    from microslip.fe import bodies
 
     sectors = {b.sectors for b in mesh.cyclic.values()}
     nds = needed_nodal_diameters(red, max(sectors), orders) if sectors else (0,)
@@ -238,7 +238,7 @@ def _reduction(mesh, red, cache: Path | None, orders, surfaces: bool = False
                                         "theirs)", seconds))
                     continue
                 spec = _with_reference(spec, mesh, red, nds, cache, surfaces)
-            cached = cache is not None and reduction.model_path(mesh, spec, h, cache).is_file()
+            cached = cache is not None and bodies.model_path(mesh, spec, h, cache).is_file()
             cyclic_cached = cyclic_cached and (cached or not is_cyclic)
             where = f"{spec.body} ND {h}" if is_cyclic else spec.body
             work = seconds * (COMPLEX_ND if complex_nd else 1.0)
@@ -259,8 +259,8 @@ def _reduction_size(mesh, spec) -> tuple[int, int, float]:
     """(DOFs of the body, columns of its reduction basis: 3 x master nodes + modes, "auto"
     as AUTO_MODES and AUTO_MODES_PER_MASTER say, peak memory [bytes] of its reduction by the
     anchors above, real: a complex nodal diameter doubles it)."""
+    from microslip.fe import bodies
     from microslip.geometry import elements
-    from microslip.pipeline.fe import reduction
 
     cells = mesh.body_cells(spec.body)
     edges = 0
@@ -268,7 +268,7 @@ def _reduction_size(mesh, spec) -> tuple[int, int, float]:
         pairs = np.concatenate([np.sort(c[:, elements.EDGES[k]].reshape(-1, 2), axis=1)
                                 for k, c in cells.items()])
         edges = len(np.unique(pairs, axis=0))
-    masters = reduction.spec_nodes(mesh, spec)[0].size
+    masters = bodies.spec_nodes(mesh, spec)[0].size
     modes = (spec.n_modes if isinstance(spec.n_modes, int)
              else max(AUTO_MODES, int(AUTO_MODES_PER_MASTER * masters)))
     n, columns = 3 * (mesh.body_nodes(spec.body).size + edges), 3 * masters + modes
@@ -282,12 +282,12 @@ def _with_reference(spec, mesh, red, nds, cache: Path, surfaces: bool = False):
     (cached) models."""
     from dataclasses import replace
 
-    from microslip.pipeline.case.reduction import body_specs
-    from microslip.pipeline.fe import reduction
+    from microslip.case.reduction_table import body_specs
+    from microslip.fe import bodies, reduced_model
 
-    models = [reduction.ReducedModel.load(reduction.model_path(mesh, s, h, cache))
+    models = [reduced_model.ReducedModel.load(bodies.model_path(mesh, s, h, cache))
               for s in body_specs(mesh, red, surfaces) if s.body in mesh.cyclic for h in nds]
-    f_ref = reduction.reference_frequency(models)
+    f_ref = reduced_model.reference_frequency(models)
     return spec if f_ref is None else replace(spec, f_max=f_ref)
 
 

@@ -18,9 +18,7 @@ import h5py
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from microslip.geometry.mesh import AveragedContact, SurfaceContact
-from microslip.geometry.pairing import paired_contact
-from microslip.pipeline.case import (
+from microslip.case import (
     Case,
     GeometryTable,
     InputError,
@@ -32,8 +30,8 @@ from microslip.pipeline.case import (
     settings,
     task_seconds,
 )
-from microslip.pipeline.case.geometry import contents_lines
-from microslip.pipeline.case.specs import (
+from microslip.case.geometry_table import contents_lines
+from microslip.case.specs import (
     Analysis,
     Dti,
     Frf,
@@ -43,29 +41,31 @@ from microslip.pipeline.case.specs import (
     TimeIntegration,
     Transient,
 )
-from microslip.pipeline.case.units import case_unit_lines
-from microslip.pipeline.draw import pictures
-from microslip.pipeline.draw.files import written
-from microslip.pipeline.draw.maps import EDGES
-from microslip.pipeline.friction import warm_up
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.results import schema
-from microslip.pipeline.results.file import (
+from microslip.case.units import case_unit_lines
+from microslip.draw import pictures
+from microslip.draw.files import written
+from microslip.draw.maps import EDGES
+from microslip.fourier import Harmonics
+from microslip.geometry.mesh import AveragedContact, SurfaceContact
+from microslip.geometry.pairing import paired_contact
+from microslip.laws import warm_up
+from microslip.results import schema
+from microslip.results.writer import (
     ATTRS,
     ResultsWriter,
     is_disk_full,
     sampling_warning,
     set_attrs,
 )
-from microslip.pipeline.solve.bifurcation import find_bifurcations
-from microslip.pipeline.solve.response import (
+from microslip.solve.bifurcation import find_bifurcations
+from microslip.solve.response import (
     Response,
     peak_curve,
     response_measure,
     stability_at,
     sweep,
 )
-from microslip.pipeline.solve.stability import hill_stability, undefined
+from microslip.solve.stability import hill_stability, undefined
 
 from .cache import SharedCache, built_mesh
 from .folder import FolderLock, NoSpace, free_bytes, size_text
@@ -78,7 +78,7 @@ from .tasks import Distributed, Outcome, Serial, Task
 from .uncertainty import run_uncertainty
 
 if TYPE_CHECKING:
-    from microslip.pipeline.assembly.model import PatchState
+    from microslip.assembly.recovery import PatchState
 
     from .structure import StructureResult
 
@@ -264,7 +264,7 @@ def mesh_geometry(table: GeometryTable, out: Path, progress: Progress = print,
                  f"(mid-edge nodes up to {100 * report.midnode_offset:.2g} % of an edge off "
                  "straight)")
     if pictures:
-        from microslip.pipeline.draw.previews import MeshView
+        from microslip.draw.previews import MeshView
 
         draw_previews(MeshView.from_mesh(m), m.content_hash, out, progress)
     return m
@@ -283,7 +283,7 @@ def say_units(data: dict, progress: Progress) -> None:
 def draw_previews(source, content_hash: str, out: Path, progress: Progress = print) -> None:
     """The mesh previews of ``source`` (a results file being written, or a
     ``previews.MeshView``), unless those of the same mesh (``content_hash``) are there."""
-    from microslip.pipeline.draw.previews import MeshView, preview_names, render_previews
+    from microslip.draw.previews import MeshView, preview_names, render_previews
 
     view = source if isinstance(source, MeshView) else MeshView.from_results(source)
     stamp = out / "cache" / "previews.hash"  # the mesh the previews show
@@ -302,7 +302,7 @@ def write_mesh(writer: ResultsWriter, mesh, elapsed: float) -> None:
     """/geometry (attrs: the model, its sizes and names; /geometry/cyclic/<body>: the cyclic
     faces' node positions), /surfaces (every body's outer surface) and /contact_grids:
     what the previews, maps and shapes are drawn on."""
-    from microslip.pipeline.draw.previews import MeshView
+    from microslip.draw.previews import MeshView
 
     view = MeshView.from_mesh(mesh)  # each body's surface found once
     writer.write_group(writer.file, schema.GEOMETRY, {schema.CYCLIC: view.cyclic_datasets()}, {
@@ -319,7 +319,7 @@ def write_mesh(writer: ResultsWriter, mesh, elapsed: float) -> None:
 def write_contact_grids(writer: ResultsWriter, mesh) -> None:
     """/contact_grids/<patch>: each patch's node grid, frame and map orientation
     (maps.PatchGrid), what the maps are drawn on."""
-    from microslip.pipeline.draw.maps import PatchGrid
+    from microslip.draw.maps import PatchGrid
 
     for name in sorted(mesh.contacts):
         grid = PatchGrid.from_mesh(mesh, name)
@@ -340,7 +340,7 @@ def write_structure(writer: ResultsWriter, mesh, case: Case, out: Path,
     /reduction/<body>/nd<h> (frequencies of the reduced model with free masters,
     fixed-interface mode frequencies, master nodes; attrs: model file name in the cache,
     sizes) and /reduction/contact_stiffness/<patch> (kn, kt per node pair [N/m])."""
-    from microslip.pipeline.fe.reduction import ReductionError
+    from microslip.fe.bodies import ReductionError
 
     from .structure import reduce_structure  # imports the FE stages only when needed
 
@@ -630,7 +630,7 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
         **stability,
     }
     if isinstance(models, AssemblyModels):  # each unknown's mesh node and x/y/z
-        from microslip.pipeline.assembly.model import patch_states
+        from microslip.assembly.recovery import patch_states
 
         cm = models.assembly(c)
         data["unknown_nodes"] = cm.dof_nodes[hb.dofs]
@@ -908,7 +908,7 @@ def run_loops(case: Case, spec: Loops, group: h5py.Group, run: Run) -> tuple[str
 
 def _time_model(case: Case, spec: TimeIntegration):
     """(case as set, HB model, output names, indices, time model, load steps)."""
-    from microslip.pipeline.solve import dti
+    from microslip.solve import dti
 
     c = case.with_values(spec.set)
     hb = lumped_model(c)
@@ -922,7 +922,7 @@ def _time_model(case: Case, spec: TimeIntegration):
 
 def run_dti(case: Case, spec: Dti, group: h5py.Group, run: Run) -> tuple[str, str]:
     """Steady responses by time integration at each frequency; the pictures."""
-    from microslip.pipeline.solve import dti
+    from microslip.solve import dti
 
     name, progress = spec.name, run.progress
     c, hb, names, idx, tm, loads = _time_model(case, spec)
@@ -989,7 +989,7 @@ def _join_responses(parts):
 def run_transient(case: Case, spec: Transient, group: h5py.Group, run: Run
                   ) -> tuple[str, str]:
     """The two load steps as time histories; the picture."""
-    from microslip.pipeline.solve import dti
+    from microslip.solve import dti
 
     c, hb, names, idx, tm, loads = _time_model(case, spec)
     t0 = time.perf_counter()
@@ -1021,9 +1021,9 @@ def run_modes(case: Case, spec: Modes, group: h5py.Group, run: Run) -> tuple[str
     """The lowest modes of every reduced body, unreduced (held as its reduction holds it)
     and reduced, per nodal diameter (``fe.modes``): results.h5 <name>/<body>/nd<h> (a body
     without cyclic symmetry: <body>/body) and the picture of the reduction's error."""
-    from microslip.pipeline.case.reduction import body_specs
-    from microslip.pipeline.fe import fem
-    from microslip.pipeline.fe.modes import body_modes
+    from microslip.case.reduction_table import body_specs
+    from microslip.fe import fem
+    from microslip.fe.modes import body_modes
 
     mesh, result = run.structure
     red = case.reduction_table

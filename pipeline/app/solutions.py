@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from microslip.pipeline.results import schema
-from microslip.pipeline.results.file import ATTRS
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import (
+from microslip.results import schema
+from microslip.results.writer import ATTRS
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import (
     Response,
     output,
     refine_peak,

@@ -21,7 +21,7 @@ from typing import Any
 import h5py
 
 from microslip.geometry.stored import written_whole
-from microslip.pipeline.results.file import signals_held
+from microslip.results.writer import signals_held
 
 #: Case tables that do not change what a curve computes.
 NEUTRAL = ("title", "description", "analysis")

@@ -1,6 +1,6 @@
 """The structural stage of a case: from the meshed geometry to the reduced model of every body
 at every nodal diameter the case needs, and the contact stiffness of every patch, as the
-[reduction] table asks (its keys and conventions: ``case.reduction``).
+[reduction] table asks (its keys and conventions: ``case.reduction_table``).
 
 Reduced models are cached in ``<out>/models/cb-<hash>.h5``: a re-run reuses every body and ND
 whose mesh, material, constraints, masters and mode selection have not changed.
@@ -16,16 +16,16 @@ from typing import Any
 
 from numpy.typing import NDArray
 
-from microslip.pipeline.case import InputError
-from microslip.pipeline.case.reduction import (
+from microslip.case import InputError
+from microslip.case.reduction_table import (
     ReductionTable,
     body_specs,
     needed_nodal_diameters,
     patch_stiffnesses,
 )
-from microslip.pipeline.fe import contact_stiffness, reduction
-from microslip.pipeline.fe.fem import InvertedElements
-from microslip.pipeline.fe.reduction import ReducedModel
+from microslip.fe import bodies, contact_stiffness, reduced_model
+from microslip.fe.fem import InvertedElements
+from microslip.fe.reduced_model import ReducedModel
 
 from .progress import time_left
 
@@ -80,7 +80,7 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
         nds = needed_nodal_diameters(red, max(sectors), case_orders)
     for spec in specs:  # names and node sets, before any heavy work
         try:
-            reduction.spec_nodes(mesh, spec)
+            bodies.spec_nodes(mesh, spec)
         except ValueError as err:
             raise InputError(str(err)) from None
     patch_stiffness = patch_stiffnesses(mesh, specs, red)
@@ -90,7 +90,7 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
     for spec in sorted(specs, key=lambda s: s.body not in mesh.cyclic):  # cyclic bodies first
         is_cyclic = spec.body in mesh.cyclic
         if not is_cyclic and spec.f_max is None and spec.n_modes == "auto":
-            f_ref = reduction.reference_frequency(
+            f_ref = reduced_model.reference_frequency(
                 m for models in result.models.values() for m in models.values())
             if f_ref is not None:
                 result.f_max = f_ref
@@ -98,7 +98,7 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
 
         report = _recorder(result, spec.body, None if is_cyclic else nds, progress, count)
         try:
-            result.models[spec.body] = reduction.reduce_body(mesh, spec, nds, cache_dir,
+            result.models[spec.body] = bodies.reduce_body(mesh, spec, nds, cache_dir,
                                                              backend, report)
         except InvertedElements as err:  # a deck's (or a mesher's) mid nodes
             raise InputError(f"body {spec.body!r}: {err}") from None

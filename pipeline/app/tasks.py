@@ -260,7 +260,7 @@ def local_cluster(workers: int):
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.CRITICAL,
                            scheduler_kwargs={"dashboard_address": ":0"},
-                           preload=["microslip.pipeline.app.worker"])  # its dask_setup
+                           preload=["microslip.app.worker"])  # its dask_setup
     return cluster, Client(cluster)
 
 

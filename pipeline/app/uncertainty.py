@@ -1,7 +1,7 @@
 """The uncertainty study (``type = "uncertainty"``): the spread of a resonance peak when
 parameters are uncertain.
 
-Each sample of the design (``solve.uncertainty``) is a case variant and a task: an
+Each sample of the design (``solve.sampling``) is a case variant and a task: an
 arclength sweep over the window, its top refined (the FRF maps' refined peak), the peak's
 frequency and the share of contact points slipping there. Samples whose inputs did not
 change come from the store (a Sobol' study grown from 64 to 256 samples computes the 192
@@ -18,14 +18,14 @@ from collections.abc import Callable
 import h5py
 import numpy as np
 
-from microslip.pipeline.case import Case, operating_point, settings, task_seconds
-from microslip.pipeline.case.build import sample_variants
-from microslip.pipeline.case.specs import Uncertainty
-from microslip.pipeline.draw import pictures
-from microslip.pipeline.friction.laws import slip_share
-from microslip.pipeline.results import schema
-from microslip.pipeline.solve.response import sweep, undersampled_points
-from microslip.pipeline.solve.uncertainty import PERCENTILES, statistics
+from microslip.case import Case, operating_point, settings, task_seconds
+from microslip.case.build import sample_variants
+from microslip.case.specs import Uncertainty
+from microslip.draw import pictures
+from microslip.laws.coulomb import slip_share
+from microslip.results import schema
+from microslip.solve.response import sweep, undersampled_points
+from microslip.solve.sampling import PERCENTILES, statistics
 
 from .limits import linear_peak
 from .models import AssemblyModels, LumpedModels

@@ -30,7 +30,7 @@ class Models(WorkerPlugin):
         """The worker process keeps the memory it frees for reuse, as the command does
         (fe.linalg.retain_freed_memory): without it a worker spent 30 % of its time in the
         kernel, faulting in fresh pages for each large array."""
-        from microslip.pipeline.fe.linalg import retain_freed_memory
+        from microslip.fe.linalg import retain_freed_memory
 
         retain_freed_memory()
 

@@ -28,17 +28,17 @@ from collections.abc import Mapping
 import numpy as np
 import scipy.sparse as sp
 
+from microslip.fe import cyclic
+from microslip.fe.contact_stiffness import PatchStiffness
+from microslip.fe.reduced_model import ReducedModel
+from microslip.fourier import Harmonics
 from microslip.geometry.mesh import Mesh, rotation_z
 from microslip.geometry.pairing import nodal_areas_and_normals, paired_contact, surface_body
 from microslip.geometry.surfaces import surface_of
-from microslip.pipeline.fe import cyclic
-from microslip.pipeline.fe.contact_stiffness import PatchStiffness
-from microslip.pipeline.fe.reduction import ReducedModel
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+from microslip.laws.coulomb import ContactElements
+from microslip.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
 
-from .model import AssemblyModel, BodyLayout, ContactPoints, body_positions
+from .recovery import AssemblyModel, BodyLayout, ContactPoints, body_positions
 from .spec import AssemblySpec, PatchFriction
 
 

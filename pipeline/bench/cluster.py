@@ -28,11 +28,11 @@ from pathlib import Path
 
 import h5py
 
-from microslip.pipeline.app.run import run_case
-from microslip.pipeline.app.tasks import Distributed, Outcome, Serial, Task
-from microslip.pipeline.case import Case, CaseError, load
-from microslip.pipeline.friction import warm_up
-from microslip.pipeline.results.compare import differences
+from microslip.app.run import run_case
+from microslip.app.tasks import Distributed, Outcome, Serial, Task
+from microslip.case import Case, CaseError, load
+from microslip.laws import warm_up
+from microslip.results.compare import differences
 
 from .core import median_time, reference_unit
 

@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="the mesh level of the grid study (default: the finest)")
     parser.add_argument("--out", type=Path, default=None, help="folder for convergence.json")
     args = parser.parse_args(argv)
-    from microslip.pipeline.case import CaseError, check, load
+    from microslip.case import CaseError, check, load
 
     try:
         check_window(args.start, args.stop)

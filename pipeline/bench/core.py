@@ -15,10 +15,10 @@ from collections.abc import Callable
 import numpy as np
 import scipy.linalg as sla
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import sweep
+from microslip.fourier import Harmonics
+from microslip.laws.coulomb import ContactElements
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import sweep
 
 from .demos import jenkins_oscillator
 

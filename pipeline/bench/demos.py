@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from microslip.pipeline.app import plan
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+from microslip.app import plan
+from microslip.fourier import Harmonics
+from microslip.laws.coulomb import ContactElements
+from microslip.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
 
 
 def jenkins_oscillator(

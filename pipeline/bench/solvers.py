@@ -42,9 +42,9 @@ CASES = Path(__file__).resolve().parents[2] / "cases"
 
 def run_with(path: Path, jacobian: str, out: Path) -> float:
     """Seconds to run the case at ``path`` with ``[solver] jacobian`` set, into ``out``."""
-    from microslip.pipeline.app.run import run_case
-    from microslip.pipeline.case.file import load
-    from microslip.pipeline.case.validated import Case
+    from microslip.app.run import run_case
+    from microslip.case.loading import load
+    from microslip.case.validated import Case
 
     case = load(path)
     data = copy.deepcopy(case.data)

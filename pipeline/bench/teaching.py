@@ -18,7 +18,7 @@ Teaching set: ``microslip run`` of every ``cases/*.toml`` with an [[analysis]],
 each in a fresh process (imports and JIT caches included, as a user sees it),
 median of ``--set-repeat`` runs. Timings of the FRF are medians of ``--repeat``
 runs after a warm-up (JIT compile excluded), also in reference units (a dense
-400 x 400 LU, see :mod:`microslip.pipeline.bench.core`).
+400 x 400 LU, see :mod:`microslip.bench.core`).
 """
 
 from __future__ import annotations
@@ -34,11 +34,11 @@ from pathlib import Path
 
 import numpy as np
 
-from microslip.pipeline.case import Case, load, lumped_model, settings
-from microslip.pipeline.case.specs import Dti, Frf
-from microslip.pipeline.solve import dti
-from microslip.pipeline.solve.hbm import OperatingPoint
-from microslip.pipeline.solve.response import sweep
+from microslip.case import Case, load, lumped_model, settings
+from microslip.case.specs import Dti, Frf
+from microslip.solve import dti
+from microslip.solve.hbm import OperatingPoint
+from microslip.solve.response import sweep
 
 from .core import median_time, reference_unit
 
@@ -170,7 +170,7 @@ def set_table(repeat: int, only: list[str] | None = None) -> list[str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in (
         env.get("PYTHONPATH", ""),) if p])
-    code = "import sys; from microslip.pipeline.cli import main; sys.exit(main(sys.argv[1:]))"
+    code = "import sys; from microslip.cli import main; sys.exit(main(sys.argv[1:]))"
     lines = [f"Teaching set: microslip run of every case with an [[analysis]] (fresh process "
              f"each, median of {repeat})",
              f"  {'case':<26} {'time s':>8} {'status':>10}"]

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .assembly import unknowns
+from .assembly_scale import unknowns
 
 #: The element sizes a mesh factor scales, and the element counts it divides (the blade
 #: root's grading, ``root_size``, is the sharp corner's own knob: held, its convergence
@@ -137,19 +137,19 @@ def case_data(base: dict, s: Setting, start: float, stop: float) -> dict:
 
 def measure(data: dict, source: str) -> dict:
     """One setting, cold, in this process: times [s], peak, sizes and peak memory [MB]."""
-    from microslip.pipeline.app.limits import linear_peak
-    from microslip.pipeline.app.models import AssemblyModels
-    from microslip.pipeline.app.run import mesh_geometry
-    from microslip.pipeline.app.solutions import map_solutions, response_at
-    from microslip.pipeline.app.structure import reduce_structure
-    from microslip.pipeline.case import (
+    from microslip.app.limits import linear_peak
+    from microslip.app.models import AssemblyModels
+    from microslip.app.run import mesh_geometry
+    from microslip.app.solutions import map_solutions, response_at
+    from microslip.app.structure import reduce_structure
+    from microslip.case import (
         Case,
         harmonics,
         operating_point,
         settings,
     )
-    from microslip.pipeline.friction import warm_up
-    from microslip.pipeline.solve.response import response_measure, sweep
+    from microslip.laws import warm_up
+    from microslip.solve.response import response_measure, sweep
 
     def quiet(_: str) -> None:
         pass
@@ -379,7 +379,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help="folder for trade.json and trade.png")
     args = parser.parse_args(argv)
-    from microslip.pipeline.case import (
+    from microslip.case import (
         CaseError,
         check,
         load,

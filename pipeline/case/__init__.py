@@ -17,8 +17,8 @@ from .build import (
     settings,
 )
 from .estimate import Size, notes, sizes, task_seconds
-from .file import check, load
-from .geometry import GeometryTable
+from .geometry_table import GeometryTable
+from .loading import check, load
 from .validated import Case, CaseError, InputError
 
 __all__ = ["Case", "CaseError", "GeometryTable", "InputError", "Size", "check", "contact_elements",

@@ -9,11 +9,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.law import ContactSet
-from microslip.pipeline.friction.registry import LAWS
-from microslip.pipeline.solve.continuation import Settings
-from microslip.pipeline.solve.hbm import (
+from microslip.fourier import Harmonics
+from microslip.laws.interface import ContactSet
+from microslip.laws.registry import LAWS
+from microslip.solve.continuation import Settings
+from microslip.solve.hbm import (
     Contact,
     Excitation,
     HarmonicBalance,
@@ -22,8 +22,8 @@ from microslip.pipeline.solve.hbm import (
 )
 
 from . import specs
+from .faults import has_lag
 from .paths import parameter_keys
-from .validate import has_lag
 
 if TYPE_CHECKING:
     from .validated import Case

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from microslip.pipeline.friction.harmonics import SAMPLES_PER_ORDER, least_samples
+from microslip.fourier import SAMPLES_PER_ORDER, least_samples
 
 
 def unknown_keys(prefix: str, table: Any, allowed: set[str], out: list[str]) -> None:

@@ -13,11 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microslip.pipeline.assembly.spec import PatchFriction
-from microslip.pipeline.friction.laws import FrictionLaw
-from microslip.pipeline.friction.registry import LAWS
-from microslip.pipeline.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
-from microslip.pipeline.solve.memory import (
+from microslip.assembly.spec import PatchFriction
+from microslip.laws.coulomb import FrictionLaw
+from microslip.laws.registry import LAWS
+from microslip.solve.hbm import CACHE_LIMIT  # the memory estimate reads the cache bound
+from microslip.solve.memory import (
     ContactShape,
     available_memory,
     balance_bytes,
@@ -250,7 +250,7 @@ def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
     from microslip import geometry
     from microslip.geometry.pairing import paired_contact
 
-    from .geometry import IMPORT, GeometryTable
+    from .geometry_table import IMPORT, GeometryTable
 
     geo = data["geometry"]
     counts: dict[str, tuple[int, int, int]] = {}  # contact -> (pairs, DOFs, DOFs per pair)

@@ -20,10 +20,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from microslip.pipeline.friction.harmonics import Harmonics, default_samples
-from microslip.pipeline.solve.continuation import Settings
-from microslip.pipeline.solve.response import MEASURES  # noqa: F401 (the measures)
-from microslip.pipeline.solve.uncertainty import Distribution, design
+from microslip.fourier import Harmonics, default_samples
+from microslip.solve.continuation import Settings
+from microslip.solve.response import MEASURES  # noqa: F401 (the measures)
+from microslip.solve.sampling import Distribution, design
 
 #: continuation methods of an frf; ``natural-down`` sweeps from stop to start
 METHODS = ("arclength", "natural", "natural-down")
@@ -145,7 +145,7 @@ class Uncertainty(Analysis):
     ``parameters``: name -> a distribution table (``{uniform = [low, high]}``,
     ``{normal = {mean, sigma}}``, ``{lognormal = {median, sigma}}``) or a fixed value; a
     dotted name is a case key, a plain one that key of every contact (``mu``). ``samples``
-    of a seeded ``design`` (``solve.uncertainty.DESIGNS``); ``limit``: the peak whose
+    of a seeded ``design`` (``solve.sampling.DESIGNS``); ``limit``: the peak whose
     exceedance probability is reported (m); ``levels``: the free and fully stuck peaks
     at the case's own values (an assembly case)."""
 
@@ -254,7 +254,7 @@ class Transient(TimeIntegration):
 @dataclass(frozen=True, kw_only=True)
 class HarmonicsTable:
     """[harmonics]: orders 0..``max`` or the ``orders`` given; ``samples`` per period
-    (None: the default of the highest order, ``friction.harmonics.default_samples``)."""
+    (None: the default of the highest order, ``fourier.default_samples``)."""
 
     max: int = 1
     orders: tuple[int, ...] | None = None
@@ -296,7 +296,7 @@ class SolverTable:
 
 @dataclass(frozen=True, kw_only=True)
 class ContactTable:
-    """What every [[contacts]] table has besides its law's keys (``friction.law``): its
+    """What every [[contacts]] table has besides its law's keys (``laws.interface``): its
     ``name`` (default ``contact<i>``), its ``law`` and whether the model includes it."""
 
     name: str
@@ -368,7 +368,7 @@ def analysis(table: Mapping[str, Any], index: int = 0) -> Analysis:
 
 def from_record(record: Mapping[str, Any]) -> Analysis:
     """The spec of an analysis' record in results.h5 (:meth:`Analysis.record`, read back
-    as values: ``results.file.attr_table``); the keys a file from an older version lacks
+    as values: ``results.writer.attr_table``); the keys a file from an older version lacks
     take their defaults."""
     names = keys(record["type"]) | {"name"}
     table = {k: v for k, v in record.items() if k in names}

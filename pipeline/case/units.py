@@ -128,8 +128,8 @@ def case_unit_lines(data: Mapping[str, Any]) -> tuple[list[str], list[str]]:
     body implausible in it, with the materials the [reduction] gives each body."""
     from pathlib import Path
 
-    from .geometry import GeometryTable
-    from .reduction import ReductionTable
+    from .geometry_table import GeometryTable
+    from .reduction_table import ReductionTable
 
     geo = data.get("geometry")
     if not (isinstance(geo, Mapping) and geo.get("model") == "import"):

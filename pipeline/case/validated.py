@@ -12,10 +12,10 @@ from pathlib import Path
 from typing import Any
 
 from . import specs
-from .geometry import GeometryTable
+from .faults import faults
+from .geometry_table import GeometryTable
 from .paths import set_path
-from .reduction import ReductionTable
-from .validate import faults
+from .reduction_table import ReductionTable
 
 
 class CaseError(ValueError):

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from microslip.pipeline.draw.files import written
-from microslip.pipeline.friction.states import (
+from microslip.draw.files import written
+from microslip.laws.states import (
     GROSS_SLIP,
     OPEN,
     PARTIAL_LIFTOFF,
@@ -273,7 +273,7 @@ def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
 
     strip = max(1, round(panel[1] / 7))
     size = [_panel_width(cols, panel) * cols, panel[1] * rows + 2 * strip]
-    from microslip.pipeline.draw.previews import title_strip, vtk_warnings_off
+    from microslip.draw.previews import title_strip, vtk_warnings_off
 
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
@@ -402,7 +402,7 @@ def save(pl, path: str | Path) -> Path:
     """Write an off-screen plotter's picture to ``path`` (its folder made) and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    from microslip.pipeline.draw.previews import vtk_warnings_off
+    from microslip.draw.previews import vtk_warnings_off
 
     try:
         with vtk_warnings_off(), written(path) as tmp:

@@ -15,11 +15,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from microslip.pipeline.case import specs
-from microslip.pipeline.friction.laws import slip_share
-from microslip.pipeline.friction.states import STATE_NAMES, STICK
-from microslip.pipeline.results import schema
-from microslip.pipeline.results.file import attr_table, attr_text
+from microslip.case import specs
+from microslip.laws.coulomb import slip_share
+from microslip.laws.states import STATE_NAMES, STICK
+from microslip.results import schema
+from microslip.results.writer import attr_table, attr_text
 
 from . import maps, plots, previews, shapes
 
@@ -564,7 +564,7 @@ def render(results: Path, out: Path | None = None, options: Options = Options(),
            analyses: list[str] | None = None) -> list[Path]:
     """Redraw the pictures of every analysis of a results file (DRAWERS) into ``out``
     (default: the file's folder). Returns the files written."""
-    from microslip.pipeline.results.file import open_results
+    from microslip.results.writer import open_results
 
     out = out or results.parent
     out.mkdir(parents=True, exist_ok=True)

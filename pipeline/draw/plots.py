@@ -16,7 +16,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from microslip.pipeline.draw.files import written
+from microslip.draw.files import written
 
 LABELS = {
     "frequency": "excitation frequency w [rad/s]",

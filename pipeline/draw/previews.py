@@ -15,11 +15,11 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkObject
 
+from microslip.draw.files import written
 from microslip.geometry.mesh import Mesh, rotation_z
 from microslip.geometry.pairing import paired_contact
-from microslip.pipeline.draw.files import written
-from microslip.pipeline.results import schema
-from microslip.pipeline.results.file import ATTRS, attr_text
+from microslip.results import schema
+from microslip.results.writer import ATTRS, attr_text
 
 BODY_COLOURS = ("lightsteelblue", "orange", "palegreen", "plum", "khaki")
 PATCH_COLOURS = ("red", "blue", "magenta", "darkgreen")
@@ -132,12 +132,12 @@ class MeshView:
                    cyclic, patches)
 
     def surface_datasets(self) -> dict:
-        """/surfaces as results.file writes it (what the previews and shapes draw on)."""
+        """/surfaces as results.writer writes it (what the previews and shapes draw on)."""
         return {b.name: {ATTRS: {"cyclic": b.cyclic}, "nodes": b.nodes, "points": b.points,
                          "triangles": b.triangles} for b in self.bodies}
 
     def cyclic_datasets(self) -> dict:
-        """/geometry/cyclic as results.file writes it (the patches are /contact_grids, with
+        """/geometry/cyclic as results.writer writes it (the patches are /contact_grids, with
         the maps' grids)."""
         return {c.body: {"left": c.left, "right": c.right, ATTRS: {"sectors": c.sectors}}
                 for c in self.cyclic}

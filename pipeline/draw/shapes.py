@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from microslip.fourier import Harmonics
 from microslip.geometry.mesh import rotation_z
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.results import schema
+from microslip.results import schema
 
 from .maps import save
 
@@ -134,7 +134,7 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
     one colour scale of |u| [mm], the undeformed sector in light grey behind."""
     import pyvista as pv
 
-    from microslip.pipeline.draw.previews import axial_view, title_strip, vtk_warnings_off
+    from microslip.draw.previews import axial_view, title_strip, vtk_warnings_off
 
     theta = shape.instant()
     factor = scale(surfaces, shape, theta)

@@ -4,7 +4,7 @@ Quadratic elements by default, on the corner mesh: scikit-fem's ``ElementTetP2``
 ``ElementHexS2`` and our ``ElementWedgeS2`` add one DOF triple per mesh edge (a quadratic
 file's mid-edge nodes are these DOFs; the importer checks that they sit on the straight
 edges). Linear elements (``order=1``) as an option. The elements and quadrature rules of
-each shape: ``fe.elements``.
+each shape: ``fe.basis``.
 
 DOF numbering: the three DOFs (x, y, z) of vertex i of the body are ``node_dofs[i]``; the
 quadratic elements' edge DOFs follow, ``edge_dofs[e]`` for edge ``edges[e]``. A body of one
@@ -38,7 +38,7 @@ from skfem.models.elasticity import linear_elasticity
 from microslip.geometry import elements as geometry_elements
 from microslip.geometry.mesh import mid_edge_points
 
-from . import elements
+from . import basis
 
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
@@ -315,7 +315,7 @@ class _Block:
     mapping: Any = None  # the curved elements' isoparametric map (None: the corner map)
 
     def basis(self, order: int, degree: int) -> fe.CellBasis:
-        return elements.SHAPES[self.shape].basis(self.mesh, order, degree, self.mapping)
+        return basis.SHAPES[self.shape].basis(self.mesh, order, degree, self.mapping)
 
 
 def _blocks(points: FloatArray, cells: Mapping[str, IntArray], order: int,
@@ -333,7 +333,7 @@ def _blocks(points: FloatArray, cells: Mapping[str, IntArray], order: int,
     key_of: dict[tuple[int, int], int] = {}
     blocks = []
     for shape, corners in cells.items():
-        kind = elements.SHAPES[shape]
+        kind = basis.SHAPES[shape]
         local = np.searchsorted(nodes, corners)[:, list(kind.to_skfem)]
         used, inverse = np.unique(local, return_inverse=True)
         skm = kind.mesh(np.ascontiguousarray(points[nodes[used]].T),
@@ -409,7 +409,7 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
     zones = _zones_of(mesh, body, material)
     k_parts, m_parts = [], []
     for block in blocks:
-        k_degree, m_degree = elements.SHAPES[block.shape].degrees[order]
+        k_degree, m_degree = basis.SHAPES[block.shape].degrees[order]
         zone = zones.get(block.shape)
         k_parts.append((stiffness(block.basis(order, k_degree), material, zone),
                         block.dof_map))

@@ -15,8 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import cyclic, fem, linalg
+from .bodies import BodySpec, spec_nodes
 from .fem import MeshLike
-from .reduction import BodySpec, ReducedModel, spec_nodes
+from .reduced_model import ReducedModel
 
 #: A body neither clamped nor supported is free: its rigid modes sit at 0, so the
 #: shift-invert solve shifts below them by this fraction of its reduced model's first

@@ -9,7 +9,7 @@ held only by its contacts is fine. Every other DOF is recovered afterwards
 (Firrone & Zucca eq. 9).
 
 Unknowns ``x`` are real, DOF-major: ``x[dof, coeff]`` in the layout of
-:class:`~microslip.pipeline.friction.harmonics.Harmonics`. The residual is
+:class:`~microslip.fourier.Harmonics`. The residual is
 
     R(x) = S x - F + B^T f(B x)
 
@@ -32,17 +32,17 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.law import ContactSet
-from microslip.pipeline.friction.laws import ContactResponse
-from microslip.pipeline.solve.condensation import (
+from microslip.fourier import Harmonics
+from microslip.laws.coulomb import ContactResponse
+from microslip.laws.interface import ContactSet
+from microslip.solve.condensation import (
     Condensed,
     Reordered,
     condense,
     condensed_dofs,
     solve_orders,
 )
-from microslip.pipeline.solve.jacobian import BalanceJacobian, PointBlocks, Preconditioner
+from microslip.solve.jacobian import BalanceJacobian, PointBlocks, Preconditioner
 
 PARAMETERS = ("frequency", "excitation", "mass", "preload")
 _DENSE_LIMIT = 400_000  # entries of the real kinematic map kept dense
@@ -239,7 +239,7 @@ class LinearDynamics:
 
 @dataclass(frozen=True, eq=False)
 class Contact:
-    """A named set of contact points of any law (:class:`friction.law.ContactSet`) and
+    """A named set of contact points of any law (:class:`laws.interface.ContactSet`) and
     their kinematics.
 
     kinematics: (P * c, n_dof) real matrix, rows ordered (point, component: the law's
@@ -557,7 +557,7 @@ class HarmonicBalance:
 
         x: (n_unknowns,) real, DOF-major over :attr:`dofs`. Returns R (n,),
         J (n, n) or None, dR (n,) or None (if ``parameter`` is None). ``structured``: J
-        as a :class:`~microslip.pipeline.solve.jacobian.BalanceJacobian` (its per-order and
+        as a :class:`~microslip.solve.jacobian.BalanceJacobian` (its per-order and
         per-point parts kept apart, solved by preconditioned GMRES) instead of a dense
         matrix.
         """

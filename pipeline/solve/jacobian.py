@@ -1,7 +1,7 @@
 """The linear algebra of the balance: its Jacobian as a structured operator, solved by a
 Krylov method preconditioned per harmonic order.
 
-The Jacobian of :class:`~microslip.pipeline.solve.hbm.HarmonicBalance` is
+The Jacobian of :class:`~microslip.solve.hbm.HarmonicBalance` is
 
     J = L + sum_p B_p^T J_p B_p
 
@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from microslip.pipeline.friction.harmonics import Harmonics
+from microslip.fourier import Harmonics
 
 #: GMRES: relative tolerance of a Newton step's solve (||J dx - r|| <= RTOL ||r||): the
 #: step is then Newton's to 1e-10, so the iterates and converged points are those of a
@@ -124,7 +124,7 @@ class BalanceJacobian:
     """J = L + sum_p B_p^T J_p B_p of the balance at one state, as an operator on the real
     DOF-major unknowns (n = N_dof x n_coeffs).
 
-    linear: the condensed linear part (:class:`~microslip.pipeline.solve.hbm.Condensed`:
+    linear: the condensed linear part (:class:`~microslip.solve.hbm.Condensed`:
         ``S_product`` per order, ``S`` (n_orders, N_dof, N_dof) complex when asked);
     contacts: per contact its :class:`PointBlocks` and its (P, k, k) sandwiched blocks;
     store: the model's :class:`Preconditioner` (shared by every Jacobian of the model)."""

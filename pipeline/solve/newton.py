@@ -4,7 +4,7 @@ its orientation, the step adaptation.
 
 The problem is a callable ``fun(x, lam, jacobian) -> (R, J, R_lam)``: the residual ``R``
 (n,), its Jacobian ``J = dR/dx`` ((n, n) dense, or a structured
-:class:`~microslip.pipeline.solve.jacobian.BalanceJacobian` solved by its own method) and
+:class:`~microslip.solve.jacobian.BalanceJacobian` solved by its own method) and
 ``R_lam = dR/dlam`` (n,), in physical units.
 """
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from microslip.pipeline.friction.harmonics import Harmonics
-from microslip.pipeline.friction.laws import ContactResponse
+from microslip.fourier import Harmonics
+from microslip.laws.coulomb import ContactResponse
 
 from . import continuation as cont
 from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint

@@ -5,7 +5,7 @@ motion (Firrone & Zucca eq. 20)
 
     M q'' + C q' + K q = F(t) - sum_c B_c^T f_c(B_c q)
 
-are marched in time with the contact laws of :mod:`microslip.pipeline.friction.laws` held as
+are marched in time with the contact laws of :mod:`microslip.laws.coulomb` held as
 internal state (stick, slip, lift-off), and the load is applied in the text's
 two load steps (Fig. 13): a quasi-static ramp of the static load (centrifugal
 force) with the dynamic load off, then a harmonic excitation whose amplitude
@@ -63,7 +63,6 @@ Units: SI (m, kg, s, N); angular frequency in rad/s.
 """
 
 from .march import ContactHistory, Trajectory, integrate, load_steps
-from .model import LoadSteps, State, TimeModel, initial_state
 from .steady import (
     EnergyBalance,
     FrequencyResponse,
@@ -76,6 +75,7 @@ from .steady import (
     steady_state,
     step_convergence,
 )
+from .time_model import LoadSteps, State, TimeModel, initial_state
 
 __all__ = [
     "ContactHistory",

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernel import march
-from .model import LoadSteps, State, TimeModel, checked_count, checked_positive, initial_state
+from .time_model import LoadSteps, State, TimeModel, checked_count, checked_positive, initial_state
 
 
 # =============================================================== histories
@@ -19,7 +19,7 @@ class ContactHistory:
     T: (n + 1, P, d) tangential forces, N; N: (n + 1, P) normal forces, N;
     u: (n + 1, P, d), v: (n + 1, P) relative displacements, m (v = 0 for the
     constant-load laws); state: (n + 1, P) int8 STICK/SLIP/OPEN codes
-    (:data:`microslip.pipeline.friction.states.SAMPLE_STICK` ...)."""
+    (:data:`microslip.laws.states.SAMPLE_STICK` ...)."""
 
     T: np.ndarray
     N: np.ndarray

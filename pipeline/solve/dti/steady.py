@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .march import Trajectory, check_loads, load_steps, march_loads, state_fields
-from .model import LoadSteps, State, TimeModel, checked_count, checked_positive, initial_state
+from .time_model import LoadSteps, State, TimeModel, checked_count, checked_positive, initial_state
 
 
 # ============================================================= steady state

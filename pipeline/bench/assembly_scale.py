@@ -44,7 +44,7 @@ def factorization_seconds(n: int, H: int, rate: float) -> float:
     of the n unknowns where hbm.structured_by_default says dense, else the per-order LU and
     inverse (order 0 real, H complex orders of n / (2H + 1) DOFs, 4 real flops per complex
     one; in single precision, counted as double)."""
-    from microslip.pipeline.solve.hbm import structured_by_default
+    from microslip.solve.hbm import structured_by_default
 
     nd = n / (2 * H + 1)
     if not structured_by_default(round(nd), 2 * H + 1):
@@ -63,13 +63,13 @@ def run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str,
 
 def _run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dict:
     from microslip import geometry
-    from microslip.pipeline.app import structure
-    from microslip.pipeline.assembly.join import join
-    from microslip.pipeline.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
-    from microslip.pipeline.friction.harmonics import Harmonics
-    from microslip.pipeline.solve import continuation as cont
-    from microslip.pipeline.solve.hbm import OperatingPoint
-    from microslip.pipeline.solve.response import solve_point, sweep
+    from microslip.app import structure
+    from microslip.assembly.join import join
+    from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
+    from microslip.fourier import Harmonics
+    from microslip.solve import continuation as cont
+    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.response import solve_point, sweep
 
     t0 = time.perf_counter()
     mesh = geometry.blisk_sector(contact_n_axial=n_axial, contact_n_flank=n_flank)

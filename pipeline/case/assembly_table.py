@@ -42,7 +42,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from microslip import geometry
-from microslip.pipeline.assembly.spec import (
+from microslip.assembly.spec import (
     DIRECTIONS,
     ELEMENTS,
     SPREADS,

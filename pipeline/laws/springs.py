@@ -22,8 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from .harmonics import Harmonics
-from .laws import ContactResponse
+from microslip.fourier import Harmonics
+
+from .coulomb import ContactResponse
 from .states import OPEN, PARTIAL_LIFTOFF, STICK
 
 

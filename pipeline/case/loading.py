@@ -17,7 +17,7 @@ import tomllib
 from pathlib import Path
 
 from .estimate import memory_faults
-from .validate import faults
+from .faults import faults
 from .validated import Case, CaseError
 
 

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from microslip.pipeline.fe import cyclic, fem, linalg, reduction
+from microslip.fe import craig_bampton, cyclic, fem, linalg, reduced_model
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 
@@ -103,7 +103,7 @@ def bench_reduction(mesh, nds: Sequence[int], n_modes: int | str, backends: Sequ
                                                 boundary if name == "blisk" else None, h)
                     t1 = time.perf_counter()
                     tm: dict = {}
-                    red = reduction.craig_bampton(model, spec["masters"], n_modes,
+                    red = craig_bampton.craig_bampton(model, spec["masters"], n_modes,
                                                   backend=backend, timings=tm,
                                                   f_max=f_max if name != "blisk" else None,
                                                   eigen_method=eigen)
@@ -112,7 +112,7 @@ def bench_reduction(mesh, nds: Sequence[int], n_modes: int | str, backends: Sequ
                                  tm["projection"], t2 - t0])
                 if name == "blisk":
                     disk_models.append(red)
-                    f_max = reduction.reference_frequency(disk_models)
+                    f_max = reduced_model.reference_frequency(disk_models)
                 times = np.median(np.array(runs), axis=0)
                 rows.append([backend, name, h, model.n_free, red.n_masters, red.n_modes,
                              *(f"{x:.2f}" for x in times), f"{peak_memory_mb():.0f}",
@@ -158,14 +158,14 @@ def bench_cb(model_name: str, nds: Sequence[int], cutoffs: Sequence[float],
         runs += [(f"cutoff {c:g}", {"n_modes": "auto", "cutoff": c}) for c in cutoffs]
         for label, kwargs in runs:
             t = time.perf_counter()
-            red = reduction.craig_bampton(model, masters, **kwargs)
+            red = craig_bampton.craig_bampton(model, masters, **kwargs)
             err = np.abs(red.frequencies(10) / f_ref - 1)
             rows.append([h, label, red.n_modes, f"{err.max():.1e}",
                          " ".join(f"{e:.0e}" for e in err), f"{time.perf_counter() - t:.1f}"])
             _progress(f"  ND {h} {label}: {time.perf_counter() - t:.1f} s")
     _table(f"Craig-Bampton error of the first ten frequencies per ND ({model_name}; cutoff c: "
            f"modes below c x the 10th fixed-interface frequency; default "
-           f"{reduction.DEFAULT_MODES!r}, c = {reduction.CUTOFF:g})",
+           f"{reduced_model.DEFAULT_MODES!r}, c = {reduced_model.CUTOFF:g})",
            ["ND", "selection", "modes", "max error", "errors f1..f10", "time [s]"], rows)
 
 
@@ -215,7 +215,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="scale of the blisk tet sizes (0.36: about 150,000 DOFs)")
     parser.add_argument("--nds", default="0,1,2,3",
                         help="nodal diameters, comma-separated (default: 0..3)")
-    parser.add_argument("--modes", type=_modes, default=reduction.DEFAULT_MODES,
+    parser.add_argument("--modes", type=_modes, default=reduced_model.DEFAULT_MODES,
                         help="fixed-interface modes: an integer or 'auto' (cut-off, default)")
     parser.add_argument("--eigen", default="block", choices=("block", "arpack"))
     parser.add_argument("--backends", default=",".join(linalg.available_backends()))

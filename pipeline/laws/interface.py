@@ -22,8 +22,9 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 if TYPE_CHECKING:
-    from .harmonics import Harmonics
-    from .laws import ContactResponse
+    from microslip.fourier import Harmonics
+
+    from .coulomb import ContactResponse
 
 
 class ContactSet(Protocol):

@@ -4,8 +4,8 @@ new entry here."""
 
 from __future__ import annotations
 
-from .law import ContactLaw
-from .laws import FRICTION_LAWS
+from .coulomb import FRICTION_LAWS
+from .interface import ContactLaw
 from .springs import PolynomialLaw, UnilateralLaw
 
 LAWS: dict[str, ContactLaw] = {**FRICTION_LAWS, **{law.name: law for law in (

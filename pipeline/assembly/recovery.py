@@ -9,9 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from microslip.pipeline.fe.reduction import ReducedModel
-from microslip.pipeline.friction.laws import ContactResponse, slip_share
-from microslip.pipeline.solve.hbm import HarmonicBalance, OperatingPoint
+from microslip.fe.reduced_model import ReducedModel
+from microslip.laws.coulomb import ContactResponse, slip_share
+from microslip.solve.hbm import HarmonicBalance, OperatingPoint
 
 from .spec import AssemblySpec
 

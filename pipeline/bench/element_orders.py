@@ -21,8 +21,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from microslip.fe import fem, linalg
 from microslip.geometry.structured import block
-from microslip.pipeline.fe import fem, linalg
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 GRIDS = ((10, 1, 1), (20, 2, 2), (40, 4, 4))

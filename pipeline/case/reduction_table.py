@@ -53,14 +53,14 @@ from typing import Any
 
 import numpy as np
 
+from microslip.fe import bodies, contact_stiffness, cyclic, linalg, reduced_model
+from microslip.fe.bodies import BodySpec
+from microslip.fe.fem import Damping, Material, MaterialZones
 from microslip.geometry.mesh import ContactPatch, Support
 from microslip.geometry.pairing import paired_contact
-from microslip.pipeline.fe import contact_stiffness, cyclic, linalg, reduction
-from microslip.pipeline.fe.fem import Damping, Material, MaterialZones
-from microslip.pipeline.fe.reduction import BodySpec
 
 from .checks import is_int, is_number, unknown_keys
-from .geometry import GeometryTable
+from .geometry_table import GeometryTable
 
 STEEL = Material(2.0e11, 0.3, 7850.0)
 FROM_FILE = "file"  # material = "file": each body's from the imported deck's cards
@@ -198,7 +198,7 @@ def names_faults(mesh: Any, red: Any, out: list[str]) -> None:
     conventions need, that ``mesh`` lacks (an imported mesh is read at check time)."""
     try:
         for spec in body_specs(mesh, ReductionTable.of(red)):
-            if not reduction.spec_nodes(mesh, spec)[0].size:
+            if not bodies.spec_nodes(mesh, spec)[0].size:
                 out.append(f"reduction.bodies.{spec.body}.masters: body {spec.body!r} has no "
                            "master node (no contact, excitation or response set); name its "
                            f"interface node sets; node sets: {sorted(mesh.node_sets)}")
@@ -304,8 +304,8 @@ class ReductionTable:
     engine_order: int | None = None
     harmonics: int | None = None
     order: int = 2
-    modes: int | str = reduction.DEFAULT_MODES
-    cutoff: float = reduction.CUTOFF
+    modes: int | str = reduced_model.DEFAULT_MODES
+    cutoff: float = reduced_model.CUTOFF
     f_max: float | None = None
     backend: str = "auto"
     material: Material | str = STEEL  # (str: FROM_FILE)

@@ -37,8 +37,9 @@ from typing import Any
 
 import numpy as np
 
+from microslip.fourier import Harmonics
+
 from . import returnmap
-from .harmonics import Harmonics
 from .states import GROSS_SLIP, OPEN, PARTIAL_LIFTOFF, STATE_NAMES, STICK, STICK_SLIP
 
 

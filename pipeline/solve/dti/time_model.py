@@ -8,8 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from microslip.pipeline.friction.laws import ContactElements
-from microslip.pipeline.friction.states import SAMPLE_OPEN, SAMPLE_STICK
+from microslip.laws.coulomb import ContactElements
+from microslip.laws.states import SAMPLE_OPEN, SAMPLE_STICK
 
 
 # =============================================================== validation
@@ -106,7 +106,7 @@ class TimeModel:
     M, C, K: (n_dof, n_dof) in kg, N s/m, N/m; M symmetric positive definite.
     contacts: pairs (ContactElements, B) with B the real (P * c, n_dof)
     kinematics (rows point-major, components ``[u_1, ..., u_d, (v)]``) as in
-    :class:`microslip.pipeline.solve.hbm.Contact`.
+    :class:`microslip.solve.hbm.Contact`.
     """
 
     M: np.ndarray
@@ -157,7 +157,7 @@ class TimeModel:
 
     @classmethod
     def from_harmonic_balance(cls, model) -> TimeModel:
-        """The time-domain twin of a lumped :class:`microslip.pipeline.solve.hbm.HarmonicBalance`
+        """The time-domain twin of a lumped :class:`microslip.solve.hbm.HarmonicBalance`
         (the same K, M, C for every harmonic order and real kinematics)."""
         lin = model.linear
         if set(lin.sizes) != {lin.n_dof}:
@@ -222,7 +222,7 @@ class LoadSteps:
 
     @classmethod
     def from_excitation(cls, excitation, n_dof: int, **steps) -> LoadSteps:
-        """From a :class:`microslip.pipeline.solve.hbm.Excitation` with orders 0 and 1 only."""
+        """From a :class:`microslip.solve.hbm.Excitation` with orders 0 and 1 only."""
         orders = set(excitation.forces)
         if not orders <= {0, 1}:
             raise ValueError(f"dti: excitation orders {sorted(orders)} are not supported; "

@@ -10,16 +10,16 @@ import re
 import numpy as np
 
 from microslip import geometry
-from microslip.pipeline.friction.laws import FORMS, FrictionLaw
-from microslip.pipeline.friction.registry import LAWS
-from microslip.pipeline.solve.hbm import JACOBIANS, PARAMETERS
+from microslip.laws.coulomb import FORMS, FrictionLaw
+from microslip.laws.registry import LAWS
+from microslip.solve.hbm import JACOBIANS, PARAMETERS
 
-from . import assembly, specs
+from . import assembly_table, specs
 from .checks import is_int, is_number, number, samples_rule, unknown_keys
-from .geometry import check as check_geometry
+from .geometry_table import check as check_geometry
 from .paths import get_path, parameter_keys, set_path
-from .reduction import check as check_reduction
-from .reduction import names_faults as reduction_names
+from .reduction_table import check as check_reduction
+from .reduction_table import names_faults as reduction_names
 
 TOP_KEYS = {"title", "description", "model", "contacts", "loads", "harmonics", "solver",
             "analysis", "geometry", "reduction", "assembly"}
@@ -142,7 +142,7 @@ def _names(table) -> dict | None:
     if table is None:
         return None
     if table.imported:
-        return assembly.names_of(table.build())
+        return assembly_table.names_of(table.build())
     names = geometry.NAMES.get(table.model)
     if names is None:
         return None
@@ -151,7 +151,7 @@ def _names(table) -> dict | None:
 
 def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | None) -> None:
     """A case of reduced FE bodies joined by friction patches ([assembly])."""
-    assembly.check(data["assembly"], data, out, names)
+    assembly_table.check(data["assembly"], data, out, names)
     for key in ("contacts", "loads"):
         if key in data:
             out.append(f"{key}: an assembly case gives its contacts and loads in [assembly]")
@@ -162,17 +162,17 @@ def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | No
     _solver(data.get("solver", {}), out)
     if not analyses:
         return
-    outputs = set(assembly.output_names(data))
-    for i, a in _analysis_tables(data, assembly.ANALYSES, out):
-        if isinstance(a, dict) and a.get("type") not in assembly.ANALYSES:
+    outputs = set(assembly_table.output_names(data))
+    for i, a in _analysis_tables(data, assembly_table.ANALYSES, out):
+        if isinstance(a, dict) and a.get("type") not in assembly_table.ANALYSES:
             out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: an assembly case "
-                       f"runs {list(assembly.ANALYSES)}")
+                       f"runs {list(assembly_table.ANALYSES)}")
             continue
         par = a.get("parameter", specs.defaults(a["type"]).get("parameter")) \
             if isinstance(a, dict) else None
-        if par is not None and par not in assembly.PARAMETERS:
+        if par is not None and par not in assembly_table.PARAMETERS:
             out.append(f"analysis.{a.get('name', i)}.parameter = {a.get('parameter')!r}: an "
-                       f"assembly case sweeps {list(assembly.PARAMETERS)}")
+                       f"assembly case sweeps {list(assembly_table.PARAMETERS)}")
             continue
         _analysis(i, a, data, set(), outputs, out)
 
@@ -578,7 +578,7 @@ def _window(pre: str, w, out: list[str]) -> None:
 def _uncertainty(pre: str, a: dict, data: dict, dofs: set[str], out: list[str]) -> None:
     """An uncertainty study's keys, its distributions, and the case at the smallest and at
     the largest value each parameter takes over the samples (what a sample could break)."""
-    from microslip.pipeline.solve.uncertainty import DESIGNS, FAMILIES, design
+    from microslip.solve.sampling import DESIGNS, FAMILIES, design
 
     _window(pre, a.get("window"), out)
     if a.get("output") not in dofs:
