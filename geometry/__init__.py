@@ -1,4 +1,25 @@
-"""microslip: Gmsh parametric models -> tagged meshes (no physics here).
+"""microslip.geometry: parametric and imported models -> tagged meshes (no physics here).
+
+mesh            the mesh contract: a plain, immutable, validated data object
+elements        the solid element shapes a mesh holds, by their corners
+params          parameter declarations: unit, default, checked range
+blisk           blisk sector + wedge damper (Gmsh)
+root_joint      dovetail disk sector + blade (Gmsh)
+shroud          blisk sector with a z-notch tip shroud (Gmsh)
+simple          reference models for FE checks: beam, annular sector
+structured      structured meshes in every element shape, without Gmsh
+full_disk       Ns rotated copies joined at the cyclic faces
+sector          a sector of a cyclic structure from any mesh: axis, cyclic faces
+imported        meshes from other tools read into a Mesh (SI units, corner nodes)
+abaqus          a reader of CalculiX / Abaqus input decks
+deck_supports   the supports of Nastran and Ansys decks
+materials       isotropic materials from the cards of Nastran and Ansys decks
+cad             CAD files (STEP, IGES, BREP) meshed through Gmsh's OpenCASCADE kernel
+surfaces        surfaces of a body and points projected onto them
+pairing         two surfaces in contact, paired node by node
+averaging       the contact grid apart from the mesh: points standing for cells
+quality         element quality of linear tetrahedra
+stored          a Mesh in an HDF5 file and back, exactly
 
 Public API
 ----------

@@ -16,11 +16,12 @@ The sub-packages read as the data flow; imports run one way, from the top down
     results    results.h5: its layout, writer and comparison
     assembly   reduced bodies joined by contact patches
     solve      harmonic balance, continuation, response curves, stability, time integration
-    friction   contact laws A-D, the compiled return map
+    laws       contact laws: friction A-D (the compiled return map), benchmark springs
+    fourier    the harmonic-balance layout: orders, coefficients, samples, DFT
     fe         K, M, cyclic matrices, reductions, contact-patch stiffness, sparse solvers
     geometry   Gmsh models, imported meshes, contact pairing (the folder geometry/)
 
-``fe`` and ``friction`` are independent of each other; ``fe`` reads meshes from
+``fe`` and ``laws`` are independent of each other; ``fe`` reads meshes from
 :mod:`microslip.geometry`, the bottom of the house.
 """
 

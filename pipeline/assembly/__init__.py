@@ -1,7 +1,7 @@
 """Coupling: reduced bodies + contact patches -> the model the harmonic balance solves.
 
 spec       what couples the bodies: contacts per patch, loads, speed, outputs (dataclasses)
-assemble   ``couple``: per-order linear blocks, contact kinematics (neighbour-sector phase
+join       ``couple``: per-order linear blocks, contact kinematics (neighbour-sector phase
            and rotation), nodal and centrifugal loads
-model      the assembly model and its recovery to bodies, patches, nodes and outputs
+recovery   the assembly model and its recovery to bodies, patches, nodes and outputs
 """

@@ -1,11 +1,17 @@
 """Case files: read, validated and built, every fault reported at once.
 
-``file`` (``load``, ``check``), ``validated`` (the validated :class:`Case`), ``specs``
-(the typed analysis specs and their defaults), ``validate`` (the faults of a table),
-``checks`` (the helpers every table's validation uses), ``paths`` (dotted key paths),
-``estimate`` (unknowns, memory and notes before anything is built), ``build`` (the lumped
-model, harmonics, settings), ``geometry``, ``reduction`` and ``assembly`` (the tables of
-meshed cases).
+loading          ``load`` and ``check`` of a case file (TOML), renamed tables
+validated        the validated :class:`Case` and copies with keys overridden
+specs            the typed analysis specs and their defaults
+faults           the faults of a case table, one line each
+checks           the helpers every table's validation uses
+paths            dotted key paths into a case table
+estimate         unknowns, memory and notes before anything is built
+build            the lumped model, harmonics, settings, operating points, variants
+units            whether an imported model is plausible in its units
+geometry_table   the [geometry] table: a parametric model or an imported mesh
+reduction_table  the [reduction] table: bodies, masters, supports, mode selection
+assembly_table   the [assembly] table: contacts per patch, loads, outputs
 """
 
 from .build import (

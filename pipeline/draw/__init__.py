@@ -5,4 +5,5 @@ plots       line plots: FRFs, peak curves, loops, time histories (matplotlib, of
 maps        contact-status and static-load maps of the patches (pyvista, off screen)
 shapes      deformed sector and full disk at a map point (pyvista)
 previews    the mesh previews: bodies, contact patches, full disk (pyvista)
+files       pictures written whole or not at all
 """

@@ -1,7 +1,16 @@
 """Nonlinear solution of a model with friction contacts.
 
 hbm            the multi-harmonic balance on the contact DOFs (linear part condensed)
-continuation   Newton, natural and pseudo-arclength continuation in any scalar parameter
+condensation   the linear part condensed on the contact DOFs, per harmonic order
+jacobian       the balance's Jacobian as a structured operator and its solves
+memory         the memory a balance will hold, from its sizes alone
+newton         Newton's method at a fixed parameter and on the bordered system
+continuation   natural continuation and the sweep driver in any scalar parameter
+arclength      pseudo-arclength continuation: predictor, corrector, step control
+branch         a continuation's results: the points of a branch
 response       frequency responses, peak curves and their post-processing
+stability      Hill's stability of a periodic solution
+bifurcation    bifurcations along a branch, detected and located
+sampling       uncertainty studies: the design of the samples, their statistics
 dti            direct time integration of the same lumped model (the reference)
 """

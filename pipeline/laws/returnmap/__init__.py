@@ -1,6 +1,11 @@
 """Compiled hot loop: the friction return map marched over sampled periods.
 
-One kernel serves the four contact laws of :mod:`.laws`: the tangential
+point    one point's march to its periodic steady state (what the kernels dispatch to)
+steps    one period of the return map, sample by sample, with derivatives carried
+cycle    the periodic cycle of one point: plain periods, shooting, the corner cycle
+kinks    sub-sample corrections: each transition located between two samples
+
+One kernel serves the four contact laws of :mod:`..coulomb`: the tangential
 dimension ``d`` is 1 or 2 and a constant normal load is ``kn = 0``. For each
 point, given time samples of the tangential relative displacement ``u`` (d
 components) and of the normal one ``v``, the normal force is

@@ -1,5 +1,10 @@
 """Direct time integration (DTI) of lumped models with friction contacts (Firrone & Zucca 4.1).
 
+time_model   M, C, K, the contacts packed for the kernel, the two load steps
+kernel       the compiled march: return map per point, Newmark step, Newton on the state
+march        trajectories with contact histories, the two load steps
+steady       steady states period by period, the energy balance, frequency responses
+
 The reference the text uses for its harmonic-balance results: the equations of
 motion (Firrone & Zucca eq. 20)
 
