@@ -1,6 +1,6 @@
 """Every contact law by the name a case gives (``law = "A"``, ``"polynomial"``): the one
-registry the case reader and the harmonic balance find laws in (:mod:`.law`); a new law is a
-new entry here."""
+registry the case reader and the harmonic balance find laws in (:mod:`.interface`); a new law
+is a new entry here."""
 
 from __future__ import annotations
 
