@@ -30,7 +30,7 @@ BENCHES = {
 
 def demo(argv: list[str]) -> int:
     """Frequency response of the single-DOF Jenkins oscillator, as a table."""
-    from microslip.app.run import ticker
+    from microslip.app.running import ticker
     from microslip.bench.demos import jenkins_oscillator
     from microslip.case.checks import samples_rule
     from microslip.solve.hbm import OperatingPoint
@@ -85,13 +85,13 @@ def _demo_estimate(harmonics: int, samples: int) -> tuple[float, str]:
     """(rough seconds of the demo's sweep, "" or why it is refused: more memory than is
     available, or longer than DEMO_MAX_S)."""
     from microslip.bench.demos import jenkins_case
-    from microslip.case import specs
     from microslip.case.estimate import memory_faults, task_seconds
+    from microslip.case.kinds import shipped
 
     data = jenkins_case(harmonics, samples)
     found: list[str] = []
     memory_faults(data, found)
-    seconds = task_seconds(data, specs.analysis(data["analysis"][0], 0))
+    seconds = task_seconds(data, shipped().spec(data["analysis"][0], 0))
     if found:
         return seconds, f"--harmonics {harmonics} --samples {samples}: " + found[0].split(
             ": ", 1)[1]
@@ -544,7 +544,7 @@ def maps_panel() -> str:
 
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
-    from microslip.app.run import mesh_geometry, say_units
+    from microslip.app.stages import mesh_geometry, say_units
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML) with a [geometry] table")

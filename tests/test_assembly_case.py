@@ -390,7 +390,7 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     # the response node, a master of the blisk and one of its recovery nodes, moves as the
     # harmonic balance's shared DOFs say, order by order (the ND's complex wave included)
     from microslip.app.models import AssemblyModels
-    from microslip.app.run import mesh_geometry
+    from microslip.app.stages import mesh_geometry
     from microslip.app.structure import reduce_structure
     from microslip.solve.hbm import OperatingPoint
 

@@ -62,7 +62,7 @@ def test_the_light_dampers_fold_has_an_unstable_middle(tmp_path):
     three solutions at that frequency (the map points) the middle amplitude is the unstable
     one by Hill's method (3 min)."""
     from microslip.app.models import AssemblyModels
-    from microslip.app.run import mesh_geometry
+    from microslip.app.stages import mesh_geometry
     from microslip.app.structure import reduce_structure
     from microslip.case import curve_variants
     from microslip.solve.stability import hill_stability

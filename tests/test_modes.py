@@ -12,7 +12,7 @@ from test_supports import _pie
 
 from microslip.cli import main
 from microslip.fe import bodies, cyclic, fem
-from microslip.fe.modes import body_modes, frequencies_hz
+from microslip.fe.body_modes import body_modes, frequencies_hz
 from microslip.geometry.structured import block
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)

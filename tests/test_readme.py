@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from microslip.case import assembly_table, faults, reduction_table, specs
+from microslip.case.kinds import shipped
 
 README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
 
@@ -155,7 +156,7 @@ def _accepted() -> set[str]:
               "assembly.contacts": assembly_table.CONTACT_KEYS,
               "assembly.loads": assembly_table.LOAD_KEYS,
               "assembly.outputs": assembly_table.OUTPUT_KEYS}
-    tables |= {f"analysis.{kind}": specs.keys(kind) for kind in specs.ANALYSES}
+    tables |= {f"analysis.{name}": specs.keys(kind.spec) for name, kind in shipped().items()}
     # every top-level key is a table above (or text): no table of the reader is left out
     assert faults.TOP_KEYS == {"title", "description"} | {p.split(".")[0] for p in tables}
     out = {"title", "description"}
@@ -195,10 +196,10 @@ def test_the_analyses_table_gives_each_number_and_switch_default_of_the_specs():
     """A key's default in the Analyses table ("`points` (25)") is the spec's, and every
     analysis key whose default is a number or a switch says it there."""
     rows = {row[0].strip("`"): row[1] for row in _tables(_section("Case files"), "type")[0]}
-    for kind in specs.ANALYSES:
+    for kind, cls in ((name, k.spec) for name, k in shipped().items()):
         said = {k: v for k, v in re.findall(r"`(\w+)` \((-?[\d.]+|true|false)[;:)]",
                                             rows[kind])}
-        scalar = {k: v for k, v in specs.defaults(kind).items()
+        scalar = {k: v for k, v in specs.defaults(cls).items()
                   if isinstance(v, (bool, int, float))}
         assert said.keys() == scalar.keys(), kind
         for key, text in said.items():

@@ -11,7 +11,9 @@ from models import jenkins_oscillator, normal_oscillator
 
 from microslip import case as cases
 from microslip.app import structure
-from microslip.app.run import run_case, ticker, time_left
+from microslip.app.progress import time_left
+from microslip.app.run import run_case
+from microslip.app.running import ticker
 from microslip.results.writer import summary
 from microslip.solve import continuation as cont
 from microslip.solve.hbm import OperatingPoint

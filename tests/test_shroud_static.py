@@ -145,7 +145,7 @@ def test_the_1N_frf_passes_a_square_root_cusp_by_a_longer_step(tmp_path, monkeyp
     and the branch used to stop. A step a few times longer lands past it; the branch it
     skips is there: Newton at fixed frequencies inside the leap converges (1.1 min)."""
     from microslip.app.models import AssemblyModels
-    from microslip.app.run import mesh_geometry
+    from microslip.app.stages import mesh_geometry
     from microslip.app.structure import reduce_structure
     from microslip.case import curve_variants
     from microslip.solve import arclength, response

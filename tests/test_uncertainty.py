@@ -210,7 +210,7 @@ def test_a_sweep_is_stopped_where_it_crawls_under_resolved():
     """UnderResolved: a message once the last CRAWL_POINTS points lie within CRAWL_SPAN of the
     window and stick arcs within two samples are there; none while the sweep moves (the
     contacts not even asked) or where the arcs are resolved."""
-    from microslip.app.uncertainty import CRAWL_POINTS, CRAWL_SPAN, UnderResolved
+    from microslip.app.analyses.uncertainty import CRAWL_POINTS, CRAWL_SPAN, UnderResolved
 
     asked = []
 

@@ -1,7 +1,9 @@
 """The application layer: what a case file asks for, run end to end.
 
-run          every analysis of a case into results.h5, then its pictures (``draw``)
-uncertainty  the uncertainty study: a task per sample, its statistics and pictures
+run          every analysis of a case into results.h5, each by its kind, then its pictures
+analyses     the analysis types, a module each: checks, estimate, runner, tasks, pictures
+running      what the analyses share: the Run, the one loop of tasks, cached curves
+stages       the stages before the analyses: the mesh and the reduced models, written
 structure    the structural stage: mesh -> reduced models per body and ND, patch stiffness
 models       the lumped or assembly models of a case, built once
 solutions    the map points of an FRF: refined peak, every solution at a value

@@ -11,6 +11,7 @@ an hour.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -24,14 +25,12 @@ from microslip.case import (
     sizes,
     task_seconds,
 )
-from microslip.case.build import sample_variants
 from microslip.case.estimate import (
     LINEAR_EXPONENT,
     POINT_UNKNOWNS,
     START_S,
     analysis_seconds,
 )
-from microslip.case.specs import Frf, Modes, Peak, Uncertainty
 from microslip.laws import kernels_cached
 from microslip.solve.memory import memory_text
 
@@ -148,63 +147,74 @@ def plan(case: Case, out: Path, cache: bool = True, shared: SharedCache | None =
                                           case.draws_shapes)
             stages += reduction_stages
     store = CurveStore(out / "cache" / "curves" if cache else None)
-    by_name = {s.analysis: s for s in sizes(data)}
-    from .run import frf_key
-
+    kinds = case.known_kinds
+    by_name = {s.analysis: s for s in sizes(data, kinds)}
     for spec in case.analysis_specs:
-        name = spec.name
-        size = by_name.get(name)
-        unknowns = size.unknowns if size else 0
-        nbytes = size.nbytes if size else 0
-        if isinstance(spec, Uncertainty):
-            stages.append(_samples(case, spec, store, nbytes, unknowns))
-            continue
-        pictures = analysis_seconds(data, spec)
-        if isinstance(spec, Modes):
-            stages.append(Stage(f"{name}: modes", False, pictures + MODES_SHARE * sum(
-                s.work for s in reduction_stages), 0, "the unreduced bodies, every run"))
-            continue
-        if not isinstance(spec, (Frf, Peak)):
-            stages.append(Stage(f"{name}: {spec.type}", False,
-                                task_seconds(data, spec) + pictures, nbytes,
-                                "not cached"))
-            continue
-        stages.append(Stage(f"{name}: pictures", False, pictures, 0, "every run"))
-        methods = spec.method if isinstance(spec, Frf) else ("continuation",)
-        for j, (c, label, _) in enumerate(curve_variants(case, spec)):
-            seconds = task_seconds(data, spec, c.data) * (
-                spec.points if isinstance(spec, Peak) and spec.tracking == "sweep" else 1)
-            for method in methods:
-                if isinstance(spec, Frf):
-                    cached = store.has(frf_key(store, c, spec, method))
-                else:
-                    cached = store.has(store.key(c.data, spec.table(), curve="peak"))
-                what = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
-                stages.append(Stage(f"{name}: curve {j + 1}" + (f" ({what})" if what else ""),
-                                    cached, 0.0 if cached else seconds, nbytes,
-                                    f"{unknowns:,} unknowns"))
-        if "assembly" in data and isinstance(spec, Frf) and spec.parameter == "frequency":
-            masses = {operating_point(c, spec.omega).mass_multiplier
-                      for c, _, _ in curve_variants(case, spec)}
-            seconds = LINEAR_S * (unknowns / POINT_UNKNOWNS) ** LINEAR_EXPONENT
-            stages.append(Stage(f"{name}: linear limits (free, stuck x {len(masses)})", False,
-                                seconds * (1 + len(masses)), 0,
-                                "each reused from the cache when unchanged"))
+        size = by_name.get(spec.name)
+        context = PlanContext(store, size.unknowns if size else 0, size.nbytes if size else 0,
+                              tuple(reduction_stages))
+        kind = kinds.of(spec)
+        stages += kind.plan(case, spec, context) if kind.plan else [Stage(
+            f"{spec.name}: {spec.type}", False, task_seconds(data, spec, kinds=kinds)
+            + analysis_seconds(data, spec, kinds), context.nbytes, "not cached")]
     return stages
 
 
-def _samples(case: Case, spec: Uncertainty, store: CurveStore, nbytes: int, unknowns: int
-             ) -> Stage:
-    """An uncertainty study's samples as one stage: those to compute, in one process."""
-    from .uncertainty import sample_key
+@dataclass(frozen=True)
+class PlanContext:
+    """What an analysis' dry run sees beyond its case and spec: the curve store, its
+    estimated unknowns and memory, and the reduction's stages (what its work scales with)."""
 
-    keys = [sample_key(store, case.with_values(v), spec)
-            for v in sample_variants(case, spec)[2]]
-    todo = sum(not store.has(k) for k in keys)
-    each = task_seconds(case.data, spec)
-    return Stage(f"{spec.name}: {len(keys)} samples", todo == 0, todo * each, nbytes,
+    store: CurveStore
+    unknowns: int
+    nbytes: int
+    reductions: tuple[Stage, ...] = ()
+
+
+def curve_stages(case: Case, spec, context: PlanContext, methods: tuple[str, ...],
+                 key: Callable[[Case, str], str], per_curve: int = 1) -> list[Stage]:
+    """The stages of an analysis of curves (a family value and a method each: a task each,
+    ``per_curve`` tasks of a curve's estimate each), each cached where the store has its
+    ``key(variant, method)``; its pictures first."""
+    data = case.data
+    stages = [Stage(f"{spec.name}: pictures", False, analysis_seconds(data, spec,
+                                                                       case.known_kinds),
+                    0, "every run")]
+    for j, (c, label, _) in enumerate(curve_variants(case, spec)):
+        seconds = task_seconds(data, spec, c.data, case.known_kinds) * per_curve
+        for method in methods:
+            cached = context.store.has(key(c, method))
+            what = ", ".join(x for x in (label, method if len(methods) > 1 else "") if x)
+            stages.append(Stage(f"{spec.name}: curve {j + 1}" + (f" ({what})" if what else ""),
+                                cached, 0.0 if cached else seconds, context.nbytes,
+                                f"{context.unknowns:,} unknowns"))
+    return stages
+
+
+def linear_limit_stages(case: Case, spec, context: PlanContext) -> list[Stage]:
+    """The linear limits of an assembly case's frequency sweep (free, and stuck at each
+    mass the curves take)."""
+    masses = {operating_point(c, spec.omega).mass_multiplier
+              for c, _, _ in curve_variants(case, spec)}
+    seconds = LINEAR_S * (context.unknowns / POINT_UNKNOWNS) ** LINEAR_EXPONENT
+    return [Stage(f"{spec.name}: linear limits (free, stuck x {len(masses)})", False,
+                  seconds * (1 + len(masses)), 0, "each reused from the cache when unchanged")]
+
+
+def modes_stage(spec, context: PlanContext, pictures: float) -> Stage:
+    """The modes of the unreduced bodies: a share of the reduction's work, every run."""
+    return Stage(f"{spec.name}: modes", False, pictures + MODES_SHARE * sum(
+        s.work for s in context.reductions), 0, "the unreduced bodies, every run")
+
+
+def samples_stage(case: Case, spec, context: PlanContext, keys: list[str]) -> Stage:
+    """An uncertainty study's samples (``keys``: each one's store key) as one stage: those
+    to compute, in one process."""
+    todo = sum(not context.store.has(k) for k in keys)
+    each = task_seconds(case.data, spec, kinds=case.known_kinds)
+    return Stage(f"{spec.name}: {len(keys)} samples", todo == 0, todo * each, context.nbytes,
                  f"{todo} to compute (~{each:.2g} s each in one process; a cluster of n "
-                 f"workers ~n x faster), {unknowns:,} unknowns")
+                 f"workers ~n x faster), {context.unknowns:,} unknowns")
 
 
 def _reduction(mesh, red, cache: Path | None, orders, surfaces: bool = False

@@ -139,8 +139,8 @@ def measure(data: dict, source: str) -> dict:
     """One setting, cold, in this process: times [s], peak, sizes and peak memory [MB]."""
     from microslip.app.limits import linear_peak
     from microslip.app.models import AssemblyModels
-    from microslip.app.run import mesh_geometry
     from microslip.app.solutions import map_solutions, response_at
+    from microslip.app.stages import mesh_geometry
     from microslip.app.structure import reduce_structure
     from microslip.case import (
         Case,

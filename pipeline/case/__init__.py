@@ -3,6 +3,7 @@
 loading          ``load`` and ``check`` of a case file (TOML), renamed tables
 validated        the validated :class:`Case` and copies with keys overridden
 specs            the typed analysis specs and their defaults
+kinds            the analysis types: the interface each one keeps, and the registry
 faults           the faults of a case table, one line each
 checks           the helpers every table's validation uses
 paths            dotted key paths into a case table

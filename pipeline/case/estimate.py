@@ -27,6 +27,7 @@ from microslip.solve.memory import (
 from . import specs
 from .build import as_matrix, harmonics_of, kinematic_row
 from .checks import is_int
+from .kinds import Kinds, kinds_or_shipped
 from .paths import set_path
 
 
@@ -46,14 +47,15 @@ class Size:
         return f"{self.analysis}, {what}, {memory_text(self.nbytes)}"
 
 
-def sizes(data: dict) -> list[Size]:
+def sizes(data: dict, kinds: Kinds | None = None) -> list[Size]:
     """Per analysis of a valid case, the estimate for its largest curve (its ``set``, then
     each ``family`` value or table applied), from the case's numbers alone: nothing is
     built, so check and run refuse what will not fit before any work."""
     out = []
     for i, a in enumerate(data.get("analysis", [])):
         name = specs.analysis_name(a, i)
-        out.append(max((_size(name, v, a) for v in _variants(data, a)),
+        kind = kinds_or_shipped(kinds)[a["type"]]
+        out.append(max(((kind.size or _balance)(name, v, a) for v in _variants(data, a)),
                        key=lambda s: s.nbytes))
     return out
 
@@ -109,35 +111,28 @@ def point_seconds(unknowns: int, samples: int, lumped: tuple[int, int] | None = 
     return POINT_S * scale * (1 + (STABILITY if stability else 0.0))
 
 
-def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None) -> float:
+def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None,
+                 kinds: Kinds | None = None) -> float:
     """Rough seconds of one task of analysis ``spec`` of the valid case ``data``, in one
-    process: an FRF curve (with its map points), a peak curve (or one of its values, found by
-    a sweep), an uncertainty sample (a sweep and its refined top); a time integration, or
-    the loops, whole (they are one task). ``variant``: the case as that curve sees it
-    (default: the largest of the analysis' curves)."""
+    process (its kind's ``task_seconds``: an FRF curve with its map points, a peak curve or
+    one of its values, an uncertainty sample; a time integration or the loops, whole).
+    ``variant``: the case as that curve sees it (default: the largest of the analysis'
+    curves)."""
+    return kinds_or_shipped(kinds).of(spec).task_seconds(data, spec, variant)
+
+
+def balance_point_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None,
+                          stability: bool | None = None) -> float:
+    """Rough seconds of one continuation point of the harmonic balance of analysis
+    ``spec`` (the largest of its curves', or ``variant``'s), with Hill's stability when the
+    spec asks for it (``stability`` None) or as given."""
     a = next(x for i, x in enumerate(data["analysis"])
              if specs.analysis_name(x, i) == spec.name)
-    if isinstance(spec, specs.Loops):
-        return LOOPS_S
-    if isinstance(spec, specs.Modes):  # the bodies' eigen-solves: app.plan estimates them
-        return 0.0
-    if isinstance(spec, specs.TimeIntegration):
-        return _time_integration_seconds(data, spec)
-    stability = bool(getattr(spec, "stability", False))
+    if stability is None:
+        stability = bool(getattr(spec, "stability", False))
     sizes = [_point_sizes(v, a, spec.name) for v in (
         [variant] if variant is not None else _variants(data, a))]
-    t = max(point_seconds(*p, stability=stability) for p in sizes)
-    if isinstance(spec, specs.Frf):
-        solve = max(point_seconds(*p, stability=False) for p in sizes)
-        maps = len(spec.maps) * (MAP_SOLVES * solve + MAP_DRAW_S * len(spec.map_types))
-        return CURVE_POINTS * t + maps
-    if isinstance(spec, specs.Peak):
-        if spec.tracking == "sweep":
-            return CURVE_POINTS * t
-        return spec.points * PEAK_SOLVES * t
-    if isinstance(spec, specs.Uncertainty):
-        return (CURVE_POINTS + PEAK_SOLVES) * t
-    return 0.0
+    return max(point_seconds(*p, stability=stability) for p in sizes)
 
 
 def _point_sizes(data: dict, a: dict, name: str) -> tuple[int, int, tuple[int, int] | None]:
@@ -146,31 +141,32 @@ def _point_sizes(data: dict, a: dict, name: str) -> tuple[int, int, tuple[int, i
     if "assembly" not in data:
         shapes = _lumped_contacts(data)[1]
         lumped = (len(shapes), sum(c.components for c in shapes))
-    return _size(name, data, a).unknowns, harmonics_of(data).n_samples, lumped
+    return balance_size(name, data).unknowns, harmonics_of(data).n_samples, lumped
 
 
-def _time_integration_seconds(data: dict, spec: specs.TimeIntegration) -> float:
-    """The steps of a time integration (the load steps, the ramp, STEADY_PERIODS periods
+def time_integration_seconds(data: dict, frequencies: tuple[float, ...], ramp_time: float,
+                             settle_time: float, ramp_periods: int, steady_periods: int,
+                             steps_per_period: int) -> float:
+    """The steps of a time integration (the ramp and settling, ``steady_periods`` periods
     to the steady state per frequency) times STEP_S for its DOFs."""
     dofs = len(data["model"]["dofs"])
-    freqs = spec.frequencies if isinstance(spec, specs.Dti) else (spec.frequency,)
-    steady = min(spec.max_periods, STEADY_PERIODS) if isinstance(spec, specs.Dti) else 0
-    periods = sum((spec.ramp_time + spec.settle_time) * w / (2 * math.pi)
-                  + spec.ramp_periods + steady for w in freqs)
-    return periods * spec.steps_per_period * STEP_S * dofs / 9
+    periods = sum((ramp_time + settle_time) * w / (2 * math.pi) + ramp_periods
+                  + steady_periods for w in frequencies)
+    return periods * steps_per_period * STEP_S * dofs / 9
 
 
-def analysis_seconds(data: dict, spec: specs.Analysis) -> float:
+def analysis_seconds(data: dict, spec: specs.Analysis, kinds: Kinds | None = None) -> float:
     """Rough seconds of a whole analysis in one process beyond its tasks: its pictures
-    (one per analysis and per output of a lumped FRF)."""
+    (one per analysis, or per output of a lumped case where its kind draws one each)."""
     outputs = len(getattr(spec, "outputs", None) or ()) or 1
-    return PICTURE_S * (outputs if isinstance(spec, (specs.Frf, specs.Dti)) else 1)
+    per_output = kinds_or_shipped(kinds).of(spec).pictures_per_output
+    return PICTURE_S * (outputs if per_output else 1)
 
 
-def memory_faults(data: dict, out: list[str]) -> None:
+def memory_faults(data: dict, out: list[str], kinds: Kinds | None = None) -> None:
     """A fault per analysis whose estimate exceeds the memory available now."""
     limit = available_memory()
-    for s in sizes(data) if limit is not None else []:
+    for s in sizes(data, kinds) if limit is not None else []:
         if s.nbytes > limit:
             out.append(f"analysis.{s.analysis}: needs {memory_text(s.nbytes)} "
                        f"({s.unknowns:,} real unknowns: {s.detail}) but "
@@ -196,20 +192,13 @@ def _variants(data: dict, a: dict) -> list[dict]:
     return variants or [base]
 
 
-def _size(name: str, data: dict, a: dict) -> Size:
-    kind = a.get("type")
-    if kind == "modes":  # sparse factorizations like the reduction's, no balance
-        return Size(name, 0, 0, "eigen-solves of the unreduced bodies")
-    if kind in ("dti", "transient"):  # a handful of dense DOF x DOF matrices
-        n = len(data["model"]["dofs"])
-        return Size(name, n, 8 * 8 * n * n, f"{n} DOFs, time integration")
-    if kind == "loops":  # one law at orders 0, 1 under a prescribed motion, per amplitude
-        c = next(c for c in data["contacts"] if c.get("name") == a["contact"])
-        law = LAWS[c["law"]]
-        shape = ContactShape(len(a["amplitudes"]), len(law.motions), getattr(law, "dim", 0), 0)
-        samples = specs.analysis(a).samples
-        nbytes = balance_bytes(0, 0, 2, 3, samples, [shape], 1, CACHE_LIMIT)
-        return Size(name, 0, nbytes, "prescribed motion")
+def _balance(name: str, data: dict, a: dict) -> Size:
+    return balance_size(name, data)
+
+
+def balance_size(name: str, data: dict) -> Size:
+    """The size of the harmonic balance of a case (an analysis ``name`` of it): its real
+    unknowns and peak memory, from the contacts and harmonics alone."""
     if "assembly" in data:
         contact_dofs, shapes = _patch_contacts(data)
         linear_dofs = contact_dofs  # a lower bound: the modes and other masters come later
@@ -283,7 +272,7 @@ def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
     return dofs, shapes
 
 
-def notes(data: dict) -> list[str]:
+def notes(data: dict, kinds: Kinds | None = None) -> list[str]:
     """Remarks on a valid lumped case that are not faults: a contact so much stiffer than
     the structure it touches that the time sampling, not the contact, sets the accuracy.
 
@@ -297,7 +286,8 @@ def notes(data: dict) -> list[str]:
     kt / k = (ns / 2 pi)^2: above, the results go to the stuck-spring limit (still
     converging) at an accuracy the samples set. k is the structure's stiffness along the
     contact's motion, b K b^T (the other DOFs held: the larger, so no false note)."""
-    if "model" not in data or not any(a.get("type") in ("frf", "peak")
+    known = kinds_or_shipped(kinds)
+    if "model" not in data or not any(known[a["type"]].notes
                                       for a in data.get("analysis", [])):
         return []
     dofs = data["model"]["dofs"]

@@ -12,11 +12,12 @@ import numpy as np
 from microslip import geometry
 from microslip.laws.coulomb import FORMS, FrictionLaw
 from microslip.laws.registry import LAWS
-from microslip.solve.hbm import JACOBIANS, PARAMETERS
+from microslip.solve.hbm import JACOBIANS
 
 from . import assembly_table, specs
 from .checks import is_int, is_number, number, samples_rule, unknown_keys
 from .geometry_table import check as check_geometry
+from .kinds import Checking, Kinds, kinds_or_shipped
 from .paths import get_path, parameter_keys, set_path
 from .reduction_table import check as check_reduction
 from .reduction_table import names_faults as reduction_names
@@ -33,9 +34,10 @@ SOLVER_KEYS = {"tol", "max_iter", "step", "min_step", "max_step", "max_turn", "t
 FAMILY_KEYS = {f.name for f in dataclasses.fields(specs.Family)}
 
 
-def faults(data: dict, out: list[str], analyses: bool = True) -> None:
+def faults(data: dict, out: list[str], analyses: bool = True, kinds: Kinds | None = None
+           ) -> None:
     """Append one line per fault of a case table to ``out`` (the analyses too with
-    ``analyses``)."""
+    ``analyses``, each by its type's rules: ``kinds``, default the shipped ones)."""
     unknown_keys("", data, TOP_KEYS, out)
     table = None
     if "geometry" in data:  # (load made an imported file's path absolute)
@@ -46,19 +48,21 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
         if table is not None and table.imported and len(out) == before:
             reduction_names(table.build(), data["reduction"], out)  # read once, kept
     if "assembly" in data:
-        _check_assembly(data, out, analyses, _names(table))
+        _check_assembly(data, out, analyses, _names(table), kinds_or_shipped(kinds))
         return
     if "geometry" in data and "model" not in data and "analysis" not in data:
         _harmonics(data.get("harmonics", {}), out)  # the NDs of an engine order use them
         return  # a mesh (and reduction) case
     if "reduction" in data and "model" not in data:  # reduced bodies on their own: modes
         _harmonics(data.get("harmonics", {}), out)
-        for i, a in _analysis_tables(data, ("modes",), out):
-            if isinstance(a, dict) and a.get("type") != "modes":
+        known = kinds_or_shipped(kinds)
+        bodies = [k for k, kind in known.items() if kind.bodies]
+        for i, a in _analysis_tables(data, tuple(bodies), out):
+            if isinstance(a, dict) and a.get("type") not in bodies:
                 out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: a case of "
-                           "reduced bodies without [assembly] runs ['modes']")
+                           f"reduced bodies without [assembly] runs {bodies}")
                 continue
-            _analysis(i, a, data, set(), set(), out)
+            _analysis(i, a, data, set(), set(), out, known)
         return
     model = data.get("model")
     if not isinstance(model, dict):
@@ -94,8 +98,9 @@ def faults(data: dict, out: list[str], analyses: bool = True) -> None:
     _loads_computed(data.get("loads", []), "loads", h, _harmonics(h, out), out)
     _solver(data.get("solver", {}), out)
     if analyses:
-        for i, a in _analysis_tables(data, tuple(specs.ANALYSES), out):
-            _analysis(i, a, data, seen, names, out)
+        known = kinds_or_shipped(kinds)
+        for i, a in _analysis_tables(data, tuple(k for k in known if known[k].lumped), out):
+            _analysis(i, a, data, seen, names, out, known)
 
 
 #: modes per body and nodal diameter at most (a modal answer, not a spectrum)
@@ -149,7 +154,8 @@ def _names(table) -> dict | None:
     return {**names, "patches": (*names["patches"], *(c.name for c in table.contacts))}
 
 
-def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | None) -> None:
+def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | None,
+                    kinds: Kinds) -> None:
     """A case of reduced FE bodies joined by friction patches ([assembly])."""
     assembly_table.check(data["assembly"], data, out, names)
     for key in ("contacts", "loads"):
@@ -163,18 +169,19 @@ def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | No
     if not analyses:
         return
     outputs = set(assembly_table.output_names(data))
-    for i, a in _analysis_tables(data, assembly_table.ANALYSES, out):
-        if isinstance(a, dict) and a.get("type") not in assembly_table.ANALYSES:
+    runs = [k for k, kind in kinds.items() if kind.assembly]
+    for i, a in _analysis_tables(data, tuple(runs), out):
+        if isinstance(a, dict) and a.get("type") not in runs:
             out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: an assembly case "
-                       f"runs {list(assembly_table.ANALYSES)}")
+                       f"runs {runs}")
             continue
-        par = a.get("parameter", specs.defaults(a["type"]).get("parameter")) \
+        par = a.get("parameter", specs.defaults(kinds[a["type"]].spec).get("parameter")) \
             if isinstance(a, dict) else None
         if par is not None and par not in assembly_table.PARAMETERS:
             out.append(f"analysis.{a.get('name', i)}.parameter = {a.get('parameter')!r}: an "
                        f"assembly case sweeps {list(assembly_table.PARAMETERS)}")
             continue
-        _analysis(i, a, data, set(), outputs, out)
+        _analysis(i, a, data, set(), outputs, out, kinds)
 
 
 def _matrix(key: str, value, n: int, positive: bool, out: list[str]) -> None:
@@ -411,157 +418,115 @@ def _solver(s, out: list[str]) -> None:
                    f"{', '.join(repr(j) for j in JACOBIANS)}")
 
 
-def _analysis(i: int, a, data: dict, contacts: set[str], dofs: set[str],
-              out: list[str]) -> None:
+def _analysis(i: int, a, data: dict, contacts: set[str], outputs: set[str],
+              out: list[str], kinds: Kinds) -> None:
+    """The rules every analysis table keeps (a table, a known type, known keys, overrides
+    that break nothing), then its type's own (``AnalysisKind.check``)."""
     pre = f"analysis[{i}]"
     if not isinstance(a, dict):
         out.append(f"{pre}: expected a table")
         return
     kind = a.get("type")
-    if kind not in specs.ANALYSES:
-        out.append(f"{pre}.type = {kind!r}: expected one of {list(specs.ANALYSES)}")
+    if kind not in kinds:
+        out.append(f"{pre}.type = {kind!r}: expected one of {list(kinds)}")
         return
     pre = f"analysis.{a.get('name', i)}"
-    unknown_keys(pre + ".", a, specs.keys(kind), out)
-    given, a = a, specs.defaults(kind) | a  # every default from the spec
+    cls = kinds[kind].spec
+    unknown_keys(pre + ".", a, specs.keys(cls), out)
+    given, a = a, specs.defaults(cls) | a  # every default from the spec
     overrides = a.get("set", {})
     if not isinstance(overrides, dict):
         out.append(f"{pre}.set: expected a table {{\"key.path\" = value}}")
     else:
-        _overrides(f"{pre}.set", data, overrides, out)
-    if kind in ("frf", "peak"):
-        par = a.get("parameter")
-        allowed = PARAMETERS if kind == "frf" else specs.PEAK_PARAMETERS
-        if par not in allowed:
-            out.append(f"{pre}.parameter = {par!r}: expected one of {list(allowed)}")
-        ok = all(number(f"{pre}.{k}", a.get(k), out) for k in ("start", "stop"))
-        if ok and a["start"] == a["stop"]:
-            out.append(f"{pre}: start = stop = {a['start']}: the range has zero length")
-        if ok and (par == "frequency" or par == "mass") and min(a["start"], a["stop"]) <= 0:
-            out.append(f"{pre}: {par} range {a['start']}..{a['stop']} must be > 0")
-        if kind == "frf" and par != "frequency":
-            if not number(f"{pre}.frequency", a.get("frequency"), out, positive=True):
-                out.append(f"{pre}.frequency: the fixed frequency (rad/s) of a {par} sweep")
-        if kind == "frf":
-            methods = a["method"]
-            methods = methods if isinstance(methods, list) else [methods]
-            for m in methods:
-                if m not in specs.METHODS:
-                    out.append(f"{pre}.method = {m!r}: expected one of {list(specs.METHODS)} (or a "
-                               "list of them: one curve each)")
-        if kind == "peak":
-            _window(pre, a.get("window"), out)
-            if a.get("output") not in dofs:
-                out.append(f"{pre}.output = {a.get('output')!r}: unknown DOF; known: "
-                           f"{sorted(dofs)}")
-            number(f"{pre}.points", a["points"], out, positive=True, integer=True)
-            if a["tracking"] not in ("continuation", "sweep"):
-                out.append(f"{pre}.tracking = {a.get('tracking')!r}: expected 'continuation' "
-                           "(the peak followed from value to value) or 'sweep' (a full FRF "
-                           "per value)")
-            sp = a["spacing"]
-            if sp not in ("linear", "log"):
-                out.append(f"{pre}.spacing = {sp!r}: expected 'linear' or 'log'")
-            elif sp == "log" and ok and min(a["start"], a["stop"]) <= 0:
-                out.append(f"{pre}.spacing = 'log' needs start and stop > 0")
-        fam = a.get("family")
-        if fam is not None:
-            _family(pre, fam, data, out)
-        if kind == "frf" and ("maps" in given or "map_types" in given):
-            _maps(pre, a, data, out)
-        if kind in ("frf", "peak") and not isinstance(a["stability"], bool):
-            out.append(f"{pre}.stability = {a['stability']!r}: expected true or false "
-                       "(Hill's stability at every point, and the bifurcations)")
-        if kind == "frf" and not isinstance(a["normalise"], bool):
-            out.append(f"{pre}.normalise = {a['normalise']!r}: expected true or false (the "
-                       "response per unit of the excitation multiplier)")
-    if kind == "uncertainty":
-        _uncertainty(pre, a, data, dofs, out)
-    if kind in ("peak", "uncertainty") and a["measure"] not in ("peak", "vibration"):
-        out.append(f"{pre}.measure = {a.get('measure')!r}: expected 'peak' or 'vibration'")
-    if kind in ("peak", "uncertainty") and not isinstance(a["levels"], bool):
-        out.append(f"{pre}.levels = {a['levels']!r}: expected true or false (the free and "
-                   "fully stuck peak levels, an assembly case)")
-    if kind in ("frf", "dti"):
-        if a["measure"] not in specs.MEASURES:
-            out.append(f"{pre}.measure = {a['measure']!r}: expected one of "
-                       f"{list(specs.MEASURES)}")
-        if kind == "dti" and not isinstance(a["restart"], bool):
-            out.append(f"{pre}.restart = {a['restart']!r}: expected true or false")
-        for o in a.get("outputs", []):
-            if o not in dofs:
-                out.append(f"{pre}.outputs: {o!r} is not a DOF; known: {sorted(dofs)}")
-    if kind == "loops":
-        if a.get("contact") not in contacts:
-            out.append(f"{pre}.contact = {a.get('contact')!r}: unknown contact; known: "
-                       f"{sorted(contacts)}")
-        amps = a.get("amplitudes")
-        if not (isinstance(amps, list) and amps and all(
-                isinstance(x, (int, float)) for x in amps)):
-            out.append(f"{pre}.amplitudes: expected a non-empty list of multipliers of the "
-                       "prescribed motion")
-        for k in ("u", "u2", "v"):
-            m = a.get(k)
-            if m is None:
-                if k == "u":
-                    out.append(f"{pre}.u: missing; the prescribed tangential motion as "
-                               "[cos amplitude, sin amplitude] (m)")
-                continue
-            if not (isinstance(m, list) and len(m) == 2 and all(
-                    isinstance(x, (int, float)) for x in m)):
-                out.append(f"{pre}.{k} = {m!r}: expected [cos amplitude, sin amplitude] (m)")
-        if a["scale"] not in ("all", "v"):
-            out.append(f"{pre}.scale = {a.get('scale')!r}: expected 'all' (the amplitudes "
-                       "multiply the whole motion) or 'v' (only the normal motion)")
-        samples_rule(f"{pre}.samples", a["samples"], 1, out)  # the loops keep orders 0, 1
-    if kind == "modes":
-        if "reduction" not in data:
-            out.append(f"{pre}: the modes of reduced bodies need [geometry] and [reduction]")
-        if not (is_int(a["count"]) and 1 <= a["count"] <= MAX_MODES):
-            out.append(f"{pre}.count = {a['count']!r}: expected an integer in [1, "
-                       f"{MAX_MODES}] (modes per body and nodal diameter)")
-        if not isinstance(a["shapes"], bool):
-            out.append(f"{pre}.shapes = {a['shapes']!r}: expected true or false (keep the "
-                       "mode shapes in results.h5)")
-    if kind == "transient":
-        number(f"{pre}.frequency", a.get("frequency"), out, positive=True)
-        for k in ("ramp_time", "settle_time"):
-            number(f"{pre}.{k}", a[k], out, nonneg=True)
-        number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True,
-                integer=True)
-        for o in a.get("outputs", []):
-            if o not in dofs:
-                out.append(f"{pre}.outputs: {o!r} is not a DOF; known: {sorted(dofs)}")
-        if has_lag(data):
-            out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
-                       "with 'lag'); use harmonic balance")
-    if kind in ("dti", "transient"):
-        springs = sorted({c.get("law") for c in data.get("contacts", []) if isinstance(c, dict)
-                          and not isinstance(LAWS.get(c.get("law")), (FrictionLaw, type(None)))})
-        if springs:
-            out.append(f"{pre}: time integration takes the friction laws A-D only; the case "
-                       f"has {springs} (use harmonic balance)")
-    if kind == "dti":
-        f = a.get("frequencies")
-        if not (isinstance(f, list) and f and all(
-                isinstance(x, (int, float)) and x > 0 for x in f)):
-            out.append(f"{pre}.frequencies = {f!r}: expected a list of frequencies > 0 (rad/s)")
-        for k in ("steps_per_period", "max_periods"):
-            number(f"{pre}.{k}", a[k], out, positive=True, integer=True)
-        number(f"{pre}.ramp_periods", a["ramp_periods"], out, nonneg=True, integer=True)
-        for k in ("ramp_time", "settle_time"):
-            number(f"{pre}.{k}", a[k], out, nonneg=True)
-        if has_lag(data):
-            out.append(f"{pre}: time integration cannot delay a DOF (a contact kinematics "
-                       "with 'lag'); use harmonic balance")
-        orders = {ld.get("harmonic", specs.LoadTable.harmonic) for ld in data.get("loads", [])}
-        if not orders <= {0, 1}:
-            out.append(f"{pre}: time integration takes loads of harmonic 0 and 1 only, the "
-                       f"case has {sorted(orders)}")
-        names = [x.get("name") for x in data.get("analysis", []) if isinstance(x, dict)]
-        if a["compare"] and a["compare"] not in names:  # "": no comparison
-            out.append(f"{pre}.compare = {a['compare']!r}: no analysis of that name; known: "
-                       f"{names}")
+        overrides_faults(f"{pre}.set", data, overrides, out)
+    kinds[kind].check(Checking(pre, a, given, data, frozenset(contacts), frozenset(outputs),
+                               out))
+
+
+# ------------------------------------------------ rules several analysis types share
+
+
+def sweep_range(c: Checking, allowed: tuple[str, ...]) -> bool:
+    """A continuation parameter among ``allowed`` and its range (start, stop); whether both
+    ends are numbers."""
+    a, pre = c.table, c.pre
+    par = a.get("parameter")
+    if par not in allowed:
+        c.out.append(f"{pre}.parameter = {par!r}: expected one of {list(allowed)}")
+    ok = all(number(f"{pre}.{k}", a.get(k), c.out) for k in ("start", "stop"))
+    if ok and a["start"] == a["stop"]:
+        c.out.append(f"{pre}: start = stop = {a['start']}: the range has zero length")
+    if ok and (par == "frequency" or par == "mass") and min(a["start"], a["stop"]) <= 0:
+        c.out.append(f"{pre}: {par} range {a['start']}..{a['stop']} must be > 0")
+    return ok
+
+
+def family_faults(c: Checking) -> None:
+    """A ``family`` (one curve per value of a key, or per table of overrides), if given."""
+    if c.table.get("family") is not None:
+        _family(c.pre, c.table["family"], c.data, c.out)
+
+
+def flag(c: Checking, key: str, meaning: str) -> None:
+    """``key`` is true or false (``meaning``: what true does)."""
+    if not isinstance(c.table[key], bool):
+        c.out.append(f"{c.pre}.{key} = {c.table[key]!r}: expected true or false{meaning}")
+
+
+def measure_faults(c: Checking, allowed: tuple[str, ...]) -> None:
+    """``measure`` among ``allowed`` response measures."""
+    m = c.table["measure"]
+    if m not in allowed:
+        c.out.append(f"{c.pre}.measure = {m!r}: expected "
+                     + (" or ".join(f"'{x}'" for x in allowed) if len(allowed) == 2
+                        else f"one of {list(allowed)}"))
+
+
+def output_faults(c: Checking) -> None:
+    """Each of ``outputs`` a DOF of the model."""
+    for o in c.table.get("outputs", []):
+        if o not in c.outputs:
+            c.out.append(f"{c.pre}.outputs: {o!r} is not a DOF; known: {sorted(c.outputs)}")
+
+
+def output_fault(c: Checking, what: str = "DOF") -> None:
+    """``output`` one of the case's outputs (``what`` they are called in the line)."""
+    if c.table.get("output") not in c.outputs:
+        c.out.append(f"{c.pre}.output = {c.table.get('output')!r}: unknown {what}; known: "
+                     f"{sorted(c.outputs)}")
+
+
+def window_faults(c: Checking) -> None:
+    """``window`` = [w_low, w_high], 0 < w_low < w_high (rad/s)."""
+    _window(c.pre, c.table.get("window"), c.out)
+
+
+def time_integration_faults(c: Checking) -> None:
+    """What time integration cannot take: a delayed DOF (a contact's ``lag``)."""
+    if has_lag(c.data):
+        c.out.append(f"{c.pre}: time integration cannot delay a DOF (a contact kinematics "
+                     "with 'lag'); use harmonic balance")
+
+
+def friction_laws_only(c: Checking) -> None:
+    """Time integration takes the friction laws A-D only, not the benchmark springs."""
+    springs = sorted({x.get("law") for x in c.data.get("contacts", []) if isinstance(x, dict)
+                      and not isinstance(LAWS.get(x.get("law")), (FrictionLaw, type(None)))})
+    if springs:
+        c.out.append(f"{c.pre}: time integration takes the friction laws A-D only; the case "
+                     f"has {springs} (use harmonic balance)")
+
+
+def maps_faults(c: Checking) -> None:
+    """``maps`` and ``map_types`` of an frf, where given."""
+    if "maps" in c.given or "map_types" in c.given:
+        _maps(c.pre, c.table, c.data, c.out)
+
+
+def uncertainty_faults(c: Checking) -> None:
+    """An uncertainty study's keys and distributions, and the case at the smallest and the
+    largest value each parameter takes over the samples."""
+    _uncertainty(c.pre, c.table, c.data, set(c.outputs), c.out)
 
 
 #: The largest sample count of an uncertainty study.
@@ -626,7 +591,7 @@ def _uncertainty(pre: str, a: dict, data: dict, dofs: set[str], out: list[str]) 
         for k, v in {**fixed, **dict(zip(dists, values.tolist()))}.items():
             table |= dict.fromkeys(parameter_keys(data, k), v)
         found: list[str] = []
-        _overrides(f"{pre}.parameters at their {side} sampled values", data, table, found)
+        overrides_faults(f"{pre}.parameters at their {side} sampled values", data, table, found)
         out.extend(found[:1])  # one line: the first rule the samples break
 
 
@@ -686,7 +651,7 @@ def _family(pre: str, fam, data: dict, out: list[str]) -> None:
                        "value")
             return
         for j, table in enumerate(sets):
-            _overrides(f"{pre}.family.sets[{j}]", data, table, out)
+            overrides_faults(f"{pre}.family.sets[{j}]", data, table, out)
         return
     key = fam.get("key")
     try:
@@ -697,10 +662,10 @@ def _family(pre: str, fam, data: dict, out: list[str]) -> None:
         return
     if key.startswith("harmonics."):  # each value moves H or the samples: the same rule
         for j, v in enumerate(vals):
-            _overrides(f"{pre}.family.values[{j}]", data, {key: v}, out)
+            overrides_faults(f"{pre}.family.values[{j}]", data, {key: v}, out)
 
 
-def _overrides(pre: str, data: dict, table: dict, out: list[str]) -> None:
+def overrides_faults(pre: str, data: dict, table: dict, out: list[str]) -> None:
     """Apply overrides to a copy and validate it: a key may be new (e.g.
     ``contacts.x.enabled``) if its table exists; what it breaks is reported."""
     if not table:

@@ -18,11 +18,13 @@ from pathlib import Path
 
 from .estimate import memory_faults
 from .faults import faults
+from .kinds import Kinds
 from .validated import Case, CaseError
 
 
-def load(path: str | Path) -> Case:
-    """Read and validate a case file; raises CaseError listing every fault."""
+def load(path: str | Path, kinds: Kinds | None = None) -> Case:
+    """Read and validate a case file (its analyses of the types ``kinds``, default the
+    shipped ones); raises CaseError listing every fault."""
     path = Path(path)
     try:
         with open(path, "rb") as f:
@@ -37,8 +39,8 @@ def load(path: str | Path) -> Case:
         raise CaseError(str(path), [f"not valid TOML: {err}"]) from None
     data, renamed = renamed_tables(data, str(path))
     data = with_mesh_path(data, path.parent)
-    check(data, str(path))
-    return Case(data, str(path), renamed)
+    check(data, str(path), kinds=kinds)
+    return Case(data, str(path), renamed, kinds)
 
 
 def with_mesh_path(data: dict, base: Path) -> dict:
@@ -100,13 +102,15 @@ def _renamed_paths(analysis, old: str, new: str):
     return out
 
 
-def check(data: dict, source: str = "case", *, memory: bool = True) -> None:
-    """Validate a case table; raises CaseError with one line per fault. With ``memory``, a
-    valid case whose largest analysis needs more than the machine's available memory
-    (:func:`sizes`) is refused too, before anything is built."""
+def check(data: dict, source: str = "case", *, memory: bool = True,
+          kinds: Kinds | None = None) -> None:
+    """Validate a case table (its analyses of the types ``kinds``, default the shipped
+    ones); raises CaseError with one line per fault. With ``memory``, a valid case whose
+    largest analysis needs more than the machine's available memory (:func:`sizes`) is
+    refused too, before anything is built."""
     found: list[str] = []
-    faults(data, found)
+    faults(data, found, kinds=kinds)
     if not found and memory:
-        memory_faults(data, found)
+        memory_faults(data, found, kinds)
     if found:
         raise CaseError(source, found)

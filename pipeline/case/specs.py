@@ -1,12 +1,13 @@
 """Typed, frozen specs of a case's analyses, harmonics and solver: each key's default in one
 place.
 
-A validated ``[[analysis]]`` table becomes one of :data:`ANALYSES` (:func:`analysis`);
-runners take these, never the table. A key the case leaves out has its default here and
-nowhere else: the validator reads it (:func:`defaults`), the runner uses it, results.h5
-records it beside the keys given (:meth:`Analysis.record`) and the drawers read the record
-back (:func:`from_record`, which also fills the defaults a file from an older version
-lacks). The README's Analyses table holds the same keys and defaults (a test).
+A validated ``[[analysis]]`` table becomes the spec of its type (:func:`analysis`, with the
+class its ``kinds.AnalysisKind`` names); runners take these, never the table. A key the case
+leaves out has its default here and nowhere else: the validator reads it (:func:`defaults`),
+the runner uses it, results.h5 records it beside the keys given (:meth:`Analysis.record`)
+and the drawers read the record back (:func:`from_record`, which also fills the defaults a
+file from an older version lacks). The README's Analyses table holds the same keys and
+defaults (a test).
 
 Units: frequencies rad/s, times s, motions m.
 """
@@ -325,21 +326,16 @@ class LoadTable:
                       if k in table})
 
 
-ANALYSES: dict[str, type[Analysis]] = {cls.type: cls for cls in (Frf, Peak, Uncertainty,
-                                                                   Loops, Dti, Transient,
-                                                                   Modes)}
+def keys(cls: type[Analysis]) -> set[str]:
+    """The keys an analysis of spec class ``cls`` accepts."""
+    return {"type"} | {f.name for f in dataclasses.fields(cls)} - {"given"}
 
 
-def keys(kind: str) -> set[str]:
-    """The keys an analysis of type ``kind`` accepts."""
-    return {"type"} | {f.name for f in dataclasses.fields(ANALYSES[kind])} - {"given"}
-
-
-def defaults(kind: str) -> dict[str, Any]:
-    """{key: default} of an analysis type in TOML form (keys without a default, or whose
-    default is "none", such as ``outputs``, left out)."""
+def defaults(cls: type[Analysis]) -> dict[str, Any]:
+    """{key: default} of an analysis spec class in TOML form (keys without a default, or
+    whose default is "none", such as ``outputs``, left out)."""
     out = {}
-    for f in dataclasses.fields(ANALYSES[kind]):
+    for f in dataclasses.fields(cls):
         if f.name == "given":
             continue
         if f.default is not dataclasses.MISSING and f.default is not None:
@@ -354,10 +350,9 @@ def analysis_name(table: Mapping[str, Any], index: int) -> str:
     return str(table.get("name", f"analysis{index}"))
 
 
-def analysis(table: Mapping[str, Any], index: int = 0) -> Analysis:
-    """The spec of a validated ``[[analysis]]`` table (``index``: its place, which names
-    an unnamed analysis)."""
-    cls = ANALYSES[table["type"]]
+def analysis(table: Mapping[str, Any], cls: type[Analysis], index: int = 0) -> Analysis:
+    """The spec (of class ``cls``, its type's) of a validated ``[[analysis]]`` table
+    (``index``: its place, which names an unnamed analysis)."""
     values: dict[str, Any] = {"name": analysis_name(table, index),
                               "given": dict(table)}
     for f in dataclasses.fields(cls):
@@ -366,15 +361,15 @@ def analysis(table: Mapping[str, Any], index: int = 0) -> Analysis:
     return cls(**values)
 
 
-def from_record(record: Mapping[str, Any]) -> Analysis:
-    """The spec of an analysis' record in results.h5 (:meth:`Analysis.record`, read back
-    as values: ``results.writer.attr_table``); the keys a file from an older version lacks
-    take their defaults."""
-    names = keys(record["type"]) | {"name"}
+def from_record(record: Mapping[str, Any], cls: type[Analysis]) -> Analysis:
+    """The spec (of class ``cls``) of an analysis' record in results.h5
+    (:meth:`Analysis.record`, read back as values: ``results.writer.attr_table``); the keys
+    a file from an older version lacks take their defaults."""
+    names = keys(cls) | {"name"}
     table = {k: v for k, v in record.items() if k in names}
     if not table.get("family"):
         table.pop("family", None)
-    return analysis(table)
+    return analysis(table, cls)
 
 
 # ------------------------------------------------------------------ conversion

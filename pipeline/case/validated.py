@@ -6,7 +6,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -14,6 +14,7 @@ from typing import Any
 from . import specs
 from .faults import faults
 from .geometry_table import GeometryTable
+from .kinds import Kinds, kinds_or_shipped
 from .paths import set_path
 from .reduction_table import ReductionTable
 
@@ -43,6 +44,13 @@ class Case:
     data: dict
     source: str
     renamed: tuple[str, ...] = ()
+    #: the analysis types it may name (None: the shipped ones, ``kinds.shipped``)
+    kinds: Kinds | None = field(default=None, compare=False)
+
+    @property
+    def known_kinds(self) -> Kinds:
+        """The analysis types this case's analyses are read and run by."""
+        return kinds_or_shipped(self.kinds)
 
     @property
     def title(self) -> str:
@@ -56,7 +64,8 @@ class Case:
     @cached_property
     def analysis_specs(self) -> tuple[specs.Analysis, ...]:
         """Each analysis as its typed spec, defaults resolved."""
-        return tuple(specs.analysis(a, i) for i, a in enumerate(self.analyses))
+        kinds = self.known_kinds
+        return tuple(kinds.spec(a, i) for i, a in enumerate(self.analyses))
 
     @cached_property
     def harmonics_table(self) -> specs.HarmonicsTable:
@@ -82,7 +91,9 @@ class Case:
     def draws_shapes(self) -> bool:
         """Whether an frf draws deformed shapes at its map points: then every body is
         recovered on its outer surface too."""
-        return any(isinstance(a, specs.Frf) and a.shapes for a in self.analysis_specs)
+        kinds = self.known_kinds
+        return any(kinds.of(a).surfaces is not None and kinds.of(a).surfaces(a)
+                   for a in self.analysis_specs)
 
     @property
     def dofs(self) -> list[str]:
@@ -112,7 +123,7 @@ class Case:
         # no memory check: load bounded every analysis with its set and family already,
         # against the memory free then (a run's own arrays must not refuse its later curves)
         found: list[str] = []
-        faults(data, found)
+        faults(data, found, kinds=self.kinds)
         if found:
             raise CaseError(self.source, found)
-        return Case(data, self.source, self.renamed)
+        return Case(data, self.source, self.renamed, self.kinds)

@@ -16,6 +16,7 @@ import h5py
 import numpy as np
 
 from microslip.case import specs
+from microslip.case.kinds import Kinds, kinds_or_shipped
 from microslip.laws.coulomb import slip_share
 from microslip.laws.states import STATE_NAMES, STICK
 from microslip.results import schema
@@ -41,9 +42,10 @@ class Options:
     map_types: tuple[str, ...] | None = None
 
 
-def analysis_spec(g: h5py.Group) -> specs.Analysis:
-    """The spec of an analysis group, from its record (what its pictures are drawn by)."""
-    return specs.from_record(attr_table(g.attrs))
+def analysis_spec(g: h5py.Group, cls: type[specs.Analysis]) -> specs.Analysis:
+    """The spec (of class ``cls``, its type's) of an analysis group, from its record (what
+    its pictures are drawn by)."""
+    return specs.from_record(attr_table(g.attrs), cls)
 
 
 def _list(value) -> list:
@@ -64,7 +66,7 @@ def curves(g: h5py.Group) -> list[tuple[str, h5py.Group]]:
 def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, list[dict]]]:
     """(parameter, output -> line series, contact -> static-force line series) of an frf
     analysis group, with the linear limits where written."""
-    par = analysis_spec(g).parameter
+    par = analysis_spec(g, specs.Frf).parameter
     series: dict[str, list[dict]] = {}
     static: dict[str, list[dict]] = {}
     for _, c in curves(g):
@@ -212,7 +214,7 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Every picture of an frf analysis: the response of each output (with the linear
     limits and the map points marked), the static forces of each contact, and the maps."""
     par, series, static = frf_series(g)
-    measure = analysis_spec(g).measure
+    measure = analysis_spec(g, specs.Frf).measure
     marks = map_marks(g)
     normalised = any(bool(c.attrs.get("normalised", False)) for _, c in curves(g))
     paths = []
@@ -263,7 +265,7 @@ def slip_growth(g: h5py.Group, name: str, out: Path) -> list[Path]:
     x, shares = slip_at_peaks(g)
     if len(x) < 2:
         return []
-    family = analysis_spec(g).family
+    family = analysis_spec(g, specs.Frf).family
     series = [{"x": x, "y": v, "label": k, "lw": 2.2 if k.startswith("all") else 1.2,
                "ls": ":" if "not stuck" in k else "-"} for k, v in shares.items()]
     path = out / f"{name}_slip.png"
@@ -296,7 +298,7 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     """The points of an frf analysis that get maps: the case's (each curve's maps/ group),
     or, with ``at``, the computed point of each curve nearest that parameter value."""
     out = []
-    par = analysis_spec(g).parameter
+    par = analysis_spec(g, specs.Frf).parameter
     if at is not None:
         for _, c in curves(g):
             label = attr_text(c.attrs.get("label", ""))
@@ -333,7 +335,7 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
     column per patch. Nothing when the analysis has no map points."""
     points = map_points(g, options.at)
     kinds = options.map_types if options.map_types is not None else \
-        analysis_spec(g).map_types
+        analysis_spec(g, specs.Frf).map_types
     if not points or not kinds:
         return []
     grids = contact_grids(g.file)
@@ -364,7 +366,7 @@ def frf_shapes(g: h5py.Group, name: str, out: Path, options: Options = Options()
                ) -> list[Path]:
     """The deformed sector and full disk at every map point that stored its shape,
     ``<name>_shape_<letter>.png``."""
-    par = analysis_spec(g).parameter
+    par = analysis_spec(g, specs.Frf).parameter
     panel = shapes.PANEL if options.panel == maps.PANEL else options.panel
     paths = []
     for letter, c, p in _map_groups(g):
@@ -397,7 +399,7 @@ def _seen(grids: Mapping[str, maps.PatchGrid], patches: list[str]) -> str:
 def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """The peak response against the parameter (optimization or performance curve), its
     minimum marked where the parameter is a preload or a mass, with the linear levels."""
-    spec = analysis_spec(g)
+    spec = analysis_spec(g, specs.Peak)
     par, output, (lo, hi) = spec.parameter, spec.output, spec.window
     series = [{"x": c["parameter"][()], "y": c["amplitude"][()],
                # unknown (-1: not solved there) drawn as stable: nothing to say
@@ -462,7 +464,7 @@ def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Steady responses by time integration as markers over the FRF they are compared with
     (the analysis ``compare`` names), per output; the static contact forces likewise."""
     c = g[schema.curve(0)]
-    spec = analysis_spec(g)
+    spec = analysis_spec(g, specs.Dti)
     compare = spec.compare
     ref = g.file.get(compare) if compare else None
     _, series, static = frf_series(ref) if ref is not None else ("", {}, {})
@@ -522,7 +524,7 @@ def uncertainty(g: h5py.Group, name: str, out: Path, options: Options = Options(
     """An uncertainty study: the histogram of the samples' peaks with the free and fully
     stuck levels and the limit; the peak against each uncertain parameter, coloured by
     the share of contact points slipping, each panel with its rank correlations."""
-    spec = analysis_spec(g)
+    spec = analysis_spec(g, specs.Uncertainty)
     s, st = g[schema.SAMPLES], g[schema.STATISTICS]
     names = json.loads(attr_text(s.attrs["names"]))
     ok = s["status"][()] == b"complete"
@@ -553,25 +555,22 @@ def uncertainty(g: h5py.Group, name: str, out: Path, options: Options = Options(
     return [hist, spread]
 
 
-#: Every analysis type's pictures: ``run`` draws them once an analysis is written, ``render``
-#: again from a finished file. A new analysis type registers its drawer here.
-DRAWERS = {"frf": frf, "peak": peak, "uncertainty": uncertainty, "loops": loops, "dti": dti,
-           "transient": transient, "modes": modes,
-           "geometry": previews.geometry_previews}
-
-
 def render(results: Path, out: Path | None = None, options: Options = Options(),
-           analyses: list[str] | None = None) -> list[Path]:
-    """Redraw the pictures of every analysis of a results file (DRAWERS) into ``out``
-    (default: the file's folder). Returns the files written."""
+           analyses: list[str] | None = None, kinds: Kinds | None = None) -> list[Path]:
+    """Redraw the pictures of every analysis of a results file into ``out`` (default: the
+    file's folder), each by its kind's drawer (``kinds``, default the shipped ones; the
+    mesh previews of /geometry too). Returns the files written."""
     from microslip.results.writer import open_results
 
     out = out or results.parent
     out.mkdir(parents=True, exist_ok=True)
+    known = kinds_or_shipped(kinds)
     paths = []
     with open_results(results) as f:
         for name, g in f.items():
             kind = attr_text(g.attrs.get("type", ""))
-            if kind in DRAWERS and (analyses is None or name in analyses):
-                paths += DRAWERS[kind](g, name, out, options)
+            draw = (previews.geometry_previews if kind == "geometry" else
+                    known[kind].draw if kind in known else None)
+            if draw is not None and (analyses is None or name in analyses):
+                paths += draw(g, name, out, options)
     return paths

@@ -312,6 +312,6 @@ def render_previews(mesh: Mesh | MeshView, out_dir) -> list[Path]:
 
 
 def geometry_previews(g, name: str, out: Path, options=None) -> list[Path]:
-    """The drawer of a results file's /geometry group (pictures.DRAWERS): the previews of
+    """The drawer of a results file's /geometry group (``render`` draws it): the previews of
     the mesh it keeps."""
     return render_previews(MeshView.from_results(g.file), out)

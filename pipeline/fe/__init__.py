@@ -7,7 +7,7 @@ reduced_model       the reduced model of a body and ND: record, HDF5 file, conte
 craig_bampton       Craig-Bampton reduction (masters, static and fixed-interface modes)
 modal               modal superposition, the alternative reduction
 bodies              what to reduce per body (BodySpec) and the cached reduction stage
-modes               a body's modes unreduced against its reduced model's
+body_modes          a body's modes unreduced against its reduced model's
 contact_stiffness   flat-punch stiffness of a contact patch, local contact frames
 linalg              sparse factorizations (SuperLU, MKL PARDISO), block Lanczos
 """

@@ -19,7 +19,10 @@ import h5py
 import numpy as np
 
 from microslip.case import Case, operating_point, settings, task_seconds
+from microslip.case import faults as rules
 from microslip.case.build import sample_variants
+from microslip.case.estimate import CURVE_POINTS, PEAK_SOLVES, balance_point_seconds
+from microslip.case.kinds import AnalysisKind, Checking
 from microslip.case.specs import Uncertainty
 from microslip.draw import pictures
 from microslip.laws.coulomb import slip_share
@@ -27,12 +30,13 @@ from microslip.results import schema
 from microslip.solve.response import sweep, undersampled_points
 from microslip.solve.sampling import PERCENTILES, statistics
 
-from .limits import linear_peak
-from .models import AssemblyModels, LumpedModels
-from .progress import time_left
-from .solutions import refined_peak, response_at
-from .store import draw_once
-from .tasks import Outcome, Progress, Task
+from ..limits import linear_peak
+from ..models import AssemblyModels, LumpedModels
+from ..plan import PlanContext, Stage, samples_stage
+from ..progress import time_left
+from ..running import Run, draw_analysis, execute
+from ..solutions import refined_peak, response_at
+from ..tasks import Outcome, Progress, Task
 
 #: The numbers of a sample (its row of the samples table), NaN where not found; samples:
 #: per period, of the sweeps that gave it.
@@ -167,7 +171,8 @@ def _coverage(up: list, down: list, lo: float, hi: float) -> tuple[str, str]:
                        f"{reached_down:.6g} ({last_down.message})")
 
 
-def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tuple[str, str]:
+def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run: Run
+                    ) -> tuple[str, str]:
     """Every sample (a task each, or from the store), the samples table, its statistics,
     the linear levels (an assembly case with ``levels``) and the pictures."""
     name, store = spec.name, run.store
@@ -192,28 +197,31 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tu
     run.progress(f"[{name}] {n} samples of {', '.join(names)} ({spec.design} design, seed "
                  f"{spec.seed}): {n - len(tasks)} from the cache, {len(tasks)} to compute")
     stopped = ""
-    try:
-        t = time.perf_counter()
-        for k, (j, outcome) in enumerate(run.executor.run(tasks, run.models, run.progress,
-                                                          f"[{name}] ", count=False)):
-            i, key = slots[j]
-            row = dict(outcome.data) | {"status": outcome.status, "message": outcome.message,
-                                        "seconds": outcome.seconds}
-            if outcome.status == "interrupted":
-                stopped = outcome.message
-                break
-            _fill(table, status, messages, i, row)
-            if outcome.status in ("complete", "stopped"):
-                store.save_row(key, row)
-            left = time_left(time.perf_counter() - t, (k + 1) / len(tasks))
-            for line in outcome.lines:
-                run.progress(line)
-            run.progress(f"[{name}] sample {i + 1} of {n} ({k + 1} of {len(tasks)} computed"
-                         f"{', ' + left if left else ''}): peak {table['peak'][i]:.6g} at "
-                         f"{table['omega'][i]:.6g} rad/s, slip share "
-                         f"{table['slip_share'][i]:.2f} {outcome.status} "
-                         f"{outcome.message}".rstrip())
-    except KeyboardInterrupt:
+    t = time.perf_counter()
+    computed = 0
+
+    def keep(j: int, outcome: Outcome) -> None:
+        nonlocal stopped, computed
+        i, key = slots[j]
+        row = dict(outcome.data) | {"status": outcome.status, "message": outcome.message,
+                                    "seconds": outcome.seconds}
+        if outcome.status == "interrupted":
+            stopped = outcome.message
+            return
+        _fill(table, status, messages, i, row)
+        if outcome.status in ("complete", "stopped"):
+            store.save_row(key, row)
+        computed += 1
+        left = time_left(time.perf_counter() - t, computed / len(tasks))
+        for line in outcome.lines:
+            run.progress(line)
+        run.progress(f"[{name}] sample {i + 1} of {n} ({computed} of {len(tasks)} computed"
+                     f"{', ' + left if left else ''}): peak {table['peak'][i]:.6g} at "
+                     f"{table['omega'][i]:.6g} rad/s, slip share "
+                     f"{table['slip_share'][i]:.2f} {outcome.status} "
+                     f"{outcome.message}".rstrip())
+
+    if execute(run, tasks, f"[{name}] ", keep, count=False):
         stopped = "interrupted by the user"
     _write_samples(run.writer, group, spec, names, x, table, status)
     complete = status == "complete"
@@ -222,8 +230,7 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run) -> tu
         run.models, AssemblyModels) and not stopped else {}
     _write_statistics(run.writer, group, spec, st, levels)
     run.progress(_summary(spec, names, st, levels, n, time.perf_counter() - t0))
-    draw_once(pictures.uncertainty, group, spec, run.out, run.progress, keys,
-              cached=not tasks)
+    draw_analysis(pictures.uncertainty, group, spec, run, keys, cached=not tasks)
     if stopped:
         return "interrupted", stopped
     bad = [(i, status[i], messages[i]) for i in range(n) if status[i] != "complete"]
@@ -268,7 +275,7 @@ def _write_statistics(writer, group, spec: Uncertainty, st, levels: dict) -> Non
     writer.flush()
 
 
-def _levels(case: Case, spec: Uncertainty, run) -> dict[str, float]:
+def _levels(case: Case, spec: Uncertainty, run: Run) -> dict[str, float]:
     """The free and fully stuck peaks in the window at the case's own values (linear)."""
     t = time.perf_counter()
     variant = case.with_values(spec.set)
@@ -297,3 +304,27 @@ def _summary(spec: Uncertainty, names, st, levels: dict, n: int, elapsed: float)
     for k, rs, pr in zip(names, st.spearman, st.prcc):
         lines.append(f"[{spec.name}]   {k}: rank correlation {rs:+.2f}, partial {pr:+.2f}")
     return "\n".join(lines)
+
+
+def check(c: Checking) -> None:
+    """A study's own rules: its keys and distributions, the case at the extreme samples,
+    its measure and flags."""
+    rules.uncertainty_faults(c)
+    rules.measure_faults(c, ("peak", "vibration"))
+    rules.flag(c, "levels", " (the free and fully stuck peak levels, an assembly case)")
+
+
+def seconds(data: dict, spec: Uncertainty, variant: dict | None = None) -> float:
+    """One sample: a sweep of CURVE_POINTS points and its top refined (PEAK_SOLVES)."""
+    return (CURVE_POINTS + PEAK_SOLVES) * balance_point_seconds(data, spec, variant)
+
+
+def plan(case: Case, spec: Uncertainty, context: PlanContext) -> list[Stage]:
+    """The samples as one stage: those the store does not have, to compute."""
+    keys = [sample_key(context.store, case.with_values(v), spec)
+            for v in sample_variants(case, spec)[2]]
+    return [samples_stage(case, spec, context, keys)]
+
+
+KIND = AnalysisKind("uncertainty", Uncertainty, check, seconds, run_uncertainty,
+                    pictures.uncertainty, plan=plan, kernels=True, assembly=True)

@@ -1,0 +1,185 @@
+"""What every analysis of a run shares: the :class:`Run` (results writer, folder, progress,
+models, curve store, executor) and the one loop that runs independent curves as tasks,
+keeping what finishes (:func:`execute`, :func:`computed_curves`), with the helpers the
+analyses' runners have in common (outputs, progress ticks, cached curves, pictures, the
+worst status of several)."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from microslip.case import Case, lumped_model
+from microslip.case.specs import Analysis, TimeIntegration
+from microslip.results import schema
+from microslip.results.writer import ResultsWriter, set_attrs
+
+from .models import AssemblyModels, LumpedModels
+from .progress import time_left
+from .store import CurveStore, draw_once
+from .tasks import Distributed, Outcome, Serial, Task
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Run:
+    """What every analysis of a run shares: the results writer, the output folder, where
+    progress goes, the models of the case (built once) and the curves kept between runs."""
+
+    writer: ResultsWriter
+    out: Path
+    progress: Progress
+    models: LumpedModels | AssemblyModels
+    store: CurveStore
+    executor: Serial | Distributed
+    structure: tuple[Any, Any] | None = None  # (mesh, StructureResult) of a reduced case
+
+
+class StageFailed(RuntimeError):
+    """A stage before the analyses failed for a numerical reason (the message says where
+    and what to change): the run ends ``failed``, exit 1."""
+
+
+def execute(run: Run, tasks: list[Task], what: str,
+            keep: Callable[[int, Outcome], None], count: bool = True) -> bool:
+    """Run ``tasks`` on the run's executor, ``keep(task index, outcome)`` as each finishes
+    (writing, saving and saying what it brought: the caller's); an interrupted outcome
+    ends the loop after it is kept. Whether the user interrupted while a cluster worked
+    (Ctrl-C: the outstanding tasks are cancelled), the one place that handles it."""
+    try:
+        for i, outcome in run.executor.run(tasks, run.models, run.progress, what,
+                                           count=count):
+            keep(i, outcome)
+            if outcome.status == "interrupted":
+                break
+    except KeyboardInterrupt:
+        return True
+    return False
+
+
+def computed_curves(run: Run, group: h5py.Group, tasks: list[Task],
+                    targets: list[tuple[int, str, str]], what: str
+                    ) -> dict[int, tuple[str, str]]:
+    """Run the curves' ``tasks`` (``targets``: each one's (index, store key, group name)),
+    writing each into ``group`` as it finishes and keeping the finished ones (complete, or
+    stopped for a reason a re-run would meet again) in the store; {index: (status,
+    message)}. An interrupt (an interrupted curve, or Ctrl-C while a cluster works) ends it:
+    then index -1 holds the interruption."""
+    out: dict[int, tuple[str, str]] = {}
+
+    def keep(i: int, outcome: Outcome) -> None:
+        j, key, curve = targets[i]
+        if outcome.data:  # a task that failed on a worker brought nothing
+            run.writer.write_group(group, curve, outcome.data, outcome.attrs)
+            run.writer.flush()
+        out[j] = (outcome.status, outcome.message)
+        if outcome.status in ("complete", "stopped"):
+            run.store.save(key, group[curve])
+        for line in outcome.lines:
+            run.progress(line)
+
+    if execute(run, tasks, what, keep):
+        out[-1] = ("interrupted", "interrupted by the user")
+    return out
+
+
+def outputs(case: Case, names: tuple[str, ...] | None, models=None
+             ) -> tuple[list[str], object]:
+    """(output names, their selection: DOF indices or rows of the shared DOFs); ``names``
+    None: every output of the case."""
+    models = models or LumpedModels()
+    names = list(names) if names is not None else models.names(case)
+    return names, models.selection(case, names)
+
+
+def ticker(progress: Progress, prefix: str, start: float, stop: float,
+            clock: Callable[[], float] = time.perf_counter) -> Callable[[int, float, int], None]:
+    """Continuation ticks, at most one line a second: the point, the share of the parameter
+    range covered (the farthest reached: arclength turns back at folds) and the time left."""
+    t0 = clock()
+    last = [-np.inf]
+    covered = [0.0]
+
+    def tick(n: int, value: float, iterations: int) -> None:
+        covered[0] = max(covered[0], min(max((value - start) / (stop - start), 0.0), 1.0))
+        now = clock()
+        if now - last[0] > 1.0:
+            last[0] = now
+            left = time_left(now - t0, covered[0])
+            progress(f"{prefix} point {n}, value {value:.6g} ({covered[0]:.0%} of the range"
+                     f"{', ' + left if left else ''}), {iterations} Newton iterations")
+
+    return tick
+
+
+def cached_curve(store: CurveStore, key: str, group, curve: str, what: str,
+                  progress: Progress, identity: dict) -> tuple[str, str] | None:
+    """(status, message) of the curve ``group[curve]`` copied from the store, saying so
+    (``what`` formats its number of points); None when the store does not have it.
+
+    The store is keyed by what a curve computes, so another analysis (or another family
+    member) may have computed it: its ``identity`` attributes (label, family key and value)
+    are this analysis' own, set over the stored ones."""
+    if not store.load(key, group, curve):
+        return None
+    g = group[curve]
+    set_attrs(g, identity)
+    status, message = str(g.attrs["status"]), str(g.attrs["message"])
+    progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
+             f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
+    return status, message
+
+
+def draw_analysis(draw, group: h5py.Group, spec: Analysis, run: Run, keys: list[str] = (),
+          cached: bool = False) -> None:
+    draw_once(draw, group, spec, run.out, run.progress, keys, cached)
+
+
+def worst(statuses: list[tuple[str, str]]) -> tuple[str, str]:
+    for key in ("interrupted", "stopped", "failed"):
+        for s, m in statuses:
+            if s == key:
+                return s, m
+    return "complete", ""
+
+
+def interrupted(statuses: list[tuple[str, str]]) -> bool:
+    return any(s == "interrupted" for s, _ in statuses)
+
+
+def floquet(points: list) -> np.ndarray:
+    """(n, schema.FLOQUET) the leading exponents of each point's Stability (NaN: fewer, or
+    no stability there)."""
+    out = np.full((len(points), schema.FLOQUET), np.nan + 0j)
+    for i, s in enumerate(points):
+        if s is not None:
+            k = min(s.exponents.size, schema.FLOQUET)
+            out[i, :k] = s.exponents[:k]
+    return out
+
+
+def attr_list(values: list[str]) -> str:
+    return json.dumps(list(values))
+
+
+def time_model(case: Case, spec: TimeIntegration):
+    """(case as set, HB model, output names, indices, time model, load steps) of a time
+    integration of the lumped case (``solve.dti``)."""
+    from microslip.solve import dti
+
+    c = case.with_values(spec.set)
+    hb = lumped_model(c)
+    names, idx = outputs(c, spec.outputs)
+    tm = dti.TimeModel.from_harmonic_balance(hb)
+    loads = dti.LoadSteps.from_excitation(
+        hb.excitation, hb.linear.n_dof, ramp_time=spec.ramp_time,
+        settle_time=spec.settle_time, ramp_periods=spec.ramp_periods)
+    return c, hb, names, idx, tm, loads
