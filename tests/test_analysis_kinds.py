@@ -16,7 +16,6 @@ from microslip.app import plan
 from microslip.app.analyses import KINDS
 from microslip.app.run import run_case
 from microslip.case import Case, CaseError, check
-from microslip.case import faults as rules
 from microslip.case.kinds import AnalysisKind, Checking, shipped
 from microslip.case.specs import Analysis
 from microslip.draw.pictures import render
