@@ -120,8 +120,16 @@ def hill_stability(hb: HarmonicBalance, x: np.ndarray, point: OperatingPoint) ->
     # multiplier on the negative axis shows as a conjugate pair, a +- i w/2: one is kept
     edge = np.abs(lam.imag) >= (1.0 - 1e-2) * 0.5 * w
     lam = lam[(np.abs(lam.imag) <= 0.5 * w * (1.0 + 1e-2)) & ~(edge & (lam.imag < 0))]
-    lam = lam[np.argsort(-lam.real, kind="stable")]
+    lam = lam[_leading_first(lam, w)]
     return Stability(lam, bool(lam.size == 0 or lam[0].real <= NEUTRAL * w), complete)
+
+
+def _leading_first(lam: np.ndarray, w: float) -> np.ndarray:
+    """The order of exponents ``lam`` by real part, largest first, a conjugate pair's
+    positive imaginary part first: the same order on every run (real parts equal to
+    round-off, a pair's, are compared to 1e-9 of w, not by their last bits)."""
+    grid = 1e-9 * max(w, float(np.abs(lam).max(initial=0.0)))
+    return np.lexsort((-lam.imag, -np.round(lam.real / grid)))
 
 
 class _Hill:
@@ -252,11 +260,13 @@ class _Hill:
         n = 2 * self.size
         op = spla.LinearOperator((n, n), matvec=self.inverted, dtype=float)
         k = min(FIRST, n - 2)
+        # a seeded start vector (ARPACK's own is random): the same exponents on every run
+        start = np.random.default_rng(0).standard_normal(n)
         while True:
             converged = True
             try:
                 mu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False,
-                               ncv=min(n, max(2 * k + 1, 20)), tol=1e-10)
+                               ncv=min(n, max(2 * k + 1, 20)), tol=1e-10, v0=start)
             except spla.ArpackNoConvergence as err:  # the converged ones: not surely the
                 mu, converged = err.eigenvalues, False  # nearest zero, so not complete
             lam = 1.0 / mu[mu != 0]
