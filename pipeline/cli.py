@@ -98,7 +98,7 @@ def _demo_estimate(harmonics: int, samples: int) -> tuple[float, str]:
     if seconds > DEMO_MAX_S:
         return seconds, (f"--harmonics {harmonics} --samples {samples}: ~{seconds / 60:.1f} "
                          f"min estimated, the demo takes at most {DEMO_MAX_S / 60:.0f} min; "
-                         "lower them, or run a case file (cases/sdof_wall.toml is this "
+                         "lower them, or run a case file (cases/01_sdof_wall.toml is this "
                          "oscillator: microslip run --dry-run estimates it, and a run shows "
                          "progress and keeps its results)")
     return seconds, ""

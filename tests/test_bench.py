@@ -18,7 +18,7 @@ def test_bench_core_prints_time_per_point_and_contact_cost(capsys):
 def test_bench_teaching_finds_and_runs_the_shipped_cases(capsys):
     assert main(["bench", "teaching", "--skip-frf", "--cases", "hysteresis_loops"]) == 0
     out = capsys.readouterr().out
-    row = next(line for line in out.splitlines() if "hysteresis_loops.toml" in line)
+    row = next(line for line in out.splitlines() if "02_hysteresis_loops.toml" in line)
     assert row.split()[-1] == "complete", out
 
 
@@ -67,10 +67,10 @@ def test_bench_solvers_finds_the_same_solutions_both_ways(capsys):
     1e-8 of each dataset's largest entry), verdicts and bifurcations; the exit says so."""
     from pathlib import Path
 
-    case = Path(__file__).resolve().parents[1] / "cases" / "duffing.toml"
+    case = Path(__file__).resolve().parents[1] / "cases" / "05_duffing.toml"
     assert main(["bench", "solvers", str(case)]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("duffing: dense ")
+    assert out.startswith("05_duffing: dense ")
     rows = {line.split()[0]: line for line in out.splitlines()[1:]}
     assert {"solutions", "verdicts", "bifurcations"} <= set(rows), out
     size = float(rows["solutions"].split("largest difference ")[1].split()[0])

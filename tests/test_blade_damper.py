@@ -1,6 +1,6 @@
 """The 9-DOF blade-damper-blade teaching case (Firrone & Zucca section 4, Fig. 12-17; issue 3).
 
-Checks the physics of ``cases/blade_damper.toml`` and ``cases/blade_damper_stiff.toml``
+Checks the physics of ``cases/06_blade_damper.toml`` and ``cases/07_blade_damper_stiff.toml``
 against independent references: hand statics of the wedge, the blade's
 eigenvalue problem, and direct time integration (DTI) of the same equations
 (Firrone & Zucca eq. 20) with the two load steps of Fig. 13.
@@ -63,12 +63,12 @@ def sweep_analysis(case: cases.Case, a: dict):
 
 @pytest.fixture(scope="module")
 def base() -> cases.Case:
-    return cases.load(CASES / "blade_damper.toml")
+    return cases.load(CASES / "06_blade_damper.toml")
 
 
 @pytest.fixture(scope="module")
 def stiff() -> cases.Case:
-    return cases.load(CASES / "blade_damper_stiff.toml")
+    return cases.load(CASES / "07_blade_damper_stiff.toml")
 
 
 @pytest.fixture(scope="module")

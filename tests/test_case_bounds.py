@@ -16,7 +16,7 @@ from microslip.solve.hbm import HarmonicBalance
 
 CASES = Path(__file__).parents[1] / "cases"
 
-SDOF = {  # cases/sdof_wall.toml in short: m = 1, k = 1, a wall of law A
+SDOF = {  # cases/01_sdof_wall.toml in short: m = 1, k = 1, a wall of law A
     "model": {"dofs": ["x"], "mass": [1.0], "stiffness": [1.0], "damping": [0.02]},
     "contacts": [{"name": "wall", "law": "A", "kt": 3.0, "mu": 1.0, "n0": 0.05,
                   "u": {"x": 1.0}}],
@@ -132,7 +132,7 @@ def test_memory_refusal_before_anything_is_built(monkeypatch, memory):
 
 def test_memory_refusal_stops_run_before_its_folder(tmp_path, capsys, memory):
     memory(16e9)
-    text = (CASES / "sdof_wall.toml").read_text().replace("max = 1 ", "max = 10000 ")
+    text = (CASES / "01_sdof_wall.toml").read_text().replace("max = 1 ", "max = 10000 ")
     text, n = re.subn(r"(?m)^samples = \d+", "samples = 262144", text)
     assert n == 1  # the shipped case sets its samples: the test must change them
     case = tmp_path / "big.toml"
@@ -169,7 +169,8 @@ def test_rerun_checks_skip_the_memory_bound(memory):
 
 
 def test_check_prints_the_estimate_of_shipped_cases(capsys, memory):
-    assert main(["check", str(CASES / "blisk_damper.toml"), str(CASES / "sdof_wall.toml")]) == 0
+    assert main(["check", str(CASES / "14_blisk_damper.toml"),
+                 str(CASES / "01_sdof_wall.toml")]) == 0
     out = capsys.readouterr().out.splitlines()
     # 2 patches x 9 x 4 node pairs x 2 nodes x 3 DOFs = 432 contact DOFs, x 3 coefficients
     assert out[0].endswith("(3 analyses: frf, optimization, low_mass; largest analysis: low_mass, "
@@ -188,7 +189,7 @@ def test_stiff_contact_gets_a_note(capsys, tmp_path, kt):
                            "samples")
     assert "harmonics.samples = 8,192 would resolve it" in note or kt != 1e6
     case = tmp_path / "stiff.toml"
-    text = (CASES / "sdof_wall.toml").read_text().replace("kt = 3.0 ", f"kt = {kt:g} ")
+    text = (CASES / "01_sdof_wall.toml").read_text().replace("kt = 3.0 ", f"kt = {kt:g} ")
     case.write_text(text)
     assert main(["check", str(case)]) == 0  # a note, not a fault
     assert f"{case}: note: contacts.wall.kt = {kt:g}" in capsys.readouterr().out
@@ -200,7 +201,7 @@ def test_no_note_below_the_sampling_limit():
     assert cases.notes(data) == []
     data["harmonics"]["samples"] = 64  # (64 / 2 pi)^2 = 104
     assert len(cases.notes(data)) == 1
-    for name in ("blade_damper", "normal_load", "plane_circular", "sdof_wall"):
+    for name in ("06_blade_damper", "03_normal_load", "04_plane_circular", "01_sdof_wall"):
         assert cases.notes(cases.load(CASES / f"{name}.toml").data) == [], name
 
 

@@ -88,7 +88,7 @@ def test_bench_reduction_prints_each_row_once(capsys):
 def test_run_dry_run_lists_the_stages_and_computes_nothing(tmp_path, capsys):
     from microslip.cli import main
 
-    assert main(["run", "cases/sdof_wall.toml", "--dry-run", "--out", str(tmp_path)]) == 0
+    assert main(["run", "cases/01_sdof_wall.toml", "--dry-run", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "dry run: nothing computed" in out and "stages run" in out
     assert "frf_force: curve 1" in out

@@ -32,18 +32,22 @@ def test_the_estimate_of_a_quick_case_holds(tmp_path):
     if not kernels_cached():
         warm_up(lambda m: None)
     shared = SharedCache(tmp_path / "cache")
-    estimate = _estimate(CASES / "duffing.toml", tmp_path / "o", shared, start=False)
+    estimate = _estimate(CASES / "05_duffing.toml", tmp_path / "o", shared, start=False)
     factor = plan.machine_factor()
     t = time.perf_counter()
-    run_case(cases.load(CASES / "duffing.toml"), tmp_path / "o", progress=lambda m: None,
+    run_case(cases.load(CASES / "05_duffing.toml"), tmp_path / "o", progress=lambda m: None,
              shared=shared)
     ratio = (time.perf_counter() - t) / (estimate * factor)
-    assert 1 / FACTOR <= ratio <= FACTOR, (ratio, estimate, factor)
+    # at the factor's floor (0.5: this machine runs the reference sweep faster than that
+    # over its anchor, as the compiled kernels now do on two quiet cores) the machine's speed
+    # is known only as "at least this fast", so only the upper bound holds there
+    low = 1 / FACTOR if factor > plan.FACTOR_FLOOR else 0.0
+    assert low <= ratio <= FACTOR, (ratio, estimate, factor)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["sdof_wall", "normal_load", "blade_damper", "blisk_quick",
-                                  "shrouded_blisk"])
+@pytest.mark.parametrize("name", ["01_sdof_wall", "03_normal_load", "06_blade_damper",
+                                  "10_blisk_quick", "11_shrouded_blisk"])
 def test_the_estimates_of_the_shipped_cases_hold(name, tmp_path):
     """Each case cold (an empty cache, a new folder) by the command, as a user runs it."""
     env = {**os.environ, "MICROSLIP_CACHE": str(tmp_path / "cache")}

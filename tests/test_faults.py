@@ -29,14 +29,14 @@ def _can_mount_tmpfs(tmp_path: Path) -> bool:
 
 
 def _run_on_tmpfs(tmp_path: Path, size: str) -> tuple[subprocess.CompletedProcess, str]:
-    """``microslip run cases/sdof_wall.toml`` into a tmpfs of ``size`` (mounted in a user
+    """``microslip run cases/01_sdof_wall.toml`` into a tmpfs of ``size`` (mounted in a user
     namespace: a real ENOSPC from the kernel), then ``show`` and a listing of every file
     left there, taken before the namespace (and its tmpfs) goes."""
     disk = tmp_path / "disk"
     disk.mkdir()
     out = disk / "o"
     script = (f"mount -t tmpfs -o size={size} none {disk} && "
-              f"{sys.executable} -m microslip.cli run {CASES / 'sdof_wall.toml'} "
+              f"{sys.executable} -m microslip.cli run {CASES / '01_sdof_wall.toml'} "
               f"--out {out} --workers 0; echo \"exit=$?\" >&2; "
               f"{sys.executable} -m microslip.cli show {out} >&2; "
               f"find {disk} -type f >&2")
@@ -88,7 +88,7 @@ def test_a_second_run_into_a_folder_in_use_is_refused(tmp_path, capsys):
     out = tmp_path / "o"
     out.mkdir()
     with FolderLock(out):
-        assert main(["run", str(CASES / "sdof_wall.toml"), "--out", str(out),
+        assert main(["run", str(CASES / "01_sdof_wall.toml"), "--out", str(out),
                      "--workers", "0"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "Traceback" not in err
@@ -105,7 +105,7 @@ def test_two_runs_at_once_one_is_refused_and_the_other_complete(tmp_path):
     (exit 2, one line); the first completes and its results file reads."""
     out = tmp_path / "o"
     command = [sys.executable, "-m", "microslip.cli", "run",
-               str(CASES / "sdof_wall.toml"), "--out", str(out), "--workers", "0"]
+               str(CASES / "01_sdof_wall.toml"), "--out", str(out), "--workers", "0"]
     env = {**os.environ, "MICROSLIP_RETAIN_MEMORY": "0"}
     first = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                              text=True, env=env)

@@ -169,7 +169,7 @@ def test_the_refined_peaks_are_the_maximum_of_a_fine_grid_of_direct_solves():
 
 @pytest.mark.parametrize("share", [0.5, 0.99])
 def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
-    # Firrone & Zucca Fig. 24 (the hardening curve of cases/normal_load.toml): a fine
+    # Firrone & Zucca Fig. 24 (the hardening curve of cases/03_normal_load.toml): a fine
     # arclength branch thinned to every 20th point before its first turning point and after
     # its second, and the two turning points (the middle branch one chord between them, the
     # secant guess far off the branch: it finds 2 of the 3 solutions); at a frequency at
@@ -183,7 +183,7 @@ def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
     from microslip.solve.continuation import Settings
     from microslip.solve.response import solve_point, sweep
 
-    case = cases.load(Path(__file__).parents[1] / "cases" / "normal_load.toml")
+    case = cases.load(Path(__file__).parents[1] / "cases" / "03_normal_load.toml")
     hb = cases.lumped_model(case.with_value("contacts.wall.n0", -0.5))
     base = cases.operating_point(omega=0.9)
     fine = sweep(hb, "frequency", 0.9, 1.6, base, settings=Settings(max_step=0.005))

@@ -37,9 +37,9 @@ def run_drawn(case: cases.Case, out: Path, monkeypatch) -> dict:
 
 @pytest.fixture(scope="module")
 def sdof(tmp_path_factory):
-    """Single DOF on a wall (cases/sdof_wall.toml), cut down: an FRF family of two preloads
+    """Single DOF on a wall (cases/01_sdof_wall.toml), cut down: an FRF family of two preloads
     and a 9-point optimization curve (peak against the preload)."""
-    data = copy.deepcopy(cases.load(CASES / "sdof_wall.toml").data)
+    data = copy.deepcopy(cases.load(CASES / "01_sdof_wall.toml").data)
     frf, opt = data["analysis"][0], data["analysis"][2]
     frf["family"]["values"] = [0.0, 0.05]
     opt["points"] = 9
@@ -128,7 +128,7 @@ def test_number_rounds_and_shows_roundoff_as_zero():
 
 
 def test_loop_legends_say_amplitude_and_energy(tmp_path, monkeypatch):
-    case = cases.load(CASES / "hysteresis_loops.toml")
+    case = cases.load(CASES / "02_hysteresis_loops.toml")
     figures = run_drawn(case, tmp_path, monkeypatch)
     labels = legend_texts(figures["fig3_law_A.png"].axes[0])
     assert labels[0] == "u amplitude 0.5 m: stick, W = 0 J"

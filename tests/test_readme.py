@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from microslip.case import assembly_table, faults, reduction_table, specs
+from microslip.case import analysis_rules, assembly_table, faults, reduction_table, specs
 from microslip.case.kinds import shipped
 
 README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
@@ -145,7 +145,7 @@ def _accepted() -> set[str]:
               "contacts": faults.CONTACT_KEYS | springs | {"coef", "lag"},
               "loads": faults.LOAD_KEYS, "harmonics": faults.HARMONIC_KEYS,
               "solver": faults.SOLVER_KEYS, "geometry": {"model", "parameters"},
-              "analysis.family": faults.FAMILY_KEYS,
+              "analysis.family": analysis_rules.FAMILY_KEYS,
               "reduction": reduction_table.KEYS - {"material", "damping", "bodies",
                                              "contact_stiffness"},
               "reduction.material": reduction_table.MATERIAL_KEYS,

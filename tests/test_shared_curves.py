@@ -11,7 +11,7 @@ CASES = Path(__file__).parents[1] / "cases"
 #: sdof_wall's model (Fig. 4-6), where frf_force's F = 0.1 N curve is frf_N0's N0 = 0.05 N
 #: one, and the performance curve's value 1 is the optimization curve's value 0.05; its
 #: period sampled more coarsely, its steps longer (quick; the sharing is what is tested).
-CASE = (CASES / "sdof_wall.toml").read_text().split("[[analysis]]")[0].replace(
+CASE = (CASES / "01_sdof_wall.toml").read_text().split("[[analysis]]")[0].replace(
     "samples = 256", "samples = 64") + """
 [solver]
 max_step = 0.2

@@ -31,7 +31,7 @@ DUFFING = {
 def duffing(H=1, samples=16):
     data = copy.deepcopy(DUFFING)
     data["harmonics"] = {"max": H, "samples": samples}
-    return cases.lumped_model(cases.Case(data, "duffing.toml"))
+    return cases.lumped_model(cases.Case(data, "05_duffing.toml"))
 
 
 def test_the_duffing_balance_of_one_harmonic_is_its_closed_form():
@@ -122,7 +122,7 @@ def test_the_duffing_balance_of_seven_harmonics_is_the_time_integration():
     data = copy.deepcopy(DUFFING)
     data["harmonics"] = {"max": 7, "samples": 128}
     data["loads"][0]["amplitude"] = force
-    hb = cases.lumped_model(cases.Case(data, "duffing.toml"))
+    hb = cases.lumped_model(cases.Case(data, "05_duffing.toml"))
     r = sweep(hb, "frequency", 0.5, w, OperatingPoint(0.5))  # the lower branch's end
     assert r.branch.status == "complete"
     coef = hb.recover(r.branch.x[-1], OperatingPoint(w))[0]

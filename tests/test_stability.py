@@ -29,7 +29,7 @@ def _duffing_data(force, gamma=GAMMA):
 def duffing(force, H, gamma=GAMMA):
     data = {**_duffing_data(force, gamma),
             "harmonics": {"max": H, "samples": max(64, 16 * (H + 1))}}
-    return cases.lumped_model(cases.Case(copy.deepcopy(data), "duffing.toml"))
+    return cases.lumped_model(cases.Case(copy.deepcopy(data), "05_duffing.toml"))
 
 
 @pytest.mark.parametrize("w", [0.6, 1.0, 1.7])
@@ -122,11 +122,11 @@ def test_the_folds_are_located_where_the_closed_form_puts_them(tmp_path):
 
     from microslip.app.run import run_case
 
-    data = cases.load("cases/duffing.toml").data
+    data = cases.load("cases/05_duffing.toml").data
     data["harmonics"] = {"max": 1, "samples": 64}
     data["analysis"][0]["family"]["values"] = [0.3]
     said = []
-    run_case(cases.Case(data, "duffing.toml"), tmp_path, progress=said.append, cache=False)
+    run_case(cases.Case(data, "05_duffing.toml"), tmp_path, progress=said.append, cache=False)
     with h5py.File(tmp_path / "results.h5") as f:
         c = f["frf/curve_000"]
         b = c["bifurcations"]

@@ -4,7 +4,7 @@ the eigenvalues of the monodromy matrix, the DTI's one-period map differentiated
 differences about the balance's orbit, and trajectories started on the balance's solutions
 (the unstable one leaves, the stable ones stay).
 
-The case: cases/normal_load.toml's Fig. 24 configuration (a mass at 45 deg to a wall, law B,
+The case: cases/03_normal_load.toml's Fig. 24 configuration (a mass at 45 deg to a wall, law B,
 kt = kn = 3 N/m, mu = 0.1, a gap of 0.5 N / kn that closes during the motion: hardening,
 three solutions between the folds), in the coupled form (``interference = -0.5 N / kn``, the
 same gap as ``n0 = -0.5``). The case file's uncoupled form ignores the static harmonic in
@@ -62,8 +62,8 @@ TOL_FRICTION, TOL_SMOOTH = 2.5e-3, 1e-3
 
 # ------------------------------------------------------------------ models
 def gap_oscillator(H, samples, mu=None):
-    """normal_load.toml's Fig. 24 oscillator, coupled form (see the module)."""
-    data = copy.deepcopy(cases.load(CASES / "normal_load.toml").data)
+    """03_normal_load.toml's Fig. 24 oscillator, coupled form (see the module)."""
+    data = copy.deepcopy(cases.load(CASES / "03_normal_load.toml").data)
     contact = data["contacts"][0]
     del contact["n0"]
     contact["form"] = "coupled"
@@ -71,7 +71,7 @@ def gap_oscillator(H, samples, mu=None):
     if mu is not None:
         contact["mu"] = mu
     data["harmonics"] = {"max": H, "samples": samples}
-    return cases.lumped_model(cases.Case(data, "normal_load.toml"))
+    return cases.lumped_model(cases.Case(data, "03_normal_load.toml"))
 
 
 def three_solutions(w, mu=None):
@@ -332,16 +332,16 @@ def test_an_integration_started_on_a_stable_branch_stays(where, monodromies):
 
 # ------------------------------------------------- (3) stick-slip, law A
 def test_stick_slip_jenkins_multipliers_are_the_dti_monodromy():
-    """cases/sdof_wall.toml (law A, constant N0 = 0.05 N, mu = 1) at w = 1, in stick-slip
+    """cases/01_sdof_wall.toml (law A, constant N0 = 0.05 N, mu = 1) at w = 1, in stick-slip
     (94 % of the period slipping): the monodromy of the (q, v) map from an instant in slip
     (T = -mu N0 held there, whatever the perturbation). The leading multiplier within 1e-4
     (measured 8e-6 at H = 9, 1024 samples), the other within 5e-3 (measured 3e-3, 6e-5 at H
     = 13 and 2048 samples: the sampled stick arc, ~60 samples, and the memory of the module
     docstring)."""
-    data = copy.deepcopy(cases.load(CASES / "sdof_wall.toml").data)
+    data = copy.deepcopy(cases.load(CASES / "01_sdof_wall.toml").data)
     data["contacts"][0]["n0"] = 0.05
     data["harmonics"] = {"max": 9, "samples": 1024}
-    hb = cases.lumped_model(cases.Case(data, "sdof_wall.toml"))
+    hb = cases.lumped_model(cases.Case(data, "01_sdof_wall.toml"))
     w = 1.0
     point = OperatingPoint(w)
     r = solve_point(hb, point)

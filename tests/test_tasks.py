@@ -26,7 +26,7 @@ from microslip.results.compare import differences
 
 CLI = [sys.executable, "-m", "microslip.cli"]
 
-#: The Jenkins oscillator of sdof_wall.toml with a family of FRFs, a peak curve found by a
+#: The Jenkins oscillator of 01_sdof_wall.toml with a family of FRFs, a peak curve found by a
 #: sweep per value and an uncertainty study: every kind of independent curve, 4 + 3 + 8 tasks.
 STUDY_TOML = textwrap.dedent("""\
     title = "Jenkins oscillator: every kind of independent curve"

@@ -94,7 +94,7 @@ def test_a_parameter_that_does_not_vary_has_no_correlation():
 
 
 # ---------------------------------------------------------------- the study, end to end
-#: The single-DOF Jenkins oscillator of sdof_wall.toml (m = k = 1, c = 0.02, kt = 3,
+#: The single-DOF Jenkins oscillator of 01_sdof_wall.toml (m = k = 1, c = 0.02, kt = 3,
 #: n0 = 1 N, P = 0.1 N) at one harmonic, its friction coefficient uncertain.
 JENKINS = {
     "title": "Jenkins oscillator, uncertain mu",

@@ -1,7 +1,7 @@
 """``microslip bench teaching``: harmonic balance against direct time integration
 on the 9-DOF blade-damper-blade FRF, and the regeneration time of the teaching set.
 
-FRF (``cases/blade_damper.toml``, the coupled curve of analysis ``fig16``: orders
+FRF (``cases/06_blade_damper.toml``, the coupled curve of analysis ``fig16``: orders
 0 and 1, arclength over its frequency window). Accuracy is the peak max|x2_l|
 at the HBM's peak frequency against a converged reference: the DTI at 256, 512
 and 1024 steps per period, Richardson-extrapolated at the observed order. The
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -45,7 +46,7 @@ from .core import median_time, reference_unit
 #: The source checkout (this file is pipeline/bench/teaching.py): its cases/ are benchmarked.
 ROOT = Path(__file__).resolve().parents[2]
 CASES = ROOT / "cases"
-CASE = CASES / "blade_damper.toml"
+CASE = CASES / "06_blade_damper.toml"
 OUTPUT = "x2_l"
 SPP_REF = (256, 512, 1024)
 SPP_TABLE = (32, 64, 128, 256, 512, 1024)
@@ -144,11 +145,18 @@ def frf_table(repeat: int, unit: float, dti_points: int) -> list[str]:
     return lines
 
 
+def case_names(path: Path) -> set[str]:
+    """The names a shipped case answers to: its file stem, and the stem without its place
+    in the learning order (``02_hysteresis_loops``, ``hysteresis_loops``)."""
+    return {path.stem, re.sub(r"^\d+_", "", path.stem)}
+
+
 def teaching_cases(only: list[str] | None = None) -> list[Path]:
-    """The shipped cases with an [[analysis]] (of the names in ``only``, when given)."""
+    """The shipped cases with an [[analysis]] (of the names in ``only``, when given), in
+    their learning order."""
     out = []
     for path in sorted(CASES.glob("*.toml")):
-        if only is not None and path.stem not in only:
+        if only is not None and not case_names(path) & set(only):
             continue
         with open(path, "rb") as f:
             if tomllib.load(f).get("analysis"):
@@ -205,13 +213,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-frf", action="store_true", help="skip the HBM/DTI table")
     parser.add_argument("--skip-set", action="store_true", help="skip the teaching set")
     parser.add_argument("--cases", default=None, metavar="NAMES",
-                        help="comma-separated case names (file stems) of the teaching set; "
+                        help="comma-separated case names (file stems, with or without "
+                             "their number) of the teaching set; "
                              "default: every case with an [[analysis]]")
     args = parser.parse_args(argv)
     only = [c.strip() for c in args.cases.split(",")] if args.cases else None
     problem = "" if args.skip_frf or CASE.is_file() else \
         f"the cases are read from the source checkout: {CASE} not found"
-    unknown = sorted(set(only or ()) - {p.stem for p in teaching_cases()})
+    unknown = sorted(set(only or ()) - set().union(*map(case_names, teaching_cases())))
     if unknown and not problem:
         problem = (f"--cases {args.cases}: no case {', '.join(unknown)} in {CASES} (allowed: "
                    f"{', '.join(p.stem for p in teaching_cases())})")

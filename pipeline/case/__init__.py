@@ -5,6 +5,7 @@ validated        the validated :class:`Case` and copies with keys overridden
 specs            the typed analysis specs and their defaults
 kinds            the analysis types: the interface each one keeps, and the registry
 faults           the faults of a case table, one line each
+analysis_rules   the rules several analysis types share (their checks call them)
 checks           the helpers every table's validation uses
 paths            dotted key paths into a case table
 estimate         unknowns, memory and notes before anything is built

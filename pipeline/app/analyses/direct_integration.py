@@ -7,7 +7,7 @@ import h5py
 import numpy as np
 
 from microslip.case import Case
-from microslip.case import faults as rules
+from microslip.case import analysis_rules as rules
 from microslip.case.checks import number
 from microslip.case.estimate import STEADY_PERIODS, time_integration_seconds
 from microslip.case.kinds import AnalysisKind, Checking

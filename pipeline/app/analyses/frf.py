@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 
 from microslip.case import Case, curve_variants, operating_point, settings, task_seconds
-from microslip.case import faults as rules
+from microslip.case import analysis_rules as rules
 from microslip.case.checks import number
 from microslip.case.estimate import (
     CURVE_POINTS,

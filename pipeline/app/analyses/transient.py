@@ -8,7 +8,7 @@ import time
 import h5py
 
 from microslip.case import Case
-from microslip.case import faults as rules
+from microslip.case import analysis_rules as rules
 from microslip.case.checks import number
 from microslip.case.estimate import time_integration_seconds
 from microslip.case.kinds import AnalysisKind, Checking

@@ -1,6 +1,20 @@
 """The compiled march: the return map of each contact point, the Newmark step with its
 Newton iteration, the events (stick/slip, lift-off, re-contact) located inside a step and
-the step split there (see the package for the scheme)."""
+the step split there (see the package for the scheme).
+
+The kernels take their arrays in tuples named by what they hold (numba passes a tuple of
+arrays as one argument, unpacked at no cost):
+
+    structure   (M, C, K): the lumped model's matrices (n, n)
+    contacts    (B, row0, dim, normal, kt, kn, mu, n0): the points' kinematics (B (R, n),
+                their first rows, tangential dimension, whether the normal load varies)
+                and laws (kt (P, 2), kn, mu, n0 (P,))
+    committed   (q, v, a, Tc, Nc, Nrc, gc, sc): the accepted state, advanced in place
+    trial       (a1, qt, vt, dq, Tt, Nt, Nrt, st, gt): a step's end state under Newton
+    scratch     (work (3, n), J (n, n), gq (R,), Dp (3, 3), tmp (2,)): work arrays
+    history     (q_out, v_out, T_out, N_out, s_out, g_out, e_out, wf_out, wn_out): the
+                states 0..n and the cumulative energies
+"""
 
 from __future__ import annotations
 
@@ -121,15 +135,21 @@ def _relative_motion(B, x, row0, dim, normal, gq, out):  # pragma: no cover
 
 
 @njit(cache=True)
-def _residual(a1, h, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
-              Tc, Nc, Nrc, gc, Fk, want_J, r, J, qt, vt, dq, Tt, Nt, Nrt, st, gt, gq, Dp,
-              tmp):  # pragma: no cover
+def _residual(a1, h, Fk, committed, structure, contacts, trial, scratch, want_J, r
+              ):  # pragma: no cover
     """Residual ``M a1 + C v1 + K q1 + B^T f(B q1) - F`` of a Newmark step of
     length h written in the end acceleration a1 (no cancellation however short
     the step): ``dq = h v + h^2 (a + a1) / 4``, ``q1 = q + dq``,
     ``v1 = v + h (a + a1) / 2``. Fills qt, vt, dq, the trial contact state
-    (Tt, Nt, Nrt, st, gt) and, if want_J, J = dR/da1. Returns the force
-    scale (largest term)."""
+    (Tt, Nt, Nrt, st, gt) and, if want_J, J = dR/da1 (``scratch``'s). Returns
+    the force scale (largest term)."""
+    q, v, a, Tc, Nc, Nrc, gc = (committed[0], committed[1], committed[2], committed[3],
+                                committed[4], committed[5], committed[6])
+    M, C, K = structure
+    B, row0, dim, normal, kt, kn, mu, n0 = contacts
+    qt, vt, dq, Tt, Nt, Nrt, st, gt = (trial[1], trial[2], trial[3], trial[4], trial[5],
+                                       trial[6], trial[7], trial[8])
+    J, gq, Dp, tmp = scratch[1], scratch[2], scratch[3], scratch[4]
     n = q.size
     h4 = 0.25 * h * h
     for j in range(n):
@@ -185,22 +205,23 @@ def _residual(a1, h, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
 
 
 @njit(cache=True)
-def _solve_step(h, Fk, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
-                Tc, Nc, Nrc, gc, rtol, max_iter, a1, qt, vt, dq, Tt, Nt, Nrt, st, gt, work,
-                J, gq, Dp, tmp):  # pragma: no cover
+def _solve_step(h, Fk, committed, structure, contacts, newton, trial, scratch
+                ):  # pragma: no cover
     """Newton on one Newmark step of length h from the committed state (the
     unknown is the end acceleration a1; predictor a1 = a). On success the end
     state is in a1, qt, vt, dq and the trial contact arrays. Returns
-    (iterations, converged)."""
-    n = q.size
-    r, da, trial = work[0], work[1], work[2]
+    (iterations, converged). newton: (rtol, max_iter)."""
+    a = committed[2]
+    a1 = trial[0]
+    rtol, max_iter = newton
+    J = scratch[1]
+    n = a.size
+    r, da, guess = scratch[0][0], scratch[0][1], scratch[0][2]
     for j in range(n):
         a1[j] = a[j]
     small = False
     for it in range(max_iter):
-        scale = _residual(a1, h, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
-                          Tc, Nc, Nrc, gc, Fk, True, r, J, qt, vt, dq, Tt, Nt, Nrt, st, gt, gq,
-                          Dp, tmp)
+        scale = _residual(a1, h, Fk, committed, structure, contacts, trial, scratch, True, r)
         rn = 0.0
         for j in range(n):
             rn = max(rn, abs(r[j]))
@@ -213,10 +234,9 @@ def _solve_step(h, Fk, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
         if it >= 6:  # damp a Newton cycle between two active sets
             for _ in range(12):
                 for j in range(n):
-                    trial[j] = a1[j] + alpha * da[j]
-                _residual(trial, h, q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0,
-                          Tc, Nc, Nrc, gc, Fk, False, r, J, qt, vt, dq, Tt, Nt, Nrt, st, gt,
-                          gq, Dp, tmp)
+                    guess[j] = a1[j] + alpha * da[j]
+                _residual(guess, h, Fk, committed, structure, contacts, trial, scratch, False,
+                          r)
                 rt = 0.0
                 for j in range(n):
                     rt = max(rt, abs(r[j]))
@@ -277,11 +297,13 @@ def _event_value(kind, s, h, p, gc, gt, gd0, gd1, kt, kn, mu, n0, dim, normal,
 
 
 @njit(cache=True)
-def _first_event(h, v, vt, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc, sc, gc, gt,
-                 gd0, gd1, gq):  # pragma: no cover
+def _first_event(h, committed, contacts, trial, gd0, gd1, gq):  # pragma: no cover
     """Earliest contact transition inside a step of length h, as a fraction in
     (0, 1) located by bisection on the cubic Hermite interpolant of the
     relative motion; 2.0 if no event function changes sign over the step."""
+    v, Tc, Nc, gc, sc = committed[1], committed[3], committed[4], committed[6], committed[7]
+    B, row0, dim, normal, kt, kn, mu, n0 = contacts
+    vt, gt = trial[2], trial[8]
     _relative_motion(B, v, row0, dim, normal, gq, gd0)
     _relative_motion(B, vt, row0, dim, normal, gq, gd1)
     first = 2.0
@@ -314,12 +336,13 @@ def _first_event(h, v, vt, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc, sc, gc,
 
 
 @njit(cache=True)
-def _commit(h, Fprev, Fend, q, v, a, a1, qt, vt, dq, C, kt, dim, Tc, Nc, Nrc, gc, sc, Tt, Nt,
-            Nrt, st, gt, energy, wf, wn):  # pragma: no cover
+def _commit(h, Fprev, Fend, committed, trial, C, kt, dim, energy, wf, wn):  # pragma: no cover
     """Accept a step: the end state becomes the committed one, and the step's
     energies are added: energy[0] external ``dq . F_avg``, energy[1] viscous
     ``h v_avg' C v_avg``; wf, wn (P,) friction ``T_avg . Dw`` and normal
     ``N_avg Dv`` work."""
+    q, v, a, Tc, Nc, Nrc, gc, sc = committed
+    a1, qt, vt, dq, Tt, Nt, Nrt, st, gt = trial
     n = q.size
     ext = 0.0
     visc = 0.0
@@ -352,9 +375,7 @@ def _commit(h, Fprev, Fend, q, v, a, a1, qt, vt, dq, C, kt, dim, Tc, Nc, Nrc, gc
 
 
 @njit(cache=True)
-def march(q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc, Nrc, gc, sc,
-           F, dt, rtol, max_iter, max_events, min_fraction, q_out, v_out, T_out, N_out, s_out,
-           g_out, e_out, wf_out, wn_out):  # pragma: no cover
+def march(committed, structure, contacts, F, dt, newton, events, history):  # pragma: no cover
     """Advance F.shape[0] - 1 steps of dt in place from the committed state
     (q, v, a, Tc, Nc, Nrc, gc, sc); F: (n + 1, n_dof) load at the step ends,
     linear in between. A step in which a contact changes state is split at the
@@ -362,7 +383,13 @@ def march(q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc, Nrc, g
     min_fraction to either end) so that no kink of the contact force falls
     inside a step. Records the states 0..n and the cumulative energies
     (e_out (n + 1, 2) external and viscous, wf_out, wn_out (n + 1, P)).
-    Returns (Newton iterations, sub-steps added, index of a failed step or -1)."""
+    Returns (Newton iterations, sub-steps added, index of a failed step or -1).
+    newton: (rtol, max_iter); events: (max_events, min_fraction)."""
+    q, v, a, Tc, Nc, Nrc, gc, sc = committed
+    C = structure[1]
+    B, row0, dim, kt = contacts[0], contacts[1], contacts[2], contacts[4]
+    max_events, min_fraction = events
+    q_out, v_out, T_out, N_out, s_out, g_out, e_out, wf_out, wn_out = history
     n = q.size
     P = row0.size
     R = B.shape[0]
@@ -385,6 +412,8 @@ def march(q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc, Nrc, g
     tmp = np.empty(2)
     Fs = np.empty(n)
     Fe = np.empty(n)
+    trial = (a1, qt, vt, dq, Tt, Nt, Nrt, st, gt)
+    scratch = (work, J, gq, Dp, tmp)
     energy = np.zeros(2)
     wf = np.zeros(P)
     wn = np.zeros(P)
@@ -398,37 +427,31 @@ def march(q, v, a, M, C, K, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc, Nrc, g
                 Fs[j] = F[k - 1, j]
             while True:
                 h = (1.0 - pos) * dt
-                its, ok = _solve_step(h, F[k], q, v, a, M, C, K, B, row0, dim, normal, kt,
-                                      kn, mu, n0, Tc, Nc, Nrc, gc, rtol, max_iter, a1, qt, vt,
-                                      dq, Tt, Nt, Nrt, st, gt, work, J, gq, Dp, tmp)
+                its, ok = _solve_step(h, F[k], committed, structure, contacts, newton, trial,
+                                      scratch)
                 total += its
                 if not ok:
                     return total, added, k
                 s = 2.0
                 if splits < max_events:
-                    s = _first_event(h, v, vt, B, row0, dim, normal, kt, kn, mu, n0, Tc, Nc,
-                                     sc, gc, gt, gd0, gd1, gq)
+                    s = _first_event(h, committed, contacts, trial, gd0, gd1, gq)
                 if min_fraction < s < 1.0 - min_fraction:
                     frac = pos + s * (1.0 - pos)
                     for j in range(n):
                         Fe[j] = F[k - 1, j] + frac * (F[k, j] - F[k - 1, j])
-                    its, ok = _solve_step(s * h, Fe, q, v, a, M, C, K, B, row0, dim, normal,
-                                          kt, kn, mu, n0, Tc, Nc, Nrc, gc, rtol, max_iter, a1,
-                                          qt, vt, dq, Tt, Nt, Nrt, st, gt, work, J, gq, Dp,
-                                          tmp)
+                    its, ok = _solve_step(s * h, Fe, committed, structure, contacts, newton,
+                                          trial, scratch)
                     total += its
                     if not ok:
                         return total, added, k
-                    _commit(s * h, Fs, Fe, q, v, a, a1, qt, vt, dq, C, kt, dim, Tc, Nc, Nrc,
-                            gc, sc, Tt, Nt, Nrt, st, gt, energy, wf, wn)
+                    _commit(s * h, Fs, Fe, committed, trial, C, kt, dim, energy, wf, wn)
                     for j in range(n):
                         Fs[j] = Fe[j]
                     pos = frac
                     splits += 1
                     added += 1
                     continue
-                _commit(h, Fs, F[k], q, v, a, a1, qt, vt, dq, C, kt, dim, Tc, Nc, Nrc, gc, sc,
-                        Tt, Nt, Nrt, st, gt, energy, wf, wn)
+                _commit(h, Fs, F[k], committed, trial, C, kt, dim, energy, wf, wn)
                 break
         q_out[k] = q
         v_out[k] = v

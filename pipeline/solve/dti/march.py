@@ -87,12 +87,11 @@ def march_loads(model: TimeModel, start: State, F: np.ndarray, dt: float, *,
     e_out, wf_out, wn_out = np.empty((steps + 1, 2)), np.empty((steps + 1, P)), np.empty(
         (steps + 1, P))
     total, events, failed = march(
-        q, v, a, model.M, model.C, model.K, pk.B, pk.row0, pk.dim, pk.normal, pk.kt, pk.kn,
-        pk.mu, pk.n0, Tc, Nc, Nrc, gc, sc, np.ascontiguousarray(F, dtype=float), float(dt),
-        float(rtol), int(max_iter), int(max_events), float(min_fraction), q_out, v_out, T_out,
-        N_out, s_out, g_out,
-        e_out, wf_out, wn_out,
-    )
+        (q, v, a, Tc, Nc, Nrc, gc, sc), (model.M, model.C, model.K),
+        (pk.B, pk.row0, pk.dim, pk.normal, pk.kt, pk.kn, pk.mu, pk.n0),
+        np.ascontiguousarray(F, dtype=float), float(dt), (float(rtol), int(max_iter)),
+        (int(max_events), float(min_fraction)),
+        (q_out, v_out, T_out, N_out, s_out, g_out, e_out, wf_out, wn_out))
     t = start.t + dt * np.arange(steps + 1)
     if failed >= 0:
         raise RuntimeError(f"dti: Newton did not converge in {max_iter} iterations at "
