@@ -22,6 +22,7 @@ from microslip.app import tasks
 from microslip.app.run import run_case
 from microslip.app.tasks import Distributed, Outcome, Serial, Task
 from microslip.cli import main
+from microslip.fe.linalg import available_backends
 from microslip.results.compare import differences
 
 CLI = [sys.executable, "-m", "microslip.cli"]
@@ -406,3 +407,20 @@ def test_ctrl_c_on_a_cluster_keeps_every_finished_curve(tmp_path):
         assert 1 <= len(finished) < 6
         for name in finished:  # whole curves only, each complete
             assert g[name].attrs["status"] == "complete" and g[name]["parameter"].size > 100
+
+
+@pytest.mark.skipif("pardiso" not in available_backends(), reason="PARDISO not installed")
+def test_the_runs_thread_limit_holds_for_pardiso(tmp_path):
+    """PARDISO's MKL loads on the first large factorization, inside the run's thread limit:
+    the limit must hold for it as for NumPy's BLAS (it did not: MKL factorized on every core
+    whatever --threads said, and two runs' reduced models differed at round-off). In a fresh
+    process, where nothing has loaded MKL yet."""
+    code = ("from threadpoolctl import threadpool_info\n"
+            "from microslip.app.run import run_threads\n"
+            "with run_threads(1):\n"
+            "    import pypardiso\n"
+            "    print(sorted({i['internal_api']: i['num_threads'] for i in threadpool_info()"
+            " if i['user_api'] == 'blas'}.items()))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=tmp_path).stdout.strip()
+    assert out == "[('mkl', 1), ('openblas', 1)]"

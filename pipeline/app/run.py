@@ -16,6 +16,7 @@ import h5py
 from threadpoolctl import ThreadpoolController
 
 from microslip.case import Case
+from microslip.fe.linalg import load_backends
 from microslip.laws import warm_up
 from microslip.results.writer import ResultsWriter, is_disk_full
 
@@ -70,6 +71,16 @@ def disk_full_text(out: Path, free: int) -> str:
 
 
 @contextlib.contextmanager
+def run_threads(threads: int):
+    """The block's BLAS threads (NumPy's, SciPy's, and PARDISO's MKL, loaded first so that
+    the limit holds for it) and contact-kernel threads at most ``threads``."""
+    load_backends()
+    with ThreadpoolController().limit(limits=threads, user_api="blas"), \
+            numba_threads(threads):
+        yield
+
+
+@contextlib.contextmanager
 def numba_threads(threads: int):
     """The contact kernels' numba threads at most ``threads`` for the block (numba's own
     default is every core)."""
@@ -91,8 +102,7 @@ def _run_case(case: Case, out: Path, progress: Progress, cache: bool,
     executor = executor or Serial()
     # every stage, the reduction's factorizations included, with the run's BLAS threads
     # (``--threads``): the same numbers here as on any worker
-    with ThreadpoolController().limit(limits=executor.threads, user_api="blas"), \
-            numba_threads(executor.threads), \
+    with run_threads(executor.threads), \
             ResultsWriter(out / "results.h5", title=case.title, source=case.source,
                           case_hash=case.content_hash, case=case.data,
                           on_disk_full=lock.release_reserve) as writer:

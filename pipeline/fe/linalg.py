@@ -67,6 +67,15 @@ def available_backends() -> tuple[str, ...]:
     return tuple(found)
 
 
+def load_backends() -> None:
+    """Load the sparse back-ends' own libraries now (PARDISO's MKL): a BLAS thread limit
+    set after this holds for them too, where one set before they load would not (MKL then
+    ran PARDISO on every core whatever ``--threads`` said, and two runs' reduced models
+    differed at round-off)."""
+    if "pardiso" in available_backends():
+        import pypardiso  # noqa: F401 (loads MKL)
+
+
 #: Above this many unknowns PARDISO wins; below it SuperLU's lower fixed costs do (whole CB of
 #: a blisk sector, ND 0 / ND 1, SuperLU vs PARDISO: 8.7k DOFs 1.5 / 3.2 s vs 2.1 / 3.0 s;
 #: 13k DOFs 2.1 / 4.5 s vs 2.8 / 3.6 s; 20k DOFs 3.7 / 7.7 s vs 3.0 / 5.0 s).

@@ -33,8 +33,7 @@ def _slopes(c, theta, corder, ckind):
 
 
 @njit(cache=True)
-def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
-           T_out, N_out, state_out, G, F_out, J_out, D_out):  # pragma: no cover
+def kink_corrections(p, g, law, motion, dft, has_normal, want_jac, out):  # pragma: no cover
     """Add the sub-sample kink corrections of one point's final period.
 
     The periodic trapezoid rule across a slope jump J (per radian) at fraction
@@ -42,7 +41,12 @@ def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, w
     that is subtracted. The kink is located on the linear interpolant of the
     samples; J comes from the exact slopes of the trigonometric inputs there,
     so the correction varies continuously as a kink crosses a sample.
-    g: (P, c, nc) input coefficients."""
+    g: (P, c, nc) input coefficients; law: (kt, kn, mu, n0) per point; motion: (u, v), the
+    sampled relative motion; dft: (E, corder, ckind), the samples' Fourier rows and their
+    orders and kinds; out: (T_out, N_out, state_out, G, F_out, J_out, D_out), the march's
+    results and the coefficients and derivatives the corrections are added to."""
+    u = motion[0]
+    state_out, J_out = out[2], out[5]
     d, ns = u.shape[1], u.shape[2]
     m = J_out.shape[3] + 1
     rows = d + 1
@@ -75,17 +79,21 @@ def kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, w
             continue
         for q in range(kinds):
             kind = first + q
-            _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal,
-                  want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out, work)
+            _kink(p, k, kprev, kind, g, law, motion, dft, has_normal, want_jac, out, work)
 
 
-@njit(inline="always")  # see INLINED in steps.py (a tuple of work arrays: at most 30 arguments)
-def _kink(p, k, kprev, kind, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal,
-          want_jac, T_out, N_out, state_out, G, F_out, J_out, D_out, work):  # pragma: no cover
+@njit(inline="always")  # see INLINED in steps.py
+def _kink(p, k, kprev, kind, g, law, motion, dft, has_normal, want_jac, out, work
+          ):  # pragma: no cover
     """One kink of ``kind`` (1 stick -> slip, 2 opening, 3 closing) in the interval
     (kprev, k) of point p: its correction added to F_out (and J_out, D_out); ``work``: the
-    caller's work arrays (jump, djump, ds, a, da, nvec, dn, up, dup, dvp, upp)."""
+    caller's work arrays (jump, djump, ds, a, da, nvec, dn, up, dup, dvp, upp); law,
+    motion, dft, out: as :func:`kink_corrections`'s."""
     jump, djump, ds, a, da, nvec, dn, up, dup, dvp, upp = work
+    kt, kn, mu, n0 = law
+    u, v = motion
+    E, corder, ckind = dft
+    T_out, N_out, state_out, G, F_out, J_out, D_out = out
     d, ns, nc = u.shape[1], u.shape[2], E.shape[1]
     m = J_out.shape[3] + 1
     vcol, rows, h = d * nc, d + 1, 2.0 * np.pi / ns

@@ -87,8 +87,8 @@ def _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac
     _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
              F_out, J_out, D_out)
     if corrections:
-        kink_corrections(p, g, kt, kn, mu, n0, u, v, E, corder, ckind, has_normal, want_jac,
-               T_out, N_out, state_out, G, F_out, J_out, D_out)
+        kink_corrections(p, g, (kt, kn, mu, n0), (u, v), (E, corder, ckind), has_normal,
+                         want_jac, (T_out, N_out, state_out, G, F_out, J_out, D_out))
     _count(p, state_out, T_out, counts_out)
 
 

@@ -22,8 +22,8 @@ STICK_SLACK = 1e-11
 # its references, which cost more than a sample's work. 1,000 law-D points, H 3, 128
 # samples, one thread, identical results: residual + Jacobian 172 -> 113 ms, residual alone
 # 69 -> 38 ms; the serial kernel's first compile 42 -> 53 s. A call of more than 30
-# arguments cannot be inlined (CPython 3.11 passes them as *args): _kink takes its work
-# arrays as one tuple.
+# arguments cannot be inlined (CPython 3.11 passes them as *args): the kinks take their
+# arrays in named tuples (law, motion, dft, out, work).
 
 
 @njit(cache=True)
