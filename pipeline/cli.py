@@ -33,7 +33,7 @@ def demo(argv: list[str]) -> int:
     from microslip.app.running import ticker
     from microslip.bench.demos import jenkins_oscillator
     from microslip.case.checks import samples_rule
-    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.linear import OperatingPoint
     from microslip.solve.response import sweep
 
     parser = argparse.ArgumentParser(prog="microslip demo", description=demo.__doc__)

@@ -5,7 +5,8 @@ import numpy as np
 from microslip.bench.demos import jenkins_oscillator  # noqa: F401  (re-exported for the tests)
 from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactElements
-from microslip.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+from microslip.solve.hbm import Contact, HarmonicBalance
+from microslip.solve.linear import Excitation, LinearDynamics
 
 
 def normal_oscillator(n0, H=5, ns=256, *, kn=3.0, kt=3.0, mu=0.3, P=0.1, c=0.02):

@@ -18,7 +18,7 @@ from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFricti
 from microslip.case.reduction_table import body_specs
 from microslip.fe import cyclic, fem
 from microslip.fourier import Harmonics
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 
 NS = 6

@@ -392,7 +392,7 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     from microslip.app.models import AssemblyModels
     from microslip.app.stages import mesh_geometry
     from microslip.app.structure import reduce_structure
-    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.linear import OperatingPoint
 
     case = cases.Case(copy.deepcopy(CASE), "coarse.toml")
     mesh = mesh_geometry(GeometryTable.of(CASE["geometry"]), tmp_path, progress=lambda s: None,

@@ -30,7 +30,7 @@ from microslip.geometry.pairing import (
 )
 from microslip.geometry.stored import load_mesh, save_mesh
 from microslip.geometry.surfaces import surface_of
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point
 
 SPACING = 0.012  # [m]: about 3 x 3 patches on the 40 mm faces

@@ -6,6 +6,7 @@ import pytest
 from microslip.cli import main
 
 
+@pytest.mark.slow  # ~11 s of kernel timings at three sizes: the fast suite's 5 min
 def test_bench_core_prints_time_per_point_and_contact_cost(capsys):
     assert main(["bench", "core", "--repeat", "1", "--skip-accuracy"]) == 0
     out = capsys.readouterr().out

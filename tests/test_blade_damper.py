@@ -17,7 +17,7 @@ import scipy.linalg as sla
 from microslip import case as cases
 from microslip.laws.states import SAMPLE_SLIP
 from microslip.solve import dti
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 
 CASES = Path(__file__).resolve().parents[1] / "cases"

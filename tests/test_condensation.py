@@ -7,13 +7,8 @@ import pytest
 from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactElements
 from microslip.solve import hbm
-from microslip.solve.hbm import (
-    Contact,
-    Excitation,
-    HarmonicBalance,
-    LinearDynamics,
-    OperatingPoint,
-)
+from microslip.solve.hbm import Contact, HarmonicBalance
+from microslip.solve.linear import Excitation, LinearDynamics, OperatingPoint
 
 POINTS = [OperatingPoint(w, mass_multiplier=s) for w in (0.7, 1.6) for s in (1.0, 1.8)]
 

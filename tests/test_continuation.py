@@ -6,7 +6,7 @@ from models import jenkins_oscillator, normal_oscillator
 
 from microslip.solve import arclength, newton
 from microslip.solve import continuation as cont
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 
 

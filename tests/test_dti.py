@@ -13,13 +13,8 @@ from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactElements
 from microslip.laws.states import SAMPLE_OPEN, SAMPLE_SLIP, SAMPLE_STICK
 from microslip.solve import dti
-from microslip.solve.hbm import (
-    Contact,
-    Excitation,
-    HarmonicBalance,
-    LinearDynamics,
-    OperatingPoint,
-)
+from microslip.solve.hbm import Contact, HarmonicBalance
+from microslip.solve.linear import Excitation, LinearDynamics, OperatingPoint
 from microslip.solve.response import solve_point
 
 W_PEAK = 1.00192  # rad/s, peak of the Jenkins oscillator's FRF (issue 2, H = 7)

@@ -8,13 +8,8 @@ from models import jenkins_oscillator, normal_oscillator, three_dof_cyclic_like
 
 from microslip.fourier import Harmonics
 from microslip.solve.continuation import Settings
-from microslip.solve.hbm import (
-    Contact,
-    Excitation,
-    HarmonicBalance,
-    LinearDynamics,
-    OperatingPoint,
-)
+from microslip.solve.hbm import Contact, HarmonicBalance
+from microslip.solve.linear import Excitation, LinearDynamics, OperatingPoint
 from microslip.solve.response import solve_point, sweep
 
 

@@ -444,7 +444,7 @@ def test_round_trip_gives_the_native_frf(tmp_path, model, suffix, quadratic, bod
     from microslip.assembly.join import join
     from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
     from microslip.fourier import Harmonics
-    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.linear import OperatingPoint
     from microslip.solve.response import solve_point
 
     parameters, (loaded, force, extras), interference = MODELS[model]

@@ -9,7 +9,7 @@ from models import friction_grid, three_dof_cyclic_like
 from microslip.fourier import Harmonics
 from microslip.solve import continuation as cont
 from microslip.solve import hbm, jacobian
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 
 MODELS = {

@@ -13,7 +13,7 @@ from microslip import case as cases
 from microslip.laws.coulomb import ContactResponse
 from microslip.laws.registry import LAWS
 from microslip.solve.continuation import Settings
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 
 

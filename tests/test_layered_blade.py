@@ -81,6 +81,7 @@ def test_a_folded_quadratic_tetrahedron_is_found():
     assert folded_tets(points, tets, bent).tolist() == [0]
 
 
+@pytest.mark.slow  # three Gmsh meshes and reductions (~11 s): a convergence study
 def test_a_filleted_root_converges_fast_and_its_curved_elements_do_not_fold():
     """A 1.5 mm fillet where the blade meets the platform: no singularity, so the free
     blisk's first bending at ND 12 converges fast in the fillet's element size (measured:

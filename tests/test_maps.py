@@ -138,7 +138,7 @@ def test_the_refined_peaks_are_the_maximum_of_a_fine_grid_of_direct_solves():
     from microslip.app.solutions import map_solutions
     from microslip.bench.demos import jenkins_oscillator
     from microslip.solve.continuation import Settings
-    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.linear import OperatingPoint
     from microslip.solve.response import solve_point, sweep
 
     hb = jenkins_oscillator(3, 128)

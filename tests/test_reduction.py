@@ -10,7 +10,7 @@ from microslip import geometry
 from microslip.fe import bodies, craig_bampton, cyclic, fem, linalg, modal, reduced_model
 from microslip.fourier import Harmonics
 from microslip.geometry.mesh import rotation_z
-from microslip.solve.hbm import LinearDynamics, OperatingPoint
+from microslip.solve.linear import LinearDynamics, OperatingPoint
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 NS = 6

@@ -16,7 +16,7 @@ from microslip.app.run import run_case
 from microslip.app.running import ticker
 from microslip.results.writer import summary
 from microslip.solve import continuation as cont
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import resonance_hint, sampling_shift, solve_point, sweep
 
 # ------------------------------------------------------------------ undersampled curves

@@ -92,7 +92,7 @@ def test_the_shroud_sector_equals_the_full_disk():
     from microslip.assembly.join import join
     from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
     from microslip.fourier import Harmonics
-    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.linear import OperatingPoint
     from microslip.solve.response import solve_point
 
     ns = 24  # (the model's blade and shroud part below ~20 blades)

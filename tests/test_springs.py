@@ -13,7 +13,7 @@ from microslip import case as cases
 from microslip.fourier import Harmonics
 from microslip.laws.registry import LAWS
 from microslip.laws.states import OPEN, PARTIAL_LIFTOFF, STICK
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 
 ZETA, GAMMA, FORCE = 0.05, 0.1, 0.1

@@ -10,7 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from microslip import case as cases
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 from microslip.solve.stability import floquet_multipliers, hill_stability
 

@@ -41,7 +41,7 @@ import pytest
 from microslip import case as cases
 from microslip.laws.states import SAMPLE_OPEN, SAMPLE_SLIP
 from microslip.solve import dti
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point, sweep
 from microslip.solve.stability import floquet_multipliers, hill_stability
 

@@ -25,7 +25,7 @@ from microslip.geometry.averaging import averaged_surfaces
 from microslip.geometry.mesh import MeshValidationError, SurfaceContact
 from microslip.geometry.pairing import declare_contact, paired_contact
 from microslip.laws.states import GROSS_SLIP, SAMPLE_SLIP, STICK_SLIP
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point
 
 E, RHO, L, H = 2.0e11, 7800.0, 0.04, 0.02

@@ -13,7 +13,7 @@ from microslip.case import Case, curve_variants, operating_point
 from microslip.case.specs import Frf
 from microslip.results import schema
 from microslip.results.writer import ResultsWriter
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import refine_peak, response_measure
 
 from .models import AssemblyModels

@@ -96,7 +96,7 @@ def machine_factor(repeat: int = 3) -> float:
     from threadpoolctl import threadpool_limits
 
     from microslip.case import Case, lumped_model
-    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.linear import OperatingPoint
     from microslip.solve.response import sweep
 
     if not kernels_cached():

@@ -8,7 +8,7 @@ import numpy as np
 
 from microslip.results import schema
 from microslip.results.writer import ATTRS
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import (
     Response,
     output,

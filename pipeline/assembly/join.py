@@ -36,7 +36,8 @@ from microslip.geometry.mesh import Mesh, rotation_z
 from microslip.geometry.pairing import nodal_areas_and_normals, paired_contact, surface_body
 from microslip.geometry.surfaces import surface_of
 from microslip.laws.coulomb import ContactElements
-from microslip.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+from microslip.solve.hbm import Contact, HarmonicBalance
+from microslip.solve.linear import Excitation, LinearDynamics
 
 from .recovery import AssemblyModel, BodyLayout, ContactPoints, body_positions
 from .spec import AssemblySpec, PatchFriction

@@ -11,7 +11,8 @@ import scipy.linalg as sla
 
 from microslip.fe.reduced_model import ReducedModel
 from microslip.laws.coulomb import ContactResponse, slip_share
-from microslip.solve.hbm import HarmonicBalance, OperatingPoint
+from microslip.solve.hbm import HarmonicBalance
+from microslip.solve.linear import OperatingPoint
 
 from .spec import AssemblySpec
 

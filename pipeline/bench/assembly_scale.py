@@ -68,7 +68,7 @@ def _run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dic
     from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
     from microslip.fourier import Harmonics
     from microslip.solve import continuation as cont
-    from microslip.solve.hbm import OperatingPoint
+    from microslip.solve.linear import OperatingPoint
     from microslip.solve.response import solve_point, sweep
 
     t0 = time.perf_counter()

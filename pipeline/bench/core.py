@@ -17,7 +17,7 @@ import scipy.linalg as sla
 
 from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactElements
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import sweep
 
 from .demos import jenkins_oscillator

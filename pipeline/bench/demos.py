@@ -7,7 +7,8 @@ import numpy as np
 from microslip.app import plan
 from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactElements
-from microslip.solve.hbm import Contact, Excitation, HarmonicBalance, LinearDynamics
+from microslip.solve.hbm import Contact, HarmonicBalance
+from microslip.solve.linear import Excitation, LinearDynamics
 
 
 def jenkins_oscillator(

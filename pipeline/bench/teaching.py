@@ -38,7 +38,7 @@ import numpy as np
 from microslip.case import Case, load, lumped_model, settings
 from microslip.case.specs import Dti, Frf
 from microslip.solve import dti
-from microslip.solve.hbm import OperatingPoint
+from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import sweep
 
 from .core import median_time, reference_unit

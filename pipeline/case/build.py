@@ -13,13 +13,8 @@ from microslip.fourier import Harmonics
 from microslip.laws.interface import ContactSet
 from microslip.laws.registry import LAWS
 from microslip.solve.continuation import Settings
-from microslip.solve.hbm import (
-    Contact,
-    Excitation,
-    HarmonicBalance,
-    LinearDynamics,
-    OperatingPoint,
-)
+from microslip.solve.hbm import Contact, HarmonicBalance
+from microslip.solve.linear import Excitation, LinearDynamics, OperatingPoint
 
 from . import specs
 from .faults import has_lag

@@ -55,11 +55,8 @@ def faults(data: dict, out: list[str], analyses: bool = True, kinds: Kinds | Non
         _harmonics(data.get("harmonics", {}), out)
         known = kinds_or_shipped(kinds)
         bodies = [k for k, kind in known.items() if kind.bodies]
-        for i, a in _analysis_tables(data, tuple(bodies), out):
-            if isinstance(a, dict) and a.get("type") not in bodies:
-                out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: a case of "
-                           f"reduced bodies without [assembly] runs {bodies}")
-                continue
+        for i, a in _tables_of(data, bodies, "a case of reduced bodies without [assembly]",
+                               out):
             _analysis(i, a, data, set(), set(), out, known)
         return
     model = data.get("model")
@@ -136,6 +133,19 @@ def _analysis_tables(data: dict, kinds: tuple[str, ...], out: list[str]) -> list
     return list(enumerate(items))
 
 
+def _tables_of(data: dict, runs: list[str], case: str, out: list[str]) -> list:
+    """(index, table) of the [[analysis]] tables of a type this shape of ``case`` runs
+    (``runs``); a fault for each of another type."""
+    kept = []
+    for i, a in _analysis_tables(data, tuple(runs), out):
+        if isinstance(a, dict) and a.get("type") not in runs:
+            out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: {case} runs "
+                       f"{runs}")
+            continue
+        kept.append((i, a))
+    return kept
+
+
 def _names(table) -> dict | None:
     """The contacts, bodies and node sets a valid [geometry] gives before any meshing (an
     import's mesh, read at the check; a parametric model's names and declared contacts)."""
@@ -165,11 +175,7 @@ def _check_assembly(data: dict, out: list[str], analyses: bool, names: dict | No
         return
     outputs = set(assembly_table.output_names(data))
     runs = [k for k, kind in kinds.items() if kind.assembly]
-    for i, a in _analysis_tables(data, tuple(runs), out):
-        if isinstance(a, dict) and a.get("type") not in runs:
-            out.append(f"analysis.{a.get('name', i)}.type = {a.get('type')!r}: an assembly case "
-                       f"runs {runs}")
-            continue
+    for i, a in _tables_of(data, runs, "an assembly case", out):
         par = a.get("parameter", specs.defaults(kinds[a["type"]].spec).get("parameter")) \
             if isinstance(a, dict) else None
         if par is not None and par not in assembly_table.PARAMETERS:

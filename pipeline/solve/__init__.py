@@ -1,6 +1,7 @@
 """Nonlinear solution of a model with friction contacts.
 
 hbm            the multi-harmonic balance on the contact DOFs (linear part condensed)
+linear         its linear part per order, the external forces, the operating point
 condensation   the linear part condensed on the contact DOFs, per harmonic order
 jacobian       the balance's Jacobian as a structured operator and its solves
 memory         the memory a balance will hold, from its sizes alone

@@ -111,11 +111,11 @@ class Reordered:
     their imaginary part is exactly zero (half the memory, real products at order 0)."""
 
     index: tuple[np.ndarray, ...]  # per order (n_k,): the original DOF of each row
-    linear: Any  # hbm.LinearDynamics, reordered, read-only (this module is hbm's)
+    linear: Any  # linear.LinearDynamics, reordered, read-only (this module is hbm's)
 
     @classmethod
     def of(cls, linear: Any, dofs: np.ndarray, others: np.ndarray) -> Reordered:
-        """linear: an hbm.LinearDynamics; its reordered copy is of the same type."""
+        """linear: an linear.LinearDynamics; its reordered copy is of the same type."""
         index = tuple(np.concatenate([dofs, condensed_dofs(others, linear.n_dof, n)])
                       for n in linear.sizes)
 

@@ -20,8 +20,9 @@ from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactResponse
 
 from . import continuation as cont
-from .hbm import PARAMETERS, HarmonicBalance, OperatingPoint
+from .hbm import HarmonicBalance
 from .jacobian import BalanceJacobian
+from .linear import PARAMETERS, OperatingPoint
 from .stability import Stability, hill_stability, undefined
 
 METHODS = ("arclength", "natural")

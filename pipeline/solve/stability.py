@@ -47,8 +47,9 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
-from .hbm import HarmonicBalance, OperatingPoint
+from .hbm import HarmonicBalance
 from .jacobian import BalanceJacobian
+from .linear import OperatingPoint
 
 #: Hill problems of at most this many real unknowns (2 x the full DOFs x coefficients, the
 #: linearised size) go to the dense eigensolver: every eigenvalue, ~0.1 s at the limit.

@@ -26,7 +26,7 @@ from microslip.draw import pictures
 from microslip.results import schema
 from microslip.results.writer import ATTRS, sampling_warning
 from microslip.solve.bifurcation import find_bifurcations
-from microslip.solve.hbm import PARAMETERS
+from microslip.solve.linear import PARAMETERS
 from microslip.solve.response import Response, response_measure, sweep
 from microslip.solve.stability import hill_stability, undefined
 

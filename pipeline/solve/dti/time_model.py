@@ -222,7 +222,7 @@ class LoadSteps:
 
     @classmethod
     def from_excitation(cls, excitation, n_dof: int, **steps) -> LoadSteps:
-        """From a :class:`microslip.solve.hbm.Excitation` with orders 0 and 1 only."""
+        """From a :class:`microslip.solve.linear.Excitation` with orders 0 and 1 only."""
         orders = set(excitation.forces)
         if not orders <= {0, 1}:
             raise ValueError(f"dti: excitation orders {sorted(orders)} are not supported; "
