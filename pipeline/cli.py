@@ -188,35 +188,9 @@ def run(argv: list[str]) -> int:
     """Run a case end to end: results.h5 and PNG pictures in the output folder."""
     from microslip.app.folder import FolderBusy, NoSpace
     from microslip.app.run import run_case
-    from microslip.app.tasks import BLAS_THREADS
     from microslip.case import InputError
 
-    parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
-    parser.add_argument("case", type=Path, help="case file (TOML)")
-    parser.add_argument("--out", type=Path, default=None,
-                        help="output folder (default: out/<case name>)")
-    parser.add_argument("--no-cache", action="store_true",
-                        help="compute every curve afresh (by default a curve whose inputs "
-                        "did not change since a run into the same folder is reused)")
-    parser.add_argument("--dry-run", action="store_true",
-                        help="list the stages the run would compute and those it would read "
-                        "from the caches, with rough time and memory; compute nothing")
-    parser.add_argument("--workers", type=int, default=None,
-                        help="independent curves (family members, swept peaks, uncertainty "
-                        "samples) on a local Dask cluster of this many worker processes, "
-                        "started when an analysis has two or more to compute (default: the "
-                        "machine's cores, and only for analyses estimated to take over "
-                        "10 s in one process); 0: in this process, one after another")
-    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                        help="run the independent curves on the Dask cluster whose scheduler "
-                        "is at ADDRESS (e.g. tcp://host:8786; its workers need microslip "
-                        "installed as here)")
-    parser.add_argument("--threads", type=int, default=BLAS_THREADS, metavar="N",
-                        help="BLAS (and contact-kernel) threads of every stage, in this "
-                        f"process and on each worker (default {BLAS_THREADS}: fastest here "
-                        "and the same numbers everywhere; more threads help a single large "
-                        "factorization on an idle machine)")
-    args = parser.parse_args(argv)
+    args = _run_parser().parse_args(argv)
     if not 1 <= args.threads <= MAX_THREADS:
         print(f"microslip run: --threads {args.threads}: must be an integer in "
               f"[1, {MAX_THREADS}]", file=sys.stderr)
@@ -235,14 +209,7 @@ def run(argv: list[str]) -> int:
         if shared is None:
             return 2
     if args.dry_run:
-        from microslip.app import plan
-
-        factor = plan.machine_factor()
-        stages = plan.scaled(plan.plan(c, out, cache=not args.no_cache, shared=shared),
-                             factor)
-        print(f"{args.case} into {out} (dry run: nothing computed)")
-        print(plan.text(stages, factor))
-        return 0
+        return _dry_run(c, args, out, shared)
     if not _output_folder("run", out, args.out is not None):
         return 2
     executor, fault = _executor(args.workers, args.scheduler)
@@ -277,6 +244,49 @@ def run(argv: list[str]) -> int:
     if message.startswith("interrupted"):  # a curve caught the interrupt and saved itself
         return TERMINATED if received else INTERRUPTED
     return 1
+
+
+def _run_parser() -> argparse.ArgumentParser:
+    """The arguments of ``microslip run``."""
+    from microslip.app.tasks import BLAS_THREADS
+
+    parser = argparse.ArgumentParser(prog="microslip run", description=run.__doc__)
+    parser.add_argument("case", type=Path, help="case file (TOML)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output folder (default: out/<case name>)")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="compute every curve afresh (by default a curve whose inputs "
+                        "did not change since a run into the same folder is reused)")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="list the stages the run would compute and those it would read "
+                        "from the caches, with rough time and memory; compute nothing")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="independent curves (family members, swept peaks, uncertainty "
+                        "samples) on a local Dask cluster of this many worker processes, "
+                        "started when an analysis has two or more to compute (default: the "
+                        "machine's cores, and only for analyses estimated to take over "
+                        "10 s in one process); 0: in this process, one after another")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run the independent curves on the Dask cluster whose scheduler "
+                        "is at ADDRESS (e.g. tcp://host:8786; its workers need microslip "
+                        "installed as here)")
+    parser.add_argument("--threads", type=int, default=BLAS_THREADS, metavar="N",
+                        help="BLAS (and contact-kernel) threads of every stage, in this "
+                        f"process and on each worker (default {BLAS_THREADS}: fastest here "
+                        "and the same numbers everywhere; more threads help a single large "
+                        "factorization on an idle machine)")
+    return parser
+
+
+def _dry_run(c, args: argparse.Namespace, out: Path, shared) -> int:
+    """``run --dry-run``: the stages, cached or not, with rough time and memory."""
+    from microslip.app import plan
+
+    factor = plan.machine_factor()
+    stages = plan.scaled(plan.plan(c, out, cache=not args.no_cache, shared=shared), factor)
+    print(f"{args.case} into {out} (dry run: nothing computed)")
+    print(plan.text(stages, factor))
+    return 0
 
 
 def _shared_cache(command: str):

@@ -123,6 +123,14 @@ def check(table: Any, data: Mapping[str, Any], out: list[str],
     if table.get("centrifugal") and "speed" not in table:
         out.append("assembly.speed: missing; the centrifugal load needs a speed [rad/s] or "
                    "'frequency'")
+    _contacts(table, names, out)
+    _loads(table, names, out)
+    _outputs(table, names, out)
+
+
+def _contacts(table: dict, names: Mapping[str, Any] | None, out: list[str]) -> None:
+    """[[assembly.contacts]]: a known patch each, once, its friction coefficient and
+    optional interference, stiffness scale and elements."""
     contacts = _tables(table, "contacts", out, required=True)
     seen = set()
     for i, c in enumerate(contacts):
@@ -146,6 +154,10 @@ def check(table: Any, data: Mapping[str, Any], out: list[str],
         if c.get("elements", PatchFriction.elements) not in ELEMENTS:
             out.append(f"{pre}.elements = {c.get('elements')!r}: expected one of "
                        f"{list(ELEMENTS)}")
+
+
+def _loads(table: dict, names: Mapping[str, Any] | None, out: list[str]) -> None:
+    """[[assembly.loads]]: a node set, a direction, an amplitude, harmonic, phase, spread."""
     for i, ld in enumerate(_tables(table, "loads", out)):
         pre = f"assembly.loads[{i}]"
         unknown_keys(pre + ".", ld, LOAD_KEYS, out)
@@ -158,6 +170,10 @@ def check(table: Any, data: Mapping[str, Any], out: list[str],
             number(f"{pre}.phase", ld["phase"], out)
         if ld.get("spread", NodalLoad.spread) not in SPREADS:
             out.append(f"{pre}.spread = {ld.get('spread')!r}: expected one of {list(SPREADS)}")
+
+
+def _outputs(table: dict, names: Mapping[str, Any] | None, out: list[str]) -> None:
+    """[[assembly.outputs]]: a unique name each, a node set and a direction."""
     outputs = _tables(table, "outputs", out, required=True)
     seen = set()
     for i, o in enumerate(outputs):
