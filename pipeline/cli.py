@@ -444,7 +444,7 @@ def _render_options(args) -> tuple[object, list[str]]:
     """The pictures.Options of `render`'s arguments, and one line per bad one."""
     from matplotlib.colors import is_color_like
 
-    from microslip.case.specs import MAP_TYPES
+    from microslip.app.analyses.frf import MAP_TYPES
     from microslip.draw import maps, pictures
     from microslip.laws.states import STATE_NAMES
 

@@ -10,7 +10,7 @@ from collections.abc import Callable
 import numpy as np
 
 from microslip.case import Case, curve_variants, operating_point
-from microslip.case.specs import Frf
+from microslip.case.specs import Analysis
 from microslip.results import schema
 from microslip.results.writer import ResultsWriter
 from microslip.solve.linear import OperatingPoint
@@ -21,7 +21,7 @@ from .models import AssemblyModels
 Progress = Callable[[str], None]
 
 
-def linear_limits(models: AssemblyModels, case: Case, spec: Frf, writer: ResultsWriter, group,
+def linear_limits(models: AssemblyModels, case: Case, spec: Analysis, writer: ResultsWriter, group,
                   store, progress: Progress) -> None:
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
     directly (linear): written beside the curves (the pictures draw them with them). The

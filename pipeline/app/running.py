@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 
 from microslip.case import Case, lumped_model
-from microslip.case.specs import Analysis, TimeIntegration
+from microslip.case.specs import Analysis
 from microslip.results import schema
 from microslip.results.writer import ResultsWriter, set_attrs
 
@@ -170,7 +170,7 @@ def attr_list(values: list[str]) -> str:
     return json.dumps(list(values))
 
 
-def time_model(case: Case, spec: TimeIntegration):
+def time_model(case: Case, spec: Analysis):
     """(case as set, HB model, output names, indices, time model, load steps) of a time
     integration of the lumped case (``solve.dti``)."""
     from microslip.solve import dti

@@ -35,8 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
+from microslip.app.analyses.direct_integration import Dti
+from microslip.app.analyses.frf import Frf
 from microslip.case import Case, load, lumped_model, settings
-from microslip.case.specs import Dti, Frf
 from microslip.solve import dti
 from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import sweep

@@ -2,7 +2,7 @@
 
 loading          ``load`` and ``check`` of a case file (TOML), renamed tables
 validated        the validated :class:`Case` and copies with keys overridden
-specs            the typed analysis specs and their defaults
+specs            what every analysis spec has, the case tables' specs, their defaults
 kinds            the analysis types: the interface each one keeps, and the registry
 faults           the faults of a case table, one line each
 analysis_rules   the rules several analysis types share (their checks call them)

@@ -90,12 +90,6 @@ def friction_laws_only(c: Checking) -> None:
                      f"has {springs} (use harmonic balance)")
 
 
-def maps_faults(c: Checking) -> None:
-    """``maps`` and ``map_types`` of an frf, where given."""
-    if "maps" in c.given or "map_types" in c.given:
-        _maps(c.pre, c.table, c.data, c.out)
-
-
 def uncertainty_faults(c: Checking) -> None:
     """An uncertainty study's keys and distributions, and the case at the smallest and the
     largest value each parameter takes over the samples."""
@@ -182,26 +176,6 @@ def _distribution(where: str, family: str, v, out: list[str]) -> bool:
         return False
     ok = number(f"{where}.{family}.{first}", v[first], out, positive=family == "lognormal")
     return number(f"{where}.{family}.sigma", v["sigma"], out, positive=True) and ok
-
-
-def _maps(pre: str, a: dict, data: dict, out: list[str]) -> None:
-    """``maps``: where an frf draws its contact maps ("peak", or parameter values: every
-    solution there); ``map_types``: which maps."""
-    if "assembly" not in data:
-        out.append(f"{pre}.maps: contact maps need contact patches: a [assembly] case")
-        return
-    where = a["maps"]
-    lo, hi = sorted((a.get("start", 0.0), a.get("stop", 0.0)))
-    if not isinstance(where, list):
-        out.append(f"{pre}.maps = {where!r}: expected a list of 'peak' and parameter values")
-        where = []
-    for x in where:
-        if x != "peak" and not (is_number(x) and lo <= x <= hi):
-            out.append(f"{pre}.maps: {x!r} is neither 'peak' nor a parameter value in the "
-                       f"range {lo:g}..{hi:g}")
-    kinds = a["map_types"]
-    if not (isinstance(kinds, list) and all(k in specs.MAP_TYPES for k in kinds)):
-        out.append(f"{pre}.map_types = {kinds!r}: expected a list of {list(specs.MAP_TYPES)}")
 
 
 def _family(pre: str, fam, data: dict, out: list[str]) -> None:

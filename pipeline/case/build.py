@@ -118,7 +118,7 @@ def curve_variants(case: Case, spec: specs.Analysis) -> list[tuple[Case, str, An
             for v in family.values]
 
 
-def sample_variants(case: Case, spec: specs.Uncertainty) -> tuple[list[str], np.ndarray,
+def sample_variants(case: Case, spec: specs.Analysis) -> tuple[list[str], np.ndarray,
                                                                   list[dict[str, Any]]]:
     """(names, (samples, p) values of the uncertain parameters, per sample the case keys
     it sets: the analysis' ``set``, the fixed parameters, its values)."""

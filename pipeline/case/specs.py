@@ -1,13 +1,15 @@
-"""Typed, frozen specs of a case's analyses, harmonics and solver: each key's default in one
-place.
+"""Typed, frozen specs: what every analysis spec has (:class:`Analysis`: its name, its
+``set``, the table as given; each type's own class is in its module of ``app.analyses``), a
+family of curves, and the case's [harmonics], [solver], [[contacts]] and [[loads]]: each
+key's default in one place.
 
 A validated ``[[analysis]]`` table becomes the spec of its type (:func:`analysis`, with the
-class its ``kinds.AnalysisKind`` names); runners take these, never the table. A key the case
-leaves out has its default here and nowhere else: the validator reads it (:func:`defaults`),
-the runner uses it, results.h5 records it beside the keys given (:meth:`Analysis.record`)
-and the drawers read the record back (:func:`from_record`, which also fills the defaults a
-file from an older version lacks). The README's Analyses table holds the same keys and
-defaults (a test).
+class its ``kinds.AnalysisKind`` names); runners take these, never the table. A key the
+case leaves out has its default in its spec class and nowhere else: the validator reads it
+(:func:`defaults`), the runner uses it, results.h5 records it beside the keys given
+(:meth:`Analysis.record`) and the drawers read the record back (:func:`from_record`, which
+also fills the defaults a file from an older version lacks). The README's Analyses table
+holds the same keys and defaults (a test).
 
 Units: frequencies rad/s, times s, motions m.
 """
@@ -19,19 +21,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-import numpy as np
-
 from microslip.fourier import Harmonics, default_samples
 from microslip.solve.continuation import Settings
 from microslip.solve.response import MEASURES  # noqa: F401 (the measures)
-from microslip.solve.sampling import Distribution, design
-
-#: continuation methods of an frf; ``natural-down`` sweeps from stop to start
-METHODS = ("arclength", "natural", "natural-down")
-#: the maps an frf of an assembly case can draw at its map points
-MAP_TYPES = ("status", "normal_load", "shape")
-#: what a peak curve sweeps
-PEAK_PARAMETERS = ("excitation", "preload", "mass")
+from microslip.solve.sampling import Distribution
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -76,107 +69,6 @@ class Analysis:
         return self.table() | dict(self.given) | {"family": self.given.get("family", {})}
 
 
-@dataclass(frozen=True, kw_only=True)
-class Frf(Analysis):
-    """A response curve: ``parameter`` from ``start`` to ``stop`` by each of ``method``
-    (one curve each), at the fixed ``frequency`` (rad/s) when the parameter is not the
-    frequency; ``outputs``: DOF or output names (None: every output); ``maps``: where a
-    assembly case draws contact maps ("peak" or parameter values), ``map_types`` which;
-    ``stability``: Hill's stability at every point and the bifurcations between them."""
-
-    type: ClassVar[str] = "frf"
-    start: float
-    stop: float
-    parameter: str = "frequency"
-    frequency: float | None = None
-    method: tuple[str, ...] = ("arclength",)
-    outputs: tuple[str, ...] | None = None
-    measure: str = "peak"
-    normalise: bool = False
-    family: Family | None = None
-    maps: tuple[str | float, ...] = ()
-    map_types: tuple[str, ...] = ("status",)
-    stability: bool = True
-
-    @property
-    def omega(self) -> float:
-        """The frequency (rad/s) the curve starts at (a frequency sweep) or holds."""
-        return self.start if self.parameter == "frequency" else self.frequency
-
-    @property
-    def shapes(self) -> bool:
-        """Whether deformed shapes are drawn (and so recovered) at the map points."""
-        return bool(self.maps) and "shape" in self.map_types
-
-
-@dataclass(frozen=True, kw_only=True)
-class Peak(Analysis):
-    """The largest ``measure`` of ``output`` over the frequency ``window`` (rad/s) at
-    ``points`` values of ``parameter`` from ``start`` to ``stop`` (``spacing`` linear or
-    log), each found by ``tracking`` (continuation from the last peak, or a sweep per
-    value); ``levels``: the free and fully stuck peaks too (an assembly case);
-    ``stability``: Hill's stability of each peak's solution."""
-
-    type: ClassVar[str] = "peak"
-    parameter: str
-    start: float
-    stop: float
-    window: tuple[float, float]
-    output: str
-    points: int = 25
-    spacing: str = "linear"
-    tracking: str = "continuation"
-    measure: str = "peak"
-    levels: bool = False
-    family: Family | None = None
-    stability: bool = True
-
-    def values(self) -> np.ndarray:
-        """(points,) the parameter values of each curve."""
-        space = np.geomspace if self.spacing == "log" else np.linspace
-        return space(self.start, self.stop, self.points)
-
-
-@dataclass(frozen=True, kw_only=True)
-class Uncertainty(Analysis):
-    """The spread of a resonance peak under uncertain ``parameters``: per sample, the
-    largest ``measure`` of ``output`` over the frequency ``window`` (rad/s; an arclength
-    sweep, its top refined), its frequency and the share of contact points slipping there.
-
-    ``parameters``: name -> a distribution table (``{uniform = [low, high]}``,
-    ``{normal = {mean, sigma}}``, ``{lognormal = {median, sigma}}``) or a fixed value; a
-    dotted name is a case key, a plain one that key of every contact (``mu``). ``samples``
-    of a seeded ``design`` (``solve.sampling.DESIGNS``); ``limit``: the peak whose
-    exceedance probability is reported (m); ``levels``: the free and fully stuck peaks
-    at the case's own values (an assembly case)."""
-
-    type: ClassVar[str] = "uncertainty"
-    window: tuple[float, float]
-    output: str
-    parameters: Mapping[str, Any]
-    samples: int = 64
-    design: str = "sobol"
-    seed: int = 0
-    measure: str = "peak"
-    limit: float | None = None
-    levels: bool = False
-
-    def distributions(self) -> list[tuple[str, Distribution]]:
-        """(name, distribution) of each uncertain parameter, in the case's order."""
-        return [(k, distribution(v)) for k, v in self.parameters.items()
-                if isinstance(v, Mapping)]
-
-    def fixed(self) -> dict[str, float]:
-        """The parameters held at a value."""
-        return {k: v for k, v in self.parameters.items() if not isinstance(v, Mapping)}
-
-    def sample_values(self) -> tuple[list[str], np.ndarray]:
-        """(names, (samples, p) values) of the uncertain parameters."""
-        pairs = self.distributions()
-        x = design([d for _, d in pairs], self.samples, self.design, self.seed)
-        return [k for k, _ in pairs], x
-
-
 def distribution(table: Mapping[str, Any]) -> Distribution:
     """The Distribution of a validated ``{family = ...}`` table."""
     (family, v), = table.items()
@@ -185,71 +77,6 @@ def distribution(table: Mapping[str, Any]) -> Distribution:
     if family == "normal":
         return Distribution(family, float(v["mean"]), float(v["sigma"]))
     return Distribution(family, float(v["median"]), float(v["sigma"]))
-
-
-@dataclass(frozen=True, kw_only=True)
-class Loops(Analysis):
-    """Hysteresis loops of ``contact`` under a prescribed motion [cos, sin] amplitudes
-    (m): ``u`` (``u2``: the second direction of a 2D law; ``v``: the normal motion of laws
-    B, D), one loop per multiplier in ``amplitudes``, which scale the whole motion
-    (``scale = "all"``) or only ``v``; ``samples`` per period."""
-
-    type: ClassVar[str] = "loops"
-    contact: str
-    u: tuple[float, float]
-    amplitudes: tuple[float, ...]
-    u2: tuple[float, float] | None = None
-    v: tuple[float, float] = (0.0, 0.0)
-    scale: str = "all"
-    samples: int = 512
-
-
-@dataclass(frozen=True, kw_only=True)
-class Modes(Analysis):
-    """The lowest ``count`` natural frequencies of every body of a reduced case, unreduced
-    (held as the reduction holds it, at each nodal diameter reduced) and reduced (its
-    Craig-Bampton model, masters free), and the reduction's error on each; ``shapes``: the
-    unreduced mode shapes kept in results.h5 (vertex displacements)."""
-
-    type: ClassVar[str] = "modes"
-    count: int = 10
-    shapes: bool = True
-
-
-@dataclass(frozen=True, kw_only=True)
-class TimeIntegration(Analysis):
-    """The load steps of a time integration: the static loads ramped over ``ramp_time``
-    (s), held ``settle_time``; the harmonic loads ramped over ``ramp_periods`` periods;
-    ``steps_per_period`` time steps per excitation period."""
-
-    type: ClassVar[str] = ""
-    outputs: tuple[str, ...] | None = None
-    steps_per_period: int = 256
-    ramp_time: float = 0.0
-    settle_time: float = 0.0
-    ramp_periods: int = 0
-
-
-@dataclass(frozen=True, kw_only=True)
-class Dti(TimeIntegration):
-    """Steady responses at ``frequencies`` (rad/s) by direct time integration, at most
-    ``max_periods`` periods each; ``restart``: each from fresh load steps (else from the
-    previous steady state); ``compare``: the frf analysis drawn with it."""
-
-    type: ClassVar[str] = "dti"
-    frequencies: tuple[float, ...]
-    max_periods: int = 3000
-    measure: str = "peak"
-    restart: bool = False
-    compare: str = ""
-
-
-@dataclass(frozen=True, kw_only=True)
-class Transient(TimeIntegration):
-    """The load steps at ``frequency`` (rad/s) as time histories."""
-
-    type: ClassVar[str] = "transient"
-    frequency: float
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -42,10 +42,12 @@ class Options:
     map_types: tuple[str, ...] | None = None
 
 
-def analysis_spec(g: h5py.Group, cls: type[specs.Analysis]) -> specs.Analysis:
-    """The spec (of class ``cls``, its type's) of an analysis group, from its record (what
-    its pictures are drawn by)."""
-    return specs.from_record(attr_table(g.attrs), cls)
+def analysis_spec(g: h5py.Group, kinds: Kinds | None = None) -> specs.Analysis:
+    """The spec of an analysis group, from its record, by its type's class (``kinds``,
+    default the shipped ones): what its pictures are drawn by (the keys a file from an
+    older version lacks take their defaults)."""
+    record = attr_table(g.attrs)
+    return specs.from_record(record, kinds_or_shipped(kinds)[record["type"]].spec)
 
 
 def _list(value) -> list:
@@ -66,7 +68,7 @@ def curves(g: h5py.Group) -> list[tuple[str, h5py.Group]]:
 def frf_series(g: h5py.Group) -> tuple[str, dict[str, list[dict]], dict[str, list[dict]]]:
     """(parameter, output -> line series, contact -> static-force line series) of an frf
     analysis group, with the linear limits where written."""
-    par = analysis_spec(g, specs.Frf).parameter
+    par = analysis_spec(g).parameter
     series: dict[str, list[dict]] = {}
     static: dict[str, list[dict]] = {}
     for _, c in curves(g):
@@ -214,7 +216,7 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Every picture of an frf analysis: the response of each output (with the linear
     limits and the map points marked), the static forces of each contact, and the maps."""
     par, series, static = frf_series(g)
-    measure = analysis_spec(g, specs.Frf).measure
+    measure = analysis_spec(g).measure
     marks = map_marks(g)
     normalised = any(bool(c.attrs.get("normalised", False)) for _, c in curves(g))
     paths = []
@@ -265,7 +267,7 @@ def slip_growth(g: h5py.Group, name: str, out: Path) -> list[Path]:
     x, shares = slip_at_peaks(g)
     if len(x) < 2:
         return []
-    family = analysis_spec(g, specs.Frf).family
+    family = analysis_spec(g).family
     series = [{"x": x, "y": v, "label": k, "lw": 2.2 if k.startswith("all") else 1.2,
                "ls": ":" if "not stuck" in k else "-"} for k, v in shares.items()]
     path = out / f"{name}_slip.png"
@@ -298,7 +300,7 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     """The points of an frf analysis that get maps: the case's (each curve's maps/ group),
     or, with ``at``, the computed point of each curve nearest that parameter value."""
     out = []
-    par = analysis_spec(g, specs.Frf).parameter
+    par = analysis_spec(g).parameter
     if at is not None:
         for _, c in curves(g):
             label = attr_text(c.attrs.get("label", ""))
@@ -335,7 +337,7 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
     column per patch. Nothing when the analysis has no map points."""
     points = map_points(g, options.at)
     kinds = options.map_types if options.map_types is not None else \
-        analysis_spec(g, specs.Frf).map_types
+        analysis_spec(g).map_types
     if not points or not kinds:
         return []
     grids = contact_grids(g.file)
@@ -366,7 +368,7 @@ def frf_shapes(g: h5py.Group, name: str, out: Path, options: Options = Options()
                ) -> list[Path]:
     """The deformed sector and full disk at every map point that stored its shape,
     ``<name>_shape_<letter>.png``."""
-    par = analysis_spec(g, specs.Frf).parameter
+    par = analysis_spec(g).parameter
     panel = shapes.PANEL if options.panel == maps.PANEL else options.panel
     paths = []
     for letter, c, p in _map_groups(g):
@@ -399,7 +401,7 @@ def _seen(grids: Mapping[str, maps.PatchGrid], patches: list[str]) -> str:
 def peak(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """The peak response against the parameter (optimization or performance curve), its
     minimum marked where the parameter is a preload or a mass, with the linear levels."""
-    spec = analysis_spec(g, specs.Peak)
+    spec = analysis_spec(g)
     par, output, (lo, hi) = spec.parameter, spec.output, spec.window
     series = [{"x": c["parameter"][()], "y": c["amplitude"][()],
                # unknown (-1: not solved there) drawn as stable: nothing to say
@@ -464,7 +466,7 @@ def dti(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Steady responses by time integration as markers over the FRF they are compared with
     (the analysis ``compare`` names), per output; the static contact forces likewise."""
     c = g[schema.curve(0)]
-    spec = analysis_spec(g, specs.Dti)
+    spec = analysis_spec(g)
     compare = spec.compare
     ref = g.file.get(compare) if compare else None
     _, series, static = frf_series(ref) if ref is not None else ("", {}, {})
@@ -524,7 +526,7 @@ def uncertainty(g: h5py.Group, name: str, out: Path, options: Options = Options(
     """An uncertainty study: the histogram of the samples' peaks with the free and fully
     stuck levels and the limit; the peak against each uncertain parameter, coloured by
     the share of contact points slipping, each panel with its rank correlations."""
-    spec = analysis_spec(g, specs.Uncertainty)
+    spec = analysis_spec(g)
     s, st = g[schema.SAMPLES], g[schema.STATISTICS]
     names = json.loads(attr_text(s.attrs["names"]))
     ok = s["status"][()] == b"complete"

@@ -3,6 +3,9 @@ reference the harmonic balance is checked against (Firrone & Zucca 4.1, Figs. 10
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import h5py
 import numpy as np
 
@@ -11,7 +14,7 @@ from microslip.case import analysis_rules as rules
 from microslip.case.checks import number
 from microslip.case.estimate import STEADY_PERIODS, time_integration_seconds
 from microslip.case.kinds import AnalysisKind, Checking
-from microslip.case.specs import MEASURES, Dti, LoadTable
+from microslip.case.specs import MEASURES, Analysis, LoadTable
 from microslip.draw import pictures
 from microslip.fourier import Harmonics
 from microslip.results import schema
@@ -19,6 +22,33 @@ from microslip.results.writer import ATTRS
 from microslip.solve.response import response_measure
 
 from ..running import Run, draw_analysis, time_model
+
+
+@dataclass(frozen=True, kw_only=True)
+class TimeIntegration(Analysis):
+    """The load steps of a time integration: the static loads ramped over ``ramp_time``
+    (s), held ``settle_time``; the harmonic loads ramped over ``ramp_periods`` periods;
+    ``steps_per_period`` time steps per excitation period."""
+
+    type: ClassVar[str] = ""
+    outputs: tuple[str, ...] | None = None
+    steps_per_period: int = 256
+    ramp_time: float = 0.0
+    settle_time: float = 0.0
+    ramp_periods: int = 0
+
+@dataclass(frozen=True, kw_only=True)
+class Dti(TimeIntegration):
+    """Steady responses at ``frequencies`` (rad/s) by direct time integration, at most
+    ``max_periods`` periods each; ``restart``: each from fresh load steps (else from the
+    previous steady state); ``compare``: the frf analysis drawn with it."""
+
+    type: ClassVar[str] = "dti"
+    frequencies: tuple[float, ...]
+    max_periods: int = 3000
+    measure: str = "peak"
+    restart: bool = False
+    compare: str = ""
 
 
 def check(c: Checking) -> None:

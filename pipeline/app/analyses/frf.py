@@ -6,14 +6,15 @@ Zucca Figs. 4-8, 14-17, 22-26)."""
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
 
 import h5py
 import numpy as np
 
 from microslip.case import Case, curve_variants, operating_point, settings, task_seconds
 from microslip.case import analysis_rules as rules
-from microslip.case.checks import number
+from microslip.case.checks import is_number, number
 from microslip.case.estimate import (
     CURVE_POINTS,
     MAP_DRAW_S,
@@ -21,7 +22,7 @@ from microslip.case.estimate import (
     balance_point_seconds,
 )
 from microslip.case.kinds import AnalysisKind, Checking
-from microslip.case.specs import MEASURES, METHODS, Frf
+from microslip.case.specs import MEASURES, Analysis, Family
 from microslip.draw import pictures
 from microslip.results import schema
 from microslip.results.writer import ATTRS, sampling_warning
@@ -53,6 +54,45 @@ if TYPE_CHECKING:
     from microslip.assembly.recovery import PatchState
 
 
+#: continuation methods of an frf; ``natural-down`` sweeps from stop to start
+METHODS = ("arclength", "natural", "natural-down")
+
+#: the maps an frf of an assembly case can draw at its map points
+MAP_TYPES = ("status", "normal_load", "shape")
+
+@dataclass(frozen=True, kw_only=True)
+class Frf(Analysis):
+    """A response curve: ``parameter`` from ``start`` to ``stop`` by each of ``method``
+    (one curve each), at the fixed ``frequency`` (rad/s) when the parameter is not the
+    frequency; ``outputs``: DOF or output names (None: every output); ``maps``: where a
+    assembly case draws contact maps ("peak" or parameter values), ``map_types`` which;
+    ``stability``: Hill's stability at every point and the bifurcations between them."""
+
+    type: ClassVar[str] = "frf"
+    start: float
+    stop: float
+    parameter: str = "frequency"
+    frequency: float | None = None
+    method: tuple[str, ...] = ("arclength",)
+    outputs: tuple[str, ...] | None = None
+    measure: str = "peak"
+    normalise: bool = False
+    family: Family | None = None
+    maps: tuple[str | float, ...] = ()
+    map_types: tuple[str, ...] = ("status",)
+    stability: bool = True
+
+    @property
+    def omega(self) -> float:
+        """The frequency (rad/s) the curve starts at (a frequency sweep) or holds."""
+        return self.start if self.parameter == "frequency" else self.frequency
+
+    @property
+    def shapes(self) -> bool:
+        """Whether deformed shapes are drawn (and so recovered) at the map points."""
+        return bool(self.maps) and "shape" in self.map_types
+
+
 def check(c: Checking) -> None:
     """An frf's own rules: its parameter and range (a fixed frequency for the others), its
     methods, family, maps, flags, measure and outputs."""
@@ -68,11 +108,37 @@ def check(c: Checking) -> None:
             c.out.append(f"{c.pre}.method = {m!r}: expected one of {list(METHODS)} (or a list "
                          "of them: one curve each)")
     rules.family_faults(c)
-    rules.maps_faults(c)
+    maps_faults(c)
     rules.flag(c, "stability", " (Hill's stability at every point, and the bifurcations)")
     rules.flag(c, "normalise", " (the response per unit of the excitation multiplier)")
     rules.measure_faults(c, MEASURES)
     rules.output_faults(c)
+
+
+def maps_faults(c: Checking) -> None:
+    """``maps`` and ``map_types`` of an frf, where given."""
+    if "maps" in c.given or "map_types" in c.given:
+        _map_faults(c.pre, c.table, c.data, c.out)
+
+
+def _map_faults(pre: str, a: dict, data: dict, out: list[str]) -> None:
+    """``maps``: where an frf draws its contact maps ("peak", or parameter values: every
+    solution there); ``map_types``: which maps."""
+    if "assembly" not in data:
+        out.append(f"{pre}.maps: contact maps need contact patches: a [assembly] case")
+        return
+    where = a["maps"]
+    lo, hi = sorted((a.get("start", 0.0), a.get("stop", 0.0)))
+    if not isinstance(where, list):
+        out.append(f"{pre}.maps = {where!r}: expected a list of 'peak' and parameter values")
+        where = []
+    for x in where:
+        if x != "peak" and not (is_number(x) and lo <= x <= hi):
+            out.append(f"{pre}.maps: {x!r} is neither 'peak' nor a parameter value in the "
+                       f"range {lo:g}..{hi:g}")
+    kinds = a["map_types"]
+    if not (isinstance(kinds, list) and all(k in MAP_TYPES for k in kinds)):
+        out.append(f"{pre}.map_types = {kinds!r}: expected a list of {list(MAP_TYPES)}")
 
 
 def seconds(data: dict, spec: Frf, variant: dict | None = None) -> float:

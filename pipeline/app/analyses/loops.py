@@ -3,6 +3,9 @@ motion, one per amplitude (Firrone & Zucca Figs. 3 and 9)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import h5py
 import numpy as np
 
@@ -10,7 +13,7 @@ from microslip.case import Case, contact_elements
 from microslip.case.checks import samples_rule
 from microslip.case.estimate import LOOPS_S, Size
 from microslip.case.kinds import AnalysisKind, Checking
-from microslip.case.specs import Loops, analysis
+from microslip.case.specs import Analysis, analysis
 from microslip.draw import pictures
 from microslip.fourier import Harmonics
 from microslip.laws.registry import LAWS
@@ -19,6 +22,23 @@ from microslip.solve.hbm import CACHE_LIMIT
 from microslip.solve.memory import ContactShape, balance_bytes
 
 from ..running import Run, draw_analysis
+
+
+@dataclass(frozen=True, kw_only=True)
+class Loops(Analysis):
+    """Hysteresis loops of ``contact`` under a prescribed motion [cos, sin] amplitudes
+    (m): ``u`` (``u2``: the second direction of a 2D law; ``v``: the normal motion of laws
+    B, D), one loop per multiplier in ``amplitudes``, which scale the whole motion
+    (``scale = "all"``) or only ``v``; ``samples`` per period."""
+
+    type: ClassVar[str] = "loops"
+    contact: str
+    u: tuple[float, float]
+    amplitudes: tuple[float, ...]
+    u2: tuple[float, float] | None = None
+    v: tuple[float, float] = (0.0, 0.0)
+    scale: str = "all"
+    samples: int = 512
 
 
 def check(c: Checking) -> None:

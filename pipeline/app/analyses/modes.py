@@ -5,6 +5,8 @@ the reduced assembly's, every contact stuck and free (the linear limits' resonan
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import ClassVar
 
 import h5py
 import numpy as np
@@ -13,13 +15,26 @@ from microslip.case import Case, operating_point
 from microslip.case.checks import is_int
 from microslip.case.estimate import Size
 from microslip.case.kinds import AnalysisKind, Checking
-from microslip.case.specs import Modes
+from microslip.case.specs import Analysis
 from microslip.draw import pictures
 from microslip.results import schema
 
 from ..models import AssemblyModels
 from ..plan import PlanContext, Stage, modes_stage
 from ..running import Run, draw_analysis
+
+
+@dataclass(frozen=True, kw_only=True)
+class Modes(Analysis):
+    """The lowest ``count`` natural frequencies of every body of a reduced case, unreduced
+    (held as the reduction holds it, at each nodal diameter reduced) and reduced (its
+    Craig-Bampton model, masters free), and the reduction's error on each; ``shapes``: the
+    unreduced mode shapes kept in results.h5 (vertex displacements)."""
+
+    type: ClassVar[str] = "modes"
+    count: int = 10
+    shapes: bool = True
+
 
 #: modes per body and nodal diameter at most (a modal answer, not a spectrum)
 MAX_MODES = 200

@@ -5,6 +5,9 @@ levels on an assembly case."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import ClassVar
+
 import h5py
 import numpy as np
 
@@ -13,7 +16,7 @@ from microslip.case import analysis_rules as rules
 from microslip.case.checks import number
 from microslip.case.estimate import CURVE_POINTS, PEAK_SOLVES, balance_point_seconds
 from microslip.case.kinds import AnalysisKind, Checking
-from microslip.case.specs import PEAK_PARAMETERS, Peak
+from microslip.case.specs import Analysis, Family
 from microslip.draw import pictures
 from microslip.results import schema
 from microslip.solve.response import peak_curve, stability_at, sweep
@@ -34,6 +37,36 @@ from ..running import (
     worst,
 )
 from ..tasks import Outcome, Task
+
+#: what a peak curve sweeps
+PEAK_PARAMETERS = ("excitation", "preload", "mass")
+
+@dataclass(frozen=True, kw_only=True)
+class Peak(Analysis):
+    """The largest ``measure`` of ``output`` over the frequency ``window`` (rad/s) at
+    ``points`` values of ``parameter`` from ``start`` to ``stop`` (``spacing`` linear or
+    log), each found by ``tracking`` (continuation from the last peak, or a sweep per
+    value); ``levels``: the free and fully stuck peaks too (an assembly case);
+    ``stability``: Hill's stability of each peak's solution."""
+
+    type: ClassVar[str] = "peak"
+    parameter: str
+    start: float
+    stop: float
+    window: tuple[float, float]
+    output: str
+    points: int = 25
+    spacing: str = "linear"
+    tracking: str = "continuation"
+    measure: str = "peak"
+    levels: bool = False
+    family: Family | None = None
+    stability: bool = True
+
+    def values(self) -> np.ndarray:
+        """(points,) the parameter values of each curve."""
+        space = np.geomspace if self.spacing == "log" else np.linspace
+        return space(self.start, self.stop, self.points)
 
 
 def check(c: Checking) -> None:

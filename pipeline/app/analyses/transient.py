@@ -4,6 +4,8 @@ load ramped, then the excitation grown), as time histories (Firrone & Zucca Fig.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
+from typing import ClassVar
 
 import h5py
 
@@ -12,13 +14,20 @@ from microslip.case import analysis_rules as rules
 from microslip.case.checks import number
 from microslip.case.estimate import time_integration_seconds
 from microslip.case.kinds import AnalysisKind, Checking
-from microslip.case.specs import Transient
 from microslip.draw import pictures
 from microslip.results import schema
 from microslip.results.writer import ATTRS
 
 from ..running import Run, attr_list, draw_analysis, time_model
-from .direct_integration import size
+from .direct_integration import TimeIntegration, size
+
+
+@dataclass(frozen=True, kw_only=True)
+class Transient(TimeIntegration):
+    """The load steps at ``frequency`` (rad/s) as time histories."""
+
+    type: ClassVar[str] = "transient"
+    frequency: float
 
 
 def check(c: Checking) -> None:

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import h5py
 import numpy as np
@@ -23,12 +25,12 @@ from microslip.case import analysis_rules as rules
 from microslip.case.build import sample_variants
 from microslip.case.estimate import CURVE_POINTS, PEAK_SOLVES, balance_point_seconds
 from microslip.case.kinds import AnalysisKind, Checking
-from microslip.case.specs import Uncertainty
+from microslip.case.specs import Analysis, distribution
 from microslip.draw import pictures
 from microslip.laws.coulomb import slip_share
 from microslip.results import schema
 from microslip.solve.response import sweep, undersampled_points
-from microslip.solve.sampling import PERCENTILES, statistics
+from microslip.solve.sampling import PERCENTILES, Distribution, design, statistics
 
 from ..limits import linear_peak
 from ..models import AssemblyModels, LumpedModels
@@ -37,6 +39,47 @@ from ..progress import time_left
 from ..running import Run, draw_analysis, execute
 from ..solutions import refined_peak, response_at
 from ..tasks import Outcome, Progress, Task
+
+
+@dataclass(frozen=True, kw_only=True)
+class Uncertainty(Analysis):
+    """The spread of a resonance peak under uncertain ``parameters``: per sample, the
+    largest ``measure`` of ``output`` over the frequency ``window`` (rad/s; an arclength
+    sweep, its top refined), its frequency and the share of contact points slipping there.
+
+    ``parameters``: name -> a distribution table (``{uniform = [low, high]}``,
+    ``{normal = {mean, sigma}}``, ``{lognormal = {median, sigma}}``) or a fixed value; a
+    dotted name is a case key, a plain one that key of every contact (``mu``). ``samples``
+    of a seeded ``design`` (``solve.sampling.DESIGNS``); ``limit``: the peak whose
+    exceedance probability is reported (m); ``levels``: the free and fully stuck peaks
+    at the case's own values (an assembly case)."""
+
+    type: ClassVar[str] = "uncertainty"
+    window: tuple[float, float]
+    output: str
+    parameters: Mapping[str, Any]
+    samples: int = 64
+    design: str = "sobol"
+    seed: int = 0
+    measure: str = "peak"
+    limit: float | None = None
+    levels: bool = False
+
+    def distributions(self) -> list[tuple[str, Distribution]]:
+        """(name, distribution) of each uncertain parameter, in the case's order."""
+        return [(k, distribution(v)) for k, v in self.parameters.items()
+                if isinstance(v, Mapping)]
+
+    def fixed(self) -> dict[str, float]:
+        """The parameters held at a value."""
+        return {k: v for k, v in self.parameters.items() if not isinstance(v, Mapping)}
+
+    def sample_values(self) -> tuple[list[str], np.ndarray]:
+        """(names, (samples, p) values) of the uncertain parameters."""
+        pairs = self.distributions()
+        x = design([d for _, d in pairs], self.samples, self.design, self.seed)
+        return [k for k, _ in pairs], x
+
 
 #: The numbers of a sample (its row of the samples table), NaN where not found; samples:
 #: per period, of the sweeps that gave it.
