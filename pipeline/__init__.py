@@ -41,7 +41,7 @@ _HOMES = {
     "OperatingPoint": "microslip.solve.linear",
     "Response": "microslip.solve.response",
     "sweep": "microslip.solve.response",
-    "peak_curve": "microslip.solve.response",
+    "peak_curve": "microslip.solve.peaks",
     "hill_stability": "microslip.solve.stability",
     "Case": "microslip.case",
     "load": "microslip.case",

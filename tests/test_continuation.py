@@ -207,7 +207,7 @@ def test_failure_is_reported_with_the_branch_kept():
 def test_peak_tracking_matches_full_sweeps():
     """The optimization curve traced by continuation of the peak equals the
     peaks of full FRFs (where the peak is single-humped), with fewer solves."""
-    from microslip.solve.response import peak_curve
+    from microslip.solve.peaks import peak_curve
 
     hb = jenkins_oscillator(H=1, n_samples=128, fs=1.0)  # the preload multiplier is N0
     values = np.linspace(0.0, 1.5, 16)

@@ -9,7 +9,8 @@ newton         Newton's method at a fixed parameter and on the bordered system
 continuation   natural continuation and the sweep driver in any scalar parameter
 arclength      pseudo-arclength continuation: predictor, corrector, step control
 branch         a continuation's results: the points of a branch
-response       frequency responses, peak curves and their post-processing
+response       frequency responses, the response measures, solve_point, the hints
+peaks          peak curves: the peak over a window tracked against a parameter
 stability      Hill's stability of a periodic solution
 bifurcation    bifurcations along a branch, detected and located
 sampling       uncertainty studies: the design of the samples, their statistics

@@ -23,7 +23,6 @@ from . import continuation as cont
 from .hbm import HarmonicBalance
 from .jacobian import BalanceJacobian
 from .linear import PARAMETERS, OperatingPoint
-from .stability import Stability, hill_stability, undefined
 
 METHODS = ("arclength", "natural")
 LINEAR_SAMPLES = 801  # parameter samples of a sweep with no contact DOF
@@ -76,13 +75,13 @@ class Response:
         """(n_points, n_outputs) max_t |x(t)| of DOFs or output rows, m (``vibration``:
         max_t |x(t) - x0|, the static part left out)."""
         return response_measure(self.model.harmonics, self.coefficients(dofs),
-                                _measure(vibration), oversample)
+                                measure_of(vibration), oversample)
 
     def top(self, dof: int | np.ndarray, *, vibration: bool = False
             ) -> tuple[int, np.ndarray]:
         """(the point of the largest response of one DOF or output row, the (n_points,)
         responses: max|x(t)|, or max|x(t) - x0| with ``vibration``)."""
-        amp = self.amplitude(_one(dof), vibration=vibration)[:, 0]
+        amp = self.amplitude(dof_rows(dof), vibration=vibration)[:, 0]
         return int(np.argmax(amp)), amp
 
     def peak(self, dof: int | np.ndarray, *, xtol: float = 1e-9,
@@ -111,7 +110,7 @@ class Response:
             if not r.converged:
                 return 0.0
             Q = self.model.recover(r.x, self.base.set(self.parameter, value))
-            return float(response_measure(h, output(Q, _one(dof))[0], _measure(vibration)))
+            return float(response_measure(h, output(Q, dof_rows(dof))[0], measure_of(vibration)))
 
         a, b = sorted((lam[i - 1], lam[i + 1]))
         value, top = refine_peak(amplitude_at, a, b, xtol * (b - a))
@@ -175,7 +174,8 @@ def response_measure(h: Harmonics, coefficients: np.ndarray, measure: str = "pea
     return h.peak(c, oversample)
 
 
-def _measure(vibration: bool) -> str:
+def measure_of(vibration: bool) -> str:
+    """The response measure of a peak: max|x(t) - x0| with ``vibration``, else max|x(t)|."""
     return "vibration" if vibration else "peak"
 
 
@@ -210,7 +210,7 @@ def output(Q: np.ndarray, dofs: Sequence[int] | np.ndarray | None) -> np.ndarray
     return sel @ Q if sel.ndim == 2 else Q[sel]
 
 
-def _one(dof: int | np.ndarray) -> list[int] | np.ndarray:
+def dof_rows(dof: int | np.ndarray) -> list[int] | np.ndarray:
     """One output as a selection: a DOF index, or an (n_dof,) row."""
     row = np.asarray(dof)
     return row[None, :] if row.ndim == 1 else [int(dof)]
@@ -564,127 +564,3 @@ def excitation_ramp(
     return None, (f"; retried by continuation in the excitation from {RAMP_START:g} x its "
                   f"value: {', '.join(reached)} (a sweep in frequency from a point that "
                   "converges may reach it)")
-
-
-@dataclass
-class PeakCurve:
-    """The largest response of one DOF over a frequency window, against a parameter.
-
-    values: (n,) parameter; omega: (n,) rad/s at the peak; amplitude: (n,)
-    max|x(t)| there, m; how: per point "swept" (a full FRF over the window) or
-    "tracked" (continuation of the previous peak); solves: Newton solves in all."""
-
-    values: np.ndarray
-    omega: np.ndarray
-    amplitude: np.ndarray
-    how: list[str]
-    solves: int
-    #: per point Hill's stability at the peak (``stability``), else None
-    stability: list[Stability | None] | None = None
-
-
-def peak_curve(
-    model: HarmonicBalance,
-    parameter: str,
-    values,
-    dof: int | np.ndarray,
-    window: tuple[float, float],
-    base: OperatingPoint | None = None,
-    *,
-    settings: cont.Settings = cont.DEFAULT,
-    progress: Callable[[int, float, float, float, str], None] | None = None,
-    vibration: bool = False,
-    stability: bool = False,
-) -> PeakCurve:
-    """Optimization / performance curves: the peak traced by natural continuation
-    in ``parameter`` (Firrone & Zucca Fig. 6).
-
-    The first value gets a full arclength FRF over ``window`` (the global peak
-    there). Each next one predicts the peak frequency from the last two and finds
-    the maximum of max|x(t)| by :func:`refine_peak` in a bracket around the
-    prediction, each trial a Newton solve warm-started from the nearest solution;
-    a maximum on the bracket's edge widens it (twice), and failing that the value
-    falls back to a full FRF. Far fewer solves than one FRF per value. It follows
-    one peak: where the FRF has several maxima of similar height (e.g. a stuck
-    and a slipping resonance) it may stay on a lower one; use full sweeps there.
-    ``vibration``: the peak of max|x(t) - x0| (the static part left out); ``stability``:
-    Hill's stability of each peak's solution (:func:`stability_at`)."""
-    lo, hi = window
-    if not (0 < lo < hi):
-        raise ValueError(f"peak_curve: 'window' = {window} must satisfy 0 < low < high (rad/s)")
-    base = base or OperatingPoint(lo)
-    vals = np.asarray(values, dtype=float)
-    omega, amp, how = [], [], []
-    stable: list[Stability | None] = []
-    memo: list[tuple[float, np.ndarray]] = []
-    solves = 0
-
-    def swept(point: OperatingPoint) -> tuple[float, float]:
-        nonlocal solves
-        r = sweep(model, "frequency", lo, hi, point.set("frequency", lo), settings=settings)
-        solves += r.branch.steps
-        if not len(r):
-            return np.nan, np.nan
-        w, a = r.peak(dof, vibration=vibration)
-        memo.clear()
-        memo.extend((float(r.omega[i]), r.branch.x[i]) for i in range(len(r)))
-        return w, a
-
-    def amplitude_at(point: OperatingPoint, w: float) -> float:
-        nonlocal solves
-        x0 = min(memo, key=lambda m: abs(m[0] - w))[1] if memo else None
-        r = solve_point(model, point.set("frequency", w), settings=settings, x0=x0)
-        solves += 1
-        if not r.converged:
-            return 0.0  # no amplitude is smaller: Brent's method moves away
-        memo.append((w, r.x))
-        Q = model.recover(r.x, point.set("frequency", w))
-        return float(response_measure(model.harmonics, output(Q, _one(dof))[0],
-                                      _measure(vibration)))
-
-    for i, v in enumerate(vals):
-        point = base.set(parameter, v)
-        found = None
-        if i >= 1 and np.isfinite(omega[-1]):
-            w_pred = omega[-1] if i == 1 else omega[-1] + (omega[-1] - omega[-2]) * (
-                (v - vals[i - 1]) / (vals[i - 1] - vals[i - 2]))
-            delta = max(2 * abs(omega[-1] - omega[-2]) if i >= 2 else 0.0, 0.01 * (hi - lo))
-            for _ in range(3):
-                a_, b_ = max(lo, w_pred - delta), min(hi, w_pred + delta)
-                w, top = refine_peak(lambda w, point=point: amplitude_at(point, w), a_, b_,
-                                     1e-7 * (hi - lo))
-                edge = min(w - a_, b_ - w) < 1e-4 * (b_ - a_)
-                at_window = (w - lo < 1e-4 * (hi - lo)) or (hi - w < 1e-4 * (hi - lo))
-                if top > 0 and (not edge or at_window):
-                    found = (w, top)
-                    break
-                delta *= 3
-        if found is None:
-            w, a = swept(point)
-            how.append("swept")
-        else:
-            w, a = found
-            how.append("tracked")
-        omega.append(w)
-        amp.append(a)
-        if stability:
-            stable.append(stability_at(model, point.set("frequency", w), memo, settings)
-                          if np.isfinite(w) else None)
-        if progress:
-            progress(i, float(v), w, a, how[-1])
-    return PeakCurve(vals, np.array(omega), np.array(amp), how, solves,
-                     stable if stability else None)
-
-
-def stability_at(model: HarmonicBalance, point: OperatingPoint,
-                 near: Sequence[tuple[float, np.ndarray]],
-                 settings: cont.Settings = cont.DEFAULT) -> Stability | None:
-    """Hill's stability of the solution at ``point`` found by Newton from the nearest in
-    frequency of ``near`` ((w, x) pairs); None where there is none or Newton fails."""
-    if not near or model.n_unknowns == 0:
-        return None
-    if undefined(model):
-        return None
-    x0 = min(near, key=lambda m: abs(m[0] - point.omega))[1]
-    r = solve_point(model, point, settings=settings, x0=x0)
-    return hill_stability(model, r.x, point) if r.converged else None

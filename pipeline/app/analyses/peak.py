@@ -19,7 +19,8 @@ from microslip.case.kinds import AnalysisKind, Checking
 from microslip.case.specs import Analysis, Family
 from microslip.draw import pictures
 from microslip.results import schema
-from microslip.solve.response import peak_curve, stability_at, sweep
+from microslip.solve.peaks import peak_curve, stability_at
+from microslip.solve.response import sweep
 from microslip.solve.stability import undefined
 
 from ..limits import LEVEL_POINTS, peak_levels
