@@ -282,19 +282,7 @@ def sweep(
     start (no ``x0``) fails at the first point, reach it by :func:`excitation_ramp`.
     watch: see :func:`continuation.arclength` (arclength only).
     """
-    if parameter not in PARAMETERS:
-        raise ValueError(f"sweep: 'parameter' = {parameter!r} is not one of {PARAMETERS}")
-    if method not in METHODS:
-        raise ValueError(f"sweep: 'method' = {method!r} is not one of {METHODS}")
-    cont.check_range(start, stop, parameter)
-    if parameter == "frequency" and min(start, stop) <= 0:
-        raise ValueError(f"sweep: frequency range must be > 0 rad/s, got {start}..{stop}")
-    if parameter in ("mass",) and min(start, stop) <= 0:
-        raise ValueError(f"sweep: mass multiplier range must be > 0, got {start}..{stop}")
-    if x0 is not None and np.shape(x0) != (model.n_unknowns,):
-        raise ValueError(f"sweep: 'x0' has shape {np.shape(x0)}, expected ({model.n_unknowns},)")
-    if parameter in ("frequency", "mass") and settings.lower < 0:
-        settings = dataclasses.replace(settings, lower=0.0)  # never through w = 0 or m = 0
+    settings = _sweep_settings(model, parameter, start, stop, method, settings, x0)
     if model.n_unknowns == 0:
         # no contact DOF: the response is linear and recovered exactly at every DOF;
         # sample the parameter (Response.peak refines a resonance between samples)
@@ -342,18 +330,46 @@ def sweep(
             branch = follow(ramp.x)
             branch.steps += steps
             retried = f"; first point: the cold start failed, {retried}"
-    if not branch.complete and branch.status != "interrupted":
-        # the failed iterate, else the last converged point, may show the cause
-        tries = [branch.failed] if branch.failed is not None else []
-        if len(branch):
-            tries.append((branch.values[-1], branch.x[-1]))
-        for value, x in tries:
-            hint = failure_hint(model, x, base.set(parameter, value))
-            if hint:
-                branch.message += hint
-                break
+    _say_why(model, branch, base, parameter)
     branch.message = (branch.message + retried).removeprefix("; ")
     return Response(model, branch, base)
+
+
+def _sweep_settings(model: HarmonicBalance, parameter: str, start: float, stop: float,
+                    method: str, settings: cont.Settings, x0: np.ndarray | None
+                    ) -> cont.Settings:
+    """The settings of a sweep whose arguments are checked (ValueError before any solve):
+    a frequency or mass sweep never goes through zero."""
+    if parameter not in PARAMETERS:
+        raise ValueError(f"sweep: 'parameter' = {parameter!r} is not one of {PARAMETERS}")
+    if method not in METHODS:
+        raise ValueError(f"sweep: 'method' = {method!r} is not one of {METHODS}")
+    cont.check_range(start, stop, parameter)
+    if parameter == "frequency" and min(start, stop) <= 0:
+        raise ValueError(f"sweep: frequency range must be > 0 rad/s, got {start}..{stop}")
+    if parameter in ("mass",) and min(start, stop) <= 0:
+        raise ValueError(f"sweep: mass multiplier range must be > 0, got {start}..{stop}")
+    if x0 is not None and np.shape(x0) != (model.n_unknowns,):
+        raise ValueError(f"sweep: 'x0' has shape {np.shape(x0)}, expected ({model.n_unknowns},)")
+    if parameter in ("frequency", "mass") and settings.lower < 0:
+        settings = dataclasses.replace(settings, lower=0.0)  # never through w = 0 or m = 0
+    return settings
+
+
+def _say_why(model: HarmonicBalance, branch: cont.Branch, base: OperatingPoint,
+             parameter: str) -> None:
+    """A branch that stopped short gets the hint its failed iterate (else its last
+    converged point) gives of the cause."""
+    if branch.complete or branch.status == "interrupted":
+        return
+    tries = [branch.failed] if branch.failed is not None else []
+    if len(branch):
+        tries.append((branch.values[-1], branch.x[-1]))
+    for value, x in tries:
+        hint = failure_hint(model, x, base.set(parameter, value))
+        if hint:
+            branch.message += hint
+            break
 
 
 def failure_hint(model: HarmonicBalance, x: np.ndarray, point: OperatingPoint) -> str:
