@@ -1,6 +1,7 @@
 """microslip.geometry: parametric and imported models -> tagged meshes (no physics here).
 
 mesh            the mesh contract: a plain, immutable, validated data object
+boundaries      what a mesh names beside its elements: cyclic faces, contacts, supports
 elements        the solid element shapes a mesh holds, by their corners
 params          parameter declarations: unit, default, checked range
 blisk           blisk sector + wedge damper (Gmsh)
@@ -23,7 +24,7 @@ stored          a Mesh in an HDF5 file and back, exactly
 
 Public API
 ----------
-Mesh, CyclicBoundary, ContactPatch       the mesh contract (geometry.mesh)
+Mesh, CyclicBoundary, ContactPatch       the mesh contract (geometry.mesh, geometry.boundaries)
 MODELS, PARAMETERS                       case-file model names -> builders / parameter classes
 NAMES                                    bodies, patches, node sets of the contact models
 beam, annular_sector                     reference models for FE checks (geometry.simple)
@@ -37,15 +38,9 @@ Previews: microslip.draw.previews.render_previews(mesh, out_dir) (pyvista).
 """
 
 from .blisk import BliskParameters, blisk_sector
+from .boundaries import ContactPatch, CyclicBoundary, MeshValidationError, Support
 from .full_disk import disk_node_map, full_disk
-from .mesh import (
-    ContactPatch,
-    CyclicBoundary,
-    Mesh,
-    MeshValidationError,
-    Support,
-    rotation_z,
-)
+from .mesh import Mesh, rotation_z
 from .params import GeometryBuildError, GeometryParameterError
 from .quality import sicn
 from .root_joint import RootJointParameters, root_joint

@@ -17,7 +17,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import elements
-from .mesh import CURVED, MATCH_TOL, ContactPatch, CyclicBoundary, Mesh, rotation_z
+from .boundaries import ContactPatch, CyclicBoundary
+from .mesh import CURVED, MATCH_TOL, Mesh, rotation_z
 from .params import GeometryBuildError
 
 Dimtags = list[tuple[int, int]]

@@ -35,7 +35,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .mesh import AveragedContact, ContactPatch, Mesh, SurfaceContact, rotation_z
+from .boundaries import AveragedContact, ContactPatch, SurfaceContact
+from .mesh import Mesh, rotation_z
 from .pairing import OUTSIDE, nodal_areas_and_normals, paired_contact, patch_weights
 from .params import GeometryBuildError
 from .surfaces import Surface, surface_of
@@ -224,8 +225,8 @@ def touching_facets(surface: Surface, touching: np.ndarray) -> np.ndarray:
 
 
 def averaged_surfaces(mesh: Mesh, name: str, spacing: float) -> Mesh:
-    """``mesh`` with its :class:`~.mesh.SurfaceContact` ``name`` made an
-    :class:`~.mesh.AveragedContact` of points about ``spacing`` [m] apart: side a's touching
+    """``mesh`` with its :class:`~.boundaries.SurfaceContact` ``name`` made an
+    :class:`~.boundaries.AveragedContact` of points about ``spacing`` [m] apart: side a's touching
     nodes gathered into patches (:func:`surface_patches`), each patch a pair of averaged
     points (``pairing.patch_weights``), new points of the mesh with their averages.
     ValueError naming the contact where it is not between named surfaces (or averaged

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import elements
-from .mesh import ContactPatch, Mesh, rotation_z
+from .boundaries import ContactPatch
+from .mesh import Mesh, rotation_z
 
 
 def sector_count(sector: Mesh) -> int:

@@ -36,7 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from . import abaqus, cad, deck_supports, elements, materials
-from .mesh import CURVED, FRAMES, Mesh, MeshValidationError, Support
+from .boundaries import FRAMES, MeshValidationError, Support
+from .mesh import CURVED, Mesh
 from .params import GeometryBuildError
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 

@@ -28,10 +28,10 @@ node whose facets lie wholly outside side b touches nothing. Side b may be a nei
 sector's surface: its nodes are then turned by ``rotation`` before the pairing (the cyclic
 phase is the assembly's business).
 
-Every contact of a mesh, a structured :class:`~.mesh.ContactPatch` or named surfaces
-(:class:`~.mesh.SurfaceContact`), reads downstream as one :class:`PairedContact`
+Every contact of a mesh, a structured :class:`~.boundaries.ContactPatch` or named surfaces
+(:class:`~.boundaries.SurfaceContact`), reads downstream as one :class:`PairedContact`
 (:func:`paired_contact`); :func:`declare_contact` turns what a case names (two surfaces,
-one and the ground, one and the neighbouring sector's) into a :class:`~.mesh.SurfaceContact`.
+one and the ground, one and the neighbouring sector's) into a :class:`~.boundaries.SurfaceContact`.
 """
 
 from __future__ import annotations
@@ -42,7 +42,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from .mesh import AveragedContact, ContactPatch, Mesh, SurfaceContact, rotation_z
+from .boundaries import AveragedContact, ContactPatch, SurfaceContact
+from .mesh import Mesh, rotation_z
 from .surfaces import (
     Surface,
     interpolation,
@@ -542,7 +543,7 @@ def declare_contact(mesh: Mesh, name: str, surfaces: tuple[str, ...],
     each set); ``neighbour``: the second surface is the neighbouring sector's, on whichever
     side (+1 or -1 sector) brings it onto the first. Side a is made the finer surface (by
     its faces' nodes; a neighbour contact keeps the cyclic body on side b).
-    ``tolerance``, ``spread``: as :class:`~.mesh.SurfaceContact`'s. ValueError naming the
+    ``tolerance``, ``spread``: as :class:`~.boundaries.SurfaceContact`'s. ValueError naming the
     contact and what is wrong."""
     pre = f"contacts.{name}"
     want = 1 if ground else 2

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .mesh import CyclicBoundary, Mesh, rotation_z
+from .boundaries import CyclicBoundary
+from .mesh import Mesh, rotation_z
 from .surfaces import project, surface_of
 
 

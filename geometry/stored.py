@@ -19,14 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from .mesh import (
-    AveragedContact,
-    ContactPatch,
-    CyclicBoundary,
-    Mesh,
-    Support,
-    SurfaceContact,
-)
+from .boundaries import AveragedContact, ContactPatch, CyclicBoundary, Support, SurfaceContact
+from .mesh import Mesh
 
 FORMAT = 1
 #: The dataclasses a mesh holds in its mappings, by the name written with each.

@@ -20,7 +20,7 @@ from test_surface_contacts import K_AREA, PRESS, E, H, L, P, model, pressed_mesh
 
 from microslip.case.geometry_table import ContactDeclaration, with_contacts
 from microslip.geometry.averaging import averaged_surfaces, surface_patches
-from microslip.geometry.mesh import AveragedContact
+from microslip.geometry.boundaries import AveragedContact
 from microslip.geometry.pairing import (
     OUTSIDE,
     declare_contact,

@@ -13,7 +13,7 @@ import scipy.sparse.linalg as spla
 from microslip import geometry
 from microslip.fe import craig_bampton, cyclic, fem, linalg, reduced_model
 from microslip.geometry.averaging import cell_averages
-from microslip.geometry.mesh import MeshValidationError
+from microslip.geometry.boundaries import MeshValidationError
 from microslip.geometry.pairing import nodal_areas_and_normals
 from microslip.geometry.surfaces import Surface, surface_of
 

@@ -6,15 +6,8 @@ import meshio
 import numpy as np
 import pytest
 
-from microslip.geometry.mesh import (
-    ContactPatch,
-    CyclicBoundary,
-    Mesh,
-    MeshValidationError,
-    boundary_triangles,
-    rotation_z,
-    signed_volumes,
-)
+from microslip.geometry.boundaries import ContactPatch, CyclicBoundary, MeshValidationError
+from microslip.geometry.mesh import Mesh, boundary_triangles, rotation_z, signed_volumes
 from microslip.geometry.quality import sicn
 
 UNIT_TET = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])

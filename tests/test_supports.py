@@ -10,8 +10,9 @@ from scipy.spatial import cKDTree
 
 from microslip.fe import bodies, cyclic, fem
 from microslip.geometry import full_disk
+from microslip.geometry.boundaries import CyclicBoundary, Support
 from microslip.geometry.imported import MeshImportError, import_mesh
-from microslip.geometry.mesh import CyclicBoundary, Mesh, Support, rotation_z
+from microslip.geometry.mesh import Mesh, rotation_z
 from microslip.geometry.structured import annulus, block
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)

@@ -22,7 +22,7 @@ from microslip.assembly.join import join
 from microslip.assembly.spec import AssemblySpec, NodalLoad, Output, PatchFriction
 from microslip.fourier import Harmonics
 from microslip.geometry.averaging import averaged_surfaces
-from microslip.geometry.mesh import MeshValidationError, SurfaceContact
+from microslip.geometry.boundaries import MeshValidationError, SurfaceContact
 from microslip.geometry.pairing import declare_contact, paired_contact
 from microslip.laws.states import GROSS_SLIP, SAMPLE_SLIP, STICK_SLIP
 from microslip.solve.linear import OperatingPoint

@@ -13,7 +13,7 @@ from microslip.case.geometry_table import contents_lines
 from microslip.case.units import case_unit_lines
 from microslip.draw.files import written
 from microslip.draw.maps import EDGES
-from microslip.geometry.mesh import AveragedContact, SurfaceContact
+from microslip.geometry.boundaries import AveragedContact, SurfaceContact
 from microslip.geometry.pairing import paired_contact
 from microslip.results import schema
 from microslip.results.writer import ResultsWriter

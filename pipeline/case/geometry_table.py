@@ -61,6 +61,7 @@ from typing import Any
 
 from microslip import geometry
 from microslip.geometry.averaging import averaged_surfaces
+from microslip.geometry.boundaries import SurfaceContact
 from microslip.geometry.imported import (
     UNITS,
     ImportedMesh,
@@ -68,7 +69,6 @@ from microslip.geometry.imported import (
     Selection,
     import_mesh,
 )
-from microslip.geometry.mesh import SurfaceContact
 from microslip.geometry.pairing import declare_contact, paired_contact
 from microslip.geometry.sector import SectorSpec
 

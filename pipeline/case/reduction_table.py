@@ -56,7 +56,7 @@ import numpy as np
 from microslip.fe import bodies, contact_stiffness, cyclic, linalg, reduced_model
 from microslip.fe.bodies import BodySpec
 from microslip.fe.fem import Damping, Material, MaterialZones
-from microslip.geometry.mesh import ContactPatch, Support
+from microslip.geometry.boundaries import ContactPatch, Support
 from microslip.geometry.pairing import paired_contact
 
 from .checks import is_int, is_number, unknown_keys

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from microslip.geometry.mesh import SurfaceContact
+from microslip.geometry.boundaries import SurfaceContact
 from microslip.geometry.pairing import paired_contact
 from microslip.geometry.stored import written_whole
 
@@ -32,7 +32,7 @@ class BodySpec:
     """What to reduce for one body of a mesh.
 
     master_sets / recovery_sets / clamped_sets: node-set names (see the geometry models).
-    supports: nodes held in some directions (``geometry.mesh.Support``: a deck's, a case's).
+    supports: nodes held in some directions (``geometry.boundaries.Support``: a deck's, a case's).
     recovery_surface: also recover the vertices of the body's outer surface (what a
     picture of the deformed body draws).
     patches: contact-patch names whose nodes in this body are masters.

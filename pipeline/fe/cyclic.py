@@ -39,7 +39,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from microslip.geometry import surfaces
-from microslip.geometry.mesh import mid_edge_points, own_images_only, rotation_z
+from microslip.geometry.boundaries import own_images_only
+from microslip.geometry.mesh import mid_edge_points, rotation_z
 
 from .fem import BodyModel, IntArray
 
@@ -217,7 +218,7 @@ class SectorModel:
     expansion: (N, n_f) CSR P_h, u_body = P_h u_free.
     nodal_diameter, sectors: None for a body without cyclic symmetry (e.g. the damper).
     clamped_nodes: global node indices held fixed; supports: the nodes held in some
-    directions (``geometry.mesh.Support``).
+    directions (``geometry.boundaries.Support``).
     """
 
     body: BodyModel
@@ -325,7 +326,7 @@ def sector_model(
     nodal_diameter: int = 0,
     supports: Sequence[Any] = (),
 ) -> SectorModel:
-    """Apply clamps, supports (``geometry.mesh.Support``: nodes held in some directions) and
+    """Apply clamps, supports (``geometry.boundaries.Support``: nodes held in some directions) and
     (if ``boundary`` is a CyclicBoundary) the ND-h cyclic condition.
 
     u_body = P q: a supported node's DOFs are the combinations of its free directions; the
