@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from microslip import geometry
-from microslip.fe import cyclic, fem, linalg
+from microslip.fe import cyclic, eigen, fem
 from microslip.geometry.mesh import rotation_z
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
@@ -58,11 +58,11 @@ def test_sector_reproduces_full_disk(sector, full_disk):
     lam_sector = []
     for h in range(NS // 2 + 1):
         m = cyclic.sector_model(body, bore, mesh.cyclic["disk"], h)
-        lam, _ = linalg.lowest_modes(m.stiffness, m.mass, 12)
+        lam, _ = eigen.lowest_modes(m.stiffness, m.mass, 12)
         pair = 2 if 0 < h < NS / 2 else 1  # travelling-wave pairs appear twice in the disk
         lam_sector.extend(np.repeat(lam, pair))
     lam_sector = np.sort(lam_sector)[:n_low]
-    lam_full, _ = linalg.lowest_modes(full.stiffness, full.mass, n_low)
+    lam_full, _ = eigen.lowest_modes(full.stiffness, full.mass, n_low)
     # Same element matrices up to rotation round-off: agreement is ~1e-13 (measured);
     # 1e-8 leaves the eigensolver's convergence tolerance (1e-10 on the residual) room.
     np.testing.assert_allclose(lam_full, lam_sector, rtol=1e-8)
@@ -74,7 +74,7 @@ def test_expanded_sector_mode_is_a_full_disk_mode(sector, full_disk):
     full, node_map = full_disk
     h = 1
     m = cyclic.sector_model(body, fem.node_set(mesh, "disk/bore"), mesh.cyclic["disk"], h)
-    lam, V = linalg.lowest_modes(m.stiffness, m.mass, 1)
+    lam, V = eigen.lowest_modes(m.stiffness, m.mass, 1)
     u_body = m.expansion @ V[:, 0]
     u_nodes = u_body[body.node_dofs]  # (n_v, 3) in body.nodes order
     u_disk = cyclic.expand_to_disk(u_nodes, h, NS)  # (Ns, n_v, 3)

@@ -5,7 +5,7 @@ import pytest
 import skfem as fe
 
 from microslip import geometry
-from microslip.fe import cyclic, fem, linalg
+from microslip.fe import cyclic, eigen, fem
 
 STEEL = fem.Material(2.1e11, 0.3, 7800.0)
 L, W, H = 1.0, 0.03, 0.02  # slender: L/H = 50, L/W = 33
@@ -84,7 +84,7 @@ def bending_frequencies(size: float) -> dict[str, float]:
     mesh = geometry.beam(L, W, H, size)
     body = fem.assemble(mesh, "beam", STEEL)
     model = cyclic.sector_model(body, fem.node_set(mesh, "beam/clamp"))
-    lam, V = linalg.lowest_modes(model.stiffness, model.mass, 8)
+    lam, V = eigen.lowest_modes(model.stiffness, model.mass, 8)
     tip = body.dofs_of_nodes(fem.node_set(mesh, "beam/tip_centre")).ravel()
     u_tip = np.abs((model.expansion @ V)[tip])  # (3, 8)
     found: dict[str, float] = {}

@@ -88,7 +88,7 @@ def test_a_filleted_root_converges_fast_and_its_curved_elements_do_not_fold():
     3159.78, 3156.22, 3155.52 rad/s at 1, 0.5, 0.25 mm: order 2.3); Gmsh's curved mid nodes
     on the tight fillet fold some small tetrahedra, whose edges are then straight (before,
     the assembly refused the mesh)."""
-    from microslip.fe import cyclic, linalg
+    from microslip.fe import cyclic, eigen
 
     w = []
     for size in (0.001, 0.0005):
@@ -97,7 +97,7 @@ def test_a_filleted_root_converges_fast_and_its_curved_elements_do_not_fold():
         body = fem.assemble(mesh, "blisk", STEEL, order=2)  # no InvertedElements
         s = cyclic.sector_model(body, fem.node_set(mesh, "blisk/bore"),
                                 mesh.cyclic["blisk"], 12)
-        lam, _ = linalg.lowest_modes(s.stiffness, s.mass, 1)
+        lam, _ = eigen.lowest_modes(s.stiffness, s.mass, 1)
         w.append(float(np.sqrt(lam[0])))
     # the halving changes the frequency by 0.11 % (measured 3.56 rad/s); a sharp corner
     # graded alike by ~0.07 % per halving for ever (order ~0.5-0.9): here the next halving

@@ -7,7 +7,7 @@ import pytest
 import scipy.linalg as sla
 
 from microslip import geometry
-from microslip.fe import bodies, craig_bampton, cyclic, fem, linalg, modal, reduced_model
+from microslip.fe import bodies, craig_bampton, cyclic, eigen, fem, linalg, modal, reduced_model
 from microslip.fourier import Harmonics
 from microslip.geometry.mesh import rotation_z
 from microslip.solve.linear import LinearDynamics, OperatingPoint
@@ -64,7 +64,7 @@ def _cb_errors(model, masters, selections):
 
     selections: n_modes values (an integer or "auto"). Reference: the unreduced model.
     """
-    lam, _ = linalg.lowest_modes(model.stiffness, model.mass, 10)
+    lam, _ = eigen.lowest_modes(model.stiffness, model.mass, 10)
     f_ref = np.sqrt(lam) / (2 * np.pi)
     errors, counts = [], []
     for n_modes in selections:
@@ -241,7 +241,7 @@ def test_modal_superposition(disk):
     model = _sector(disk, 1)
     nodes = disk[2][:4]
     red = modal.modal_reduction(model, 6, recovery_nodes=nodes)
-    lam, V = linalg.lowest_modes(model.stiffness, model.mass, 6)
+    lam, V = eigen.lowest_modes(model.stiffness, model.mass, 6)
     np.testing.assert_allclose(np.diag(red.stiffness).real, lam, rtol=1e-10)
     np.testing.assert_allclose(red.mass, np.eye(6), atol=1e-14)
     # Recovery = mode shapes at the nodes (up to a unit phase per mode).
@@ -278,7 +278,7 @@ def test_block_eigensolver_matches_dense(disk, dense_spectrum, h, backend):
     model = _sector(disk, h)  # 2289 free DOFs: above the dense limit, so the block path runs
     K, M = model.stiffness, model.mass
     lam_dense = dense_spectrum(h)
-    lam, V = linalg.lowest_modes(K, M, 20, backend=backend)
+    lam, V = eigen.lowest_modes(K, M, 20, backend=backend)
     # tol 1e-10 on the shift-invert residual: eigenvalues to round-off (measured ~1e-12).
     np.testing.assert_allclose(lam, lam_dense[:20], rtol=1e-9)
     np.testing.assert_allclose(V.conj().T @ (M @ V), np.eye(20), atol=1e-10)
@@ -286,12 +286,12 @@ def test_block_eigensolver_matches_dense(disk, dense_spectrum, h, backend):
     np.testing.assert_allclose(KV, np.diag(lam), atol=1e-10 * lam.max())
     # Selection by a bound: exactly the eigenvalues below it (and at least k).
     bound = 3.0**2 * lam_dense[9]
-    lam_b, V_b = linalg.lowest_modes(K, M, 10, upper=lambda lam_k: 3.0**2 * lam_k[-1],
+    lam_b, V_b = eigen.lowest_modes(K, M, 10, upper=lambda lam_k: 3.0**2 * lam_k[-1],
                                      backend=backend)
     assert len(lam_b) == np.sum(lam_dense <= bound) < 80
     np.testing.assert_allclose(lam_b, lam_dense[: len(lam_b)], rtol=1e-9)
     # ARPACK (the alternative) agrees.
-    lam_a, _ = linalg.lowest_modes(K, M, 20, method="arpack", backend=backend)
+    lam_a, _ = eigen.lowest_modes(K, M, 20, method="arpack", backend=backend)
     np.testing.assert_allclose(lam_a, lam_dense[:20], rtol=1e-9)
 
 
@@ -316,7 +316,7 @@ def test_pardiso_indefinite_shift_matches_superlu(disk, nd):
     refinement only if pivots were perturbed) and a complex right-hand side on a real matrix."""
     model = _sector(disk, nd)
     K, M = model.stiffness, model.mass
-    lam = linalg.lowest_modes(K, M, 3)[0]
+    lam = eigen.lowest_modes(K, M, 3)[0]
     A = K - 0.5 * (lam[1] + lam[2]) * M  # two eigenvalues below the shift
     b = np.random.default_rng(4).standard_normal((K.shape[0], 4)) * (1 - 3j)
     x_p = linalg.factorize(A, "pardiso", positive_definite=False).solve(b)
@@ -426,9 +426,9 @@ def test_block_eigensolver_stops_at_an_unreachable_tolerance(disk):
     model = _sector(disk, 1)
     # The estimated residual ||S x - nu x||_M / nu of converged pairs floors at a few eps
     # (measured 5e-16 to 2e-15 on this sector, ND 0 and 1): 1e-17 cannot be met.
-    with pytest.raises(linalg.EigenSolverError,
+    with pytest.raises(eigen.EigenSolverError,
                        match=r"not converged after \d+ restarts.*raise it"):
-        linalg.lowest_modes(model.stiffness, model.mass, 10, tol=1e-17)
+        eigen.lowest_modes(model.stiffness, model.mass, 10, tol=1e-17)
 
 
 @pytest.mark.parametrize("k", [42, 45, 80])
@@ -438,7 +438,7 @@ def test_block_eigensolver_converges_past_many_restarts(disk, k):
     the second Gram-Schmidt pass: 45 modes stopped after 20 restarts at 2e-3)."""
     K, M = (getattr(_sector(disk, 0), a) for a in ("stiffness", "mass"))
     lam_dense = sla.eigh(K.toarray(), M.toarray(), eigvals_only=True, subset_by_index=[0, k - 1])
-    lam, V = linalg.lowest_modes(K, M, k, tol=1e-12)
+    lam, V = eigen.lowest_modes(K, M, k, tol=1e-12)
     # tol 1e-12 on the shift-invert residual: eigenvalues to round-off of the dense solve.
     np.testing.assert_allclose(lam, lam_dense, rtol=1e-9)
     np.testing.assert_allclose(V.T @ (M @ V), np.eye(k), atol=1e-10)

@@ -19,7 +19,7 @@ from microslip import geometry
 from microslip.app import structure
 from microslip.app.run import run_case
 from microslip.case import reduction_table as reduction_table
-from microslip.fe import craig_bampton, cyclic, fem, linalg, reduced_model
+from microslip.fe import craig_bampton, cyclic, eigen, fem, linalg, reduced_model
 
 # The default blisk sector meshed twice as coarse: the stage end to end in a few seconds.
 
@@ -141,7 +141,7 @@ def test_stage_reduces_every_body_at_every_nd(stage):
     for h in (0, 5):
         sector = cyclic.sector_model(body, fem.node_set(mesh, "blisk/bore"),
                                      mesh.cyclic["blisk"], h)
-        lam, _ = linalg.lowest_modes(sector.stiffness, sector.mass, 10)
+        lam, _ = eigen.lowest_modes(sector.stiffness, sector.mass, 10)
         f_full = np.sqrt(lam) / (2 * np.pi)
         np.testing.assert_allclose(f_red[h], f_full, rtol=1e-3)
         assert np.all(f_red[h] >= f_full * (1 - 1e-9))  # a Ritz projection: from above
@@ -174,7 +174,7 @@ def _fixed_interface_frequencies(mesh, body, masters, k):
     held = model.dofs_of_nodes(masters, "masters").ravel()
     free = np.setdiff1d(np.arange(model.stiffness.shape[0]), held)
     K, M = model.stiffness[free][:, free], model.mass[free][:, free]
-    lam, _ = linalg.lowest_modes(K, M, k)
+    lam, _ = eigen.lowest_modes(K, M, k)
     return np.sqrt(lam) / (2 * np.pi)
 
 
@@ -244,7 +244,7 @@ def test_a_failed_eigen_solve_names_body_and_nd(tmp_path, monkeypatch, capsys):
         "[geometry.parameters]\nsectors = 24\nsize = 0.03\nblade_size = 0.015\n"
         "[reduction]\nnodal_diameters = [5]\nmodes = 6\n")
     monkeypatch.setattr(craig_bampton, "EIGEN_TOL", 1e-18)  # below any round-off floor
-    monkeypatch.setattr(linalg, "MAX_RESTARTS", 3)  # it fails the same way, sooner
+    monkeypatch.setattr(eigen, "MAX_RESTARTS", 3)  # it fails the same way, sooner
     code = cli.main(["run", str(path), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert code == 1

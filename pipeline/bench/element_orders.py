@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from microslip.fe import fem, linalg
+from microslip.fe import eigen, fem
 from microslip.geometry.structured import block
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
@@ -43,7 +43,7 @@ def frequencies(shape: str, order: int, cells: tuple[int, int, int], repeats: in
     free = np.setdiff1d(np.arange(body.n_dofs), clamp)
     K = body.stiffness[free][:, free].tocsc()
     M = body.mass[free][:, free].tocsc()
-    lam, _ = linalg.lowest_modes(K, M, MODES)
+    lam, _ = eigen.lowest_modes(K, M, MODES)
     return np.sqrt(lam) / (2 * np.pi), len(free), statistics.median(times)
 
 

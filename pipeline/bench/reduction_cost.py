@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from microslip.fe import craig_bampton, cyclic, fem, linalg, reduced_model
+from microslip.fe import craig_bampton, cyclic, eigen, fem, linalg, reduced_model
 
 STEEL = fem.Material(2.0e11, 0.3, 7850.0)
 
@@ -152,7 +152,7 @@ def bench_cb(model_name: str, nds: Sequence[int], cutoffs: Sequence[float],
     rows = []
     for h in nds:
         model = cyclic.sector_model(body, clamped, boundary, h)
-        lam, _ = linalg.lowest_modes(model.stiffness, model.mass, 10)
+        lam, _ = eigen.lowest_modes(model.stiffness, model.mass, 10)
         f_ref = np.sqrt(lam) / (2 * np.pi)
         runs: list[tuple[str, dict]] = [(f"{n} modes", {"n_modes": n}) for n in counts]
         runs += [(f"cutoff {c:g}", {"n_modes": "auto", "cutoff": c}) for c in cutoffs]
@@ -189,7 +189,7 @@ def bench_accuracy(refines: Sequence[float], nds: Sequence[int], n_freq: int = 6
             for h in nds:
                 t = time.perf_counter()
                 model = cyclic.sector_model(body, clamped, mesh.cyclic["blisk"], h)
-                lam, _ = linalg.lowest_modes(model.stiffness, model.mass, n_freq)
+                lam, _ = eigen.lowest_modes(model.stiffness, model.mass, n_freq)
                 results[refine, order, h] = (body.n_dofs, np.sqrt(lam) / (2 * np.pi),
                                              t_asm + time.perf_counter() - t)
                 _progress(f"  size factor {refine:g} P{order} ND {h}: "

@@ -9,5 +9,6 @@ modal               modal superposition, the alternative reduction
 bodies              what to reduce per body (BodySpec) and the cached reduction stage
 body_modes          a body's modes unreduced against its reduced model's
 contact_stiffness   flat-punch stiffness of a contact patch, local contact frames
-linalg              sparse factorizations (SuperLU, MKL PARDISO), block Lanczos
+linalg              sparse factorizations (SuperLU, MKL PARDISO), sparse products
+eigen               the lowest modes of a pencil: dense, ARPACK, block shift-invert Krylov
 """

@@ -16,7 +16,7 @@ from microslip.geometry.boundaries import SurfaceContact
 from microslip.geometry.pairing import paired_contact
 from microslip.geometry.stored import written_whole
 
-from . import cyclic, fem, linalg
+from . import cyclic, eigen, fem, linalg
 from .craig_bampton import averaged_masters, craig_bampton
 from .fem import Damping, IntArray, Material, MeshLike
 from .reduced_model import CENTRIFUGAL, CUTOFF, DEFAULT_MODES, ReducedModel, model_key
@@ -187,7 +187,7 @@ def reduce_body(
                                       spec.damping, backend, cutoff=spec.cutoff,
                                       f_max=spec.f_max, loads=loads,
                                       averaged=averaged_masters(mesh, master_nodes))
-            except linalg.EigenSolverError as err:
+            except eigen.EigenSolverError as err:
                 raise ReductionError(_eigen_failure(spec, h, sector.n_free, backend,
                                                     boundary is not None, err)) from err
             if path is not None and not _kept(model, path):

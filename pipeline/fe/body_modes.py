@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from . import cyclic, fem, linalg
+from . import cyclic, eigen, fem
 from .bodies import BodySpec, spec_nodes
 from .fem import MeshLike
 from .reduced_model import ReducedModel
@@ -79,7 +79,7 @@ def body_modes(mesh: MeshLike, spec: BodySpec, model: ReducedModel, count: int,
     # solved shifted, (K - sigma M) phi = (lambda - sigma) M phi: a rigid mode has K phi = 0,
     # on which the solver's residual (relative to K phi) could not converge
     shifted = sector.stiffness - sigma * sector.mass if sigma else sector.stiffness
-    lam, phi = linalg.lowest_modes(shifted, sector.mass, count, backend=backend)
+    lam, phi = eigen.lowest_modes(shifted, sector.mass, count, backend=backend)
     lam = lam + sigma
     vertex = None
     if shapes:

@@ -43,7 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from . import cyclic, linalg
+from . import cyclic, eigen, linalg
 from .fem import Damping, IntArray, MeshLike
 from .reduced_model import CUTOFF, DEFAULT_MODES, INTEREST, ReducedModel, reduction_key
 
@@ -223,7 +223,7 @@ def craig_bampton(
     patches: contact-patch name -> node indices (must be masters), stored for the HB stage.
     timings: if a dict is given, filled with the step times [s].
     eigen_method: "block" (block shift-invert Lanczos) or "arpack" (integer n_modes only);
-        see ``linalg.lowest_modes``.
+        see ``eigen.lowest_modes``.
     loads: name -> (N,) FE load vector on the body DOFs (e.g. ``fem.centrifugal_load``),
         projected as T^H P_h^H f = [f_m + Psi^H f_s ; Phi_s^H f_s] into ``ReducedModel.loads``.
     averaged: the masters that are averages of body nodes (``averaged_masters``): their
@@ -389,10 +389,10 @@ def _fixed_interface_modes(part: _Partition, factor, n_modes: int | str, cutoff:
             upper = lambda lam: cutoff**2 * lam[-1]  # noqa: E731
         else:
             k0, upper = 1, (2.0 * np.pi * cutoff * f_max) ** 2
-        return linalg.lowest_modes(part.K_ss, part.M_ss, k0, factor=factor, upper=upper,
+        return eigen.lowest_modes(part.K_ss, part.M_ss, k0, factor=factor, upper=upper,
                                    method=eigen_method, tol=EIGEN_TOL)
     if n_modes != "auto" and n_modes > 0:
-        return linalg.lowest_modes(part.K_ss, part.M_ss, int(n_modes), factor=factor,
+        return eigen.lowest_modes(part.K_ss, part.M_ss, int(n_modes), factor=factor,
                                    method=eigen_method, tol=EIGEN_TOL)
     return np.empty(0), np.empty((n_s, 0), dtype=part.dtype)
 

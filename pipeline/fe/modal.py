@@ -8,7 +8,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from . import cyclic, linalg
+from . import cyclic, eigen
 from .craig_bampton import check_loads, check_modes, free_loads, recovery_rows
 from .fem import Damping, IntArray
 from .reduced_model import ReducedModel, reduction_key
@@ -38,7 +38,7 @@ def modal_reduction(
     if len(recovery):
         model.body.local_nodes(recovery, "recovery_nodes")
     loads = check_loads(model, loads)
-    lam, Phi = linalg.lowest_modes(model.stiffness, model.mass, int(n_modes), sigma=sigma,
+    lam, Phi = eigen.lowest_modes(model.stiffness, model.mass, int(n_modes), sigma=sigma,
                                    backend=backend)
     if len(recovery):
         R = (recovery_rows(model, recovery) @ Phi).reshape(len(recovery), 3, n_modes)
