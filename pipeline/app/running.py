@@ -24,9 +24,7 @@ from microslip.results.writer import ResultsWriter, set_attrs
 from .models import AssemblyModels, LumpedModels
 from .progress import time_left
 from .store import CurveStore, draw_once
-from .tasks import Distributed, Outcome, Serial, Task
-
-Progress = Callable[[str], None]
+from .tasks import Distributed, Outcome, Progress, Serial, Task
 
 
 @dataclass(frozen=True)

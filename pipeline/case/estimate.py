@@ -121,18 +121,24 @@ def task_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None,
     return kinds_or_shipped(kinds).of(spec).task_seconds(data, spec, variant)
 
 
-def balance_point_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None,
-                          stability: bool | None = None) -> float:
-    """Rough seconds of one continuation point of the harmonic balance of analysis
-    ``spec`` (the largest of its curves', or ``variant``'s), with Hill's stability when the
-    spec asks for it (``stability`` None) or as given."""
+def balance_points(data: dict, spec: specs.Analysis, variant: dict | None = None
+                   ) -> list[tuple[int, int, tuple[int, int] | None]]:
+    """:func:`point_seconds`' sizes (unknowns, samples, lumped) of the harmonic balance of
+    each curve of analysis ``spec`` (only ``variant``'s where given)."""
     a = next(x for i, x in enumerate(data["analysis"])
              if specs.analysis_name(x, i) == spec.name)
-    if stability is None:
-        stability = bool(getattr(spec, "stability", False))
-    sizes = [_point_sizes(v, a, spec.name) for v in (
+    return [_point_sizes(v, a, spec.name) for v in (
         [variant] if variant is not None else _variants(data, a))]
-    return max(point_seconds(*p, stability=stability) for p in sizes)
+
+
+def balance_point_seconds(data: dict, spec: specs.Analysis, variant: dict | None = None
+                          ) -> float:
+    """Rough seconds of one continuation point of the harmonic balance of analysis
+    ``spec`` (the largest of its curves', or ``variant``'s), with Hill's stability where
+    the spec asks for it."""
+    stability = bool(getattr(spec, "stability", False))
+    return max(point_seconds(*p, stability=stability)
+               for p in balance_points(data, spec, variant))
 
 
 def _point_sizes(data: dict, a: dict, name: str) -> tuple[int, int, tuple[int, int] | None]:

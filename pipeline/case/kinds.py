@@ -45,6 +45,11 @@ class Checking:
         self.out.append(f"{self.pre}{text}")
 
 
+def no_surfaces(spec: specs.Analysis) -> bool:
+    """An analysis that recovers no body's outer surface (the default of a kind)."""
+    return False
+
+
 @dataclass(frozen=True)
 class AnalysisKind:
     """One analysis type.
@@ -78,7 +83,7 @@ class AnalysisKind:
     bodies: bool = False
     pictures_per_output: bool = False
     notes: bool = False
-    surfaces: Callable[[Any], bool] | None = None
+    surfaces: Callable[[Any], bool] = no_surfaces
 
 
 class Kinds(Mapping[str, AnalysisKind]):

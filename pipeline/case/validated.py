@@ -92,8 +92,7 @@ class Case:
         """Whether an frf draws deformed shapes at its map points: then every body is
         recovered on its outer surface too."""
         kinds = self.known_kinds
-        return any(kinds.of(a).surfaces is not None and kinds.of(a).surfaces(a)
-                   for a in self.analysis_specs)
+        return any(kinds.of(a).surfaces(a) for a in self.analysis_specs)
 
     @property
     def dofs(self) -> list[str]:

@@ -22,7 +22,7 @@ from microslip.laws.states import STATE_NAMES, STICK
 from microslip.results import schema
 from microslip.results.writer import attr_table, attr_text
 
-from . import maps, plots, previews, shapes
+from . import maps, plots, shapes
 
 MEASURE_LABEL = {"peak": "max |{}(t)| [m]", "vibration": "max |{0}(t) - {0}0| [m]",
                  "harmonic": "first-harmonic amplitude of {} [m]"}
@@ -566,12 +566,14 @@ def render(results: Path, out: Path | None = None, options: Options = Options(),
 
     out = out or results.parent
     out.mkdir(parents=True, exist_ok=True)
+    from .previews import geometry_previews  # pyvista loads when a preview is drawn
+
     known = kinds_or_shipped(kinds)
     paths = []
     with open_results(results) as f:
         for name, g in f.items():
             kind = attr_text(g.attrs.get("type", ""))
-            draw = (previews.geometry_previews if kind == "geometry" else
+            draw = (geometry_previews if kind == "geometry" else
                     known[kind].draw if kind in known else None)
             if draw is not None and (analyses is None or name in analyses):
                 paths += draw(g, name, out, options)

@@ -8,15 +8,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from microslip.draw.files import written
+
+if TYPE_CHECKING:  # matplotlib loads when a picture is drawn (as pyvista does in maps)
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
 LABELS = {
     "frequency": "excitation frequency w [rad/s]",
@@ -31,6 +32,9 @@ SPARSE = 50  # a curve of fewer computed points shows them as markers
 def _figure(size: tuple[float, float]) -> Figure:
     """A figure on its own Agg canvas: files only, no display needed, no pyplot state
     (so no global backend switch and nothing to close)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=size)
     FigureCanvasAgg(fig)
     return fig
@@ -134,6 +138,8 @@ def _scale(ax: Axes, axis: str, log: bool | None, arrays: list) -> None:
     getattr(ax, f"set_{axis}scale")("log")
     ax.grid(True, which="minor", axis=axis, alpha=0.12)  # values between the decades
     if 0 < decades(arrays) <= 3:  # few decades: ticks at 1, 2, 5 x 10^n read as plain numbers
+        from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
         scale = getattr(ax, f"{axis}axis")
         scale.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
         scale.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))

@@ -19,7 +19,8 @@ from microslip.case.estimate import (
     CURVE_POINTS,
     MAP_DRAW_S,
     MAP_SOLVES,
-    balance_point_seconds,
+    balance_points,
+    point_seconds,
 )
 from microslip.case.kinds import AnalysisKind, Checking
 from microslip.case.specs import MEASURES, Analysis, Family
@@ -144,8 +145,9 @@ def _map_faults(pre: str, a: dict, data: dict, out: list[str]) -> None:
 def seconds(data: dict, spec: Frf, variant: dict | None = None) -> float:
     """One curve: CURVE_POINTS points and its map points (MAP_SOLVES solves and the
     pictures each)."""
-    t = balance_point_seconds(data, spec, variant)
-    solve = balance_point_seconds(data, spec, variant, stability=False)
+    points = balance_points(data, spec, variant)  # (each curve's sizes, found once)
+    t = max(point_seconds(*p, stability=spec.stability) for p in points)
+    solve = max(point_seconds(*p, stability=False) for p in points)
     maps = len(spec.maps) * (MAP_SOLVES * solve + MAP_DRAW_S * len(spec.map_types))
     return CURVE_POINTS * t + maps
 
