@@ -53,3 +53,13 @@ def test_the_lumped_cases_run_to_the_end_without_a_warning(path, tmp_path, capsy
         assert f.attrs["status"] == "complete"
         analyses = [a for a in _table(path)["analysis"]]
         assert all(f[a["name"]].attrs["status"] == "complete" for a in analyses)
+
+
+def test_a_case_named_without_its_number_is_found_in_one_line(capsys):
+    """Commands written before the cases were numbered (``cases/sdof_wall.toml``) name the
+    file the case is now."""
+    assert main(["check", str(CASES / "sdof_wall.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"cannot read the file: No such file or directory; the shipped cases are " \
+           f"numbered now: {CASES / '01_sdof_wall.toml'}" in err

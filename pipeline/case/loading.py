@@ -30,7 +30,8 @@ def load(path: str | Path, kinds: Kinds | None = None) -> Case:
         with open(path, "rb") as f:
             data = tomllib.load(f)
     except OSError as err:
-        raise CaseError(str(path), [f"cannot read the file: {err.strerror}"]) from None
+        raise CaseError(str(path), [f"cannot read the file: {err.strerror}"
+                                    + numbered_name(path)]) from None
     except UnicodeDecodeError as err:  # tomllib decodes first: a binary file lands here
         raise CaseError(str(path), [
             f"not a text file: byte 0x{err.object[err.start]:02x} at offset {err.start} is "
@@ -41,6 +42,15 @@ def load(path: str | Path, kinds: Kinds | None = None) -> Case:
     data = with_mesh_path(data, path.parent)
     check(data, str(path), kinds=kinds)
     return Case(data, str(path), renamed, kinds)
+
+
+def numbered_name(path: Path) -> str:
+    """Where a shipped case named without its number is now (the cases are numbered in
+    their learning order: ``sdof_wall.toml`` is ``01_sdof_wall.toml``), or ""."""
+    if path.exists():
+        return ""
+    found = sorted(path.parent.glob(f"[0-9][0-9]_{path.name}"))
+    return f"; the shipped cases are numbered now: {found[0]}" if found else ""
 
 
 def with_mesh_path(data: dict, base: Path) -> dict:
