@@ -139,7 +139,7 @@ def test_a_stopped_curve_makes_the_run_partial_and_exit_1(tmp_path, monkeypatch)
     data = copy.deepcopy(GOOD)
     data["solver"] = {"max_points": 3}
     cases.check(data)
-    monkeypatch.setattr(cli, "_load_case", lambda cmd, path: cases.Case(data, "t.toml"))
+    monkeypatch.setattr(cli.run_command, "load_case", lambda cmd, path: cases.Case(data, "t.toml"))
     assert cli.main(["run", "t.toml", "--out", str(tmp_path)]) == 1
     with h5py.File(tmp_path / "results.h5") as f:
         assert f.attrs["status"] == "partial"

@@ -36,7 +36,7 @@ FORMAT = 1  # bump when the stored layout changes
 #: folders counts (COMPUTING): changing one invalidates every stored curve; changing these
 #: keeps them. Folders, not file lists, so that a new module is counted without a thought.
 COMPUTING = ("geometry", "pipeline")
-NOT_COMPUTING = ("pipeline/draw", "pipeline/bench", "pipeline/cli.py")
+NOT_COMPUTING = ("pipeline/draw", "pipeline/bench", "pipeline/cli")
 #: The sources of the pictures: the drawing package and the results file it reads.
 DRAWING = ("pipeline/draw", "pipeline/results")
 
