@@ -12,6 +12,8 @@ structured      structured meshes in every element shape, without Gmsh
 full_disk       Ns rotated copies joined at the cyclic faces
 sector          a sector of a cyclic structure from any mesh: axis, cyclic faces
 imported        meshes from other tools read into a Mesh (SI units, corner nodes)
+mesh_files      a mesh file of any format read, with its deck's materials and supports
+body_groups     the bodies of an imported mesh from its element groups
 abaqus          a reader of CalculiX / Abaqus input decks
 deck_supports   the supports of Nastran and Ansys decks
 materials       isotropic materials from the cards of Nastran and Ansys decks

@@ -27,29 +27,22 @@ or tangled, is an inverted element and an error.
 
 from __future__ import annotations
 
-import contextlib
-import io
-import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from . import abaqus, cad, deck_supports, elements, materials
+from . import cad, elements
+from .body_groups import bodies_of
 from .boundaries import FRAMES, MeshValidationError, Support
 from .mesh import CURVED, Mesh
-from .params import GeometryBuildError
+from .mesh_files import MeshImportError, read
 from .sector import SectorError, SectorSpec, centring, cyclic_boundaries, sector_frame
 
 #: meshio cell type -> our shape, of the solid elements read
 SOLID_TYPES = elements.SOLID_TYPES
 #: meshio cell types that are not solids: their nodes form node sets, nothing else
 _FACE_TYPES = ("vertex", "line", "line3", "triangle", "triangle6", "quad", "quad8", "quad9")
-_NAME = re.compile(r"^[A-Za-z0-9_.\-]+(/[A-Za-z0-9_.\-]+)*$")
-
-
-class MeshImportError(ValueError):
-    """A mesh file cannot be read into a Mesh; the message is one line naming what and why."""
 
 
 @dataclass(frozen=True)
@@ -150,52 +143,6 @@ class ImportedMesh:
     report: ImportReport = field(default_factory=lambda: ImportReport({}))
 
 
-def read(path: str | Path, length: float = 1.0, size: float | None = None,
-         sector: SectorSpec | None = None):
-    """The file as a meshio.Mesh; MeshImportError (one line) if it is missing or unreadable.
-    A CAD file is meshed (``geometry.cad``: ``length`` [m] per BREP unit, ``size`` [m])."""
-    import meshio
-    from meshio import _mesh
-
-    # meshio 5.3.5 reads 15-node wedges (C3D15, CPENTA, Gmsh type 18) but its table of cell
-    # dimensions lacks them, so building the cell block fails: the missing entry, added once
-    _mesh.topological_dimension.setdefault("wedge15", 3)
-    path = Path(path)
-    if not path.is_file():
-        raise MeshImportError(f"{path}: no such file")
-    suffix = path.suffix.lower()
-    if suffix in cad.SUFFIXES:
-        try:
-            return cad.mesh(path, length, size, sector)
-        except GeometryBuildError as exc:
-            raise MeshImportError(str(exc).splitlines()[0]) from None
-    if suffix == ".inp":
-        try:
-            return abaqus.read(path)
-        except abaqus.DeckError as exc:
-            raise MeshImportError(str(exc)) from None
-    if suffix == ".cdb":
-        return _ansys_archive(path)
-    fmt = {".bdf": "nastran", ".nas": "nastran", ".dat": "nastran", ".msh": "gmsh"}.get(suffix)
-    said = io.StringIO()
-    try:  # meshio prints its complaints and exits when no reader takes the file
-        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
-            raw = meshio.read(path, file_format=fmt)
-            if fmt == "nastran":  # each element's property id names its material
-                raw.info = {"element_materials": raw.cell_data.get("nastran:ref"),
-                            "materials": _cards(materials.nastran, path),
-                            "boundary": _held_nodes(deck_supports.nastran, path,
-                                                    getattr(raw, "points_id", None))}
-            return raw
-    except deck_supports.SupportError as exc:
-        raise MeshImportError(str(exc)) from None
-    except (Exception, SystemExit) as exc:  # anything from KeyError to IndexError
-        text = said.getvalue() if isinstance(exc, SystemExit) else str(exc) or said.getvalue()
-        lines = [x for x in text.strip().splitlines() if x.strip()]
-        why = lines[-1] if lines else type(exc).__name__
-        raise MeshImportError(f"{path}: not a readable mesh ({why})") from None
-
-
 def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | None = None,
                 sector: SectorSpec | None = None, sets: dict[str, Selection] | None = None,
                 size: float | None = None, model: str = "import") -> ImportedMesh:
@@ -208,20 +155,62 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     contract's frame (axis +z, sector around +x) and its cyclic faces paired;
     ``parameters["frame"]`` records the motion: x = rotation (x_file [m] - origin).
     """
+    _check_units(path, units)
+    raw = read(path, UNITS[units].length, size, sector)
+    if sector is not None and Path(path).suffix.lower() in cad.SUFFIXES:
+        sector = _with_meshed_faces(raw, bodies, sector)
+    solids, points = _solid_blocks(raw, path)
+    groups = _element_groups(raw)
+    corners, mids = _corners(points, raw, solids, path)
+    body_of = bodies_of(groups, solids, raw, bodies, path)
+    kept = _CornerNumbering.of(points, solids, corners, body_of)
+    node_sets, dropped = _node_sets(raw, groups, kept.used, kept.new)
+    length = (getattr(raw, "info", None) or {}).get("length", UNITS[units].length)  # (CAD)
+    curved, mid_xyz, offset = _curved_edges(points, mids, kept.new)
+    parts = _MeshParts(
+        model, kept.cells, kept.body_index, node_sets, curved, mid_xyz * length,
+        _deck_supports(raw, kept.used, kept.new, length),
+        {"file": Path(path).name, "units": units, "dropped_sets": list(dropped),
+         "materials": _body_materials(raw, solids, body_of, UNITS[units], kept.first)},
+        str(path))
+    mesh = parts.mesh(points[kept.used] * length)
+    if sets:  # chosen on the mesh in the file's frame
+        parts = replace(parts, node_sets=node_sets | _selected(sets, node_sets, mesh, sector))
+    if sector is not None:
+        mesh = _in_sector_frame(parts, mesh, sector)
+    elif sets:
+        mesh = parts.mesh(mesh.points)
+    count = {b.type: 0 for _, b in solids}
+    for _, b in solids:
+        count[b.type] += len(b.data)
+    skipped = dict((getattr(raw, "info", None) or {}).get("skipped", {}))
+    return ImportedMesh(mesh, ImportReport(count, offset, dropped, skipped, len(curved)))
+
+
+def _check_units(path: str | Path, units: str) -> None:
+    """MeshImportError unless ``units`` names a unit system the file may be given in."""
     if units not in UNITS:
         raise MeshImportError(f"units = {units!r}: expected one of {sorted(UNITS)}")
-    cad_file = Path(path).suffix.lower() in cad.SUFFIXES
-    if cad_file and units != "SI" and Path(path).suffix.lower() != ".brep":
+    suffix = Path(path).suffix.lower()
+    if suffix in cad.SUFFIXES and units != "SI" and suffix != ".brep":
         raise MeshImportError(f"units = {units!r}: {Path(path).name} declares its own unit "
                               "(STEP and IGES are converted to metres); leave units out")
-    raw = read(path, UNITS[units].length, size, sector)
-    if cad_file and sector is not None:  # the faces Gmsh meshed as each other's images
-        group_of = dict(bodies or {}) or {g: g for g in (raw.cell_sets or {})}
-        given = {b for b, _, _ in sector.faces}
-        found = tuple((b, f"cyclic/{g}/left", f"cyclic/{g}/right")
-                      for b, g in group_of.items() if b not in given
-                      and f"cyclic/{g}/left" in (raw.point_sets or {}))
-        sector = replace(sector, faces=sector.faces + found)
+
+
+def _with_meshed_faces(raw, bodies: dict[str, str] | None, sector: SectorSpec) -> SectorSpec:
+    """The sector with the cyclic faces Gmsh meshed as each other's images (a CAD file's
+    ``cyclic/<group>/left|right`` point sets) of every body whose faces it does not name."""
+    group_of = dict(bodies or {}) or {g: g for g in (raw.cell_sets or {})}
+    given = {b for b, _, _ in sector.faces}
+    found = tuple((b, f"cyclic/{g}/left", f"cyclic/{g}/right")
+                  for b, g in group_of.items() if b not in given
+                  and f"cyclic/{g}/left" in (raw.point_sets or {}))
+    return replace(sector, faces=sector.faces + found)
+
+
+def _solid_blocks(raw, path) -> tuple[list, np.ndarray]:
+    """The (index, cell block) of the solid element blocks and the (n, 3) nodes, checked:
+    MeshImportError for an element type neither solid nor face, no solid, bad coordinates."""
     solids = [(i, b) for i, b in enumerate(raw.cells) if b.type in SOLID_TYPES]
     unknown = sorted({b.type for b in raw.cells} - set(SOLID_TYPES) - set(_FACE_TYPES))
     if unknown:
@@ -233,57 +222,85 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
     points = np.asarray(raw.points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
         raise MeshImportError(f"{path}: node coordinates must be finite 3D points")
-    groups = _element_groups(raw)
-    corners, mids = _corners(points, raw, solids, path)
-    body_of = _bodies(groups, solids, raw, bodies, path)
+    return solids, points
 
-    # keep the corner nodes only, in file order
-    shapes = list(elements.SHAPES)
-    used = np.zeros(len(points), dtype=bool)
-    for c in corners.values():
-        used[c.ravel()] = True
-    new = np.cumsum(used) - 1
-    # element numbering of the Mesh: by shape, then in file order
-    order = {s: [k for k, (i, b) in enumerate(solids) if SOLID_TYPES[b.type] == s]
-             for s in shapes}
-    start, first = 0, {}
-    for s in shapes:
-        for k in order[s]:
-            first[k] = start
-            start += len(solids[k][1].data)
-    body_index = {name: np.sort(np.concatenate([first[k] + idx for k, idx in parts.items()]))
-                  for name, parts in body_of.items()}
-    cells = {s: (np.concatenate([new[corners[k]] for k in order[s]]) if order[s]
-                 else elements.empty(s)) for s in shapes}
 
-    node_sets, dropped = _node_sets(raw, groups, used, new)
-    length = (getattr(raw, "info", None) or {}).get("length", UNITS[units].length)  # (CAD)
-    curved, mid_xyz, offset = _curved_edges(points, mids, new)
-    mid_xyz = mid_xyz * length
-    supports = _deck_supports(raw, used, new, length)
-    parameters = {"file": Path(path).name, "units": units, "dropped_sets": list(dropped),
-                  "materials": _body_materials(raw, solids, body_of, UNITS[units], first)}
+@dataclass(frozen=True)
+class _CornerNumbering:
+    """The corner nodes kept, in file order, and the elements numbered by shape, then in
+    file order. used: (n,) the file's nodes kept; new: (n,) their index among those kept;
+    first: solid block position -> its first element index; cells: shape -> (m, corners)
+    kept node indices; body_index: body -> its sorted element indices."""
 
-    def mesh_of(xyz: np.ndarray, cyclic: dict | None = None,
-                motion: np.ndarray | None = None) -> Mesh:
-        """The mesh on nodes ``xyz``; ``motion`` (4, 3): the affine map x -> [x, 1] @
-        motion that moved the nodes here from the previous mesh (the mid nodes follow)."""
-        nonlocal mid_xyz, supports
-        if motion is not None:
-            mid_xyz = mid_xyz @ motion[:3] + motion[3]
-            supports = {n: s.moved(motion[:3].T, motion[3]) for n, s in supports.items()}
+    used: np.ndarray
+    new: np.ndarray
+    first: dict[int, int]
+    cells: dict[str, np.ndarray]
+    body_index: dict[str, np.ndarray]
+
+    @classmethod
+    def of(cls, points: np.ndarray, solids, corners: dict[int, np.ndarray],
+           body_of: dict[str, dict[int, np.ndarray]]) -> _CornerNumbering:
+        shapes = list(elements.SHAPES)
+        used = np.zeros(len(points), dtype=bool)
+        for c in corners.values():
+            used[c.ravel()] = True
+        new = np.cumsum(used) - 1
+        order = {s: [k for k, (i, b) in enumerate(solids) if SOLID_TYPES[b.type] == s]
+                 for s in shapes}
+        start, first = 0, {}
+        for s in shapes:
+            for k in order[s]:
+                first[k] = start
+                start += len(solids[k][1].data)
+        body_index = {name: np.sort(np.concatenate([first[k] + idx
+                                                    for k, idx in parts.items()]))
+                      for name, parts in body_of.items()}
+        cells = {s: (np.concatenate([new[corners[k]] for k in order[s]]) if order[s]
+                     else elements.empty(s)) for s in shapes}
+        return cls(used, new, first, cells, body_index)
+
+
+@dataclass(frozen=True)
+class _MeshParts:
+    """Everything of the Mesh but its nodes and cyclic faces; the mid nodes (``edge_nodes``
+    [m]) and supports move with the nodes (:meth:`moved`)."""
+
+    model: str
+    cells: dict[str, np.ndarray]
+    bodies: dict[str, np.ndarray]
+    node_sets: dict[str, np.ndarray]
+    curved_edges: np.ndarray
+    edge_nodes: np.ndarray
+    supports: dict[str, Support]
+    parameters: dict
+    path: str
+
+    def mesh(self, xyz: np.ndarray, cyclic: dict | None = None) -> Mesh:
+        """The mesh on nodes ``xyz`` [m] (the parts in their frame)."""
         try:
-            return Mesh(model=model, points=xyz, tetrahedra=cells["tetra"],
-                        hexahedra=cells["hexahedron"], wedges=cells["wedge"],
-                        bodies=body_index, node_sets=node_sets, cyclic=cyclic or {},
-                        parameters=parameters, curved_edges=curved, edge_nodes=mid_xyz,
-                        supports=supports)
+            return Mesh(model=self.model, points=xyz, tetrahedra=self.cells["tetra"],
+                        hexahedra=self.cells["hexahedron"], wedges=self.cells["wedge"],
+                        bodies=self.bodies, node_sets=self.node_sets, cyclic=cyclic or {},
+                        parameters=self.parameters, curved_edges=self.curved_edges,
+                        edge_nodes=self.edge_nodes, supports=self.supports)
         except MeshValidationError as exc:
-            raise MeshImportError(f"{path}: {exc}") from None
+            raise MeshImportError(f"{self.path}: {exc}") from None
 
-    mesh = mesh_of(points[used] * length)
-    for name, selection in (sets or {}).items():
-        if name in node_sets:
+    def moved(self, motion: np.ndarray) -> _MeshParts:
+        """The parts after the affine map x -> [x, 1] @ motion, ``motion`` (4, 3)."""
+        return replace(self, edge_nodes=self.edge_nodes @ motion[:3] + motion[3],
+                       supports={n: s.moved(motion[:3].T, motion[3])
+                                 for n, s in self.supports.items()})
+
+
+def _selected(sets: dict[str, Selection], held: dict[str, np.ndarray], mesh: Mesh,
+              sector: SectorSpec | None) -> dict[str, np.ndarray]:
+    """The node sets chosen by geometry on ``mesh`` (in the file's frame), checked against
+    the file's sets ``held`` and the mesh's bodies."""
+    chosen = {}
+    for name, selection in sets.items():
+        if name in held:
             raise MeshImportError(f"geometry.sets.{name}: the file has a set of that name")
         if selection.body is not None and selection.body not in mesh.bodies:
             raise MeshImportError(f"geometry.sets.{name}.body = {selection.body!r}: not a "
@@ -291,114 +308,34 @@ def import_mesh(path: str | Path, units: str = "SI", bodies: dict[str, str] | No
         if selection.radius is not None and sector is None:
             raise MeshImportError(f"geometry.sets.{name}.radius: needs [geometry.sector] "
                                   "(the axis it is measured from)")
-        node_sets[name] = selection.nodes(mesh, sector)
-        if not node_sets[name].size:
+        chosen[name] = selection.nodes(mesh, sector)
+        if not chosen[name].size:
             raise MeshImportError(f"geometry.sets.{name}: selects no surface node (widen "
                                   "the region or its tolerance)")
-    if sector is not None:  # (the mesh in the sector's frame holds the chosen sets too)
-        rotation, origin = sector_frame(sector.axis, sector.origin)
-        mesh = mesh_of((mesh.points - origin) @ rotation.T, None,
-                       np.vstack([rotation.T, -origin @ rotation.T]))
-        try:
-            xyz, boundaries = cyclic_boundaries(mesh, sector)
-        except SectorError as exc:
-            raise MeshImportError(str(exc)) from None
-        if not boundaries:
-            raise MeshImportError(
-                f"geometry.sector: no body of {path} has two faces on planes through the axis "
-                f"{list(sector.axis)} 2 pi / {sector.sectors} apart; name them in "
-                "[geometry.sector.faces]")
-        centre = centring(xyz, boundaries, sector.angle)
-        parameters["frame"] = {"rotation": (centre @ rotation).tolist(),
-                               "origin": origin.tolist(), "sectors": sector.sectors}
-        mesh = mesh_of(xyz @ centre.T, boundaries, np.vstack([centre.T, np.zeros(3)]))
-    elif sets:
-        mesh = mesh_of(mesh.points)  # with the chosen sets
-    count = {b.type: 0 for _, b in solids}
-    for _, b in solids:
-        count[b.type] += len(b.data)
-    skipped = dict((getattr(raw, "info", None) or {}).get("skipped", {}))
-    return ImportedMesh(mesh, ImportReport(count, offset, dropped, skipped, len(curved)))
+    return chosen
 
 
-# VTK cell type -> meshio type, of the solids an Ansys archive holds (a degenerate SOLID185 /
-# SOLID186 reads as the wedge or tetrahedron it is)
-_VTK_SOLIDS = {10: "tetra", 24: "tetra10", 12: "hexahedron", 25: "hexahedron20",
-               13: "wedge", 26: "wedge15", 14: "pyramid"}
-
-
-def _ansys_archive(path: Path):
-    """An Ansys archive (.cdb, MAPDL's CDWRITE and Workbench's export) as a meshio.Mesh, read
-    with ansys-mapdl-reader: node components as point sets, element components and material
-    ids (``mat<N>``) as element groups."""
-    import meshio
-
+def _in_sector_frame(parts: _MeshParts, mesh: Mesh, sector: SectorSpec) -> Mesh:
+    """The mesh moved into the contract's frame (axis +z, sector around +x) with its cyclic
+    faces paired; its ``parameters["frame"]``: the motion from the file's frame."""
+    rotation, origin = sector_frame(sector.axis, sector.origin)
+    to_axis = np.vstack([rotation.T, -origin @ rotation.T])
+    parts = parts.moved(to_axis)
+    mesh = parts.mesh((mesh.points - origin) @ rotation.T)
     try:
-        from ansys.mapdl.reader import Archive
-    except ImportError:
-        raise MeshImportError(f"{path}: reading .cdb needs ansys-mapdl-reader "
-                              "(pip install ansys-mapdl-reader)") from None
-    said = io.StringIO()
-    try:
-        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
-            archive = Archive(str(path))
-            grid = archive.grid
-    except Exception as exc:  # its parser raises what the file makes it raise
-        raise MeshImportError(f"{path}: not a readable Ansys archive ({exc})") from None
-    kinds = np.asarray(grid.celltypes)
-    unknown = sorted({int(k) for k in kinds} - set(_VTK_SOLIDS))
-    if unknown:
-        raise MeshImportError(f"{path}: VTK cell type(s) {unknown} not supported (solids: "
-                              "tetrahedra, hexahedra, wedges)")
-    numbers = np.asarray(grid.point_data["ansys_node_num"])
-    index = {int(n): i for i, n in enumerate(numbers)}
-    elems = np.asarray(grid.cell_data["ansys_elem_num"])
-    mats = np.asarray(grid.cell_data["ansys_material_type"])
-    offsets, conn = np.asarray(grid.cell_offsets), np.asarray(grid.cell_connectivity)
-    cells, cell_ids, cell_mats = [], [], []
-    for vtk in sorted(set(kinds.tolist())):
-        rows = np.flatnonzero(kinds == vtk)
-        width = offsets[rows[0] + 1] - offsets[rows[0]]  # (one type, one node count)
-        data = conn[offsets[rows][:, None] + np.arange(width)]
-        if vtk == 13:  # VTK's wedge mirrors ours (and Abaqus', Gmsh's)
-            data = data[:, elements.MIRROR["wedge"]]
-        cells.append((_VTK_SOLIDS[vtk], data))
-        cell_ids.append(elems[rows])
-        cell_mats.append(mats[rows])
-    point_sets = {name: np.array([index[int(n)] for n in nodes if int(n) in index])
-                  for name, nodes in archive.node_components.items()}
-    cell_sets = {name: [np.flatnonzero(np.isin(ids, np.asarray(members))) for ids in cell_ids]
-                 for name, members in archive.element_components.items()}
-    for m in np.unique(mats):
-        cell_sets[f"mat{int(m)}"] = [np.flatnonzero(cm == m) for cm in cell_mats]
-    try:
-        held = _held_nodes(deck_supports.ansys, path, numbers)
-    except deck_supports.SupportError as exc:
+        xyz, boundaries = cyclic_boundaries(mesh, sector)
+    except SectorError as exc:
         raise MeshImportError(str(exc)) from None
-    return meshio.Mesh(np.asarray(grid.points, dtype=np.float64), cells,
-                       point_sets=point_sets, cell_sets=cell_sets,
-                       info={"element_materials": cell_mats,
-                             "materials": _cards(materials.ansys, path), "boundary": held})
-
-
-def _held_nodes(reader, path: Path, ids) -> list[tuple[list[int], tuple[int, ...], str]]:
-    """A deck's supports (``geometry.deck_supports``) on the file's node indices (``ids``:
-    each point's number in the file); a support of a node the mesh lacks holds nothing."""
-    found = reader(path)
-    if not found or ids is None:
-        return []
-    index = {int(n): i for i, n in enumerate(np.asarray(ids))}
-    return [([index[n] for n in nodes if n in index], dofs, where)
-            for nodes, dofs, where in found]
-
-
-def _cards(reader, path: Path) -> dict | str:
-    """The material cards ``reader`` finds, or why it could not read them (a bad card spoils
-    ``material = "file"`` only, not the mesh)."""
-    try:
-        return reader(path)
-    except (ValueError, IndexError) as exc:
-        return f"its material cards cannot be read ({exc})"
+    if not boundaries:
+        raise MeshImportError(
+            f"geometry.sector: no body of {parts.path} has two faces on planes through the "
+            f"axis {list(sector.axis)} 2 pi / {sector.sectors} apart; name them in "
+            "[geometry.sector.faces]")
+    centre = centring(xyz, boundaries, sector.angle)
+    frame = {"rotation": (centre @ rotation).tolist(), "origin": origin.tolist(),
+             "sectors": sector.sectors}
+    parts = replace(parts, parameters=parts.parameters | {"frame": frame})
+    return parts.moved(np.vstack([centre.T, np.zeros(3)])).mesh(xyz @ centre.T, boundaries)
 
 
 def _body_materials(raw, solids, body_of, units: Units, first: dict[int, int]
@@ -589,120 +526,6 @@ def _curved_edges(points, mids, new) -> tuple[np.ndarray, np.ndarray, float]:
     relative = np.linalg.norm(xyz - 0.5 * (a + b), axis=1) / np.linalg.norm(b - a, axis=1)
     off = relative > CURVED
     return np.sort(new[pairs[off]], axis=1), xyz[off], float(relative.max(initial=0.0))
-
-
-def _bodies(groups, solids, raw, names, path) -> dict[str, dict[int, np.ndarray]]:
-    """Body name -> solid block position (in ``solids``) -> element indices in that block."""
-    position = {i: k for k, (i, _) in enumerate(solids)}
-    total = sum(len(b.data) for _, b in solids)
-    solid_groups = {name: {position[i]: idx for i, idx in g.items() if i in position}
-                    for name, g in groups.items()}
-    solid_groups = {n: g for n, g in solid_groups.items() if g}
-    sizes = {n: sum(len(v) for v in g.values()) for n, g in solid_groups.items()}
-    listing = ", ".join(f"{n} ({sizes[n]})" for n in sorted(solid_groups)) or "none"
-    if names is not None:
-        missing = [g for g in names.values() if g not in solid_groups]
-        if missing:
-            raise MeshImportError(f"geometry.bodies: {missing} are not element groups of "
-                                  f"{path}; its element groups: {listing}")
-        chosen = {n: solid_groups[g] for n, g in names.items()}
-    elif not solid_groups:
-        chosen = {"body": {k: np.arange(len(b.data)) for k, (_, b) in enumerate(solids)}}
-    else:
-        # a group repeated under another name (Gmsh's "Volume1" beside its physical name)
-        # counts once, by its last name: the explicit sets come after the element cards
-        distinct = {_key(g): n for n, g in solid_groups.items()}
-        unique = {n: solid_groups[n] for n in distinct.values()}
-        # the finest partition of bodies in contact, else the coarsest (a deck's extra
-        # element sets, for loads or surfaces, beside its parts)
-        covering = [c for c in (_finest_partition(unique, sizes),
-                                _largest_first(unique, sizes))
-                    if sum(sizes[n] for n in c) == total]
-        chosen = next((c for c in covering if not _share_nodes(c, solids)), None) or \
-            (covering[-1] if covering else {})
-        if not covering:
-            raise MeshImportError(f"{path}: {_why_unclear(unique, total)}, so the bodies are "
-                                  f"not clear; name them in geometry.bodies, e.g. bodies = "
-                                  f"{{ blade = \"<group>\" }} (element groups: {listing})")
-    covered = sum(sum(len(v) for v in g.values()) for g in chosen.values())
-    if covered != total or any(not _disjoint(g, h) for n, g in chosen.items()
-                               for m, h in chosen.items() if n < m):
-        raise MeshImportError(f"geometry.bodies = {sorted(chosen)}: must hold every solid "
-                              f"element of {path} once ({total} elements)")
-    for name in chosen:
-        if not _NAME.match(name):
-            raise MeshImportError(f"{path}: body name {name!r} must be letters, digits, "
-                                  "'_', '.', '-'")
-    nodes = {n: np.unique(np.concatenate([np.asarray(solids[k][1].data)[idx].ravel()
-                                          for k, idx in g.items()])) for n, g in chosen.items()}
-    for n in chosen:
-        for m in chosen:
-            shared = np.intersect1d(nodes[n], nodes[m]).size if n < m else 0
-            if shared:
-                raise MeshImportError(
-                    f"{path}: bodies {n!r} and {m!r} share {shared} nodes; bodies in contact "
-                    "carry distinct, coincident nodes (or make them one body: name a group "
-                    "holding both in geometry.bodies)")
-    return chosen
-
-
-def _finest_partition(groups: dict[str, dict[int, np.ndarray]], sizes: dict[str, int]
-                      ) -> dict[str, dict[int, np.ndarray]]:
-    """The groups left when the largest of those that overlap another is dropped, until none
-    overlaps: a group of every element (Abaqus' EALL) beside the parts gives way to them."""
-    left = dict(groups)
-    while True:
-        overlapping = [n for n in left if any(not _disjoint(left[n], left[m])
-                                              for m in left if m != n)]
-        if not overlapping:
-            return left
-        del left[max(overlapping, key=lambda n: (sizes[n], n))]
-
-
-def _largest_first(groups: dict[str, dict[int, np.ndarray]], sizes: dict[str, int]
-                   ) -> dict[str, dict[int, np.ndarray]]:
-    """The groups taken largest first, each disjoint from those taken."""
-    taken: dict[str, dict[int, np.ndarray]] = {}
-    for n in sorted(groups, key=lambda n: (-sizes[n], n)):
-        if all(_disjoint(groups[n], g) for g in taken.values()):
-            taken[n] = groups[n]
-    return taken
-
-
-def _share_nodes(groups: dict[str, dict[int, np.ndarray]], solids) -> bool:
-    """Whether two of the groups share a node."""
-    seen: set[int] = set()
-    for g in groups.values():
-        nodes = set(np.concatenate([np.asarray(solids[k][1].data)[idx].ravel()
-                                    for k, idx in g.items()]).tolist())
-        if nodes & seen:
-            return True
-        seen |= nodes
-    return False
-
-
-def _why_unclear(groups: dict[str, dict[int, np.ndarray]], total: int) -> str:
-    """Why the element groups are not the bodies: the first pair that overlaps (how many
-    elements in both), or how many elements no group holds."""
-    names = sorted(groups)
-    for i, n in enumerate(names):
-        for m in names[i + 1:]:
-            both = sum(np.intersect1d(groups[n][k], groups[m][k]).size
-                       for k in groups[n].keys() & groups[m].keys())
-            if both:
-                return (f"element groups {n!r} and {m!r} overlap ({both} elements in both: a "
-                        "group of all elements, or a material beside a part?)")
-    held = sum(sum(len(v) for v in g.values()) for g in groups.values())
-    return f"{total - held} of its {total} solid elements are in no element group"
-
-
-def _key(g: dict[int, np.ndarray]) -> tuple:
-    """A hashable identity of a group of elements."""
-    return tuple((k, np.sort(g[k]).tobytes()) for k in sorted(g))
-
-
-def _disjoint(g: dict[int, np.ndarray], h: dict[int, np.ndarray]) -> bool:
-    return all(np.intersect1d(g[k], h[k]).size == 0 for k in g.keys() & h.keys())
 
 
 def _node_sets(raw, groups, used, new) -> tuple[dict[str, np.ndarray], tuple[str, ...]]:
