@@ -151,19 +151,13 @@ def _block_krylov(
     dtype = np.result_type(K.dtype, M.dtype, np.float64)
     b = max(1, min(int(block or BLOCK), n // 4))
     rng = np.random.default_rng(12345)  # deterministic start block
-    W = rng.standard_normal((n, b))
-    if np.issubdtype(dtype, np.complexfloating):
-        W = W + 1j * rng.standard_normal((n, b))
-    if getattr(factor, "constraint", None) is not None:  # start where S maps: W x = 0
-        W = factor.solve(spmm(M, W.astype(dtype)))
     cap = min(n, _BASIS * k + 3 * b)
     # Column-major: the leading columns V[:, :m] are contiguous, so BLAS reads them in place
     # (a row-major basis made every product copy n x m first: 1/3 of the eigen time).
     V, MV, SV = (np.empty((n, cap), dtype=dtype, order="F") for _ in range(3))
     H = np.zeros((cap, cap), dtype=dtype)
     m = 0
-    W, MW, *_ = _m_orthogonalize(W.astype(dtype), V[:, :0], MV[:, :0], M)
-    W, MW = _svqb(W, MW)
+    W, MW = _start_block(rng, (n, b), dtype, factor, M)
     wanted, bound = k, None
     restarts = 0
     for _ in range(max(200, 4 * n // b)):
@@ -179,59 +173,99 @@ def _block_krylov(
         Z, MZ, G, C = _m_orthogonalize(SW, V[:, :m], MV[:, :m], M)
         H[:m, m - j : m] = C
         H[m - j : m, : m - j] = C[: m - j].conj().T
-        Hm = H[:m, :m]
-        nu, Y = sla.eigh(0.5 * (Hm + Hm.conj().T))
-        nu, Y = nu[::-1], Y[:, ::-1]  # largest nu = eigenvalue nearest above sigma
+        nu, Y, res = _ritz_pairs(H[:m, :m], G, j)
         theta = sigma + 1.0 / nu
-        Yl = Y[m - j : m]
-        res = np.sqrt(np.abs(np.einsum("ij,ik,kj->j", Yl.conj(), G, Yl))) / np.abs(nu)
         converged = (res <= tol) & (nu > 0)
         if m >= k and (converged[:k].all() or m >= n):
             if bound is None and upper is not None:
                 bound = _bound(upper, theta[:k])
-            if bound is not None:
-                wanted = max(k, int(np.sum((theta <= bound) & (nu > 0))))
+            wanted = k if bound is None else max(k, int(np.sum((theta <= bound) & (nu > 0))))
             # Done when the wanted pairs converged and, with a bound, also the first pair
             # above it (Ritz values are upper bounds: no eigenvalue hides below the bound).
             need = wanted + (bound is not None)
             if (need <= m and converged[:need].all()) or m >= n:
                 X = V[:, :m] @ Y[:, :wanted]
-                R = SV[:, :m] @ Y[:, :wanted] - X * nu[:wanted]
-                err = np.sqrt(np.abs(np.einsum("ij,ij->j", R.conj(), spmm(M, R)))) / nu[:wanted]
-                # The explicit residual can sit above tol at the round-off floor of an
-                # ill-conditioned K (the computed S is self-adjoint only to ~eps cond(K); a
-                # slender P2 beam: 1e-9). Past 10 tol (and 1e-6) something is broken.
-                if m < n and err.max() > max(10 * tol, 1e-6):
-                    raise EigenSolverError(
-                        f"block Krylov: residual {err.max():.2e} > {tol:.1e} after "
-                        "convergence (loss of orthogonality)")
+                _check_residuals(M, X, SV[:, :m] @ Y[:, :wanted], nu[:wanted], tol, m < n)
                 return rayleigh_ritz(K, M, X)
         W, MW = _svqb(Z, MZ)
         if W.shape[1] == 0:  # invariant subspace: continue from fresh random directions
-            fresh = rng.standard_normal((n, b)).astype(dtype)
-            if getattr(factor, "constraint", None) is not None:
-                fresh = factor.solve(spmm(M, fresh))
+            fresh = _in_range(rng.standard_normal((n, b)).astype(dtype), factor, M, dtype)
             W, MW, *_ = _m_orthogonalize(fresh, V[:, :m], MV[:, :m], M)
             W, MW = _svqb(W, MW)
         if m + W.shape[1] > _BASIS * wanted + 3 * b:
             # Thick restart on the wanted Ritz vectors and one block beyond: H is diagonal
             # there, and S maps their span into span(itself, W): the Krylov structure holds.
-            keep = min(m, wanted + b)
-            for A in (V, MV, SV):
-                A[:, :keep] = fmul(A[:, :m], Y[:, :keep])
-            H[:keep, :keep] = np.diag(nu[:keep])
-            m = keep
             restarts += 1
-            worst = float(res[:wanted].max())
-            if restarts > MAX_RESTARTS:
-                # Converging problems need 1-3 restarts (blisk sectors); a tol below the
-                # estimate's round-off floor (a few eps) would otherwise spin for thousands
-                # of steps.
-                raise EigenSolverError(
-                    f"block Krylov: {wanted} modes not converged after {MAX_RESTARTS} restarts "
-                    f"(worst residual {worst:.1e} > tol {tol:.1e}; a tol near the round-off "
-                    "floor cannot be met: raise it)")
+            _check_restarts(restarts, wanted, float(res[:wanted].max()), tol)
+            m = _thick_restart((V, MV, SV), H, Y, nu, m, min(m, wanted + b))
     raise EigenSolverError(f"block Krylov: no convergence for k={k} (tol={tol})")
+
+
+def _start_block(rng: np.random.Generator, shape: tuple[int, int], dtype, factor: Factor,
+                 M: sp.spmatrix) -> tuple[NDArray, NDArray]:
+    """The M-orthonormal random start block W (n, b) (complex for a complex operator) and
+    M W, in the range of S."""
+    W = rng.standard_normal(shape)
+    if np.issubdtype(dtype, np.complexfloating):
+        W = W + 1j * rng.standard_normal(shape)
+    W = _in_range(W, factor, M, dtype).astype(dtype)
+    empty = np.empty((shape[0], 0), dtype=dtype, order="F")
+    W, MW, *_ = _m_orthogonalize(W, empty, empty, M)
+    return _svqb(W, MW)
+
+
+def _check_restarts(restarts: int, wanted: int, worst: float, tol: float) -> None:
+    """EigenSolverError past MAX_RESTARTS thick restarts: converging problems need 1-3
+    (blisk sectors); a tol below the estimate's round-off floor (a few eps) would otherwise
+    spin for thousands of steps."""
+    if restarts > MAX_RESTARTS:
+        raise EigenSolverError(
+            f"block Krylov: {wanted} modes not converged after {MAX_RESTARTS} restarts "
+            f"(worst residual {worst:.1e} > tol {tol:.1e}; a tol near the round-off "
+            "floor cannot be met: raise it)")
+
+
+def _in_range(W: NDArray, factor: Factor, M: sp.spmatrix, dtype) -> NDArray:
+    """A start block where S maps (W x = 0) when the factor carries a constraint, else W."""
+    if getattr(factor, "constraint", None) is not None:
+        return factor.solve(spmm(M, W.astype(dtype)))
+    return W
+
+
+def _ritz_pairs(Hm: NDArray, G: NDArray, j: int) -> tuple[NDArray, NDArray, NDArray]:
+    """Ritz values nu (m,) of the projected operator Hm (m, m), largest first (nearest above
+    sigma), their vectors Y (m, m) and residual estimates ||Z y_last||_M / |nu| (m,) from the
+    Gram matrix G (j, j) of the new block Z."""
+    nu, Y = sla.eigh(0.5 * (Hm + Hm.conj().T))
+    nu, Y = nu[::-1], Y[:, ::-1]
+    Yl = Y[-j:]
+    res = np.sqrt(np.abs(np.einsum("ij,ik,kj->j", Yl.conj(), G, Yl))) / np.abs(nu)
+    return nu, Y, res
+
+
+def _check_residuals(M: sp.spmatrix, X: NDArray, SX: NDArray, nu: NDArray, tol: float,
+                     partial: bool) -> None:
+    """EigenSolverError when the explicit residuals ||S x - nu x||_M / nu of the Ritz
+    vectors X (n, k) (SX = S X) show a loss of orthogonality (``partial``: the basis is not
+    the whole space)."""
+    R = SX - X * nu
+    err = np.sqrt(np.abs(np.einsum("ij,ij->j", R.conj(), spmm(M, R)))) / nu
+    # The explicit residual can sit above tol at the round-off floor of an ill-conditioned K
+    # (the computed S is self-adjoint only to ~eps cond(K); a slender P2 beam: 1e-9). Past
+    # 10 tol (and 1e-6) something is broken.
+    if partial and err.max() > max(10 * tol, 1e-6):
+        raise EigenSolverError(f"block Krylov: residual {err.max():.2e} > {tol:.1e} after "
+                               "convergence (loss of orthogonality)")
+
+
+def _thick_restart(bases: tuple[NDArray, ...], H: NDArray, Y: NDArray, nu: NDArray, m: int,
+                   keep: int) -> int:
+    """Restart the bases (V, M V, S V) in place on their first ``keep`` Ritz vectors (H
+    becomes diag(nu) there); the new basis size."""
+    for A in bases:
+        A[:, :keep] = fmul(A[:, :m], Y[:, :keep])
+    H[:keep, :keep] = np.diag(nu[:keep])
+    return keep
 
 
 def _grown(A: NDArray, m: int, cap: int) -> NDArray:
