@@ -6,6 +6,7 @@ crossed at a fixed parameter, square-root cusps leapt."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -73,132 +74,208 @@ def arclength(
     first_tangent = branch_tangent(fun, x, lam, xs, lam_scale, f_scale, None, direction)
     if first_tangent is None:
         return out.finish("stopped", f"singular Jacobian at {parameter} = {lam:.6g}")
+    tangent, orientation = first_tangent
+    walk = _Walk(fun, out, start, stop, lam_scale, direction, f_scale, settings, parameter,
+                 progress, watch, x, lam, tangent, orientation, xs, rms_norm(x))
     try:
-        return _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction,
-                                start, stop, f_scale, settings, progress, parameter, watch)
+        return walk.steps()
     except KeyboardInterrupt:
         return out.finish("interrupted", f"interrupted by the user after {parameter} = "
                           f"{out.values[-1]:.6g}")
 
 
-def _arclength_steps(fun, out, x, lam, first_tangent, xs, lam_scale, direction, start, stop,
-                     f_scale, settings, progress, parameter, watch):
-    tangent, orientation = first_tangent
-    rms = rms_norm(x)
-    h = h_good = settings.step  # the step, and the last one the corrector converged from
-    corners = misses = leaps = 0  # corners crossed; correctors missed in a row; leaps
-    while len(out) < settings.max_points:
-        y = np.append(x / xs, lam / lam_scale)
-        pred = y + h * tangent
-        lam_p = pred[-1] * lam_scale
-        if (lam_p - stop) * direction >= 0 and abs(tangent[-1]) > 1e-3:
-            # overshoot: land exactly on the end value, at fixed lam
-            frac = (stop - lam) / (lam_p - lam)
-            guess = (y + frac * h * tangent)[:-1] * xs
-            r = newton(fun, guess, stop, x_scale=xs / rms, f_scale=f_scale,
-                       settings=settings)
-            out.steps += 1
-            if r.converged:
-                out.add(stop, r)
-                if progress:
-                    progress(len(out), stop, r.iterations)
-                return out.finish("complete", "")
-            h /= 2
-            out.failed = (stop, r.x)
-            if h < settings.min_step:
-                return out.finish("stopped", f"no solution at the end value {stop:.6g}: {r.reason}")
-            continue
-        ok, y_new, its, res, info = corrector(fun, pred, tangent, xs, lam_scale, f_scale,
-                                             settings)
-        out.steps += 1
-        far = ok and np.linalg.norm(y_new - pred) > ON_BRANCH * h
-        if not ok or far:
-            h /= 2
-            misses += 1
-            if not ok:
-                out.failed = (y_new[-1] * lam_scale, y_new[:-1] * xs)
-            if h >= settings.min_step and (misses != CORNER_MISSES or corners >= MAX_CORNERS):
+@dataclass
+class _Walk:
+    """A pseudo-arclength continuation under way: the problem and its fixed scales, and the
+    state that moves along the branch: the last point (x, lam), its unit tangent in the
+    scaled unknowns y = [x / xs, lam / lam_scale] with the orientation it was given, the
+    unknowns' scale xs (growing with the largest amplitude met), the step h and h_good (the
+    last one the corrector converged from), and the corners crossed, correctors missed in a
+    row and leaps taken."""
+
+    fun: Problem
+    out: Collector
+    start: float
+    stop: float
+    lam_scale: float
+    direction: float
+    f_scale: float
+    settings: Settings
+    parameter: str
+    progress: Callable[[int, float, int], None] | None
+    watch: Callable[[float, np.ndarray], str] | None
+    x: np.ndarray
+    lam: float
+    tangent: np.ndarray
+    orientation: float
+    xs: np.ndarray
+    rms: float  # of the first point: Newton's step cap is per unknown
+    corners: int = 0
+    misses: int = 0
+    leaps: int = 0
+
+    def __post_init__(self) -> None:
+        self.h = self.h_good = self.settings.step
+
+    def steps(self) -> Branch:
+        """Steps until the branch reaches ``stop`` or stops (the reason in its message)."""
+        s = self.settings
+        while len(self.out) < s.max_points:
+            y = np.append(self.x / self.xs, self.lam / self.lam_scale)
+            pred = y + self.h * self.tangent
+            lam_p = pred[-1] * self.lam_scale
+            if (lam_p - self.stop) * self.direction >= 0 and abs(self.tangent[-1]) > 1e-3:
+                landed = self._land(y, lam_p)
+                if landed is not None:
+                    return landed
                 continue
-            # a corner of the branch (e.g. the whole orbit passing from stick to slip at
-            # once): the tangent is undefined there, but a step at fixed parameter
-            # crosses it; then arclength resumes
-            crossed = None
-            if corners < MAX_CORNERS:
-                corners += 1
-                crossed = _cross_corner(fun, x, lam, tangent[-1], lam_scale, xs, f_scale,
-                                        settings)
-            if crossed is not None:
-                lam_c, r = crossed
-                crossed_tangent = branch_tangent(fun, r.x, lam_c, xs, lam_scale, f_scale, tangent,
-                                           direction)
-                if crossed_tangent is None:
-                    return out.finish("stopped", f"singular Jacobian at {parameter} = "
-                                      f"{lam_c:.6g}")
-                t_c, orientation = crossed_tangent
-                if t_c[-1] * (lam_c - lam) < 0:  # keep going the way the crossing went
-                    t_c, orientation = -t_c, -orientation
-                out.add(lam_c, r)
-                if progress:
-                    progress(len(out), lam_c, r.iterations)
-                x, lam, tangent, h, misses = r.x, lam_c, t_c, settings.step, 0
-                h_good = h
-                continue
-            if h >= settings.min_step:
-                continue  # not a corner: shorter steps go on
-            # no step is short enough: a point where the branch is continuous but not
-            # differentiable (a square-root cusp, see LEAP_GROWTH), which a longer step passes
-            leapt = None
-            leaps += 1  # beyond MAX_LEAPS: none tried
-            if leaps <= MAX_LEAPS:
-                leapt, tries = _leap(fun, x, lam, tangent, h_good, xs, lam_scale, f_scale,
-                                     settings, stop, direction)
-                out.steps += tries
-            if leapt is None:
-                why = f"corrector failed ({info})" if not ok else \
-                    "the corrector keeps leaving the branch"
-                longer = (f" and longer steps to max_step = {settings.max_step:g}" if
-                          leaps <= MAX_LEAPS else f" (all {MAX_LEAPS} leaps used)")
-                return out.finish("stopped", f"stopped near {parameter} = {lam:.6g}: {why} "
-                                  f"with step below min_step = {settings.min_step:g}{longer}")
-            y_new, its, res, info, h = leapt
-            leapt_from = y  # past a non-smooth point: go on the way the leap went
-        else:
+            ok, y_new, its, res, info = corrector(self.fun, pred, self.tangent, self.xs,
+                                                 self.lam_scale, self.f_scale, s)
+            self.out.steps += 1
             leapt_from = None
-        misses, h_good = 0, h
-        x_new, lam_new = y_new[:-1] * xs, y_new[-1] * lam_scale
-        new_tangent = branch_tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent,
-                               direction, info)
-        if new_tangent is None:
-            return out.finish("stopped", f"singular Jacobian at {parameter} = {lam_new:.6g}")
-        t_new = new_tangent[0] * new_tangent[1] * orientation
+            if not ok or np.linalg.norm(y_new - pred) > ON_BRANCH * self.h:
+                self.h /= 2
+                self.misses += 1
+                if not ok:
+                    self.out.failed = (y_new[-1] * self.lam_scale, y_new[:-1] * self.xs)
+                if self.h >= s.min_step and (self.misses != CORNER_MISSES
+                                             or self.corners >= MAX_CORNERS):
+                    continue
+                crossed = self._corner()
+                if crossed is not None:  # a point past it, or why the branch stops there
+                    if isinstance(crossed, Branch):
+                        return crossed
+                    continue
+                if self.h >= s.min_step:
+                    continue  # not a corner: shorter steps go on
+                leapt = self._leap()
+                if leapt is None:
+                    return self._stuck(ok, info)
+                y_new, its, res, info, self.h = leapt
+                leapt_from = y  # past a non-smooth point: go on the way the leap went
+            done = self._accept(y_new, its, res, info, leapt_from)
+            if done is not None:
+                return done
+        return self.out.finish("stopped", f"max_points = {s.max_points} reached at "
+                               f"{self.lam:.6g}")
+
+    def _land(self, y: np.ndarray, lam_p: float) -> Branch | None:
+        """The predictor overshot ``stop``: Newton exactly on it, at fixed parameter. The
+        finished branch, or None to go on with half the step."""
+        frac = (self.stop - self.lam) / (lam_p - self.lam)
+        guess = (y + frac * self.h * self.tangent)[:-1] * self.xs
+        r = newton(self.fun, guess, self.stop, x_scale=self.xs / self.rms,
+                   f_scale=self.f_scale, settings=self.settings)
+        self.out.steps += 1
+        if r.converged:
+            self._add(self.stop, r)
+            return self.out.finish("complete", "")
+        self.h /= 2
+        self.out.failed = (self.stop, r.x)
+        if self.h < self.settings.min_step:
+            return self.out.finish("stopped", f"no solution at the end value {self.stop:.6g}: "
+                                   f"{r.reason}")
+        return None
+
+    def _corner(self) -> Branch | bool | None:
+        """A corner of the branch (e.g. the whole orbit passing from stick to slip at once):
+        the tangent is undefined there, but a step at fixed parameter crosses it; then
+        arclength resumes from the point past it (True), or the branch stops (a Branch).
+        None when no corner was crossed."""
+        if self.corners >= MAX_CORNERS:
+            return None
+        self.corners += 1
+        crossed = _cross_corner(self.fun, self.x, self.lam, self.tangent[-1], self.lam_scale,
+                                self.xs, self.f_scale, self.settings)
+        if crossed is None:
+            return None
+        lam_c, r = crossed
+        found = branch_tangent(self.fun, r.x, lam_c, self.xs, self.lam_scale, self.f_scale,
+                               self.tangent, self.direction)
+        if found is None:
+            return self.out.finish("stopped", f"singular Jacobian at {self.parameter} = "
+                                   f"{lam_c:.6g}")
+        t_c, self.orientation = found
+        if t_c[-1] * (lam_c - self.lam) < 0:  # keep going the way the crossing went
+            t_c, self.orientation = -t_c, -self.orientation
+        self._add(lam_c, r)
+        self.x, self.lam, self.tangent, self.misses = r.x, lam_c, t_c, 0
+        self.h = self.h_good = self.settings.step
+        return True
+
+    def _leap(self) -> tuple | None:
+        """No step is short enough: a point where the branch is continuous but not
+        differentiable (a square-root cusp, see LEAP_GROWTH), which a longer step passes.
+        (y, iterations, residual, info, step) of the leap, or None (none converged, or all
+        MAX_LEAPS used)."""
+        self.leaps += 1
+        if self.leaps > MAX_LEAPS:
+            return None
+        leapt, tries = _leap(self.fun, self.x, self.lam, self.tangent, self.h_good, self.xs,
+                             self.lam_scale, self.f_scale, self.settings, self.stop,
+                             self.direction)
+        self.out.steps += tries
+        return leapt
+
+    def _stuck(self, ok: bool, info) -> Branch:
+        """The branch stopped: no step, short or long, converged on it."""
+        s = self.settings
+        why = f"corrector failed ({info})" if not ok else \
+            "the corrector keeps leaving the branch"
+        longer = (f" and longer steps to max_step = {s.max_step:g}" if
+                  self.leaps <= MAX_LEAPS else f" (all {MAX_LEAPS} leaps used)")
+        return self.out.finish("stopped", f"stopped near {self.parameter} = {self.lam:.6g}: "
+                               f"{why} with step below min_step = {s.min_step:g}{longer}")
+
+    def _accept(self, y_new: np.ndarray, its: int, res: float, info,
+                leapt_from: np.ndarray | None) -> Branch | None:
+        """Keep the corrected point and step on from it; a Branch when the branch ends
+        there (a singular Jacobian, out of range, stalled, stopped by ``watch``)."""
+        s = self.settings
+        self.misses, self.h_good = 0, self.h
+        x_new, lam_new = y_new[:-1] * self.xs, y_new[-1] * self.lam_scale
+        found = branch_tangent(self.fun, x_new, lam_new, self.xs, self.lam_scale,
+                               self.f_scale, self.tangent, self.direction, info)
+        if found is None:
+            return self.out.finish("stopped", f"singular Jacobian at {self.parameter} = "
+                                   f"{lam_new:.6g}")
+        t_new = found[0] * found[1] * self.orientation
         if leapt_from is not None and t_new @ (y_new - leapt_from) < 0:
-            t_new, orientation = -t_new, -orientation  # det's sign across the cusp: unsure
-        if not settings.lower < lam_new < settings.upper:
-            return out.finish("stopped", f"the branch left the admissible range "
-                              f"({settings.lower:g}, {settings.upper:g}) of {parameter} "
-                              f"after {lam:.6g}")
-        out.add(lam_new, NewtonResult(x_new, True, its, res))
-        if progress:
-            progress(len(out), lam_new, its)
-        stall = _stalled(out, lam_scale)
+            t_new, self.orientation = -t_new, -self.orientation  # det's sign across the cusp
+        if not s.lower < lam_new < s.upper:
+            return self.out.finish("stopped", f"the branch left the admissible range "
+                                   f"({s.lower:g}, {s.upper:g}) of {self.parameter} "
+                                   f"after {self.lam:.6g}")
+        self._add(lam_new, NewtonResult(x_new, True, its, res))
+        stall = _stalled(self.out, self.lam_scale)
         if stall:
-            return out.finish("stopped", f"stalled at {parameter} = {lam_new:.6g}: {stall}")
-        seen = watch(lam_new, x_new) if watch else ""
+            return self.out.finish("stopped", f"stalled at {self.parameter} = {lam_new:.6g}: "
+                                   f"{stall}")
+        seen = self.watch(lam_new, x_new) if self.watch else ""
         if seen:
-            return out.finish("stopped", seen)
-        h = adapted_step(h, t_new, tangent, its, settings)
-        x, lam, tangent = x_new, lam_new, t_new
-        # dynamic scaling: the unknowns' scale follows the largest amplitude met,
-        # so a resonance 100x the start amplitude does not take 100x the points
-        grow = np.max(np.abs(x)) * rms / xs
+            return self.out.finish("stopped", seen)
+        self.h = adapted_step(self.h, t_new, self.tangent, its, s)
+        self.x, self.lam, self.tangent = x_new, lam_new, t_new
+        self._rescale()
+        if (self.lam - self.start) * self.direction < -0.5 * self.lam_scale:
+            return self.out.finish("stopped", f"branch turned back past the start "
+                                   f"({self.lam:.6g})")
+        return None
+
+    def _add(self, lam: float, r: NewtonResult) -> None:
+        self.out.add(lam, r)
+        if self.progress:
+            self.progress(len(self.out), lam, r.iterations)
+
+    def _rescale(self) -> None:
+        """Dynamic scaling: the unknowns' scale follows the largest amplitude met, so a
+        resonance 100x the start amplitude does not take 100x the points."""
+        grow = np.max(np.abs(self.x)) * self.rms / self.xs
         if np.any(grow > 1.0):
-            new_xs = np.maximum(xs, np.max(np.abs(x)) * rms)
-            tangent = np.append(tangent[:-1] * xs / new_xs, tangent[-1])
-            tangent /= np.linalg.norm(tangent)
-            xs = new_xs
-        if (lam - start) * direction < -0.5 * lam_scale:
-            return out.finish("stopped", f"branch turned back past the start ({lam:.6g})")
-    return out.finish("stopped", f"max_points = {settings.max_points} reached at {lam:.6g}")
+            new_xs = np.maximum(self.xs, np.max(np.abs(self.x)) * self.rms)
+            tangent = np.append(self.tangent[:-1] * self.xs / new_xs, self.tangent[-1])
+            self.tangent = tangent / np.linalg.norm(tangent)
+            self.xs = new_xs
 
 
 #: A continuation has stalled when its last STALL_POINTS points moved the parameter by
