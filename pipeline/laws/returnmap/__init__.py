@@ -82,8 +82,20 @@ _ARGS = ((np.float64, 3), (np.float64, 3), (np.float64, 2), (np.float64, 2), (np
 _OUTPUTS = frozenset((1, 2, *range(16, 24)))  # written in place: checked, never copied
 _KINDS = tuple((np.dtype(dt), nd) for dt, nd in _ARGS)
 _SCALAR = {np.dtype(np.bool_): bool, np.dtype(np.int64): int, np.dtype(np.float64): float}
-SIGNATURE = tuple(numba.from_dtype(dt) if nd == 0 else types.Array(numba.from_dtype(dt), nd, "C")
-                  for dt, nd in _KINDS)
+
+
+def _bundled(flat: tuple, pack: Callable = tuple) -> tuple:
+    """march's flat arguments as the kernels take them, grouped by what they are: g, motion
+    (u, v), law (kt, kn, mu, n0), dft (E, A, corder, ckind), has_normal, want_jac,
+    max_periods, rtol, corrections, out (T_out, ..., counts_out). ``pack`` makes a group
+    (``tuple`` of values, ``types.Tuple`` of their numba types)."""
+    return (flat[0], pack(flat[1:3]), pack(flat[3:7]), pack(flat[7:11]), *flat[11:16],
+            pack(flat[16:24]))
+
+
+SIGNATURE = _bundled(tuple(numba.from_dtype(dt) if nd == 0 else
+                           types.Array(numba.from_dtype(dt), nd, "C") for dt, nd in _KINDS),
+                     types.Tuple)
 
 # Work (points x samples x derivative columns) from which march shares the points among
 # threads: a serial march costs ~23 ns per unit (laws A and D). Median ms, serial vs 2
@@ -96,8 +108,9 @@ SIGNATURE = tuple(numba.from_dtype(dt) if nd == 0 else types.Array(numba.from_dt
 PARALLEL_MIN_WORK = 2**19
 # Compile time of the serial kernel, s, told on a first run (measured 10.9 s with numba 0.60;
 # 22-25 s with numba 0.68.1 in 2026-11 on a quieter machine; 42 s here on 2026-11-28, 53 s
-# with the per-sample helpers inlined).
-COMPILE_SECONDS = 50
+# with the per-sample helpers inlined; 21 s on 2026-11-29 with the kernels' arrays passed
+# in tuples by role, on a machine running tests beside it).
+COMPILE_SECONDS = 30
 
 
 def march(*args: object) -> None:
@@ -135,7 +148,7 @@ def march(*args: object) -> None:
     P, ns = args[1].shape[0], args[1].shape[2]
     columns = args[20].shape[3] + 1 if args[12] else 1  # derivative columns carried, J_out
     kernel = march_parallel if parallel_pays(P, ns, columns) else march_serial
-    kernel(*args)
+    kernel(*_bundled(args))
 
 
 def parallel_pays(points: int, samples: int, columns: int = 1) -> bool:

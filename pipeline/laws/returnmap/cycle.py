@@ -17,8 +17,8 @@ PLAIN, SHOT, CORNER = 0, 1, 2  # how periodic_cycle reached the cycle
 
 
 @njit(cache=True)
-def periodic_cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol,
-           T, Tp, dT, G, T_out, N_out, state_out):  # pragma: no cover
+def periodic_cycle(p, motion, law, E, has_normal, want_jac, max_periods, rtol, state,
+                   samples):  # pragma: no cover
     """March whole periods from the start convention until the force at the end
     of a period repeats (rtol > 0), or exactly ``max_periods`` (rtol = 0).
 
@@ -49,36 +49,38 @@ def periodic_cycle(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods
 
     Returns the periods, how the cycle was reached (PLAIN: by the march alone,
     replayable with derivatives; SHOT: an isolated cycle, by jumps; CORNER) and
-    the corner's samples a, b (-1 unless CORNER)."""
+    the corner's samples a, b (-1 unless CORNER). The arguments: as
+    :func:`~.steps.march_period`'s."""
+    u, v = motion
+    kt, kn, mu, n0 = law
+    T, Tp, dT, G = state
+    T_out, N_out, state_out = samples
     d, ns = u.shape[1], u.shape[2]
     shooting = rtol > 0.0 and not want_jac
     if d == 2 and shooting:
-        periods, a, b = _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp,
-                                      dT, G, T_out, N_out, state_out)
+        periods, a, b = _plain_corner(p, motion, law, E, has_normal, rtol, state, samples)
         if a >= 0:
             return periods, CORNER, a, b
         if a == -2:  # the plain march settled by itself
             return periods, PLAIN, -1, -1
-    periods, jumped, isolated, a, b = _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
-                                               max_periods, rtol, shooting, T, Tp, dT, G,
-                                               T_out, N_out, state_out)
+    periods, jumped, isolated, a, b = _periods(p, motion, law, E, has_normal, want_jac,
+                                               max_periods, rtol, shooting, state, samples)
     if not jumped:
         return periods, PLAIN, -1, -1
     if isolated:
         return periods, SHOT, -1, -1
     if d == 2 and a >= 0 and _corner_start(p, a, b, u, v, kt, kn, mu, n0, T_out, T):
         no = np.bool_(False)
-        march_period(p, np.int64(0), ns, no, u, v, kt, kn, mu, n0, E, has_normal, no, no, T, Tp, dT,
-               G, T_out, N_out, state_out, np.int64(-1), no)
+        march_period(p, np.int64(0), ns, no, motion, law, E, has_normal,
+                     no, no, state, samples, np.int64(-1), no)
         stuck = True
         for k in range(ns):
             if state_out[p, k] != SAMPLE_STICK:
                 stuck = False
         if stuck:
             return periods + 1, CORNER, a, b
-    periods, _, _, _, _ = _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac,
-                                   max_periods, rtol, np.bool_(False), T, Tp, dT, G, T_out,
-                                   N_out, state_out)
+    periods, _, _, _, _ = _periods(p, motion, law, E, has_normal, want_jac, max_periods, rtol,
+                                   np.bool_(False), state, samples)
     return periods, PLAIN, -1, -1
 
 
@@ -87,8 +89,7 @@ CORNER_SAMPLES = 4  # at most this many slipping samples per period to try pairs
 
 
 @njit(cache=True)
-def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_out, N_out,
-                  state_out):  # pragma: no cover
+def _plain_corner(p, motion, law, E, has_normal, rtol, state, samples):  # pragma: no cover
     """The plain march (no jumps, from the start convention) for up to CORNER_PERIODS
     periods, watched for a corner of the stuck set from period SHOOT_AFTER + 1 on: the same
     2..CORNER_SAMPLES samples slipping in two periods running, the contact closed all
@@ -100,6 +101,10 @@ def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_
     Returns (periods, a, b): the corner's samples; a = -2 if the march settled by itself
     (the outputs then hold its last period, as _periods leaves them); a = -1 if neither
     (the caller starts over)."""
+    u, v = motion
+    kt, kn, mu, n0 = law
+    T, Tp, dT, G = state
+    T_out, N_out, state_out = samples
     d, ns = u.shape[1], u.shape[2]
     no = np.bool_(False)
     closed = n0[p] + kn[p] * v[p, ns - 1] > 0.0
@@ -111,8 +116,8 @@ def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_
     for period in range(CORNER_PERIODS):
         was_open = not closed if period == 0 else state_out[p, ns - 1] == SAMPLE_OPEN
         slipped = period > 0 and state_out[p, ns - 1] == SAMPLE_SLIP
-        scale = march_period(p, np.int64(0), ns, was_open, u, v, kt, kn, mu, n0, E, has_normal, no,
-                       no, T, Tp, dT, G, T_out, N_out, state_out, np.int64(-1), slipped)
+        scale = march_period(p, np.int64(0), ns, was_open, motion, law, E, has_normal,
+                             no, no, state, samples, np.int64(-1), slipped)
         diff = 0.0
         for j in range(d):
             diff = max(diff, abs(T[j] - Tend[j]))
@@ -153,8 +158,8 @@ def _plain_corner(p, u, v, kt, kn, mu, n0, E, has_normal, rtol, T, Tp, dT, G, T_
             continue
         T[0] = bc0 + kt[p, 0] * u[p, 0, ns - 1]
         T[1] = bc1 + kt[p, 1] * u[p, 1, ns - 1]
-        march_period(p, np.int64(0), ns, no, u, v, kt, kn, mu, n0, E, has_normal, no, no, T, Tp, dT,
-               G, T_out, N_out, state_out, np.int64(-1), no)
+        march_period(p, np.int64(0), ns, no, motion, law, E, has_normal,
+                     no, no, state, samples, np.int64(-1), no)
         for k in range(ns):
             if state_out[p, k] != SAMPLE_STICK:
                 return period + 2, -1, -1
@@ -181,13 +186,17 @@ def _stuck_everywhere(p, c0, c1, u, v, kt, kn, mu, n0):  # pragma: no cover
 
 
 @njit(cache=True)
-def _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol, shooting,
-             T, Tp, dT, G, T_out, N_out, state_out):  # pragma: no cover
+def _periods(p, motion, law, E, has_normal, want_jac, max_periods, rtol, shooting, state,
+             samples):  # pragma: no cover
     """The march of :func:`periodic_cycle`, with Newton jumps after SHOOT_AFTER periods
     if ``shooting``. Returns the periods; whether the last period started from
     a jump; if so, whether the cycle is isolated (:func:`_isolated`); and the
     two slip samples a, b of the last periods that slipped if they were the
     same in the last two of them (-1 otherwise)."""
+    u, v = motion
+    kt, kn, mu, n0 = law
+    T, Tp, dT, G = state
+    T_out, N_out, state_out = samples
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = (d + int(has_normal)) * nc + 1  # derivative columns (dT may be a placeholder)
@@ -215,13 +224,12 @@ def _periods(p, u, v, kt, kn, mu, n0, E, has_normal, want_jac, max_periods, rtol
             shoot[:, :] = 0.0
             for j in range(d):
                 shoot[j, m + j] = 1.0
-            scale = march_period(p, np.int64(0), ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
-                           np.bool_(True), np.bool_(False), T, Tp, shoot, G, T_out, N_out,
-                           state_out, m - 1, slipped)
+            scale = march_period(p, np.int64(0), ns, was_open, motion, law, E, has_normal,
+                                 np.bool_(True), np.bool_(False), (T, Tp, shoot, G), samples,
+                                 m - 1, slipped)
         else:
-            scale = march_period(p, np.int64(0), ns, was_open, u, v, kt, kn, mu, n0, E, has_normal,
-                           want_jac, want_jac, T, Tp, dT, G, T_out, N_out, state_out,
-                           np.int64(-1), slipped)
+            scale = march_period(p, np.int64(0), ns, was_open, motion, law, E, has_normal,
+                                 want_jac, want_jac, state, samples, np.int64(-1), slipped)
         if shooting and period >= SHOOT_AFTER - 1:
             # the slip samples, when two (a corner of the stuck set being closed in on)
             count, i0, i1 = 0, -1, -1
@@ -351,13 +359,16 @@ def _corner_point(p, a, b, u, v, kt, kn, mu, n0, c0, c1):  # pragma: no cover
 
 
 @njit(cache=True)
-def corner_derivative(p, a, b, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G, T_out,
-                       N_out, state_out):  # pragma: no cover
+def corner_derivative(p, a, b, motion, law, E, has_normal, state, samples):  # pragma: no cover
     """Derivatives of the stuck cycle on a corner (:func:`periodic_cycle`): c by
     implicit differentiation of the touching conditions ``|w_i| = mu N_i``,
     ``w_i = c + kt u_i`` (i = a, b), ``n_i . (dc + kt du_i) = mu dN_i`` with
     n_i = w_i / |w_i|, then the period from ``T_s = c + kt u_{N-1}`` storing G.
     That is the derivative of the corner the forces are on (exact)."""
+    u, v = motion
+    kt, kn, mu, n0 = law
+    T, Tp, dT, G = state
+    T_out, N_out, state_out = samples
     ns = u.shape[2]
     nc = E.shape[1]
     m = dT.shape[1]
@@ -391,13 +402,13 @@ def corner_derivative(p, a, b, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT, G
     T[0] = c0 + kt[p, 0] * u[p, 0, ns - 1]
     T[1] = c1 + kt[p, 1] * u[p, 1, ns - 1]
     yes, no = np.bool_(True), np.bool_(False)
-    march_period(p, np.int64(0), ns, no, u, v, kt, kn, mu, n0, E, has_normal, yes, yes, T, Tp,
-                 dT, G, T_out, N_out, state_out, np.int64(-1), no)
+    march_period(p, np.int64(0), ns, no, motion, law, E, has_normal,
+                 yes, yes, state, samples, np.int64(-1), no)
 
 
 @njit(cache=True)
-def periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, Tp, dT, G,
-                         T_out, N_out, state_out):  # pragma: no cover
+def periodic_derivative(p, motion, law, E, has_normal, replayable, state,
+                        samples):  # pragma: no cover
     """Derivatives of a slowly contracting cycle with no memory-erasing sample:
     one period from the periodic state with d extra columns for the start
     state gives b and Phi in dT_end = Phi dT_start + b; the periodic orbit has
@@ -412,6 +423,10 @@ def periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, T
     cycle ``replayable``, reached without Newton jumps, which :func:`periodic_cycle`
     ensures for every cycle that is not isolated (a cycle reached by jumps is
     solved here whatever this period shows)."""
+    u, v = motion
+    kt, kn, mu, n0 = law
+    T, Tp, dT, G = state
+    T_out, N_out, state_out = samples
     d, ns = u.shape[1], u.shape[2]
     m = dT.shape[1]
     if replayable:
@@ -430,8 +445,8 @@ def periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, T
         ext[j, m + j] = 1.0
     last_slip = state_out[p, ns - 1] == SAMPLE_SLIP
     k0, yes, no = np.int64(0), np.bool_(True), np.bool_(False)
-    march_period(p, k0, ns, no, u, v, kt, kn, mu, n0, E, has_normal, yes, no, T, Tp, ext,
-           G, T_out, N_out, state_out, m - 1, last_slip)
+    march_period(p, k0, ns, no, motion, law, E, has_normal,
+                 yes, no, (T, Tp, ext, G), samples, m - 1, last_slip)
     if replayable and not _isolated(p, ext, m, u, kt, mu, T_out, N_out, state_out):
         return False
     # (I - Phi) dT_start = b with Phi = ext[:, m:], b = ext[:, :m], in scalars: array
@@ -448,8 +463,8 @@ def periodic_derivative(p, u, v, kt, kn, mu, n0, E, has_normal, replayable, T, T
             dT[1, col] = (a00 * ext[1, col] - a10 * ext[0, col]) / det
     for j in range(d):
         T[j] = T0[j]
-    march_period(p, k0, ns, no, u, v, kt, kn, mu, n0, E, has_normal, yes, yes, T, Tp, dT,
-           G, T_out, N_out, state_out, np.int64(-1), last_slip)
+    march_period(p, k0, ns, no, motion, law, E, has_normal,
+                 yes, yes, state, samples, np.int64(-1), last_slip)
     return True
 
 

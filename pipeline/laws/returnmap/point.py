@@ -21,44 +21,45 @@ from .steps import march_period
 
 
 @njit(cache=True)
-def march_serial(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac,
-                  max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
-                  periods_out, counts_out):  # pragma: no cover
-    """march, one point after the other."""
-    for p in range(u.shape[0]):
-        _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac,
-               max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out,
-               periods_out, counts_out)
+def march_serial(g, motion, law, dft, has_normal, want_jac, max_periods, rtol, corrections,
+                 out):  # pragma: no cover
+    """march, one point after the other (the arguments: as :func:`_point`'s)."""
+    for p in range(g.shape[0]):
+        _point(p, g, motion, law, dft, has_normal, want_jac, max_periods, rtol, corrections,
+               out)
 
 
 @njit(cache=True, parallel=True)
-def march_parallel(g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac,
-                    max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out,
-                    D_out, periods_out, counts_out):  # pragma: no cover
+def march_parallel(g, motion, law, dft, has_normal, want_jac, max_periods, rtol, corrections,
+                   out):  # pragma: no cover
     """march, the points shared among threads."""
-    for i in prange(u.shape[0]):
+    for i in prange(g.shape[0]):
         # prange's index is unsigned: an int64 point reuses the serial kernel's _point
-        _point(np.int64(i), g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal,
-               want_jac, max_periods, rtol, corrections, T_out, N_out, state_out, F_out, J_out,
-               D_out, periods_out, counts_out)
+        _point(np.int64(i), g, motion, law, dft, has_normal, want_jac, max_periods, rtol,
+               corrections, out)
 
 
 @njit(inline="always")  # one compiled level less: each re-optimises all it links (~2 s)
-def _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac, max_periods,
-           rtol, corrections, T_out, N_out, state_out, F_out, J_out, D_out, periods_out,
-           counts_out):  # pragma: no cover
-    """march for point p."""
+def _point(p, g, motion, law, dft, has_normal, want_jac, max_periods, rtol, corrections,
+           out):  # pragma: no cover
+    """march for point p. motion: (u, v), written here (the synthesis of g); law: (kt, kn,
+    mu, n0); dft: (E, A, corder, ckind); out: (T_out, N_out, state_out, F_out, J_out, D_out,
+    periods_out, counts_out): as the package's :func:`march` names them."""
+    u, _ = motion
+    E, A, corder, ckind = dft
+    T_out, N_out, state_out, F_out, J_out, D_out, periods_out, counts_out = out
+    kn, mu = law[1], law[2]
     d, ns = u.shape[1], u.shape[2]
-    nc = E.shape[1]
     m = J_out.shape[3] + 1
     yes, no = np.bool_(True), np.bool_(False)
-    _synthesis(p, g, E, has_normal, u, v)
+    _synthesis(p, g, E, has_normal, motion)
     G = np.empty((ns, d * m)) if want_jac else np.empty((1, 1))  # every row written
     dT = np.zeros((d, m))
     T = np.empty(d)
-    Tp = np.empty(d)
-    periods, how, ca, cb = periodic_cycle(p, u, v, kt, kn, mu, n0, E, has_normal, no, max_periods,
-                                  rtol, T, Tp, dT, G, T_out, N_out, state_out)
+    state = (T, np.empty(d), dT, G)
+    samples = (T_out, N_out, state_out)
+    periods, how, ca, cb = periodic_cycle(p, motion, law, E, has_normal, no, max_periods, rtol,
+                                          state, samples)
     if want_jac:
         e = -1
         for k in range(ns):
@@ -70,31 +71,29 @@ def _point(p, g, u, v, kt, kn, mu, n0, E, A, corder, ckind, has_normal, want_jac
             for j in range(d):
                 for col in range(m):
                     G[e, j * m + col] = dT[j, col]
-            march_period(p, e + 1, ns - 1, state_out[p, e] == SAMPLE_OPEN, u, v, kt, kn, mu, n0, E,
-                   has_normal, yes, yes, T, Tp, dT, G, T_out, N_out, state_out, np.int64(-1),
-                   state_out[p, e] == SAMPLE_SLIP)
+            march_period(p, e + 1, ns - 1, state_out[p, e] == SAMPLE_OPEN, motion, law, E,
+                         has_normal, yes, yes, state, samples, np.int64(-1),
+                         state_out[p, e] == SAMPLE_SLIP)
         elif how == CORNER:
-            corner_derivative(p, ca, cb, u, v, kt, kn, mu, n0, E, has_normal, T, Tp, dT,
-                               G, T_out, N_out, state_out)
-        elif periods <= 2 or not periodic_derivative(
-                p, u, v, kt, kn, mu, n0, E, has_normal, how == PLAIN, T, Tp, dT, G, T_out,
-                N_out, state_out):
+            corner_derivative(p, ca, cb, motion, law, E, has_normal, state, samples)
+        elif periods <= 2 or not periodic_derivative(p, motion, law, E, has_normal,
+                                                     how == PLAIN, state, samples):
             # the march again with derivatives from the start convention: short, or a
             # stuck cycle whose start state is the march's choice (Firrone & Zucca eqs. 26-28)
-            periodic_cycle(p, u, v, kt, kn, mu, n0, E, has_normal, yes, periods, 0.0,
-                   T, Tp, dT, G, T_out, N_out, state_out)
+            periodic_cycle(p, motion, law, E, has_normal, yes, periods, 0.0, state, samples)
     periods_out[p] = periods
-    _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
-             F_out, J_out, D_out)
+    _project(p, kn, E, A, has_normal, want_jac, G, out)
     if corrections:
-        kink_corrections(p, g, (kt, kn, mu, n0), (u, v), (E, corder, ckind), has_normal,
-                         want_jac, (T_out, N_out, state_out, G, F_out, J_out, D_out))
+        kink_corrections(p, g, law, motion, (E, corder, ckind), has_normal, want_jac,
+                         (T_out, N_out, state_out, G, F_out, J_out, D_out))
     _count(p, state_out, T_out, counts_out)
 
 
 @njit(cache=True)
-def _synthesis(p, g, E, has_normal, u, v):  # pragma: no cover
-    """Time samples of one point's relative displacements from coefficients."""
+def _synthesis(p, g, E, has_normal, motion):  # pragma: no cover
+    """Time samples of one point's relative displacements from coefficients, into motion
+    (u, v)."""
+    u, v = motion
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     for k in range(ns):
@@ -142,9 +141,13 @@ def _count(p, state_out, T_out, counts_out):  # pragma: no cover
 
 
 @njit(cache=True)
-def _project(p, d, ns, nc, m, kn, E, A, has_normal, want_jac, T_out, N_out, G,
-             F_out, J_out, D_out):  # pragma: no cover
-    """Trapezoid projection of the final period's samples and derivatives."""
+def _project(p, kn, E, A, has_normal, want_jac, G, out):  # pragma: no cover
+    """Trapezoid projection of the final period's samples and derivatives (G) into the
+    force coefficients and derivatives of ``out`` (as :func:`_point`'s)."""
+    T_out, N_out, _, F_out, J_out, D_out, _, _ = out
+    d, ns = T_out.shape[1], T_out.shape[2]
+    nc = E.shape[1]
+    m = J_out.shape[3] + 1
     vcol = d * nc
     for c in range(nc):
         for j in range(d):

@@ -27,14 +27,23 @@ STICK_SLACK = 1e-11
 
 
 @njit(cache=True)
-def march_period(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, want_jac, store,
-           T, Tp, dT, G, T_out, N_out, state_out, cn0, prev_slip):  # pragma: no cover
+def march_period(p, k0, count, was_open, motion, law, E, has_normal, want_jac, store, state,
+                 samples, cn0, prev_slip):  # pragma: no cover
     """Advance the return map ``count`` samples from sample k0 (indices taken
     modulo ns), T and dT holding the state at the sample before; with ``store``
     each sample's dT goes to G. Returns the force scale met (max |T| and mu N),
     for the periodicity test. cn0: the n0 column of dT (< 0: its last);
     prev_slip: the sample before slipped (2D slip continues along the exact flow; a slip
-    that starts between two stuck-then-slipping samples follows it from the onset)."""
+    that starts between two stuck-then-slipping samples follows it from the onset).
+
+    motion: (u (P, d, ns), v (P, ns)) the sampled relative motion; law: (kt (P, d), kn, mu,
+    n0 (P,)); E (ns, nc): the synthesis; state: (T (d,), Tp (d,), dT (d, m), G (ns, d m)),
+    the force, its predictor, their derivatives and the stored ones; samples: (T_out (P, d,
+    ns), N_out (P, ns), state_out (P, ns)), the period's forces and states."""
+    u, v = motion
+    kt, kn, mu, n0 = law
+    T, Tp, dT, G = state
+    T_out, N_out, state_out = samples
     d, ns = u.shape[1], u.shape[2]
     nc = E.shape[1]
     m = dT.shape[1]
@@ -49,7 +58,7 @@ def march_period(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, wa
         N = n0[p] + kn[p] * v[p, k]
         reclosed = was_open and N > 0.0
         if was_open and N > 0.0:
-            _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, cn0, Tp, dT)
+            _reclose(p, k, kprev, motion, law, E, want_jac, cn0, Tp, dT)
         else:
             # predictor; dT becomes dTp in place (a stuck sample touches nc columns)
             for j in range(d):
@@ -84,7 +93,7 @@ def march_period(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, wa
                     T[j] = Tp[j]
                 state_out[p, k] = SAMPLE_STICK
             elif d == 2 and not reclosed and _slip_flow(
-                    p, k, kprev, kt, kn, mu, E, has_normal, want_jac, lim, T, Tp, dT, cn0,
+                    p, k, kprev, law, E, has_normal, want_jac, lim, state, cn0,
                     -1.0 if prev_slip else mu[p] * N_prev):
                 state_out[p, k] = SAMPLE_SLIP
             else:
@@ -131,8 +140,8 @@ def march_period(p, k0, count, was_open, u, v, kt, kn, mu, n0, E, has_normal, wa
 
 
 @njit(inline="always")  # see INLINED in steps.py
-def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
-               cn0, Lp):  # pragma: no cover
+def _slip_flow(p, k, kprev, law, E, has_normal, want_jac, L1, state, cn0,
+               Lp):  # pragma: no cover
     """2D slip over the step from sample kprev to k, integrated exactly.
 
     With the predictor's increment q = kt du (linear in the step) and the limit
@@ -153,7 +162,9 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
 
     Applies while the motion pushes outwards (t . q >= L1 - L0, the slip rate
     >= 0) and the start angle is below 120 deg; returns False to leave the sample
-    to radial return. T and dT (holding dTp on entry) receive the new state."""
+    to radial return. T and dT (holding dTp on entry) of ``state`` receive the new state."""
+    kt, kn, mu, _ = law
+    T, Tp, dT, _ = state
     nc = E.shape[1]
     m = dT.shape[1]
     vcol = 2 * nc
@@ -200,16 +211,13 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
         return True
     # the update depends on five numbers (T_start, q, L1; L0 = |T_start|): its local
     # Jacobian once per sample, then applied to every column (as cheap as radial return)
-    a00, a10 = _flow_derivative(1.0, 0.0, 0.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
-    a01, a11 = _flow_derivative(0.0, 1.0, 0.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
-    b00, b10 = _flow_derivative(0.0, 0.0, 1.0, 0.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
-    b01, b11 = _flow_derivative(0.0, 0.0, 0.0, 1.0, 0.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                                p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
-    e0, e1 = _flow_derivative(0.0, 0.0, 0.0, 0.0, 1.0, t0, t1, L0, L1, h0, h1, nq, c0, p0,
-                              p1, np_, Iint, general, Ex, tau0, tau1, den1, C, beta, r0, r1)
+    flow = (t0, t1, L0, L1, h0, h1, nq, c0, p0, p1, np_, Iint, general, Ex, tau0, tau1, den1,
+            C, beta, r0, r1)
+    a00, a10 = _flow_derivative(1.0, 0.0, 0.0, 0.0, 0.0, flow)
+    a01, a11 = _flow_derivative(0.0, 1.0, 0.0, 0.0, 0.0, flow)
+    b00, b10 = _flow_derivative(0.0, 0.0, 1.0, 0.0, 0.0, flow)
+    b01, b11 = _flow_derivative(0.0, 0.0, 0.0, 1.0, 0.0, flow)
+    e0, e1 = _flow_derivative(0.0, 0.0, 0.0, 0.0, 1.0, flow)
     # the onset moves with the inputs: ds = -(df) / (df/ds), f as above
     onset = Lp >= 0.0 and s > 0.0
     fs = 2.0 * (Ts0 * Q0 + Ts1 * Q1 - L0 * dS) if onset else 1.0
@@ -243,10 +251,12 @@ def _slip_flow(p, k, kprev, kt, kn, mu, E, has_normal, want_jac, L1, T, Tp, dT,
 
 
 @njit(inline="always")  # see INLINED in steps.py
-def _flow_derivative(dT0, dT1, dq0, dq1, dL1, t0, t1, L0, L1, h0, h1, nq, c0, p0, p1, np_,
-                     Iint, general, Ex, tau0, tau1, den, C, beta, r0, r1):  # pragma: no cover
+def _flow_derivative(dT0, dT1, dq0, dq1, dL1, flow):  # pragma: no cover
     """Directional derivative of the exact 2D slip update (see _slip_flow) along
-    (dT_prev, dq, dL1); returns the change of the new force (2 components)."""
+    (dT_prev, dq, dL1); returns the change of the new force (2 components). flow: the
+    update's intermediate values, as _slip_flow names them."""
+    (t0, t1, L0, L1, h0, h1, nq, c0, p0, p1, np_, Iint, general, Ex, tau0, tau1, den, C, beta,
+     r0, r1) = flow
     dL0 = t0 * dT0 + t1 * dT1
     dt0, dt1 = (dT0 - t0 * dL0) / L0, (dT1 - t1 * dL0) / L0
     dnq = h0 * dq0 + h1 * dq1
@@ -271,12 +281,16 @@ def _flow_derivative(dT0, dT1, dq0, dq1, dL1, t0, t1, L0, L1, h0, h1, nq, c0, p0
 
 
 @njit(inline="always")  # see INLINED in steps.py
-def _reclose(p, k, kprev, u, v, kt, kn, n0, E, want_jac, nc, vcol, cn0, Tp, dT):
+def _reclose(p, k, kprev, motion, law, E, want_jac, cn0, Tp, dT):
     """Predictor of a contact that closes inside (kprev, k): T was 0 and sticking
     starts where the normal gap closes, ``Tp = kt (1 - s) (u_k - u_kprev)`` with
     ``s = Nu_prev / (Nu_prev - Nu_k)``, ``Nu = n0 + kn v``. dT (zero while open)
     becomes dTp."""  # pragma: no cover
+    u, v = motion
+    kt, kn, _, n0 = law
     d = Tp.size
+    nc = E.shape[1]
+    vcol = d * nc
     nu0 = n0[p] + kn[p] * v[p, kprev]
     nu1 = n0[p] + kn[p] * v[p, k]
     den = nu0 - nu1
