@@ -68,46 +68,14 @@ def full_disk(sector: Mesh) -> Mesh:
     for k in range(ns):
         points[node_map[k, own]] = sector.points[own] @ rotation_z(k * phi).T
 
-    cells = {shape: [] for shape in elements.SHAPES}  # shape -> copies' corner arrays
-    count = dict.fromkeys(elements.SHAPES, 0)
-    owned: dict[tuple[str, int], list[tuple[str, np.ndarray]]] = {}  # (body, k) -> elements
-    for name, idx in sector.bodies.items():
-        for k in range(ns):
-            for shape, c in sector.element_cells(idx).items():
-                cells[shape].append(node_map[k][c])
-                owned.setdefault((name, k), []).append(
-                    (shape, np.arange(count[shape], count[shape] + len(c))))
-                count[shape] += len(c)
-    start = dict(zip(elements.SHAPES, np.cumsum([0, *count.values()])[:-1], strict=True))
-    bodies = {}
-    for name in sector.bodies:
-        copies = [np.concatenate([start[shape] + i for shape, i in owned[name, k]])
-                  for k in range(ns)]
-        if name in sector.cyclic:
-            bodies[name] = np.concatenate(copies)
-        else:
-            bodies.update({f"{name}#{k}": c for k, c in enumerate(copies)})
-
-    def body_copy(body: str, k: int) -> str:
-        return body if body in sector.cyclic else f"{body}#{k % ns}"
-
+    cells, bodies = _copied_bodies(sector, node_map)
     node_sets = {
         f"{name}#{k}": np.unique(node_map[k, idx])
         for name, idx in sector.node_sets.items()
         if not name.startswith("cyclic/")
         for k in range(ns)
     }
-    contacts = {}
-    for name, p in sector.contacts.items():
-        if not isinstance(p, ContactPatch):
-            raise ValueError(f"full_disk: contact {name!r} is between named surfaces; only "
-                             "structured patches are copied round the disk")
-        for k in range(ns):
-            kb = k + p.b_sector_offset
-            contacts[f"{name}#{k}"] = ContactPatch(
-                f"{name}#{k}", body_copy(p.body_a, k), body_copy(p.body_b, kb),
-                node_map[k][p.nodes_a], node_map[kb % ns][p.nodes_b],
-                rotation_z(k * phi) @ p.normal, p.area)
+    contacts = _copied_contacts(sector, node_map, phi)
     curved_edges, edge_nodes = _copied_curved_edges(sector, node_map, phi)
     averages = np.vstack([node_map[k][sector.averages] for k in range(ns)])
     return Mesh(
@@ -125,6 +93,58 @@ def full_disk(sector: Mesh) -> Mesh:
         hexahedra=_stacked(cells["hexahedron"], "hexahedron"),
         wedges=_stacked(cells["wedge"], "wedge"),
     )
+
+
+def _copied_bodies(sector: Mesh, node_map: np.ndarray
+                   ) -> tuple[dict[str, list[np.ndarray]], dict[str, np.ndarray]]:
+    """Every body's elements in every copy: shape -> the copies' (m, corners) node arrays,
+    and body -> its full-disk element indices (a cyclic body's copies as one body, another
+    body's as "<body>#k")."""
+    ns = len(node_map)
+    cells = {shape: [] for shape in elements.SHAPES}  # shape -> copies' corner arrays
+    count = dict.fromkeys(elements.SHAPES, 0)
+    owned: dict[tuple[str, int], list[tuple[str, np.ndarray]]] = {}  # (body, k) -> elements
+    for name, idx in sector.bodies.items():
+        for k in range(ns):
+            for shape, c in sector.element_cells(idx).items():
+                cells[shape].append(node_map[k][c])
+                owned.setdefault((name, k), []).append(
+                    (shape, np.arange(count[shape], count[shape] + len(c))))
+                count[shape] += len(c)
+    # element indices run over the shapes in order: a shape's start is the earlier ones' count
+    start = dict(zip(elements.SHAPES, np.cumsum([0, *count.values()])[:-1], strict=True))
+    bodies = {}
+    for name in sector.bodies:
+        copies = [np.concatenate([start[shape] + i for shape, i in owned[name, k]])
+                  for k in range(ns)]
+        if name in sector.cyclic:
+            bodies[name] = np.concatenate(copies)
+        else:
+            bodies.update({f"{name}#{k}": c for k, c in enumerate(copies)})
+    return cells, bodies
+
+
+def _copied_contacts(sector: Mesh, node_map: np.ndarray, phi: float
+                     ) -> dict[str, ContactPatch]:
+    """Every contact patch in every copy, "<patch>#k": copy k of body_a against copy
+    k + b_sector_offset of body_b (so each is a coincident pair)."""
+    ns = len(node_map)
+
+    def body_copy(body: str, k: int) -> str:
+        return body if body in sector.cyclic else f"{body}#{k % ns}"
+
+    contacts = {}
+    for name, p in sector.contacts.items():
+        if not isinstance(p, ContactPatch):
+            raise ValueError(f"full_disk: contact {name!r} is between named surfaces; only "
+                             "structured patches are copied round the disk")
+        for k in range(ns):
+            kb = k + p.b_sector_offset
+            contacts[f"{name}#{k}"] = ContactPatch(
+                f"{name}#{k}", body_copy(p.body_a, k), body_copy(p.body_b, kb),
+                node_map[k][p.nodes_a], node_map[kb % ns][p.nodes_b],
+                rotation_z(k * phi) @ p.normal, p.area)
+    return contacts
 
 
 def _copied_curved_edges(sector: Mesh, node_map: np.ndarray, phi: float
