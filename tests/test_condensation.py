@@ -111,10 +111,10 @@ def test_condensation_derivative_matches_central_difference(kind, parameter, poi
 def test_reordered_linear_part_is_built_once_and_counted(monkeypatch):
     monkeypatch.setattr(hbm._Cache, "LIMIT", 1)  # every new point evicts the previous one
     model = _model()
-    first = model._reordered()
+    first = model.reordered()
     for w in (0.5, 0.6, 0.7):
         model.condensed(OperatingPoint(w), "frequency")
-    assert model._reordered() is first  # pinned: never evicted
+    assert model.reordered() is first  # pinned: never evicted
     last = model.condensed(OperatingPoint(0.7), "frequency")
     assert model._cache._bytes == first.nbytes + last.nbytes
 

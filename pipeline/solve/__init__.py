@@ -11,6 +11,8 @@ arclength      pseudo-arclength continuation: predictor, corrector, step control
 branch         a continuation's results: the points of a branch
 response       frequency responses, the response measures, solve_point, the hints
 peaks          peak curves: the peak over a window tracked against a parameter
+nonlinear_modes  nonlinear modes (extended periodic motion concept): w(a), zeta(a)
+modal_synthesis  the forced response and its peaks synthesized from a nonlinear mode
 stability      Hill's stability of a periodic solution
 bifurcation    bifurcations along a branch, detected and located
 sampling       uncertainty studies: the design of the samples, their statistics

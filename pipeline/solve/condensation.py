@@ -31,6 +31,8 @@ class Condensed:
     z: tuple[np.ndarray, ...]  # per order (ni_k,)
     dS: tuple[_SchurDerivative | None, ...] | None  # per order; None where dS_k = 0
     dF: np.ndarray | None
+    # per order the LU of D_ii (None: nothing condensed), kept when asked (``condense``)
+    lus: tuple[tuple | None, ...] = ()
 
     @cached_property
     def S(self) -> np.ndarray:
@@ -60,10 +62,23 @@ class Condensed:
                 out[k] = d.apply(X[k])
         return out
 
+    def derivative_product(self, dD: Sequence[np.ndarray | None], X: np.ndarray) -> np.ndarray:
+        """dS_k X_k per order for another derivative dD of D (per order (n_k, n_k) in the
+        condensation's order, None where zero) than the one condensed with, from the same
+        factors: X (n_orders, nc) complex, the same shape back."""
+        out = np.zeros(X.shape, dtype=complex)
+        nc = self.n_contact
+        for k, d in enumerate(dD):
+            if d is not None:
+                out[k] = _SchurDerivative(d, self.D[k][:nc, nc:], self.Y[k],
+                                          self.lus[k]).apply(X[k])
+        return out
+
     @property
     def nbytes(self) -> int:
         arrays = [self.F, *self.D, *self.Y, *self.z, self.dF, self.__dict__.get("S")]
         derivatives = sum(d.nbytes for d in self.dS or () if d is not None)
+        derivatives += sum(lu[0].nbytes for lu in self.lus if lu is not None)
         return sum(a.nbytes for a in arrays if a is not None) + derivatives
 
 
@@ -141,18 +156,20 @@ class Reordered:
         return [v[p] for v, p in zip(vectors, self.index)]
 
 
-def condense(D, F, nc: int, dD=None, dF=None) -> Condensed:
+def condense(D, F, nc: int, dD=None, dF=None, keep_factors: bool = False) -> Condensed:
     """Exact per-order condensation of D q = F onto its first nc DOFs (the rest condensed):
     S = D_cc - D_ci D_ii^-1 D_ic.
 
     D: per order (n_k, n_k), real or complex, rows and columns ordered contact DOFs first
     (:class:`Reordered`); F: per order (n_k,) in that order; dD, dF: their derivatives per
-    order (an entry None where zero) or None."""
+    order (an entry None where zero) or None. ``keep_factors``: keep the LU factors of
+    every D_ii (``Condensed.derivative_product``: more derivatives than one; they take as
+    much memory as the D_ii)."""
     n, deriv = len(D), dD is not None or dF is not None
     Fe = np.empty((n, nc), dtype=complex)
     dFe = np.zeros_like(Fe) if deriv else None
     dS = [None] * n
-    Ys, zs = [], []
+    Ys, zs, lus = [], [], []
     for k, (Dk, Fk) in enumerate(zip(D, F)):
         dFk = None if dF is None else dF[k]
         Y, z, lu = _schur(Dk, Fk, nc, Fe[k], dFk, None if dFk is None else dFe[k])
@@ -160,8 +177,9 @@ def condense(D, F, nc: int, dD=None, dF=None) -> Condensed:
             dS[k] = _schur_derivative(Dk, dD[k], nc, Y, z, lu, dFe[k])
         Ys.append(Y)
         zs.append(z)
+        lus.append(lu)
     return Condensed(tuple(D), nc, Fe, tuple(Ys), tuple(zs), tuple(dS) if deriv else None,
-                     dFe)
+                     dFe, tuple(lus) if keep_factors else ())
 
 
 def _schur(D, F, nc, Fe, dF=None, dFe=None):

@@ -277,7 +277,7 @@ class HarmonicBalance:
         hit = self._cache.get(key)
         if hit is not None:
             return hit
-        lin = self._reordered()
+        lin = self.reordered()
         F, dF = self.forces(point, parameter)
         dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
         out = condense(lin.linear.dynamic_stiffness(point), lin.take(F), self.dofs.size, dD,
@@ -285,7 +285,7 @@ class HarmonicBalance:
         self._cache.put(key, out, out.nbytes)
         return out
 
-    def _reordered(self) -> Reordered:
+    def reordered(self) -> Reordered:
         """The linear part reordered for the condensation, built once (pinned in the cache:
         it counts against CACHE_LIMIT but every point needs it)."""
         key = ("reordered",)
@@ -341,6 +341,23 @@ class HarmonicBalance:
         if jacobian and structured:
             J = BalanceJacobian(h, lin, tuple(sandwiches), self.preconditioner)
         return R, J, dR
+
+    def contact_terms(self, x: np.ndarray, point: OperatingPoint, jacobian: bool = True
+                      ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The contacts' part of the balance alone: sum over contacts of B^T f(B x) (n,) and,
+        with ``jacobian``, its dense derivative (n, n) (an autonomous balance adds its own
+        linear part: ``solve.nonlinear_modes``)."""
+        n = self.n_unknowns
+        R = np.zeros(n)
+        J = np.zeros((n, n)) if jacobian else None
+        for c, Br, blocks in zip(self.contacts, self._Breal, self._blocks):
+            el = c.elements.with_preload(point.preload)
+            g = (Br @ x).reshape(el.size, el.n_components, -1)
+            r = el.evaluate(g, self.harmonics, jacobian=jacobian, corrections=self.sub_sample)
+            R += Br.T @ r.forces.ravel()
+            if jacobian:
+                blocks.add_sandwich(J, r.jacobian)
+        return R, J
 
     @property
     def structured(self) -> bool:

@@ -152,7 +152,7 @@ class _Hill:
             J = J.dense()
         self.newton = J if isinstance(J, BalanceJacobian) else \
             sla.lu_factor(J, check_finite=False)
-        lin = hb._reordered().linear  # contact DOFs first in every order
+        lin = hb.reordered().linear  # contact DOFs first in every order
         nc = self.nc
         self.Dci, self.Dic, self.Dii, self.delta = [], [], [], []
         for o, D, M, C in zip(lin.orders, lin.dynamic_stiffness(point), lin.mass(point), lin.C):

@@ -1,0 +1,146 @@
+"""The forced response synthesized from one nonlinear mode (single nonlinear mode theory:
+Szemplinska-Stupnicka; Krack 2015, eq. 17).
+
+Near the mode's resonance the response to the excitation ``e F_1 cos(Omega t)`` (the
+model's excitation at multiplier e) is the mode's motion at the level a whose amplitude
+balances the excitation's modal force ``phi(a) = psi_1(a)^H F_1``:
+
+    | omega(a)^2 - Omega^2 + i Omega xi(a) | a = e | phi(a) |.
+
+So the FRF at any excitation level is the backbone read at two frequencies per level,
+
+    Omega^2 = omega^2 - xi^2 / 2 +- sqrt((e |phi| / a)^2 - xi^2 (omega^2 - xi^2 / 4)),
+
+and its resonance peak sits at the level where ``e = a xi sqrt(omega^2 - xi^2 / 4) /
+|phi|``, at ``Omega = sqrt(omega^2 - xi^2 / 2)``: one backbone gives the peak at every
+excitation level (Firrone & Zucca Fig. 6) and, one per design, the peak against a design
+parameter (Fig. 22). The motion there is the mode's, the responses its harmonics.
+Valid where the mode dominates the response (well separated, lightly damped modes); the
+response's phase to the excitation: ``exp(i theta) = e phi / (a (omega^2 - Omega^2 + i
+Omega xi))`` on the fundamental, ``exp(i n theta)`` on harmonic n.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .nonlinear_modes import Backbone, ModalBalance
+
+
+@dataclass(frozen=True)
+class Synthesis:
+    """A backbone's levels with the modal force of an excitation (m levels).
+
+    amplitude: (m,) modal amplitude a; omega, xi: (m,) [rad/s], [1/s]; modal_force: (m,)
+    complex phi = psi_1^H F_1 at unit excitation multiplier [N kg^-1/2]."""
+
+    amplitude: np.ndarray
+    omega: np.ndarray
+    xi: np.ndarray
+    modal_force: np.ndarray
+
+    @property
+    def peak_excitation(self) -> np.ndarray:
+        """(m,) the excitation multiplier whose resonance peak is at each level."""
+        return (self.amplitude * self.xi * np.sqrt(self.omega**2 - self.xi**2 / 4.0)
+                / np.abs(self.modal_force))
+
+    @property
+    def peak_frequency(self) -> np.ndarray:
+        """(m,) the resonance frequency at each level [rad/s]."""
+        return np.sqrt(self.omega**2 - self.xi**2 / 2.0)
+
+    def frequencies(self, excitation: float) -> tuple[np.ndarray, np.ndarray]:
+        """(m,) the two frequencies [rad/s] at which each level is the response to the
+        excitation multiplier (below and above the resonance; NaN where the level is not
+        reached)."""
+        w2, xi = self.omega**2, self.xi
+        disc = (excitation * np.abs(self.modal_force) / self.amplitude) ** 2 \
+            - xi**2 * (w2 - xi**2 / 4.0)
+        root = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+        low = w2 - xi**2 / 2.0 - root
+        return np.sqrt(np.where(low > 0.0, low, np.nan)), np.sqrt(w2 - xi**2 / 2.0 + root)
+
+    def peak_level(self, excitation: float) -> tuple[int, float] | None:
+        """Where the resonance peak at this excitation multiplier is: (i, t) with the
+        level between backbone points i and i + 1 at fraction t of log a (the first
+        crossing from the lowest level: the main branch), or None when the backbone's
+        range does not reach it."""
+        e = self.peak_excitation
+        below = e <= excitation
+        for i in range(len(e) - 1):
+            if below[i] and not below[i + 1]:
+                t = np.log(excitation / e[i]) / np.log(e[i + 1] / e[i])
+                return i, float(t)
+        return None
+
+    def peak_amplitude(self, excitation: float) -> float:
+        """The modal amplitude of the resonance peak at this excitation multiplier (NaN
+        out of the backbone's range), interpolated in log a and log e."""
+        found = self.peak_level(excitation)
+        if found is None:
+            return float("nan")
+        i, t = found
+        la = np.log(self.amplitude)
+        return float(np.exp(la[i] + t * (la[i + 1] - la[i])))
+
+
+def synthesis(modal: ModalBalance, mode: Backbone) -> Synthesis:
+    """The modal force of ``modal``'s model's excitation at every level of ``mode``."""
+    phi = np.array([modal.modal_force(x, w, xi, a) for x, w, xi, a in
+                    zip(mode.x, mode.omega, mode.xi, mode.amplitude)], dtype=complex)
+    return Synthesis(mode.amplitude, mode.omega, mode.xi, phi)
+
+
+@dataclass(frozen=True)
+class Peak:
+    """The resonance peak at one excitation multiplier, synthesized from a mode: its level
+    (modal amplitude a), frequency [rad/s], the mode's unknowns x there (the motion's
+    harmonics, phase as the mode's) and omega, xi of the level."""
+
+    excitation: float
+    amplitude: float
+    frequency: float
+    x: np.ndarray
+    omega: float
+    xi: float
+
+
+def peak(modal: ModalBalance, mode: Backbone, syn: Synthesis, excitation: float,
+         rtol: float = 1e-10, max_iter: int = 30) -> Peak | None:
+    """The resonance peak at this excitation multiplier: the level where the synthesized
+    peak excitation equals it, by the secant method in log a between the backbone's
+    levels (each a Newton solve of the mode at that level); None out of range."""
+    found = syn.peak_level(excitation)
+    if found is None:
+        return None
+    i, _ = found
+    la, lb = np.log(mode.amplitude[i]), np.log(mode.amplitude[i + 1])
+    ga = np.log(syn.peak_excitation[i] / excitation)
+    gb = np.log(syn.peak_excitation[i + 1] / excitation)
+    for _ in range(max_iter):
+        lc = lb - gb * (lb - la) / (gb - ga) if gb != ga else 0.5 * (la + lb)
+        level = mode.at(float(np.exp(lc)))
+        if level is None:
+            return None
+        x, w, xi = level
+        phi = modal.modal_force(x, w, xi, float(np.exp(lc)))
+        one = Synthesis(np.array([np.exp(lc)]), np.array([w]), np.array([xi]),
+                        np.array([phi]))
+        gc = float(np.log(one.peak_excitation[0] / excitation))
+        if abs(gc) <= rtol:
+            return Peak(excitation, float(np.exp(lc)), float(one.peak_frequency[0]), x, w,
+                        xi)
+        la, ga, lb, gb = lb, gb, lc, gc
+    return None
+
+
+def shifted(model_harmonics, x: np.ndarray, n_dof: int, theta: float) -> np.ndarray:
+    """The unknowns of a motion delayed by the phase theta of its fundamental: harmonic n
+    times exp(i n theta) (a forced response's guess from the mode's motion)."""
+    h = model_harmonics
+    X = h.to_complex(x.reshape(n_dof, h.n_coeffs))
+    return h.from_complex({o: v * np.exp(1j * o * theta) for o, v in X.items()},
+                          (n_dof,)).ravel()
