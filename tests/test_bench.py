@@ -16,6 +16,7 @@ def test_bench_core_prints_time_per_point_and_contact_cost(capsys):
     assert all(float(r[1]) > 0 for r in rows)  # time ms
 
 
+@pytest.mark.slow  # a benchmark's smoke run (the cases themselves: test_shipped_cases)
 def test_bench_teaching_finds_and_runs_the_shipped_cases(capsys):
     assert main(["bench", "teaching", "--skip-frf", "--cases", "hysteresis_loops"]) == 0
     out = capsys.readouterr().out
@@ -63,6 +64,7 @@ def test_bench_elements_converges_for_every_shape(monkeypatch, capsys):
         assert error[shape, "2", "(5,1,1)"] < error[shape, "1", "(5,1,1)"]
 
 
+@pytest.mark.slow  # a benchmark's smoke run (both solvers agree: test_jacobian)
 def test_bench_solvers_finds_the_same_solutions_both_ways(capsys):
     """The Duffing case by dense LUs and by the structured Jacobian: the same points (to
     1e-8 of each dataset's largest entry), verdicts and bifurcations; the exit says so."""

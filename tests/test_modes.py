@@ -79,6 +79,8 @@ count = 8
 """
 
 
+# end to end on a deck (the modes analysis: the blisk test here; the deck: test_imported_blade)
+@pytest.mark.slow
 def test_modes_of_an_imported_blade_end_to_end(tmp_path, capsys):
     from pathlib import Path
 

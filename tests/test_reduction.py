@@ -270,7 +270,10 @@ def dense_spectrum(disk):
 
 # ND 1 (complex Hermitian) is slow: its dense reference alone takes ~6 s; the complex block
 # path stays in the fast suite through the CB tests at ND 1 and the restart tests.
-@pytest.mark.parametrize("backend", linalg.available_backends())
+# PARDISO's solves match SuperLU's (test_pardiso_* below): one backend in
+# the fast suite
+@pytest.mark.parametrize("backend", [pytest.param(b, marks=pytest.mark.slow) if b != "superlu"
+                                     else b for b in linalg.available_backends()])
 @pytest.mark.parametrize("h", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_block_eigensolver_matches_dense(disk, dense_spectrum, h, backend):
     """The block shift-invert Lanczos (the default) against dense LAPACK, real and complex,
@@ -388,6 +391,7 @@ def test_bad_input_before_factorization(disk, monkeypatch):
         bodies.reduce_body(mesh, spec, [NS // 2 + 1])
 
 
+@pytest.mark.slow  # a benchmark's smoke run
 def test_bench_reduction_prints_its_tables(capsys):
     """`microslip bench reduction` on a coarse sector: both tables, one row per body and ND,
     and the reduced model's f7 matching the unreduced sector's to the CB tolerance."""

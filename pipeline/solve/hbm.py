@@ -280,8 +280,9 @@ class HarmonicBalance:
         lin = self.reordered()
         F, dF = self.forces(point, parameter)
         dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
+        # a nonlinear mode's point (xi) keeps the factors: it needs the derivative by xi too
         out = condense(lin.linear.dynamic_stiffness(point), lin.take(F), self.dofs.size, dD,
-                        None if dF is None else lin.take(dF))
+                       None if dF is None else lin.take(dF), keep_factors=point.xi is not None)
         self._cache.put(key, out, out.nbytes)
         return out
 
@@ -341,23 +342,6 @@ class HarmonicBalance:
         if jacobian and structured:
             J = BalanceJacobian(h, lin, tuple(sandwiches), self.preconditioner)
         return R, J, dR
-
-    def contact_terms(self, x: np.ndarray, point: OperatingPoint, jacobian: bool = True
-                      ) -> tuple[np.ndarray, np.ndarray | None]:
-        """The contacts' part of the balance alone: sum over contacts of B^T f(B x) (n,) and,
-        with ``jacobian``, its dense derivative (n, n) (an autonomous balance adds its own
-        linear part: ``solve.nonlinear_modes``)."""
-        n = self.n_unknowns
-        R = np.zeros(n)
-        J = np.zeros((n, n)) if jacobian else None
-        for c, Br, blocks in zip(self.contacts, self._Breal, self._blocks):
-            el = c.elements.with_preload(point.preload)
-            g = (Br @ x).reshape(el.size, el.n_components, -1)
-            r = el.evaluate(g, self.harmonics, jacobian=jacobian, corrections=self.sub_sample)
-            R += Br.T @ r.forces.ravel()
-            if jacobian:
-                blocks.add_sandwich(J, r.jacobian)
-        return R, J
 
     @property
     def structured(self) -> bool:

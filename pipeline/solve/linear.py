@@ -28,13 +28,16 @@ class OperatingPoint:
     """Values of the scalar parameters at which the balance is solved.
 
     omega: angular frequency [rad/s]; excitation, mass_multiplier, preload: dimensionless
-    multipliers (see ``PARAMETERS``; a continuation parameter name maps to its field).
+    multipliers (see ``PARAMETERS``; a continuation parameter name maps to its field); xi:
+    the self-excitation ``-xi M dq/dt`` of a nonlinear mode [1/s] (``solve.nonlinear_modes``:
+    a float, 0.0 included, makes the point autonomous; None for a forced response).
     """
 
     omega: float
     excitation: float = 1.0
     mass_multiplier: float = 1.0
     preload: float = 1.0
+    xi: float | None = None
 
     def get(self, name: str) -> float:
         return getattr(self, _field(name))
@@ -176,25 +179,38 @@ class LinearDynamics:
                 tuple(bool(np.any(Mp)) for Mp in self.M_part))
 
     def dynamic_stiffness(self, point: OperatingPoint) -> tuple[np.ndarray, ...]:
-        """Per order D_n = K_n - (n w)^2 M_n + i n w C_n at the point; order 0 is K_0 itself
-        (real if stored real: read it, do not write it)."""
+        """Per order D_n = K_n - (n w)^2 M_n + i n w (C_n - xi M_n) at the point; order 0 is
+        K_0 itself (real if stored real: read it, do not write it)."""
         w, damped = point.omega, self._nonzero[0]
-        return tuple(K if o == 0 else _combined(M, -((o * w) ** 2), K, C if d else None, o * w)
-                     for o, K, M, C, d in zip(self.orders, self.K, self.mass(point), self.C,
-                                              damped))
+        D = tuple(K if o == 0 else _combined(M, -((o * w) ** 2), K, C if d else None, o * w)
+                  for o, K, M, C, d in zip(self.orders, self.K, self.mass(point), self.C,
+                                           damped))
+        if not point.xi:
+            return D
+        return tuple(Dk if o == 0 else Dk - 1j * o * w * point.xi * M
+                     for o, Dk, M in zip(self.orders, D, self.mass(point)))
 
     def d_dynamic_stiffness(self, point: OperatingPoint, parameter: str
                             ) -> tuple[np.ndarray | None, ...] | None:
         """Per order dD_n / d parameter (None at order 0, where D does not depend on w or
-        the mass), or None where no order's D depends on it."""
-        w, damped = point.omega, self._nonzero[0]
+        the mass), or None where no order's D depends on it. Besides ``PARAMETERS``,
+        "xi": the self-excitation of a nonlinear mode."""
+        w, damped, xi = point.omega, self._nonzero[0], point.xi
         if parameter == "frequency":
-            return tuple(None if o == 0 else _combined(M, -2.0 * o**2 * w, None,
-                                                       C if d else None, o)
-                         for o, M, C, d in zip(self.orders, self.mass(point), self.C, damped))
-        if parameter == "mass":
-            return tuple(None if o == 0 else -((o * w) ** 2) * Mp
+            out = tuple(None if o == 0 else _combined(M, -2.0 * o**2 * w, None,
+                                                      C if d else None, o)
+                        for o, M, C, d in zip(self.orders, self.mass(point), self.C, damped))
+            if xi:  # d/dw of -i n w xi M_n
+                out = tuple(d if o == 0 else d - 1j * o * xi * M
+                            for o, d, M in zip(self.orders, out, self.mass(point)))
+            return out
+        if parameter == "mass":  # (n w)^2 and i n w xi times M_part
+            return tuple(None if o == 0 else -((o * w) ** 2) * Mp - (1j * o * w * xi * Mp
+                                                                     if xi else 0.0)
                          for o, Mp in zip(self.orders, self.M_part))
+        if parameter == "xi":
+            return tuple(None if o == 0 else -1j * o * w * M
+                         for o, M in zip(self.orders, self.mass(point)))
         return None
 
 

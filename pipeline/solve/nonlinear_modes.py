@@ -31,10 +31,11 @@ import scipy.linalg as sla
 
 from .arclength import arclength
 from .branch import Branch
-from .condensation import Condensed, condense
+from .condensation import Condensed
 from .hbm import HarmonicBalance
 from .linear import OperatingPoint
 from .newton import DEFAULT, Settings, newton
+from .response import Response
 
 LN10 = np.log(10.0)
 #: The linear modes are found by a dense eigen-solve up to this many DOFs of the order
@@ -95,6 +96,17 @@ class Backbone:
     def status(self) -> str:
         return self.branch.status
 
+    def response(self) -> ModalResponse:
+        """The levels as a solved branch of the model (parameter log10 a, every point at
+        its own (omega, xi)): outputs, contact states and maps as a forced response's."""
+        n = len(self.amplitude)
+        b = Branch(self.branch.parameter, np.log10(self.amplitude), self.x,
+                   np.asarray(self.branch.residuals)[:n], np.asarray(self.branch.iterations)[:n],
+                   status=self.branch.status, message=self.branch.message)
+        return ModalResponse(self.solver.modal.model, b, self.solver.modal.point,
+                             tuple(self.solver.modal.at(w, xi)
+                                   for w, xi in zip(self.omega, self.xi)))
+
 
 class ModalBalance:
     """The autonomous balance of a :class:`HarmonicBalance` (no dynamic loads) with the
@@ -114,44 +126,32 @@ class ModalBalance:
         self.fundamental = fundamental
         self._k1 = h.orders.index(fundamental)
         self._lin = model.reordered()
-        forces, _ = model.forces(OperatingPoint(point.omega, 0.0, point.mass_multiplier,
-                                                point.preload))
-        self._F = self._lin.take(forces)  # the static loads alone (excitation 0)
         self._M = self._lin.linear.mass(point)
 
-    # ------------------------------------------------------------ linear part
+    # ---------------------------------------------------------- the balance
+    def at(self, omega: float, xi: float) -> OperatingPoint:
+        """The operating point of a level: no dynamic load, the self-excitation xi."""
+        p = self.point
+        return OperatingPoint(omega, 0.0, p.mass_multiplier, p.preload, xi)
+
     def condensed(self, omega: float, xi: float) -> Condensed:
         """The linear part condensed on the contact DOFs at (omega, xi), with its
         derivative by omega and the factors kept (for the one by xi)."""
-        lin = self._lin.linear
-        p = OperatingPoint(omega, 0.0, self.point.mass_multiplier, self.point.preload)
-        D = list(lin.dynamic_stiffness(p))
-        dD = list(lin.d_dynamic_stiffness(p, "frequency"))
-        for k, o in enumerate(lin.orders):
-            if o > 0 and xi != 0.0:
-                D[k] = D[k] - 1j * o * omega * xi * self._M[k]
-                dD[k] = dD[k] - 1j * o * xi * self._M[k]
-        return condense(D, self._F, self.model.dofs.size, dD, None, keep_factors=True)
+        return self.model.condensed(self.at(omega, xi), "frequency")
 
-    def d_xi(self, omega: float) -> list[np.ndarray | None]:
-        """Per order dD_n / d xi = -i n omega M_n (reordered), None at order 0."""
-        return [None if o == 0 else -1j * o * omega * M
-                for o, M in zip(self._lin.linear.orders, self._M)]
-
-    # ---------------------------------------------------------- the balance
     def balance(self, x: np.ndarray, omega: float, xi: float, jacobian: bool = True):
         """R(x) (n,), dR/dx (n, n) dense or None, dR/domega (n,), dR/dxi (n,), and the
-        condensation (for the amplitude condition)."""
+        condensation (for the amplitude condition). dR/dxi has no load term: the condensed
+        loads of the dynamic orders are zero (no dynamic load) and order 0 has no xi."""
         h = self.model.harmonics
-        nd = self.model.dofs.size
-        lin = self.condensed(omega, xi)
-        X = np.array([h.to_complex(x.reshape(nd, h.n_coeffs))[o] for o in h.orders])
-        R = h.real_vector(lin.S_product(X) - lin.F).ravel()
-        R_w = h.real_vector(lin.dS_product(X) - lin.dF).ravel()
-        R_xi = h.real_vector(lin.derivative_product(self.d_xi(omega), X)).ravel()
-        Rc, Jc = self.model.contact_terms(x, self.point, jacobian)
-        J = h.real_matrix(lin.S) + Jc if jacobian else None
-        return R + Rc, J, R_w, R_xi, lin
+        point = self.at(omega, xi)
+        R, J, R_w = self.model.residual(x, point, "frequency", jacobian)
+        lin = self.model.condensed(point, "frequency")
+        X = np.array([h.to_complex(x.reshape(self.model.dofs.size, h.n_coeffs))[o]
+                      for o in h.orders])
+        d_xi = self._lin.linear.d_dynamic_stiffness(point, "xi")
+        R_xi = h.real_vector(lin.derivative_product(d_xi, X)).ravel()
+        return R, J, R_w, R_xi, lin
 
     def fundamental_of(self, x: np.ndarray) -> np.ndarray:
         """(n_contact,) complex fundamental of the contact DOFs."""
@@ -174,7 +174,8 @@ class ModalBalance:
             return q, g, 0.0, 0.0
         dD_w = lin.dS[k].dD if lin.dS is not None and lin.dS[k] is not None else None
         dq = []
-        for dD in (dD_w, self.d_xi(omega)[k]):
+        d_xi = self._lin.linear.d_dynamic_stiffness(self.at(omega, xi), "xi")[k]
+        for dD in (dD_w, d_xi):
             if dD is None:
                 dq.append(0.0)
                 continue
@@ -205,7 +206,7 @@ class ModalBalance:
                      for o, Xk, M in zip(orders, X, self._M))
         viscous = sum(np.pi * omega * o**2 * float(np.real(np.vdot(Xk, C @ Xk)))
                       for o, Xk, C in zip(orders, X, self._lin.linear.C))
-        resp = self.model.contact_response(x, self.point)
+        resp = self.model.contact_response(x, self.at(omega, xi))
         return {"modal": xi * inputs, "viscous": viscous,
                 "friction": float(sum(r.dissipation.sum() for r in resp)),
                 "normal": float(sum(r.normal_work.sum() for r in resp))}
@@ -246,6 +247,19 @@ class ModalBalance:
             out.append(LinearMode(float(np.sqrt(lam[j])), phi,
                                   float(np.real(np.vdot(phi, C @ phi)))))
         return out
+
+
+@dataclass
+class ModalResponse(Response):
+    """A backbone as a :class:`~microslip.solve.response.Response`: point i is level i's
+    operating point (its natural frequency and self-excitation, no dynamic load). What
+    re-solves along a forced branch (peak refinement, solutions at a value) does not
+    apply."""
+
+    points: tuple[OperatingPoint, ...] = ()
+
+    def point(self, i: int) -> OperatingPoint:
+        return self.points[i]
 
 
 @dataclass(frozen=True)
