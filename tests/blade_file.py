@@ -1,4 +1,4 @@
-"""The deck of cases/12_imported_blade.toml, written as another tool would (CalculiX/Abaqus
+"""The deck of cases/13_imported_blade.toml, written as another tool would (CalculiX/Abaqus
 .inp, millimetres, tonnes, seconds): a blade with a dovetail root, a structured hexahedral
 mesh, its material cards and named node sets. test_cases regenerates it and compares."""
 

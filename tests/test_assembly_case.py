@@ -50,7 +50,7 @@ def test_a_geometry_fault_is_one_line_and_only_that():
 
 def test_the_shipped_case_is_valid():
     cases.check(copy.deepcopy(CASE))
-    assert main(["check", "cases/14_blisk_damper.toml"]) == 0
+    assert main(["check", "cases/15_blisk_damper.toml"]) == 0
 
 
 @pytest.mark.parametrize("mutate, expected", [

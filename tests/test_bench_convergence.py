@@ -32,7 +32,7 @@ def test_richardson_refuses_changes_that_do_not_shrink():
 
 
 def test_mesh_levels_scale_every_size_and_hold_the_grid():
-    base = cases.load("cases/14_blisk_damper.toml").data
+    base = cases.load("cases/15_blisk_damper.toml").data
     from microslip.geometry import PARAMETERS
 
     # the case's values, REFINED's where it has none, else the model's defaults

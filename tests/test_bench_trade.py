@@ -13,7 +13,7 @@ from microslip.cli import main
 
 
 def test_every_setting_is_a_valid_case_with_its_knobs_set():
-    base = cases.load("cases/14_blisk_damper.toml").data
+    base = cases.load("cases/15_blisk_damper.toml").data
     for s in trade.SETTINGS:
         data = trade.case_data(base, s, 3120.0, 3180.0)
         cases.check(data, "trade")  # raises on any fault

@@ -16,13 +16,13 @@ from microslip.results.writer import attr_text
 
 
 def quick(mu: float, amplitude: float, samples: int = 64) -> cases.Case:
-    data = copy.deepcopy(cases.load("cases/10_blisk_quick.toml").data)
+    data = copy.deepcopy(cases.load("cases/11_blisk_quick.toml").data)
     data["harmonics"]["samples"] = samples
     for c in data["assembly"]["contacts"]:
         c["mu"] = mu
     data["assembly"]["loads"][0]["amplitude"] = amplitude
     data["analysis"][0].update(maps=["peak"], map_types=["status"])
-    return cases.Case(data, "10_blisk_quick.toml")
+    return cases.Case(data, "11_blisk_quick.toml")
 
 
 @pytest.mark.slow
@@ -56,7 +56,7 @@ def test_the_stuck_blisk_goes_over_its_lift_off_peak(tmp_path, amplitude):
 
 @pytest.mark.slow
 def test_the_light_dampers_fold_has_an_unstable_middle(tmp_path):
-    """Firrone & Zucca Fig. 23 right (cases/14_blisk_damper.toml's low_mass: the 3 x damper at
+    """Firrone & Zucca Fig. 23 right (cases/15_blisk_damper.toml's low_mass: the 3 x damper at
     mu = 1, partial lift-off): two folds located around the frequency the case maps (three
     solutions there), the points between them unstable and their neighbours stable; of the
     three solutions at that frequency (the map points) the middle amplitude is the unstable
@@ -67,11 +67,11 @@ def test_the_light_dampers_fold_has_an_unstable_middle(tmp_path):
     from microslip.case import curve_variants
     from microslip.solve.stability import hill_stability
 
-    data = copy.deepcopy(cases.load("cases/14_blisk_damper.toml").data)
+    data = copy.deepcopy(cases.load("cases/15_blisk_damper.toml").data)
     data["analysis"] = [a for a in data["analysis"] if a["name"] == "low_mass"]
     data["analysis"][0]["map_types"] = ["status"]
     (w_fold,) = [m for m in data["analysis"][0]["maps"] if not isinstance(m, str)]
-    case = cases.Case(data, "14_blisk_damper.toml")
+    case = cases.Case(data, "15_blisk_damper.toml")
     run_case(case, tmp_path, progress=lambda s: None, cache=False)
     with h5py.File(tmp_path / "results.h5") as f:
         c = f["low_mass/curve_000"]

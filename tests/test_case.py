@@ -203,7 +203,7 @@ def test_the_old_coupling_table_is_read_as_assembly_with_a_note(tmp_path, capsys
     # an old file still runs, read as the new table, and check says to rename it
     from microslip.cli import main
 
-    new = (Path(__file__).parents[1] / "cases" / "14_blisk_damper.toml").read_text()
+    new = (Path(__file__).parents[1] / "cases" / "15_blisk_damper.toml").read_text()
     assert "[assembly]" in new and "coupling" not in new and '"assembly.' in new
     old = tmp_path / "old.toml"  # the tables and the dotted key paths under the old name
     old.write_text(new.replace("[assembly", "[coupling").replace('"assembly.', '"coupling.'))

@@ -169,7 +169,7 @@ def test_rerun_checks_skip_the_memory_bound(memory):
 
 
 def test_check_prints_the_estimate_of_shipped_cases(capsys, memory):
-    assert main(["check", str(CASES / "14_blisk_damper.toml"),
+    assert main(["check", str(CASES / "15_blisk_damper.toml"),
                  str(CASES / "01_sdof_wall.toml")]) == 0
     out = capsys.readouterr().out.splitlines()
     # 2 patches x 9 x 4 node pairs x 2 nodes x 3 DOFs = 432 contact DOFs, x 3 coefficients

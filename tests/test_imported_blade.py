@@ -1,4 +1,4 @@
-"""cases/12_imported_blade.toml: a deck from another tool (its generator reproduces the shipped
+"""cases/13_imported_blade.toml: a deck from another tool (its generator reproduces the shipped
 file), contacts declared between its node sets and the ground, through the whole chain to
 the maps (coarsened here: linear elements, one excitation level); its faults, one line each."""
 
@@ -15,7 +15,7 @@ from microslip.app.run import run_case
 from microslip.cli import main
 from microslip.laws.states import OPEN, STICK
 
-CASE = Path(__file__).resolve().parents[1] / "cases" / "12_imported_blade.toml"
+CASE = Path(__file__).resolve().parents[1] / "cases" / "13_imported_blade.toml"
 
 
 def test_the_shipped_deck_is_what_its_generator_writes():

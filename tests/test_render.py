@@ -30,6 +30,8 @@ EVERY_KIND = copy.deepcopy(TWO_DOF) | {"title": "every picture", "analysis": [
      "points": 3, "window": [0.8, 1.2], "output": "x"},
     {"name": "spread", "type": "uncertainty", "window": [0.8, 1.2], "output": "x",
      "samples": 4, "limit": 0.5, "parameters": {"mu": {"uniform": [0.2, 0.4]}}},
+    {"name": "backbone", "type": "nonlinear_modes", "output": "x", "amplitude": [0.01, 1.0],
+     "excitations": [1.0]},
 ]}
 EVERY_KIND["model"]["damping"] = [0.05, 0.05]
 
@@ -44,7 +46,9 @@ def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):
     drawn = sorted(p.name for p in run.glob("*.png"))
     # one picture per analysis at least, the dti's per output and per contact
     assert {"curve_x.png", "loops.png", "steady_x.png", "steady_static_c.png",
-            "steps.png", "top.png", "spread.png", "spread_parameters.png"} <= set(drawn)
+            "steps.png", "top.png", "spread.png", "spread_parameters.png",
+            "backbone_frequency.png", "backbone_damping.png", "backbone_peaks.png",
+            "backbone_frf.png"} <= set(drawn)
     with h5py.File(path) as f:  # every object written is in the layout (results/schema.py)
         assert schema.undescribed(f) == []
         # the record of each analysis reads back as its spec (what the drawers use)

@@ -113,7 +113,7 @@ def test_the_cache_command_shows_and_clears(tmp_path, monkeypatch, capsys):
 def test_a_bad_cache_setting_is_one_line(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("MICROSLIP_CACHE_SIZE", "lots")
     # (a meshed case: only those keep anything in the shared cache)
-    assert main(["run", str(CASES / "08_blisk_mesh.toml"), "--out", str(tmp_path)]) == 2
+    assert main(["run", str(CASES / "09_blisk_mesh.toml"), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err == ("microslip run: MICROSLIP_CACHE_SIZE = 'lots': expected a size such as "
                    "10GB, 500MB or a number of bytes\n")

@@ -22,7 +22,7 @@ from microslip.fe import cyclic, fem
 from microslip.geometry.mesh import rotation_z
 from microslip.results import schema
 
-CASE = Path(__file__).parent.parent / "cases" / "11_shrouded_blisk.toml"
+CASE = Path(__file__).parent.parent / "cases" / "12_shrouded_blisk.toml"
 
 
 def _static_interlock(mesh, kn, kt, mu, interference, steps=200, speed=0.0):

@@ -161,7 +161,7 @@ def _imported_case() -> dict:
     from pathlib import Path
 
     cases = Path(__file__).parent.parent / "cases"
-    data = tomllib.loads((cases / "12_imported_blade.toml").read_text())
+    data = tomllib.loads((cases / "13_imported_blade.toml").read_text())
     data["geometry"]["file"] = str(cases / "imported_blade.inp")
     return data
 

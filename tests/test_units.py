@@ -47,7 +47,7 @@ def test_a_case_material_does_not_scale_with_the_file_s_units():
 
 
 def _deck_case(tmp_path: Path, units: str | None) -> Path:
-    text = (CASES / "12_imported_blade.toml").read_text()
+    text = (CASES / "13_imported_blade.toml").read_text()
     text = text.replace('units = "mm-t-s"', f'units = "{units}"' if units else "")
     text = text.replace('file = "imported_blade.inp"',
                         f'file = "{(CASES / "imported_blade.inp").as_posix()}"')

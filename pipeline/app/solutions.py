@@ -1,8 +1,11 @@
 """The solutions an FRF draws maps of: the refined resonance peak and every solution at a
 given parameter value, with their patch states and (for shape pictures) each body's
-displacements on its outer surface; the response measures they are ranked by."""
+displacements on its outer surface; the response measures they are ranked by; and what a
+branch's points write of their contacts (states, dissipation, static forces, patches)."""
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,6 +19,9 @@ from microslip.solve.response import (
     response_measure,
     solve_point,
 )
+
+if TYPE_CHECKING:
+    from microslip.assembly.recovery import PatchState
 
 
 def response_at(hb, x: np.ndarray, point: OperatingPoint, rows, measure: str) -> np.ndarray:
@@ -124,3 +130,45 @@ def surfaces(mesh) -> dict[str, np.ndarray]:
     """Per body its outer-surface vertices (sorted global node indices): where deformed
     shapes are recovered and drawn."""
     return {body: np.unique(mesh.surface(body)) for body in sorted(mesh.bodies)}
+
+
+def contact_data(r: Response, per_point: list) -> dict:
+    """Per contact and point: state, dissipation, slip fraction, static forces (and the
+    names of their columns per contact point)."""
+    out = {}
+    for ci, c in enumerate(r.model.contacts):
+        rows = [contacts[ci] for contacts in per_point]
+        el = c.elements
+        if el.coupled and r.model.harmonics.has_static:  # (no point: a curve without start)
+            static = np.array([x.forces[:, :, 0].ravel() for x in rows],
+                              dtype=float).reshape(len(rows), el.size * el.n_components)
+        elif el.variable_normal:
+            # uncoupled: the static forces assumed a priori, N0 (T0 not modelled: NaN)
+            n0 = np.array([el.n0 * r.point(i).preload for i in range(len(r))],
+                          dtype=float).reshape(len(r), el.size)
+            static = np.concatenate([np.full((len(r), el.size * el.dim), np.nan), n0], axis=1)
+        else:
+            static = np.zeros((len(r), 0))
+        columns = [f"T0_{j + 1}" if el.dim > 1 else "T0" for j in range(el.dim)]
+        columns += ["N0"] if el.variable_normal else []
+        out[c.name] = {
+            "state": np.array([x.state[0] for x in rows], dtype=np.int8),
+            "node_state": np.array([x.state for x in rows], dtype=np.int8),
+            "dissipation": np.array([x.dissipation.sum() for x in rows]),
+            "slip_fraction": np.array([x.slip_fraction.mean() for x in rows]),
+            "static_force": static,
+            "columns": np.array(columns if static.shape[1] else [], dtype="S"),
+            "undersampled": np.array([x.undersampled.sum() for x in rows]),
+        }
+    return out
+
+
+def patch_data(states: list[dict[str, PatchState]]) -> dict:
+    """Per patch and point (n points, P node pairs): state (n, P), static forces
+    [T0_1, T0_2, N0] (n, P, 3) [N], the share of slipping node pairs (n,)."""
+    if not states:
+        return {}
+    return {p: {"state": np.array([s[p].state for s in states], dtype=np.int8),
+                "static": np.array([s[p].static for s in states]),
+                "slip_share": np.array([s[p].slip_share for s in states])}
+            for p in states[0]}

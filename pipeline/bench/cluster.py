@@ -5,7 +5,7 @@
   ``--repeat`` rounds; in ms of wall time per task and in units of a fixed reference
   workload run in this process (a dense 400 x 400 LU, as ``bench core``).
 - **Speed-up of studies**: each ``--study CASE:ANALYSIS`` (default: the damper-mass family
-  of ``14_blisk_damper.toml``'s FRFs and the samples of ``15_blisk_uncertainty.toml``'s study,
+  of ``15_blisk_damper.toml``'s FRFs and the samples of ``16_blisk_uncertainty.toml``'s study,
   cut to ``--samples``) run in this process (``--workers 0``) and on a fresh local cluster
   of each ``--workers`` count, the cluster's start included (what a user waits for): the
   analysis' time, the speed-up, the peak resident memory of every worker and of this
@@ -37,7 +37,7 @@ from microslip.results.compare import differences
 from .core import median_time, reference_unit
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
-STUDIES = ("14_blisk_damper.toml:frf", "15_blisk_uncertainty.toml:spread")
+STUDIES = ("15_blisk_damper.toml:frf", "16_blisk_uncertainty.toml:spread")
 
 
 def empty(models, *, progress, live=True) -> Outcome:

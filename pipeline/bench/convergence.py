@@ -2,7 +2,7 @@
 at a converged mesh.
 
     microslip bench convergence                                  # blisk + dampers, ND 12
-    microslip bench convergence --case cases/13_blade_root_joint.toml --start 1980 --stop 2060
+    microslip bench convergence --case cases/14_blade_root_joint.toml --start 1980 --stop 2060
     microslip bench convergence --factors 2 1.41 1 0.71 --grids 6x2 9x4 12x6 --out conv/
 
 Mesh levels (of the case's mesh, with ``REFINED``'s knobs where the case leaves them at the
@@ -164,7 +164,7 @@ def _grid(text: str) -> tuple[int, int]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="microslip bench convergence", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--case", type=Path, default=Path("cases/14_blisk_damper.toml"))
+    parser.add_argument("--case", type=Path, default=Path("cases/15_blisk_damper.toml"))
     parser.add_argument("--start", type=float, default=3100.0, help="FRF start [rad/s]")
     parser.add_argument("--stop", type=float, default=3180.0, help="FRF stop [rad/s]")
     parser.add_argument("--factors", type=float, nargs="+", default=list(FACTORS),

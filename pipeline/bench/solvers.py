@@ -2,7 +2,7 @@
 Jacobian (``[solver] jacobian``), and the two results files compared number by number.
 
     microslip bench solvers                                   # every case in cases/
-    microslip bench solvers cases/10_blisk_quick.toml --rtol 1e-8
+    microslip bench solvers cases/11_blisk_quick.toml --rtol 1e-8
 
 Per case, in this process at one BLAS thread: both runs from scratch (the shared mesh and
 reduction cache serve both), their times, and per group of datasets the largest difference

@@ -369,7 +369,7 @@ def _pick(text: str | None) -> list[Setting]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="microslip bench trade", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--case", type=Path, default=Path("cases/14_blisk_damper.toml"),
+    parser.add_argument("--case", type=Path, default=Path("cases/15_blisk_damper.toml"),
                         help="the blisk-damper case whose knobs are varied")
     parser.add_argument("--only", default=None, metavar="NAMES",
                         help="comma-separated setting names (default: all); the first run is "

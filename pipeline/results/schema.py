@@ -327,6 +327,40 @@ LAYOUT = group(
                                               data("N0", "(n, points) N static normal load"),
                                               data("T0", "(n, points, dim) N static "
                                                    "friction")))),
+          group("curve_NNN", "(nonlinear_modes) one backbone: a family member",
+                ("label", "family_key", "family_value", *_RUN, "elapsed_s", "outputs",
+                 "harmonic_orders", "samples", "linear_omega (rad/s, the start)",
+                 "linear_xi (1/s)", "start (stuck | free)", "mode"),
+                data("modal_amplitude", "(n,) kg^1/2 m, the fundamental's mass-normalized "
+                     "amplitude a of each level"),
+                data("omega", "(n,) rad/s, the natural frequency"),
+                data("xi", "(n,) 1/s, the self-excitation -xi M dq/dt"),
+                data("damping_ratio", "(n,) xi / (2 omega)"),
+                data("response", "(n, outputs) m, max_t |x(t)|"),
+                data("coefficients", "(n, outputs, nc) m, as an frf's"),
+                data("dissipation", "(n,) J/cycle, by the contacts"),
+                data("viscous", "(n,) J/cycle, by the viscous damping"),
+                data("residual", "(n,) norm of the balance residual"),
+                data("iterations", "(n,) Newton iterations"),
+                data("unknowns", "(n, u) the balance unknowns"),
+                data("unknown_dofs", "(u / nc,) model DOF of each unknown block"),
+                data("peak_excitation", "(n,) the excitation multiplier whose resonance "
+                     "peak is at each level (synthesized)"),
+                data("peak_frequency", "(n,) rad/s, that resonance's frequency"),
+                data("modal_force", "(n,) N kg^-1/2, |psi_1^H F_1| at unit multiplier"),
+                data("excitations", "(k,) the analysis' excitation multipliers"),
+                data("peak_response", "(k, outputs) m, the synthesized resonance peak at "
+                     "each (NaN: beyond the levels computed)"),
+                data("peak_omega", "(k,) rad/s, where it is"),
+                data("peak_modal_amplitude", "(k,) kg^1/2 m, its level"),
+                data("frequencies", "(k, 2, n) rad/s, the two frequencies at which each "
+                     "level is the response to each excitation (NaN: not reached)"),
+                group(CONTACTS, "as an frf's", (),
+                      group("<contact>", "", (), *(
+                          data(d, "as an frf's") for d in (
+                              "state", "node_state", "dissipation", "slip_fraction",
+                              "static_force", "columns", "undersampled")))),
+                group(PATCHES, "(assembly)", (), group("<patch>", "", (), *_PATCH_STATE))),
           group("step_N", "(transient) load step 1 (the static load), 2 (the harmonic)",
                 ("label", *_RUN, "outputs", "contacts (their order)"),
                 data("t", "(steps,) s"), data("q", "(steps, outputs) m"),

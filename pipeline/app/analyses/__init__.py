@@ -8,6 +8,7 @@ loops                hysteresis loops of a law under a prescribed motion
 direct_integration   steady responses by time integration (``type = "dti"``)
 transient            the two load steps as time histories
 modes                the reduced bodies' modes against the unreduced ones
+nonlinear_modes      a nonlinear mode's frequency and damping against the level, peaks from it
 
 A new type is a new module here with its ``KIND``: :data:`KINDS` gathers every module's, so
 nothing else is edited to add one (its results names go in ``results.schema``, its keys in

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 import h5py
 import numpy as np
@@ -47,13 +47,16 @@ from ..running import (
     ticker,
     worst,
 )
-from ..solutions import map_groups, map_solutions, response_at, sampling_change
+from ..solutions import (
+    contact_data,
+    map_groups,
+    map_solutions,
+    patch_data,
+    response_at,
+    sampling_change,
+)
 from ..store import CurveStore
 from ..tasks import Outcome, Task
-
-if TYPE_CHECKING:
-    from microslip.assembly.recovery import PatchState
-
 
 #: continuation methods of an frf; ``natural-down`` sweeps from stop to start
 METHODS = ("arclength", "natural", "natural-down")
@@ -252,7 +255,7 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
     if spec.normalise and len(r):  # per unit of the excitation multiplier
         shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
     per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
-    contacts = _contact_data(r, per_point)
+    contacts = contact_data(r, per_point)
     try:
         stability = _stability_data(r, spec, settings(c), idx, progress, which)
     except KeyboardInterrupt:  # the branch is kept, without its stability
@@ -280,7 +283,7 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
         data["unknown_nodes"] = cm.dof_nodes[hb.dofs]
         data["unknown_directions"] = hb.dofs % 3
         names_c = [ct.name for ct in hb.contacts]
-        data[schema.PATCHES] = _patch_data([patch_states(names_c, cm.points, p)
+        data[schema.PATCHES] = patch_data([patch_states(names_c, cm.points, p)
                                        for p in per_point])
         if wanted and b.status != "interrupted":
             sols = map_solutions(r, wanted, idx, measure, settings(c))
@@ -303,37 +306,6 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
     return Outcome(data, attrs, b.status, b.message, (done,))
 
 
-def _contact_data(r: Response, per_point: list) -> dict:
-    """Per contact and point: state, dissipation, slip fraction, static forces (and the
-    names of their columns per contact point)."""
-    out = {}
-    for ci, c in enumerate(r.model.contacts):
-        rows = [contacts[ci] for contacts in per_point]
-        el = c.elements
-        if el.coupled and r.model.harmonics.has_static:  # (no point: a curve without start)
-            static = np.array([x.forces[:, :, 0].ravel() for x in rows],
-                              dtype=float).reshape(len(rows), el.size * el.n_components)
-        elif el.variable_normal:
-            # uncoupled: the static forces assumed a priori, N0 (T0 not modelled: NaN)
-            n0 = np.array([el.n0 * r.point(i).preload for i in range(len(r))],
-                          dtype=float).reshape(len(r), el.size)
-            static = np.concatenate([np.full((len(r), el.size * el.dim), np.nan), n0], axis=1)
-        else:
-            static = np.zeros((len(r), 0))
-        columns = [f"T0_{j + 1}" if el.dim > 1 else "T0" for j in range(el.dim)]
-        columns += ["N0"] if el.variable_normal else []
-        out[c.name] = {
-            "state": np.array([x.state[0] for x in rows], dtype=np.int8),
-            "node_state": np.array([x.state for x in rows], dtype=np.int8),
-            "dissipation": np.array([x.dissipation.sum() for x in rows]),
-            "slip_fraction": np.array([x.slip_fraction.mean() for x in rows]),
-            "static_force": static,
-            "columns": np.array(columns if static.shape[1] else [], dtype="S"),
-            "undersampled": np.array([x.undersampled.sum() for x in rows]),
-        }
-    return out
-
-
 def _sampling_changes(r: Response, contacts: dict, rows, measure: str, status: str
                       ) -> tuple[np.ndarray, np.ndarray]:
     """(n,) relative response change and (n,) parameter shift of each point whose stick
@@ -346,17 +318,6 @@ def _sampling_changes(r: Response, contacts: dict, rows, measure: str, status: s
     for i in np.flatnonzero(coarse):
         change[i], shift[i] = sampling_change(r, int(i), rows, measure)
     return change, shift
-
-
-def _patch_data(states: list[dict[str, PatchState]]) -> dict:
-    """Per patch and point (n points, P node pairs): state (n, P), static forces
-    [T0_1, T0_2, N0] (n, P, 3) [N], the share of slipping node pairs (n,)."""
-    if not states:
-        return {}
-    return {p: {"state": np.array([s[p].state for s in states], dtype=np.int8),
-                "static": np.array([s[p].static for s in states]),
-                "slip_share": np.array([s[p].slip_share for s in states])}
-            for p in states[0]}
 
 
 def _stability_data(r: Response, spec: Frf, solver, rows, progress: Progress, which: str

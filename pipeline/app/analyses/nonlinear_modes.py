@@ -1,0 +1,247 @@
+"""``type = "nonlinear_modes"``: a nonlinear mode of the model (extended periodic motion
+concept, ``solve.nonlinear_modes``): its natural frequency and damping ratio against the
+vibration level, the contacts' states and dissipation per level, and the resonance peak at
+each excitation level synthesized from it (``solve.modal_synthesis``: Firrone & Zucca
+Figs. 6 and 22 from one backbone per design)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import ClassVar
+
+import h5py
+import numpy as np
+
+from microslip.case import Case, curve_variants, operating_point, settings, task_seconds
+from microslip.case import analysis_rules as rules
+from microslip.case.checks import is_number, number
+from microslip.case.estimate import CURVE_POINTS, balance_point_seconds
+from microslip.case.kinds import AnalysisKind, Checking
+from microslip.case.specs import Analysis, Family
+from microslip.draw import backbones
+from microslip.results import schema
+from microslip.solve.modal_synthesis import peak, synthesis
+from microslip.solve.newton import Settings
+from microslip.solve.nonlinear_modes import Backbone, ModalBalance, backbone
+from microslip.solve.response import response_measure
+
+from ..models import AssemblyModels, LumpedModels
+from ..plan import PlanContext, Stage, curve_stages
+from ..running import (
+    Progress,
+    Run,
+    cached_curve,
+    computed_curves,
+    draw_analysis,
+    outputs,
+    ticker,
+    worst,
+)
+from ..solutions import contact_data, patch_data
+from ..tasks import Outcome, Task
+
+#: how a backbone starts: from the linear mode with the contacts stuck, or removed
+STARTS = ("stuck", "free")
+
+
+@dataclass(frozen=True, kw_only=True)
+class NonlinearModes(Analysis):
+    """Linear mode number ``mode`` (1: the lowest elastic one of the fundamental harmonic,
+    contacts ``start``: stuck or removed) continued as a nonlinear mode over the levels at
+    which ``output``'s fundamental would be ``amplitude`` = [low, high] m on the linear
+    mode's shape (the modal amplitudes the backbone runs over; the output's own amplitude
+    there follows the shape's change with the level); at every level the natural
+    frequency, the damping ratio, the output's response, the contacts' states and
+    dissipation. ``excitations``: the resonance peak synthesized at these multipliers of
+    the case's excitation. ``family``: a backbone per member (a design study from modes)."""
+
+    type: ClassVar[str] = "nonlinear_modes"
+    output: str
+    amplitude: tuple[float, float]
+    mode: int = 1
+    start: str = "stuck"
+    excitations: tuple[float, ...] = ()
+    family: Family | None = None
+
+
+def check(c: Checking) -> None:
+    """The output, the amplitude range, the mode number, the start, the excitations."""
+    a, pre = c.table, c.pre
+    rules.output_fault(c)
+    amp = a["amplitude"]
+    if not (isinstance(amp, list) and len(amp) == 2 and all(is_number(v) for v in amp)
+            and 0 < amp[0] < amp[1]):
+        c.out.append(f"{pre}.amplitude = {amp!r}: expected [low, high] m with 0 < low < "
+                     "high (the output's amplitude on the linear mode's shape)")
+    number(f"{pre}.mode", a["mode"], c.out, positive=True, integer=True)
+    if a["start"] not in STARTS:
+        c.out.append(f"{pre}.start = {a['start']!r}: expected 'stuck' (the linear mode with "
+                     "every contact stuck) or 'free' (the contacts removed)")
+    ex = a["excitations"]
+    if not (isinstance(ex, list) and all(is_number(v) and v > 0 for v in ex)):
+        c.out.append(f"{pre}.excitations = {ex!r}: expected a list of multipliers > 0 of "
+                     "the case's excitation (the peaks synthesized from the mode)")
+    rules.family_faults(c)
+
+
+def seconds(data: dict, spec: NonlinearModes, variant: dict | None = None) -> float:
+    """One backbone: about as many points as an FRF curve, each a balance point."""
+    return CURVE_POINTS * balance_point_seconds(data, spec, variant)
+
+
+def plan(case: Case, spec: NonlinearModes, context: PlanContext) -> list[Stage]:
+    """Its pictures and a backbone per family member."""
+    return curve_stages(case, spec, context, ("arclength",),
+                        lambda c, method: context.store.key(c.data, spec.table(),
+                                                            curve="backbone"))
+
+
+def identity(spec: NonlinearModes, label: str, value) -> dict:
+    """The attributes that say which member a backbone is."""
+    return {"label": label, "family_key": spec.family.key if spec.family else "",
+            "family_value": value if value is not None else ""}
+
+
+def run_modes(case: Case, spec: NonlinearModes, group: h5py.Group, run: Run
+              ) -> tuple[str, str]:
+    """A backbone per family member (a task each), then the pictures; (status, message)
+    of the worst."""
+    name, store = spec.name, run.store
+    hits, keys = store.hits, []
+    statuses: dict[int, tuple[str, str]] = {}
+    tasks: list[Task] = []
+    targets: list[tuple[int, str, str]] = []
+    each = task_seconds(case.data, spec)
+    for j, (variant, label, value) in enumerate(curve_variants(case, spec)):
+        which = f"[{name}] backbone {j + 1} {label}".rstrip()
+        key = store.key(variant.data, spec.table(), curve="backbone")
+        keys.append(key)
+        kept = cached_curve(store, key, group, schema.curve(j), f"{which}: {{}} levels",
+                            run.progress, identity(spec, label, value))
+        if kept:
+            statuses[j] = kept
+            continue
+        tasks.append(Task(mode_task, (variant, spec, label, value, which), which, each))
+        targets.append((j, key, schema.curve(j)))
+    statuses |= computed_curves(run, group, tasks, targets, f"[{name}] ")
+    draw_analysis(backbones.draw, group, spec, run, keys, store.hits - hits == len(keys))
+    return worst([statuses[k] for k in sorted(statuses)])
+
+
+def mode_task(models: LumpedModels | AssemblyModels, c: Case, spec: NonlinearModes,
+              label: str, value, which: str, *, progress: Progress, live: bool = True
+              ) -> Outcome:
+    """One backbone of the case variant ``c`` with its synthesized peaks: a task."""
+    names, idx = outputs(c, (spec.output,), models)
+    hb = models.model(c)
+    t = time.perf_counter()
+    try:
+        modal = ModalBalance(hb, operating_point(c, 1.0))
+        start = _start(modal, spec)
+    except ValueError as err:
+        return Outcome({}, {}, "failed", f"{which}: {err}")
+    rows = _output_rows(hb, idx)
+    out = float(np.abs(rows @ start.shape[:hb.linear.n_dof])[0])  # the linear mode, there
+    if not out > 0:
+        return Outcome({}, {}, "failed", f"{which}: the output {spec.output} does not move "
+                       f"in linear mode {spec.mode} (at {start.omega:.6g} rad/s)")
+    lo, hi = (a / out for a in spec.amplitude)
+    base = settings(c)
+    mode = backbone(modal, start, (lo, hi), settings=Settings(
+        **{**base.__dict__, "step": min(base.step * 2, base.max_step)}),
+        progress=ticker(progress, which, np.log10(lo), np.log10(hi)) if live else None)
+    elapsed = time.perf_counter() - t
+    b = mode.branch
+    if not len(mode.amplitude) and b.status == "stopped":
+        b.status = "failed"
+    data = _levels(modal, mode, idx, models, c) | _synthesized(modal, mode, spec, idx)
+    attrs = identity(spec, label, value) | {
+        "status": b.status, "message": b.message, "elapsed_s": elapsed, "outputs": names,
+        "harmonic_orders": list(hb.harmonics.orders), "samples": hb.harmonics.n_samples,
+        "linear_omega": start.omega, "linear_xi": start.xi, "start": spec.start,
+        "mode": spec.mode}
+    done = f"{which}: {len(mode.amplitude)} levels, {b.status} ({elapsed:.2f} s) {b.message}"
+    return Outcome(data, attrs, b.status, b.message, (done.rstrip(),))
+
+
+def _start(modal: ModalBalance, spec: NonlinearModes):
+    """The linear mode the backbone starts from; ValueError when there are fewer."""
+    modes = modal.linear_modes(spec.mode, stuck=spec.start == "stuck")
+    if len(modes) < spec.mode:
+        raise ValueError(f"mode = {spec.mode}: the linear system ({spec.start}) has "
+                         f"{len(modes)} elastic modes")
+    return modes[spec.mode - 1]
+
+
+def _output_rows(hb, idx) -> np.ndarray:
+    """(outputs, n_dof) rows of the shared DOFs selecting the outputs."""
+    rows = np.asarray(idx)
+    if rows.ndim == 2:
+        return rows
+    out = np.zeros((rows.size, hb.linear.n_dof))
+    out[np.arange(rows.size), rows] = 1.0
+    return out
+
+
+def _levels(modal: ModalBalance, mode: Backbone, idx, models, c: Case) -> dict:
+    """Per level: the mode's numbers, the output's response, the energies and contacts."""
+    hb = modal.model
+    r = mode.response()
+    n = len(r)
+    coef = r.coefficients(idx) if n else np.zeros((0, 1, hb.harmonics.n_coeffs))
+    energies = [modal.energies(x, w, xi) for x, w, xi in zip(mode.x, mode.omega, mode.xi)]
+    per_point = [r.contacts(i) for i in range(n)]
+    data = {
+        "modal_amplitude": mode.amplitude, "omega": mode.omega, "xi": mode.xi,
+        "damping_ratio": mode.damping_ratio, "coefficients": coef,
+        "response": response_measure(hb.harmonics, coef) if n else np.zeros((0, 1)),
+        "dissipation": np.array([e["friction"] + e["normal"] for e in energies]),
+        "viscous": np.array([e["viscous"] for e in energies]),
+        "residual": r.branch.residuals, "iterations": r.branch.iterations,
+        "unknowns": mode.x, "unknown_dofs": hb.dofs,
+        schema.CONTACTS: contact_data(r, per_point),
+    }
+    if isinstance(models, AssemblyModels):
+        from microslip.assembly.recovery import patch_states
+
+        cm = models.assembly(c)
+        names_c = [ct.name for ct in hb.contacts]
+        data[schema.PATCHES] = patch_data([patch_states(names_c, cm.points, p)
+                                           for p in per_point])
+    return data
+
+
+def _synthesized(modal: ModalBalance, mode: Backbone, spec: NonlinearModes, idx) -> dict:
+    """The excitation whose resonance peak is at each level, and the peaks at the
+    analysis' excitations (each level solved exactly where the peak is)."""
+    if not len(mode.amplitude):
+        return {}
+    syn = synthesis(modal, mode)
+    h = modal.model.harmonics
+    out = {"peak_excitation": syn.peak_excitation, "peak_frequency": syn.peak_frequency,
+           "modal_force": np.abs(syn.modal_force)}
+    if not spec.excitations:
+        return out
+    rows = _output_rows(modal.model, idx)
+    found = [peak(modal, mode, syn, e) for e in spec.excitations]
+    nan = np.full(rows.shape[0], np.nan)
+    out |= {"excitations": np.array(spec.excitations, dtype=float),
+            "peak_response": np.array([nan if p is None else response_measure(
+                h, _output_coefficients(modal, p, rows)) for p in found]),
+            "peak_omega": np.array([np.nan if p is None else p.frequency for p in found]),
+            "peak_modal_amplitude": np.array([np.nan if p is None else p.amplitude
+                                              for p in found]),
+            "frequencies": np.array([np.stack(syn.frequencies(e)) for e in spec.excitations])}
+    return out
+
+
+def _output_coefficients(modal: ModalBalance, p, rows: np.ndarray) -> np.ndarray:
+    """(outputs, nc) the output coefficients of a synthesized peak's motion."""
+    hb = modal.model
+    Q = hb.recover(p.x, modal.at(p.omega, p.xi))
+    return rows @ Q
+
+
+KIND = AnalysisKind("nonlinear_modes", NonlinearModes, check, seconds, run_modes,
+                    backbones.draw, plan=plan, kernels=True, assembly=True)

@@ -1,0 +1,69 @@
+"""Pictures of a nonlinear-modes analysis, from results.h5 alone: the backbone (natural
+frequency against the output's amplitude), the damping ratio against it, and, synthesized
+from the mode, the FRFs at the analysis' excitations and the resonance peak against the
+excitation level (the performance curve) or, over a family, against the family's value."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from microslip.results.writer import attr_text
+
+from . import plots
+from .pictures import Options, analysis_spec, curves
+
+
+def _label(c: h5py.Group) -> str | None:
+    return attr_text(c.attrs.get("label", "")) or None
+
+
+def draw(g: h5py.Group, name: str, out: Path, options: Options | None = None) -> list[Path]:
+    """Every picture of the analysis group ``g``; the paths written (``options``: none
+    applies to these line pictures)."""
+    spec = analysis_spec(g)
+    members = [c for _, c in curves(g) if "omega" in c and len(c["omega"])]
+    if not members:
+        return []
+    output = spec.output
+    amp = f"max |{output}(t)| [m]"
+    paths = [out / f"{name}_frequency.png", out / f"{name}_damping.png"]
+    plots.curves(paths[0], f"{name}: natural frequency of mode {spec.mode} against the "
+                 "level", amp, [{"x": c["response"][:, 0], "y": c["omega"][()],
+                                 "label": _label(c)} for c in members],
+                 "natural frequency w [rad/s]", logx=True)
+    plots.curves(paths[1], f"{name}: modal damping ratio against the level", amp,
+                 [{"x": c["response"][:, 0], "y": 100.0 * c["damping_ratio"][()],
+                   "label": _label(c)} for c in members],
+                 "damping ratio zeta [%]", logx=True)
+    paths.append(out / f"{name}_peaks.png")
+    plots.curves(paths[-1], f"{name}: resonance peak of {output} against the excitation, "
+                 "from the mode", "excitation: multiple of the case's load [-]",
+                 [{"x": c["peak_excitation"][()], "y": c["response"][:, 0],
+                   "label": _label(c)} for c in members if "peak_excitation" in c],
+                 f"resonance peak, {amp}", logx=True, logy=True)
+    if spec.excitations:
+        paths.append(out / f"{name}_frf.png")
+        plots.curves(paths[-1], f"{name}: FRFs of {output} synthesized from the mode",
+                     "excitation frequency w [rad/s]", _synthesized(members), amp)
+    return paths
+
+
+def _synthesized(members: list[h5py.Group]) -> list[dict]:
+    """Per member and excitation the closed FRF curve (below the resonance, then back
+    above it), and the backbone dashed."""
+    series = []
+    for c in members:
+        if "frequencies" not in c:
+            continue
+        y = c["response"][:, 0]
+        tag = _label(c)
+        for e, (low, high) in zip(c["excitations"][()], c["frequencies"][()]):
+            x = np.concatenate([low, high[::-1]])
+            series.append({"x": x, "y": np.concatenate([y, y[::-1]]),
+                           "label": f"{tag + ', ' if tag else ''}excitation x{e:g}"})
+        series.append({"x": c["omega"][()], "y": y, "ls": "--", "color": "0.45",
+                       "lw": 1.0, "label": f"backbone{' ' + tag if tag else ''}"})
+    return series
