@@ -471,3 +471,35 @@ def test_the_assemblys_linear_frequencies_against_the_unreduced_assembly(sector,
         # opposite phase moves the unreduced ones by -1.7e-3 to -0.14 (measured)
         assert np.all(errors[1] < 5e-4)
         assert np.all(errors[1] < errors[0])
+
+
+@pytest.mark.slow  # two backbones, the full disk's on 1296 unknowns (7 s)
+def test_a_nonlinear_mode_of_the_sector_is_the_full_disk_s(sector, full_disk):
+    """The nonlinear mode of the cyclic sector against the same mode of the full disk
+    (six sectors and dampers joined node for node), ND 0 (engine order Ns), contacts
+    stuck and slipping: natural frequency and self-excitation agree to 1e-10 at levels of
+    equal tip amplitude (measured 3e-11, the Newton tolerance of both). ND 0 because its
+    mode is single: at ND 1 the full disk has a pair (sin and cos waves), any mix of which
+    is a linear mode, and its nonlinear mode drifts from the travelling wave the sector
+    computes (the stuck levels still agree to 1e-11 there)."""
+    from microslip.solve.nonlinear_modes import ModalBalance, backbone
+
+    h = Harmonics.up_to(1, 64)
+    cyc = model(sector, 0.5, eo=NS, h=h, amplitude=15.0)
+    ref = full_disk_model(full_disk, 0.5, NS, h, 15.0)
+    w0 = first_bending(sector)
+    modes, tips = [], []
+    for cm in (cyc, ref):
+        modal = ModalBalance(cm.hb, OperatingPoint(w0))
+        start = modal.linear_modes(1)[0]  # ND 0 has the lowest bending (the disk's stiffest)
+        tip = abs(np.asarray(cm.outputs["tip"]) @ start.shape[:cm.hb.linear.n_dof])
+        modes.append(backbone(modal, start, (1e-6 / tip, 3e-3 / tip)))
+        tips.append(tip)
+    sector_mode, disk_mode = modes
+    assert sector_mode.status == disk_mode.status == "complete"
+    assert sector_mode.xi.max() > 1.0005 * sector_mode.xi[0]  # the contacts slip
+    for a in sector_mode.amplitude[::4]:
+        _, w, xi = sector_mode.at(a)
+        _, w_disk, xi_disk = disk_mode.at(a * tips[0] / tips[1])  # the same tip amplitude
+        assert w_disk == pytest.approx(w, rel=1e-10)
+        assert xi_disk == pytest.approx(xi, rel=1e-10)

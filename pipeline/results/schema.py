@@ -352,6 +352,9 @@ LAYOUT = group(
                 data("peak_response", "(k, outputs) m, the synthesized resonance peak at "
                      "each (NaN: beyond the levels computed)"),
                 data("peak_omega", "(k,) rad/s, where it is"),
+                data("peak_check", "(k, outputs) m, the forced balance solved directly at "
+                     "that frequency and excitation from the mode's motion (NaN: failed)"),
+                data("peak_damping_ratio", "(k,) the mode's damping ratio there"),
                 data("peak_modal_amplitude", "(k,) kg^1/2 m, its level"),
                 data("frequencies", "(k, 2, n) rad/s, the two frequencies at which each "
                      "level is the response to each excitation (NaN: not reached)"),

@@ -26,7 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .linear import OperatingPoint
 from .nonlinear_modes import Backbone, ModalBalance
+from .response import solve_point
 
 
 @dataclass(frozen=True)
@@ -135,6 +137,22 @@ def peak(modal: ModalBalance, mode: Backbone, syn: Synthesis, excitation: float,
                         xi)
         la, ga, lb, gb = lb, gb, lc, gc
     return None
+
+
+def forced_check(modal: ModalBalance, p: Peak) -> np.ndarray | None:
+    """The forced balance solved directly at the synthesized peak's frequency and
+    excitation, from the mode's motion moved to the phase the excitation gives it (one
+    Newton solve): its unknowns, or None where Newton fails. Where the mode dominates the
+    response it is the synthesized motion; how far apart they are says how far the
+    synthesis can be trusted there."""
+    model, base = modal.model, modal.point
+    w2, Om = p.omega**2, p.frequency
+    phi = modal.modal_force(p.x, p.omega, p.xi, p.amplitude)
+    theta = float(np.angle(p.excitation * phi / (w2 - Om**2 + 1j * Om * p.xi)))
+    point = OperatingPoint(Om, p.excitation, base.mass_multiplier, base.preload)
+    guess = shifted(model.harmonics, p.x, model.dofs.size, theta)
+    r = solve_point(model, point, x0=guess, retry=False)
+    return r.x if r.converged else None
 
 
 def shifted(model_harmonics, x: np.ndarray, n_dof: int, theta: float) -> np.ndarray:
