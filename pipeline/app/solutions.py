@@ -102,13 +102,14 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
 
 def map_groups(cm, r: Response, solutions, rows, measure: str,
                 normalise: bool = False, surfaces: dict | None = None) -> dict:
-    """The maps/ subgroups of a curve: per solution its parameter, response (per unit
-    excitation with ``normalise``), unknowns and patch states (the pictures letter them a,
+    """The maps/ subgroups of a curve: per solution (what, parameter value, x[, its
+    operating point: by default the curve's at that value]) its parameter, response (per
+    unit excitation with ``normalise``), unknowns and patch states (the pictures letter them a,
     b, c... over the analysis); with ``surfaces`` (body -> its surface nodes), each body's
     displacement coefficients there, ``shapes/<body>`` (p, 3, n_coeffs) [m]."""
     groups = {}
-    for k, (what, v, x) in enumerate(solutions):
-        point = r.base.set(r.parameter, v)
+    for k, (what, v, x, *given) in enumerate(solutions):
+        point = given[0] if given else r.base.set(r.parameter, v)
         patches = cm.patches(x, point)
         response = response_at(r.model, x, point, rows, measure)
         groups[schema.point(k)] = {

@@ -13,7 +13,7 @@ import numpy as np
 from microslip.results.writer import attr_text
 
 from . import plots
-from .pictures import Options, analysis_spec, curves
+from .pictures import Options, analysis_spec, curves, frf_maps
 
 
 def _label(c: h5py.Group) -> str | None:
@@ -48,7 +48,7 @@ def draw(g: h5py.Group, name: str, out: Path, options: Options | None = None) ->
         paths.append(out / f"{name}_frf.png")
         plots.curves(paths[-1], f"{name}: FRFs of {output} synthesized from the mode",
                      "excitation frequency w [rad/s]", _synthesized(members), amp)
-    return paths
+    return paths + frf_maps(g, name, out, options or Options())
 
 
 def _synthesized(members: list[h5py.Group]) -> list[dict]:

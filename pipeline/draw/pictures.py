@@ -300,7 +300,7 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
     """The points of an frf analysis that get maps: the case's (each curve's maps/ group),
     or, with ``at``, the computed point of each curve nearest that parameter value."""
     out = []
-    par = analysis_spec(g).parameter
+    par = getattr(analysis_spec(g), "parameter", "level")  # (a nonlinear mode's: the level)
     if at is not None:
         for _, c in curves(g):
             label = attr_text(c.attrs.get("label", ""))

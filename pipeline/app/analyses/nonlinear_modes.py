@@ -39,7 +39,7 @@ from ..running import (
     ticker,
     worst,
 )
-from ..solutions import contact_data, patch_data
+from ..solutions import contact_data, map_groups, patch_data
 from ..tasks import Outcome, Task
 
 #: how a backbone starts: from the linear mode with the contacts stuck, or removed
@@ -60,7 +60,9 @@ class NonlinearModes(Analysis):
     there follows the shape's change with the level); at every level the natural
     frequency, the damping ratio, the output's response, the contacts' states and
     dissipation. ``excitations``: the resonance peak synthesized at these multipliers of
-    the case's excitation. ``family``: a backbone per member (a design study from modes)."""
+    the case's excitation. ``maps`` (an assembly case): the contact-status and static
+    normal-load maps (``map_types``) at the levels where the output's response is these
+    amplitudes [m]. ``family``: a backbone per member (a design study from modes)."""
 
     type: ClassVar[str] = "nonlinear_modes"
     output: str
@@ -68,6 +70,8 @@ class NonlinearModes(Analysis):
     mode: int = 1
     start: str = "stuck"
     excitations: tuple[float, ...] = ()
+    maps: tuple[float, ...] = ()
+    map_types: tuple[str, ...] = ("status", "normal_load")
     family: Family | None = None
 
 
@@ -89,6 +93,22 @@ def check(c: Checking) -> None:
         c.out.append(f"{pre}.excitations = {ex!r}: expected a list of multipliers > 0 of "
                      "the case's excitation (the peaks synthesized from the mode)")
     rules.family_faults(c)
+    _map_faults(c)
+
+
+def _map_faults(c: Checking) -> None:
+    """``maps``: output amplitudes > 0 (an assembly case's); ``map_types``: status and
+    normal_load."""
+    a, pre = c.table, c.pre
+    if not (isinstance(a["maps"], list) and all(is_number(v) and v > 0 for v in a["maps"])):
+        c.out.append(f"{pre}.maps = {a['maps']!r}: expected a list of output amplitudes "
+                     "> 0 [m] (the levels of the contact maps)")
+    elif a["maps"] and "assembly" not in c.data:
+        c.out.append(f"{pre}.maps: contact maps need an [assembly] case (patches)")
+    kinds = a["map_types"]
+    if not (isinstance(kinds, list) and set(kinds) <= {"status", "normal_load"}):
+        c.out.append(f"{pre}.map_types = {kinds!r}: expected a list of 'status' and "
+                     "'normal_load'")
 
 
 def seconds(data: dict, spec: NonlinearModes, variant: dict | None = None) -> float:
@@ -161,7 +181,7 @@ def mode_task(models: LumpedModels | AssemblyModels, c: Case, spec: NonlinearMod
     b = mode.branch
     if not len(mode.amplitude) and b.status == "stopped":
         b.status = "failed"
-    data = _levels(modal, mode, idx, models, c) | _synthesized(modal, mode, spec, idx)
+    data = _levels(modal, mode, idx, models, c, spec) | _synthesized(modal, mode, spec, idx)
     warnings = tuple(_dominance_warnings(data, spec, which))
     attrs = identity(spec, label, value) | {
         "status": b.status, "message": b.message, "elapsed_s": elapsed, "outputs": names,
@@ -191,7 +211,8 @@ def _output_rows(hb, idx) -> np.ndarray:
     return out
 
 
-def _levels(modal: ModalBalance, mode: Backbone, idx, models, c: Case) -> dict:
+def _levels(modal: ModalBalance, mode: Backbone, idx, models, c: Case,
+            spec: NonlinearModes) -> dict:
     """Per level: the mode's numbers, the output's response, the energies and contacts."""
     hb = modal.model
     r = mode.response()
@@ -216,7 +237,32 @@ def _levels(modal: ModalBalance, mode: Backbone, idx, models, c: Case) -> dict:
         names_c = [ct.name for ct in hb.contacts]
         data[schema.PATCHES] = patch_data([patch_states(names_c, cm.points, p)
                                            for p in per_point])
+        wanted = _map_levels(modal, mode, data["response"][:, 0], spec.maps)
+        if wanted:
+            data[schema.MAPS] = map_groups(cm, r, wanted, idx, "peak")
     return data
+
+
+def _map_levels(modal: ModalBalance, mode: Backbone, response: np.ndarray,
+                amplitudes: tuple[float, ...]) -> list[tuple]:
+    """(what, amplitude, x, point) of the levels where the output's response first reaches
+    each of ``amplitudes`` (interpolated in log a, then solved exactly there)."""
+    out = []
+    for A in amplitudes:
+        above = np.flatnonzero(response >= A)
+        if not len(above) or above[0] == 0:
+            continue
+        i = above[0] - 1
+        t = np.log(A / response[i]) / np.log(response[i + 1] / response[i])
+        a = float(np.exp((1 - t) * np.log(mode.amplitude[i])
+                         + t * np.log(mode.amplitude[i + 1])))
+        level = mode.at(a)
+        if level is None:
+            continue
+        x, w, xi = level
+        out.append((f"level {A:.3g} m (w = {w:.6g} rad/s, zeta = {100 * xi / (2 * w):.3g} %)",
+                    float(A), x, modal.at(w, xi)))
+    return out
 
 
 def _synthesized(modal: ModalBalance, mode: Backbone, spec: NonlinearModes, idx) -> dict:
