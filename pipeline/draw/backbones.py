@@ -28,7 +28,8 @@ def draw(g: h5py.Group, name: str, out: Path, options: Options | None = None) ->
     if not members:
         return []
     output = spec.output
-    amp = f"max |{output}(t)| [m]"
+    amp = f"max |{output}(t)| [m]" if spec.measure == "peak" else \
+        f"max |{output}(t) - {output}0| [m]"
     paths = [out / f"{name}_frequency.png", out / f"{name}_damping.png"]
     plots.curves(paths[0], f"{name}: natural frequency of mode {spec.mode} against the "
                  "level", amp, [{"x": c["response"][:, 0], "y": c["omega"][()],

@@ -336,7 +336,7 @@ LAYOUT = group(
                 data("omega", "(n,) rad/s, the natural frequency"),
                 data("xi", "(n,) 1/s, the self-excitation -xi M dq/dt"),
                 data("damping_ratio", "(n,) xi / (2 omega)"),
-                data("response", "(n, outputs) m, max_t |x(t)|"),
+                data("response", "(n, outputs) m, the analysis' measure"),
                 data("coefficients", "(n, outputs, nc) m, as an frf's"),
                 data("dissipation", "(n,) J/cycle, by the contacts"),
                 data("viscous", "(n,) J/cycle, by the viscous damping"),

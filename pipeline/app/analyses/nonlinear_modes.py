@@ -57,7 +57,8 @@ class NonlinearModes(Analysis):
     contacts ``start``: stuck or removed) continued as a nonlinear mode over the levels at
     which ``output``'s fundamental would be ``amplitude`` = [low, high] m on the linear
     mode's shape (the modal amplitudes the backbone runs over; the output's own amplitude
-    there follows the shape's change with the level); at every level the natural
+    there follows the shape's change with the level; ``measure``: its response,
+    max_t |x(t)| or with ``vibration`` max_t |x(t) - x0|); at every level the natural
     frequency, the damping ratio, the output's response, the contacts' states and
     dissipation. ``excitations``: the resonance peak synthesized at these multipliers of
     the case's excitation. ``maps`` (an assembly case): the contact-status and static
@@ -70,6 +71,7 @@ class NonlinearModes(Analysis):
     mode: int = 1
     start: str = "stuck"
     excitations: tuple[float, ...] = ()
+    measure: str = "peak"
     maps: tuple[float, ...] = ()
     map_types: tuple[str, ...] = ("status", "normal_load")
     family: Family | None = None
@@ -93,6 +95,7 @@ def check(c: Checking) -> None:
         c.out.append(f"{pre}.excitations = {ex!r}: expected a list of multipliers > 0 of "
                      "the case's excitation (the peaks synthesized from the mode)")
     rules.family_faults(c)
+    rules.measure_faults(c, ("peak", "vibration"))
     _map_faults(c)
 
 
@@ -223,7 +226,8 @@ def _levels(modal: ModalBalance, mode: Backbone, idx, models, c: Case,
     data = {
         "modal_amplitude": mode.amplitude, "omega": mode.omega, "xi": mode.xi,
         "damping_ratio": mode.damping_ratio, "coefficients": coef,
-        "response": response_measure(hb.harmonics, coef) if n else np.zeros((0, 1)),
+        "response": response_measure(hb.harmonics, coef, spec.measure) if n
+        else np.zeros((0, 1)),
         "dissipation": np.array([e["friction"] + e["normal"] for e in energies]),
         "viscous": np.array([e["viscous"] for e in energies]),
         "residual": r.branch.residuals, "iterations": r.branch.iterations,
@@ -282,9 +286,9 @@ def _synthesized(modal: ModalBalance, mode: Backbone, spec: NonlinearModes, idx)
     checked = [None if p is None else forced_check(modal, p) for p in found]
     out |= {"excitations": np.array(spec.excitations, dtype=float),
             "peak_response": np.array([nan if p is None else response_measure(
-                h, _output_coefficients(modal, p.x, p, rows)) for p in found]),
+                h, _output_coefficients(modal, p.x, p, rows), spec.measure) for p in found]),
             "peak_check": np.array([nan if x is None else response_measure(
-                h, _output_coefficients(modal, x, p, rows, forced=True))
+                h, _output_coefficients(modal, x, p, rows, forced=True), spec.measure)
                 for p, x in zip(found, checked)]),
             "peak_damping_ratio": np.array([np.nan if p is None else p.xi / (2 * p.omega)
                                             for p in found]),
