@@ -38,8 +38,8 @@ from .newton import DEFAULT, Settings, newton
 from .response import Response
 
 LN10 = np.log(10.0)
-#: The linear modes are found by a dense eigen-solve up to this many DOFs of the order
-#: (a lumped model or a reduced body; larger orders use ARPACK about the target).
+#: The linear modes are found by a dense eigen-solve up to this many DOFs of the order (a
+#: lumped model or reduced bodies: a few hundred); a larger order is refused, saying so.
 DENSE_EIGEN = 3000
 
 
@@ -110,8 +110,9 @@ class Backbone:
 
 class ModalBalance:
     """The autonomous balance of a :class:`HarmonicBalance` (no dynamic loads) with the
-    self-excitation ``-xi M dq/dt``, at a fixed operating point (mass multiplier, preload;
-    the static loads at its frequency: a rotating load's speed stays the operating one).
+    self-excitation ``-xi M dq/dt``, at a fixed operating point (mass multiplier, preload);
+    the static loads at each level's frequency (a rotating load tied to the frequency by
+    the engine order follows the mode's, as it follows the excitation's in an FRF).
 
     ``fundamental`` is the harmonic order whose amplitude and phase are prescribed (1: the
     harmonic the mode's own frequency is)."""
