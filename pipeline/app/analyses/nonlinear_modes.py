@@ -55,10 +55,6 @@ DOMINANCE = 0.01
 #: level, one BLAS thread, 2026-11-29).
 DENSE_FLOPS = 8e9
 ITERATIONS = 3.2
-#: A backbone's steps halve where its tangent turns more (rad): each onset of slip of a
-#: contact point turns it, and at the case's 0.5 the 72 pairs of 15_blisk_damper took 38 to
-#: 423 levels per damper mass (the same peaks); 1.0 took 13 to 109 on the masses tried.
-BACKBONE_TURN = 1.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -190,9 +186,8 @@ def mode_task(models: LumpedModels | AssemblyModels, c: Case, spec: NonlinearMod
                        f"in linear mode {spec.mode} (at {start.omega:.6g} rad/s)")
     lo, hi = (a / out for a in spec.amplitude)
     base = settings(c)
-    mode = backbone(modal, start, (lo, hi), settings=Settings(**{
-        **base.__dict__, "step": min(base.step * 2, base.max_step),
-        "max_turn": max(base.max_turn, BACKBONE_TURN)}),
+    mode = backbone(modal, start, (lo, hi), settings=Settings(
+        **{**base.__dict__, "step": min(base.step * 2, base.max_step)}),
         progress=ticker(progress, which, np.log10(lo), np.log10(hi)) if live else None)
     elapsed = time.perf_counter() - t
     b = mode.branch
