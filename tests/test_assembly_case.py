@@ -448,6 +448,7 @@ def test_the_code_digest_follows_the_computing_sources_only(tmp_path):
     assert store.code_digest(tmp_path) != before  # numerics: every curve is computed again
 
 
+@pytest.mark.slow  # a backbone on the assembly with maps (5 s); the type runs in test_render
 def test_a_nonlinear_mode_of_the_assembly_with_its_maps_and_peaks(tmp_path):
     """A nonlinear mode of the coarse blisk + damper (its first bending at ND 1, from the
     stuck linear mode): its maps at two levels (every pair stuck, then the 1D+1D flank

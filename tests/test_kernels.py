@@ -38,6 +38,9 @@ def evaluate_with(monkeypatch, parallel: bool, el, g, h):
     return el.evaluate(g, h, histories=True)
 
 
+# slow: its first call compiles the threaded kernel (11 s of a cold fast suite), which no
+# other fast test uses; every other kernel test runs the serial one
+@pytest.mark.slow
 @pytest.mark.parametrize("law", ["A", "B", "C", "D"])
 def test_serial_and_threaded_marches_agree(monkeypatch, law):
     el, g, h = contact_state(law, 24)
