@@ -63,3 +63,12 @@ def test_a_case_named_without_its_number_is_found_in_one_line(capsys):
     assert err.count("\n") == 1
     assert f"cannot read the file: No such file or directory; the shipped cases are " \
            f"numbered now: {CASES / '01_sdof_wall.toml'}" in err
+
+
+def test_a_case_under_an_earlier_number_is_found_in_one_line(capsys):
+    """The meshed cases moved one number up when the nonlinear-modes case joined the
+    lumped ones: ``cases/10_blisk_quick.toml`` names the file it is now."""
+    assert main(["check", str(CASES / "10_blisk_quick.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"numbered now: {CASES / '11_blisk_quick.toml'}" in err

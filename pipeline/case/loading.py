@@ -13,6 +13,7 @@ and defaults is in the README.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 
@@ -45,11 +46,13 @@ def load(path: str | Path, kinds: Kinds | None = None) -> Case:
 
 
 def numbered_name(path: Path) -> str:
-    """Where a shipped case named without its number is now (the cases are numbered in
-    their learning order: ``sdof_wall.toml`` is ``01_sdof_wall.toml``), or ""."""
+    """Where a shipped case named without its number, or with an earlier one, is now (the
+    cases are numbered in their learning order: ``sdof_wall.toml`` is ``01_sdof_wall.toml``,
+    ``10_blisk_quick.toml`` became ``11_blisk_quick.toml``), or ""."""
     if path.exists():
         return ""
-    found = sorted(path.parent.glob(f"[0-9][0-9]_{path.name}"))
+    name = re.sub(r"^[0-9][0-9]_", "", path.name)
+    found = sorted(path.parent.glob(f"[0-9][0-9]_{name}"))
     return f"; the shipped cases are numbered now: {found[0]}" if found else ""
 
 
