@@ -88,6 +88,7 @@ def fine():
     return mesh, body, ids
 
 
+@pytest.mark.slow  # a long verification against the unreduced model (3.5 s)
 def test_static_condensation_equals_the_constrained_unreduced_model(fine):
     """The reduced stiffness on averaged masters is the unreduced model's stiffness under
     the constraints W u = v, from one direct sparse solve of the saddle-point system

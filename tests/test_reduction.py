@@ -135,6 +135,7 @@ def test_reduced_matrices_hermitian_and_definite(disk):
         assert np.linalg.eigvalsh(K).min() > 0.0
 
 
+@pytest.mark.slow  # a long verification (4 s); the free damper is reduced in every assembly test
 def test_free_free_damper_has_six_rigid_body_modes():
     """The blisk's wedge damper, held by nothing, every contact DOF a master (as in a case);
     a coarse blisk (the damper alone is assembled)."""
