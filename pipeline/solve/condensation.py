@@ -78,7 +78,9 @@ class Condensed:
     def nbytes(self) -> int:
         arrays = [self.F, *self.D, *self.Y, *self.z, self.dF, self.__dict__.get("S")]
         derivatives = sum(d.nbytes for d in self.dS or () if d is not None)
-        derivatives += sum(lu[0].nbytes for lu in self.lus if lu is not None)
+        held = {id(d.lu) for d in self.dS or () if d is not None}  # (counted there)
+        derivatives += sum(lu[0].nbytes for lu in self.lus
+                           if lu is not None and id(lu) not in held)
         return sum(a.nbytes for a in arrays if a is not None) + derivatives
 
 

@@ -204,9 +204,9 @@ class LinearDynamics:
                 out = tuple(d if o == 0 else d - 1j * o * xi * M
                             for o, d, M in zip(self.orders, out, self.mass(point)))
             return out
-        if parameter == "mass":  # (n w)^2 and i n w xi times M_part
-            return tuple(None if o == 0 else -((o * w) ** 2) * Mp - (1j * o * w * xi * Mp
-                                                                     if xi else 0.0)
+        if parameter == "mass":  # -(n w)^2 M_part, and -i n w xi M_part at a mode's level
+            return tuple(None if o == 0 else Mp * (-((o * w) ** 2) - (1j * o * w * xi if xi
+                                                                       else 0.0))
                          for o, Mp in zip(self.orders, self.M_part))
         if parameter == "xi":
             return tuple(None if o == 0 else -1j * o * w * M

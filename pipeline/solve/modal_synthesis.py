@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .linear import OperatingPoint
 from .nonlinear_modes import Backbone, ModalBalance
 from .response import solve_point
 
@@ -65,28 +64,13 @@ class Synthesis:
         low = w2 - xi**2 / 2.0 - root
         return np.sqrt(np.where(low > 0.0, low, np.nan)), np.sqrt(w2 - xi**2 / 2.0 + root)
 
-    def peak_level(self, excitation: float) -> tuple[int, float] | None:
-        """Where the resonance peak at this excitation multiplier is: (i, t) with the
-        level between backbone points i and i + 1 at fraction t of log a (the first
-        crossing from the lowest level: the main branch), or None when the backbone's
-        range does not reach it."""
-        e = self.peak_excitation
-        below = e <= excitation
-        for i in range(len(e) - 1):
-            if below[i] and not below[i + 1]:
-                t = np.log(excitation / e[i]) / np.log(e[i + 1] / e[i])
-                return i, float(t)
-        return None
-
-    def peak_amplitude(self, excitation: float) -> float:
-        """The modal amplitude of the resonance peak at this excitation multiplier (NaN
-        out of the backbone's range), interpolated in log a and log e."""
-        found = self.peak_level(excitation)
-        if found is None:
-            return float("nan")
-        i, t = found
-        la = np.log(self.amplitude)
-        return float(np.exp(la[i] + t * (la[i + 1] - la[i])))
+    def peak_level(self, excitation: float) -> int | None:
+        """Where the resonance peak at this excitation multiplier is: i, the level between
+        backbone points i and i + 1 (the first crossing from the lowest level: the main
+        branch), or None when the backbone's range does not reach it."""
+        below = self.peak_excitation <= excitation
+        crossing = np.flatnonzero(below[:-1] & ~below[1:])
+        return int(crossing[0]) if len(crossing) else None
 
 
 def synthesis(modal: ModalBalance, mode: Backbone) -> Synthesis:
@@ -100,7 +84,7 @@ def synthesis(modal: ModalBalance, mode: Backbone) -> Synthesis:
 class Peak:
     """The resonance peak at one excitation multiplier, synthesized from a mode: its level
     (modal amplitude a), frequency [rad/s], the mode's unknowns x there (the motion's
-    harmonics, phase as the mode's) and omega, xi of the level."""
+    harmonics, phase as the mode's), omega, xi of the level and its modal force phi."""
 
     excitation: float
     amplitude: float
@@ -108,6 +92,7 @@ class Peak:
     x: np.ndarray
     omega: float
     xi: float
+    modal_force: complex
 
 
 def peak(modal: ModalBalance, mode: Backbone, syn: Synthesis, excitation: float,
@@ -115,10 +100,9 @@ def peak(modal: ModalBalance, mode: Backbone, syn: Synthesis, excitation: float,
     """The resonance peak at this excitation multiplier: the level where the synthesized
     peak excitation equals it, by the secant method in log a between the backbone's
     levels (each a Newton solve of the mode at that level); None out of range."""
-    found = syn.peak_level(excitation)
-    if found is None:
+    i = syn.peak_level(excitation)
+    if i is None:
         return None
-    i, _ = found
     la, lb = np.log(mode.amplitude[i]), np.log(mode.amplitude[i + 1])
     ga = np.log(syn.peak_excitation[i] / excitation)
     gb = np.log(syn.peak_excitation[i + 1] / excitation)
@@ -134,7 +118,7 @@ def peak(modal: ModalBalance, mode: Backbone, syn: Synthesis, excitation: float,
         gc = float(np.log(one.peak_excitation[0] / excitation))
         if abs(gc) <= rtol:
             return Peak(excitation, float(np.exp(lc)), float(one.peak_frequency[0]), x, w,
-                        xi)
+                        xi, phi)
         la, ga, lb, gb = lb, gb, lc, gc
     return None
 
@@ -145,13 +129,11 @@ def forced_check(modal: ModalBalance, p: Peak) -> np.ndarray | None:
     Newton solve): its unknowns, or None where Newton fails. Where the mode dominates the
     response it is the synthesized motion; how far apart they are says how far the
     synthesis can be trusted there."""
-    model, base = modal.model, modal.point
-    w2, Om = p.omega**2, p.frequency
-    phi = modal.modal_force(p.x, p.omega, p.xi, p.amplitude)
-    theta = float(np.angle(p.excitation * phi / (w2 - Om**2 + 1j * Om * p.xi)))
-    point = OperatingPoint(Om, p.excitation, base.mass_multiplier, base.preload)
+    model, Om = modal.model, p.frequency
+    theta = float(np.angle(p.excitation * p.modal_force
+                           / (p.omega**2 - Om**2 + 1j * Om * p.xi)))
     guess = shifted(model.harmonics, p.x, model.dofs.size, theta)
-    r = solve_point(model, point, x0=guess, retry=False)
+    r = solve_point(model, modal.forced(Om, p.excitation), x0=guess, retry=False)
     return r.x if r.converged else None
 
 

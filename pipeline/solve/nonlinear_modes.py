@@ -23,7 +23,7 @@ condensation made at each (w, xi) with the factors kept for both derivatives.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -132,8 +132,12 @@ class ModalBalance:
     # ---------------------------------------------------------- the balance
     def at(self, omega: float, xi: float) -> OperatingPoint:
         """The operating point of a level: no dynamic load, the self-excitation xi."""
-        p = self.point
-        return OperatingPoint(omega, 0.0, p.mass_multiplier, p.preload, xi)
+        return replace(self.point, omega=omega, excitation=0.0, xi=xi)
+
+    def forced(self, omega: float, excitation: float) -> OperatingPoint:
+        """The forced operating point at this frequency and excitation multiplier (the
+        mass multiplier and preload of the mode's)."""
+        return replace(self.point, omega=omega, excitation=excitation, xi=None)
 
     def condensed(self, omega: float, xi: float) -> Condensed:
         """The linear part condensed on the contact DOFs at (omega, xi), with its
@@ -141,42 +145,46 @@ class ModalBalance:
         return self.model.condensed(self.at(omega, xi), "frequency")
 
     def balance(self, x: np.ndarray, omega: float, xi: float, jacobian: bool = True):
-        """R(x) (n,), dR/dx (n, n) dense or None, dR/domega (n,), dR/dxi (n,), and the
-        condensation (for the amplitude condition). dR/dxi has no load term: the condensed
-        loads of the dynamic orders are zero (no dynamic load) and order 0 has no xi."""
+        """R(x) (n,), and with ``jacobian`` dR/dx (n, n) dense, dR/domega (n,), dR/dxi
+        (n,) and dD/dxi per order (else None each); the condensation (for the amplitude
+        condition). dR/dxi has no load term: the condensed loads of the dynamic orders are
+        zero (no dynamic load) and order 0 has no xi."""
         h = self.model.harmonics
         point = self.at(omega, xi)
+        # by "frequency" always: one condensation (cached) serves the residual and q
         R, J, R_w = self.model.residual(x, point, "frequency", jacobian)
         lin = self.model.condensed(point, "frequency")
+        if not jacobian:
+            return R, None, None, None, None, lin
         X = np.array([h.to_complex(x.reshape(self.model.dofs.size, h.n_coeffs))[o]
                       for o in h.orders])
         d_xi = self._lin.linear.d_dynamic_stiffness(point, "xi")
         R_xi = h.real_vector(lin.derivative_product(d_xi, X)).ravel()
-        return R, J, R_w, R_xi, lin
+        return R, J, R_w, R_xi, d_xi, lin
 
     def fundamental_of(self, x: np.ndarray) -> np.ndarray:
         """(n_contact,) complex fundamental of the contact DOFs."""
         h = self.model.harmonics
         return h.to_complex(x.reshape(self.model.dofs.size, h.n_coeffs))[self.fundamental]
 
-    def modal_mass(self, lin: Condensed, omega: float, xi: float, psi: np.ndarray
+    def modal_mass(self, lin: Condensed, psi: np.ndarray,
+                   d_xi: list[np.ndarray | None] | None = None
                    ) -> tuple[float, np.ndarray, float, float]:
         """q = psi^H M_1 psi over every DOF of the fundamental's order (the condensed ones
         recovered, ``psi_i = -Y psi_c``: no dynamic load), its gradient by the contact
-        DOFs' complex amplitudes (``dq = 2 Re(g^H dpsi)``) and its derivatives by omega
-        and xi (through Y)."""
+        DOFs' complex amplitudes (``dq = 2 Re(g^H dpsi)``) and, given ``d_xi`` (dD/dxi per
+        order), its derivatives by omega and xi (through Y; else 0, 0)."""
         k, nc = self._k1, self.model.dofs.size
         M = self._M[k]
         W = lin.Y[k] @ psi
         v = M[nc:, :nc] @ psi - M[nc:, nc:] @ W  # (M_ic psi - M_ii W)
         g = M[:nc, :nc] @ psi - M[:nc, nc:] @ W - lin.Y[k].conj().T @ v
         q = float(np.real(np.vdot(psi, g)))
-        if lin.lus[k] is None:  # nothing condensed
+        if d_xi is None or lin.lus[k] is None:  # not asked, or nothing condensed
             return q, g, 0.0, 0.0
         dD_w = lin.dS[k].dD if lin.dS is not None and lin.dS[k] is not None else None
         dq = []
-        d_xi = self._lin.linear.d_dynamic_stiffness(self.at(omega, xi), "xi")[k]
-        for dD in (dD_w, d_xi):
+        for dD in (dD_w, d_xi[k]):
             if dD is None:
                 dq.append(0.0)
                 continue
@@ -195,11 +203,13 @@ class ModalBalance:
         return [np.concatenate([X[o], z - Y @ X[o]])
                 for o, Y, z in zip(h.orders, lin.Y, lin.z)]
 
-    def energies(self, x: np.ndarray, omega: float, xi: float) -> dict[str, float]:
+    def energies(self, x: np.ndarray, omega: float, xi: float,
+                 contacts: list | None = None) -> dict[str, float]:
         """Work per cycle [J] at a level: "modal", the self-excitation's input
         ``pi omega xi sum_n n^2 X_n^H M_n X_n``; "viscous", what C takes; "friction" and
-        "normal", what the contacts take. On a converged mode the first is the sum of the
-        others (the periodic motion's energy balance)."""
+        "normal", what the contacts take (``contacts``: their responses there, if made).
+        On a converged mode the first is the sum of the others (the periodic motion's
+        energy balance)."""
         lin = self.condensed(omega, xi)
         X = self.recovered(lin, x)
         orders = self._lin.linear.orders
@@ -207,7 +217,8 @@ class ModalBalance:
                      for o, Xk, M in zip(orders, X, self._M))
         viscous = sum(np.pi * omega * o**2 * float(np.real(np.vdot(Xk, C @ Xk)))
                       for o, Xk, C in zip(orders, X, self._lin.linear.C))
-        resp = self.model.contact_response(x, self.at(omega, xi))
+        resp = contacts if contacts is not None else \
+            self.model.contact_response(x, self.at(omega, xi))
         return {"modal": xi * inputs, "viscous": viscous,
                 "friction": float(sum(r.dissipation.sum() for r in resp)),
                 "normal": float(sum(r.normal_work.sum() for r in resp))}
@@ -220,8 +231,7 @@ class ModalBalance:
         k = self._k1
         lin = self.condensed(omega, xi)
         psi = self.recovered(lin, x)[k] / amplitude
-        forces, _ = self.model.forces(OperatingPoint(omega, 1.0, self.point.mass_multiplier,
-                                                     self.point.preload))
+        forces, _ = self.model.forces(self.forced(omega, 1.0))
         return complex(np.vdot(psi, self._lin.take(forces)[k]))
 
     # ------------------------------------------------------- the linear modes
@@ -326,7 +336,8 @@ def backbone(modal: ModalBalance, start: LinearMode, amplitudes: tuple[float, fl
     psi_c = psi_c * np.exp(-1j * np.angle(psi_c[np.argmax(np.abs(psi_c))]))  # phase 0 there
     x_psi = h.from_complex({modal.fundamental: psi_c}, (nd,)).ravel()
     static = np.tile(h.static_mask, nd) if h.has_static else np.zeros(n, dtype=bool)
-    x_static = _static_guess(model, modal.point, start.omega) * static
+    # the static order of the linear response, contacts stuck, without dynamic loads
+    x_static = model.linear_guess(modal.forced(start.omega, 0.0), stuck=True) * static
     sc = _scales(modal, start, x_psi, x_static, static)
     y0 = np.concatenate([np.where(static, x_static / sc.length, x_psi / sc.shape),
                          [1.0 * start.omega / sc.omega0, start.xi / sc.omega0]])
@@ -339,12 +350,6 @@ def backbone(modal: ModalBalance, start: LinearMode, amplitudes: tuple[float, fl
     a = 10.0 ** lam
     xs = np.where(static, ys[:, :n] * sc.length, ys[:, :n] * sc.shape * a[:, None])
     return Backbone(a, ys[:, n] * sc.omega0, ys[:, n + 1] * sc.omega0, xs, branch, solver)
-
-
-def _static_guess(model: HarmonicBalance, point: OperatingPoint, omega: float) -> np.ndarray:
-    """The static order of the linear response, contacts stuck, without dynamic loads."""
-    return model.linear_guess(OperatingPoint(omega, 0.0, point.mass_multiplier,
-                                             point.preload), stuck=True)
 
 
 def _scales(modal: ModalBalance, start: LinearMode, x_psi: np.ndarray, x_static: np.ndarray,
@@ -383,14 +388,19 @@ def _problem(modal: ModalBalance, sc: Scales):
         row = np.where(sc.static, 1.0 / sc.static_force, 1.0 / (a * sc.dynamic_force))
         x = y[:n] * col
         omega, xi = y[n] * sc.omega0, y[n + 1] * sc.omega0
-        R, J, R_w, R_xi, lin = modal.balance(x, omega, xi, jacobian)
+        R, J, R_w, R_xi, d_xi, lin = modal.balance(x, omega, xi, jacobian)
         psi = modal.fundamental_of(x) / a
-        q, g, q_w, q_xi = modal.modal_mass(lin, omega, xi, psi)
+        q, g, q_w, q_xi = modal.modal_mass(lin, psi, d_xi)
         out = np.concatenate([row * R, [q - 1.0, y[sc.ref]]])
         if not jacobian:
             return out, None, None
         Jy = np.zeros((n + 2, n + 2))
-        Jy[:n, :n] = (row[:, None] * J) * col[None, :]
+        R_lam = np.zeros(n + 2)
+        x_dyn = np.where(dynamic, x, 0.0)
+        R_lam[:n] = LN10 * (row * (J @ x_dyn) - np.where(dynamic, row * R, 0.0))
+        J *= row[:, None]  # (the residual's own array: scaled in place)
+        J *= col[None, :]
+        Jy[:n, :n] = J
         Jy[:n, n] = row * R_w * sc.omega0
         Jy[:n, n + 1] = row * R_xi * sc.omega0
         # q(psi): psi = fundamental(x) / a = fundamental of y's dynamic part x shape
@@ -398,9 +408,6 @@ def _problem(modal: ModalBalance, sc: Scales):
         Jy[n, :n] = grad * sc.shape * dynamic
         Jy[n, n], Jy[n, n + 1] = q_w * sc.omega0, q_xi * sc.omega0
         Jy[n + 1, sc.ref] = 1.0
-        x_dyn = np.where(dynamic, x, 0.0)
-        R_lam = np.zeros(n + 2)
-        R_lam[:n] = LN10 * (row * (J @ x_dyn) - np.where(dynamic, row * R, 0.0))
         return out, Jy, R_lam
 
     return fun

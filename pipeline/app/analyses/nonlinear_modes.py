@@ -7,7 +7,7 @@ Figs. 6 and 22 from one backbone per design)."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import h5py
@@ -21,11 +21,9 @@ from microslip.case.kinds import AnalysisKind, Checking
 from microslip.case.specs import Analysis, Family
 from microslip.draw import backbones
 from microslip.results import schema
-from microslip.solve.linear import OperatingPoint
 from microslip.solve.modal_synthesis import forced_check, peak, synthesis
-from microslip.solve.newton import Settings
 from microslip.solve.nonlinear_modes import Backbone, ModalBalance, backbone
-from microslip.solve.response import response_measure
+from microslip.solve.response import output, response_measure
 
 from ..models import AssemblyModels, LumpedModels
 from ..plan import PlanContext, Stage, curve_stages
@@ -179,15 +177,15 @@ def mode_task(models: LumpedModels | AssemblyModels, c: Case, spec: NonlinearMod
         start = _start(modal, spec)
     except ValueError as err:
         return Outcome({}, {}, "failed", f"{which}: {err}")
-    rows = _output_rows(hb, idx)
-    out = float(np.abs(rows @ start.shape[:hb.linear.n_dof])[0])  # the linear mode, there
+    # the output's amplitude in the linear mode (its shared DOFs' shape as one column)
+    out = float(np.abs(output(start.shape[:hb.linear.n_dof, None], idx))[0, 0])
     if not out > 0:
         return Outcome({}, {}, "failed", f"{which}: the output {spec.output} does not move "
                        f"in linear mode {spec.mode} (at {start.omega:.6g} rad/s)")
     lo, hi = (a / out for a in spec.amplitude)
     base = settings(c)
-    mode = backbone(modal, start, (lo, hi), settings=Settings(
-        **{**base.__dict__, "step": min(base.step * 2, base.max_step)}),
+    mode = backbone(modal, start, (lo, hi),
+                    settings=replace(base, step=min(base.step * 2, base.max_step)),
         progress=ticker(progress, which, np.log10(lo), np.log10(hi)) if live else None)
     elapsed = time.perf_counter() - t
     b = mode.branch
@@ -213,16 +211,6 @@ def _start(modal: ModalBalance, spec: NonlinearModes):
     return modes[spec.mode - 1]
 
 
-def _output_rows(hb, idx) -> np.ndarray:
-    """(outputs, n_dof) rows of the shared DOFs selecting the outputs."""
-    rows = np.asarray(idx)
-    if rows.ndim == 2:
-        return rows
-    out = np.zeros((rows.size, hb.linear.n_dof))
-    out[np.arange(rows.size), rows] = 1.0
-    return out
-
-
 def _levels(modal: ModalBalance, mode: Backbone, idx, models, c: Case,
             spec: NonlinearModes) -> dict:
     """Per level: the mode's numbers, the output's response, the energies and contacts."""
@@ -230,8 +218,9 @@ def _levels(modal: ModalBalance, mode: Backbone, idx, models, c: Case,
     r = mode.response()
     n = len(r)
     coef = r.coefficients(idx) if n else np.zeros((0, 1, hb.harmonics.n_coeffs))
-    energies = [modal.energies(x, w, xi) for x, w, xi in zip(mode.x, mode.omega, mode.xi)]
     per_point = [r.contacts(i) for i in range(n)]
+    energies = [modal.energies(x, w, xi, contacts) for x, w, xi, contacts in
+                zip(mode.x, mode.omega, mode.xi, per_point)]
     data = {
         "modal_amplitude": mode.amplitude, "omega": mode.omega, "xi": mode.xi,
         "damping_ratio": mode.damping_ratio, "coefficients": coef,
@@ -289,16 +278,18 @@ def _synthesized(modal: ModalBalance, mode: Backbone, spec: NonlinearModes, idx)
            "modal_force": np.abs(syn.modal_force)}
     if not spec.excitations:
         return out
-    rows = _output_rows(modal.model, idx)
     found = [peak(modal, mode, syn, e) for e in spec.excitations]
-    nan = np.full(rows.shape[0], np.nan)
+    nan = np.full(1, np.nan)  # (one output)
     checked = [None if p is None else forced_check(modal, p) for p in found]
+
+    def measured(x: np.ndarray, point) -> np.ndarray:
+        return response_measure(h, output(modal.model.recover(x, point), idx), spec.measure)
+
     out |= {"excitations": np.array(spec.excitations, dtype=float),
-            "peak_response": np.array([nan if p is None else response_measure(
-                h, _output_coefficients(modal, p.x, p, rows), spec.measure) for p in found]),
-            "peak_check": np.array([nan if x is None else response_measure(
-                h, _output_coefficients(modal, x, p, rows, forced=True), spec.measure)
-                for p, x in zip(found, checked)]),
+            "peak_response": np.array([
+                nan if p is None else measured(p.x, modal.at(p.omega, p.xi)) for p in found]),
+            "peak_check": np.array([nan if x is None else measured(
+                x, modal.forced(p.frequency, p.excitation)) for p, x in zip(found, checked)]),
             "peak_damping_ratio": np.array([np.nan if p is None else p.xi / (2 * p.omega)
                                             for p in found]),
             "peak_omega": np.array([np.nan if p is None else p.frequency for p in found]),
@@ -306,16 +297,6 @@ def _synthesized(modal: ModalBalance, mode: Backbone, spec: NonlinearModes, idx)
                                               for p in found]),
             "frequencies": np.array([np.stack(syn.frequencies(e)) for e in spec.excitations])}
     return out
-
-
-def _output_coefficients(modal: ModalBalance, x: np.ndarray, p, rows: np.ndarray,
-                         forced: bool = False) -> np.ndarray:
-    """(outputs, nc) the output coefficients of a synthesized peak's motion x (the mode's
-    level), or of the direct solve at its frequency (``forced``)."""
-    base = modal.point
-    point = OperatingPoint(p.frequency, p.excitation, base.mass_multiplier, base.preload) \
-        if forced else modal.at(p.omega, p.xi)
-    return rows @ modal.model.recover(x, point)
 
 
 def _dominance_warnings(data: dict, spec: NonlinearModes, which: str):
