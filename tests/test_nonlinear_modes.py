@@ -253,3 +253,17 @@ def test_a_synthesized_peak_where_single_mode_theory_fails_is_told(tmp_path):
         syn, chk = c["peak_response"][:, 0], c["peak_check"][:, 0]
         assert abs(syn[0] / chk[0] - 1) > 0.1
         assert syn[1] == pytest.approx(chk[1], rel=2e-3)
+
+
+def test_a_second_run_takes_the_backbone_from_the_cache(tmp_path):
+    """The same analysis into the same folder again: the backbone is read back (its level
+    count said), not recomputed, and the file holds the same numbers."""
+    data = tomllib.loads(CASE.read_text())
+    data["analysis"] = [data["analysis"][0]]
+    said = []
+    for _ in range(2):
+        path = run_case(cases.Case(data, "m.toml"), tmp_path, progress=said.append)
+        with h5py.File(path) as f:
+            omega = f["mode/curve_000/omega"][()]
+    again = [m for m in said if "from the cache" in m]
+    assert len(again) == 1 and f"{len(omega)} levels, complete" in again[0], again

@@ -121,7 +121,9 @@ def ticker(progress: Progress, prefix: str, start: float, stop: float,
 def cached_curve(store: CurveStore, key: str, group, curve: str, what: str,
                   progress: Progress, identity: dict) -> tuple[str, str] | None:
     """(status, message) of the curve ``group[curve]`` copied from the store, saying so
-    (``what`` formats its number of points); None when the store does not have it.
+    (``what`` formats its number of points: the length of its ``omega``, which every
+    curve of the store has, an FRF's, a peak curve's, a backbone's); None when the store
+    does not have it.
 
     The store is keyed by what a curve computes, so another analysis (or another family
     member) may have computed it: its ``identity`` attributes (label, family key and value)
@@ -131,7 +133,7 @@ def cached_curve(store: CurveStore, key: str, group, curve: str, what: str,
     g = group[curve]
     set_attrs(g, identity)
     status, message = str(g.attrs["status"]), str(g.attrs["message"])
-    progress(f"{what.format(g['parameter'].shape[0])}, {status}, from the cache "
+    progress(f"{what.format(g['omega'].shape[0])}, {status}, from the cache "
              f"(computed in {g.attrs['elapsed_s']:.1f} s) {message}".rstrip())
     return status, message
 
