@@ -97,6 +97,44 @@ def test_determinant_sign_is_the_dense_one(state):
     assert signs == {-1.0, 1.0}
 
 
+def _bordered(Js, J, k: int, seed: int):
+    """A random positive scaling of J bordered by k rows and columns: structured and dense."""
+    rng = np.random.default_rng(seed)
+    n = J.shape[0]
+    r, c = rng.uniform(0.5, 2.0, n), rng.uniform(0.5, 2.0, n)
+    cols, rows, corner = rng.normal(size=(n, k)), rng.normal(size=(k, n)), \
+        rng.normal(size=(k, k))
+    Bs = jacobian.BorderedJacobian(Js, r, c, cols, rows, corner)
+    B = np.block([[r[:, None] * J * c[None, :], cols], [rows, corner]])
+    return Bs, B
+
+
+def test_a_bordered_jacobian_is_its_dense_matrix_and_solves_like_it(state):
+    """Two borders (a nonlinear mode's frequency and self-excitation, amplitude and phase)
+    and one more (the arclength's): products, solves and the determinant's sign against the
+    dense bordered matrix."""
+    hb, J, Js, R, dR = state
+    Bs, B = _bordered(Js, J, 2, 4)
+    assert np.max(np.abs(Bs.dense() - B)) <= 1e-13 * np.max(np.abs(B))
+    v = np.random.default_rng(5).normal(size=B.shape[0])
+    assert np.linalg.norm(Bs.matvec(v) - B @ v) <= 1e-13 * np.linalg.norm(B) * np.linalg.norm(v)
+    rhs = np.random.default_rng(6).normal(size=B.shape[0])
+    # GMRES to RTOL of the right side (the true residual is the one tested)
+    assert np.linalg.norm(B @ Bs.solve(rhs) - rhs) <= 2 * jacobian.RTOL * np.linalg.norm(rhs)
+    rng = np.random.default_rng(7)
+    signs = set()
+    for corner in (-50.0, 0.0, 50.0):
+        col, row = rng.normal(size=B.shape[0]), rng.normal(size=B.shape[0])
+        A = np.block([[B, col[:, None]], [np.append(row, corner)[None, :]]])
+        z = Bs.bordered_solve(col, row, corner, np.append(rhs, 1.0))
+        assert np.linalg.norm(A @ z - np.append(rhs, 1.0)) <= \
+            2 * jacobian.RTOL * np.linalg.norm(np.append(rhs, 1.0))
+        want = np.linalg.slogdet(A)[0]
+        assert Bs.bordered_sign(col, row, corner) == want
+        signs.add(want)
+    assert signs == {-1.0, 1.0}
+
+
 def test_gmres_solves_a_nonsymmetric_system_and_reports_failure():
     rng = np.random.default_rng(4)
     A = np.eye(60) + 0.3 * rng.normal(size=(60, 60)) / np.sqrt(60)

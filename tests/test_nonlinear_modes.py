@@ -12,6 +12,7 @@ import scipy.linalg as sla
 from microslip import case as cases
 from microslip.app.run import run_case
 from microslip.bench.demos import jenkins_oscillator
+from microslip.draw import backbones
 from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactElements
 from microslip.solve.hbm import Contact, HarmonicBalance
@@ -57,7 +58,8 @@ def test_jenkins_backbone_is_the_describing_function():
     assert mode.omega[-1] == pytest.approx(1.0, rel=1e-3)  # gross slip: the free mode
 
 
-def _two_dimensional_model(proportional: bool = False) -> HarmonicBalance:
+def _two_dimensional_model(proportional: bool = False, jacobian: str = "auto"
+                           ) -> HarmonicBalance:
     """Three masses, viscous damping, one 2D friction contact with a variable normal load
     (law D) on DOFs 0 and 2; DOF 1 touches no contact (condensed). ``proportional``: the
     damping proportional to M and to K with the contact stuck (real linear modes)."""
@@ -69,7 +71,8 @@ def _two_dimensional_model(proportional: bool = False) -> HarmonicBalance:
     stuck = B.T @ np.diag([2.0, 2.0, 5.0]) @ B  # kt, kt, kn
     C = 0.01 * (K + stuck if proportional else K) + 0.02 * M
     lin = LinearDynamics.create(K, M, C, harmonics=h)
-    return HarmonicBalance(lin, [Contact("c", contact, B)], Excitation.single(3, 1, 0.1), h)
+    return HarmonicBalance(lin, [Contact("c", contact, B)], Excitation.single(3, 1, 0.1), h,
+                           jacobian=jacobian)
 
 
 @pytest.fixture(scope="module")
@@ -77,6 +80,23 @@ def mode_2d():
     hb = _two_dimensional_model()
     modal = ModalBalance(hb, OperatingPoint(1.0))
     return modal, backbone(modal, modal.linear_modes(1)[0], (1e-3, 2.0))
+
+
+def test_structured_solves_give_the_dense_backbone():
+    """Every Newton step of the backbone by GMRES on the bordered structured Jacobian or by
+    a dense LU: the same levels (both converge to tol = 1e-9 of the force scale; the levels
+    agree to what that leaves, 1e-7 relative)."""
+    out = {}
+    for structured in (False, True):
+        hb = _two_dimensional_model(jacobian="structured" if structured else "dense")
+        modal = ModalBalance(hb, OperatingPoint(1.0))
+        out[structured] = backbone(modal, modal.linear_modes(1)[0], (1e-3, 2.0))
+        assert out[structured].branch.complete
+    a, b = out[False], out[True]
+    assert hb.preconditioner.solves > 0  # the GMRES path did run
+    np.testing.assert_array_equal(a.amplitude, b.amplitude)  # natural steps: the same levels
+    np.testing.assert_allclose(b.omega, a.omega, rtol=1e-7)
+    np.testing.assert_allclose(b.xi, a.xi, rtol=1e-7, atol=1e-9 * a.omega[0])
 
 
 def test_the_linear_limit_is_the_stuck_mode_of_the_whole_model():
@@ -208,6 +228,11 @@ def test_a_larger_slip_force_moves_the_damping_to_larger_levels(modes_case):
     assert np.all(np.diff(peaks) < 0)
     heights = [m["damping_ratio"][()].max() for m in members]
     assert max(heights) / min(heights) < 1.05
+    # the optimization from modes drawn: each member's synthesized peak at its N0
+    (curve,) = backbones._design_curves(members)
+    np.testing.assert_array_equal(curve["x"], [m.attrs["family_value"] for m in members])
+    np.testing.assert_array_equal(curve["y"], peaks)
+    assert (modes_case[1] / "modes_N0_optimization.png").is_file()
 
 
 @pytest.mark.parametrize("key, value, expected", [

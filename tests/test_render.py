@@ -31,7 +31,7 @@ EVERY_KIND = copy.deepcopy(TWO_DOF) | {"title": "every picture", "analysis": [
     {"name": "spread", "type": "uncertainty", "window": [0.8, 1.2], "output": "x",
      "samples": 4, "limit": 0.5, "parameters": {"mu": {"uniform": [0.2, 0.4]}}},
     {"name": "backbone", "type": "nonlinear_modes", "output": "x", "amplitude": [0.01, 1.0],
-     "excitations": [1.0]},
+     "excitations": [1.0], "family": {"key": "contacts.0.n0", "values": [0.5, 0.7]}},
 ]}
 EVERY_KIND["model"]["damping"] = [0.05, 0.05]
 
@@ -48,7 +48,7 @@ def test_render_redraws_every_picture_of_every_analysis_type(tmp_path):
     assert {"curve_x.png", "loops.png", "steady_x.png", "steady_static_c.png",
             "steps.png", "top.png", "spread.png", "spread_parameters.png",
             "backbone_frequency.png", "backbone_damping.png", "backbone_peaks.png",
-            "backbone_frf.png"} <= set(drawn)
+            "backbone_frf.png", "backbone_optimization.png"} <= set(drawn)
     with h5py.File(path) as f:  # every object written is in the layout (results/schema.py)
         assert schema.undescribed(f) == []
         # the record of each analysis reads back as its spec (what the drawers use)

@@ -49,7 +49,30 @@ def draw(g: h5py.Group, name: str, out: Path, options: Options | None = None) ->
         paths.append(out / f"{name}_frf.png")
         plots.curves(paths[-1], f"{name}: FRFs of {output} synthesized from the mode",
                      "excitation frequency w [rad/s]", _synthesized(members), amp)
+    design = _design_curves(members)
+    if design:
+        paths.append(out / f"{name}_optimization.png")
+        plots.curves(paths[-1], f"{name}: peak of {output} against {spec.family.legend}",
+                     spec.family.legend,
+                     design, f"resonance peak, {amp}", optimum=(spec.family.legend, "m"))
     return paths + frf_maps(g, name, out, options or Options())
+
+
+def _design_curves(members: list[h5py.Group]) -> list[dict]:
+    """Over a family of numbers (a design study: Firrone & Zucca Fig. 22 right from
+    backbones), per excitation the synthesized peak against the family's value; [] for a
+    single backbone or a family of tables."""
+    values = [c.attrs.get("family_value", "") for c in members]
+    if len(members) < 2 or not all(isinstance(v, (int, float, np.number)) for v in values):
+        return []
+    excitations = members[0]["excitations"][()] if "excitations" in members[0] else []
+    series = []
+    for k, e in enumerate(excitations):
+        y = np.array([c["peak_response"][k, 0] if "peak_response" in c else np.nan
+                      for c in members])
+        series.append({"x": np.asarray(values, float), "y": y,
+                       "label": f"excitation x{e:g}"})
+    return series
 
 
 def _synthesized(members: list[h5py.Group]) -> list[dict]:

@@ -205,68 +205,148 @@ class BalanceJacobian:
     def solve(self, rhs: np.ndarray, rtol: float = RTOL) -> np.ndarray:
         """J^-1 rhs by preconditioned GMRES to ``rtol``; np.linalg.LinAlgError where it
         fails even with a preconditioner made from this Jacobian."""
-        return self.store.solve(self, _Plain(self), rhs, rtol)
+        return self.store.solve(self, _Bordered.plain(self), rhs, rtol)
 
     def bordered_solve(self, col: np.ndarray, row: np.ndarray, corner: float,
                        rhs: np.ndarray) -> np.ndarray:
         """The (n + 1) solution of [[J, col], [row, corner]] z = rhs."""
-        return self.store.solve(self, _Bordered(self, col, row, corner), rhs)
+        return self.store.solve(self, _Bordered.plain(self).extended(col, row, corner), rhs)
 
     def bordered_sign(self, col: np.ndarray, row: np.ndarray, corner: float) -> float:
         """sign det [[J, col], [row, corner]] (see the module)."""
-        return self.store.sign(self, _Bordered(self, col, row, corner))
+        return self.store.sign(self, _Bordered.plain(self).extended(col, row, corner))
 
 
-class _Plain:
-    """J and its preconditioner as the Krylov method sees them."""
+@dataclass(frozen=True, eq=False)
+class BorderedJacobian:
+    """A :class:`BalanceJacobian` scaled and bordered by k rows and columns,
 
-    def __init__(self, J: BalanceJacobian):
-        self.J = J
+        A = [[diag(row_scale) J diag(col_scale), cols], [rows, corner]]   (n + k, n + k),
 
-    def apply(self, v):
-        return self.J.matvec(v)
+    the Jacobian of a balance with k more unknowns and conditions (a nonlinear mode's
+    frequency and self-excitation, its amplitude and phase). Solved as J is: flexible
+    GMRES preconditioned by the per-order factors, bordered by block elimination; the
+    same interface (``solve``, ``bordered_solve``, ``bordered_sign``) for Newton and
+    continuation. The scalings must be positive (they are a problem's units)."""
+
+    J: BalanceJacobian
+    row_scale: np.ndarray  # (n,) > 0
+    col_scale: np.ndarray  # (n,) > 0
+    cols: np.ndarray  # (n, k)
+    rows: np.ndarray  # (k, n)
+    corner: np.ndarray  # (k, k)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = self.J.shape[0] + self.corner.shape[0]
+        return n, n
+
+    def _system(self) -> _Bordered:
+        return _Bordered(self.J, self.cols, self.rows, self.corner, self.row_scale,
+                         self.col_scale)
+
+    def matvec(self, v: np.ndarray) -> np.ndarray:
+        return self._system().apply(v)
+
+    def dense(self) -> np.ndarray:
+        """The (n + k, n + k) real matrix (small models, checks)."""
+        n = self.J.shape[0]
+        A = np.zeros(self.shape)
+        A[:n, :n] = self.row_scale[:, None] * self.J.dense() * self.col_scale[None, :]
+        A[:n, n:], A[n:, :n], A[n:, n:] = self.cols, self.rows, self.corner
+        return A
+
+    def solve(self, rhs: np.ndarray, rtol: float = RTOL) -> np.ndarray:
+        """A^-1 rhs (see :meth:`BalanceJacobian.solve`)."""
+        return self.J.store.solve(self.J, self._system(), rhs, rtol)
+
+    def bordered_solve(self, col: np.ndarray, row: np.ndarray, corner: float,
+                       rhs: np.ndarray) -> np.ndarray:
+        """The (n + k + 1) solution of [[A, col], [row, corner]] z = rhs."""
+        return self.J.store.solve(self.J, self._system().extended(col, row, corner), rhs)
+
+    def bordered_sign(self, col: np.ndarray, row: np.ndarray, corner: float) -> float:
+        """sign det [[A, col], [row, corner]] (see the module)."""
+        return self.J.store.sign(self.J, self._system().extended(col, row, corner))
+
+
+#: The Jacobians Newton and continuation solve by their own methods (not an LU).
+STRUCTURED = (BalanceJacobian, BorderedJacobian)
+
+
+class _Bordered:
+    """[[diag(r) J diag(c), C], [R, D]] (k >= 0 borders) and its preconditioner, J's
+    per-order factors bordered the same way (block elimination: k solves with the factors
+    and a k x k Schur complement)."""
+
+    def __init__(self, J: BalanceJacobian, C: np.ndarray, R: np.ndarray, D: np.ndarray,
+                 r: np.ndarray | None = None, c: np.ndarray | None = None):
+        self.J, self.C, self.R, self.D = J, C, R, np.atleast_2d(D)
+        self.r, self.c = r, c
+        self.n = J.shape[0]
+        self.size = self.n + self.D.shape[0]
+
+    @classmethod
+    def plain(cls, J: BalanceJacobian) -> _Bordered:
+        n = J.shape[0]
+        return cls(J, np.zeros((n, 0)), np.zeros((0, n)), np.zeros((0, 0)))
+
+    def extended(self, col: np.ndarray, row: np.ndarray, corner: float) -> _Bordered:
+        """This system bordered by one more column ``col`` and row ``row`` (size + 1)."""
+        n = self.n
+        D = np.block([[self.D, col[n:, None]], [row[None, n:], np.array([[corner]])]])
+        return _Bordered(self.J, np.column_stack([self.C, col[:n]]),
+                         np.vstack([self.R, row[:n]]), D, self.r, self.c)
+
+    def apply(self, v: np.ndarray) -> np.ndarray:
+        n = self.n
+        u = v[:n] if self.c is None else self.c * v[:n]
+        top = self.J.matvec(u)
+        if self.r is not None:
+            top *= self.r
+        return np.concatenate([top + self.C @ v[n:], self.R @ v[:n] + self.D @ v[n:]])
+
+    def _scaled(self, factors: _Factors):
+        """v -> (diag(r) P diag(c))^-1 v with P's factors."""
+        r, c = self.r, self.c
+        if r is None:
+            return factors.solve
+        return lambda v: factors.solve(v / r) / c
+
+    def _schur(self, factors: _Factors) -> tuple[np.ndarray, np.ndarray]:
+        """(Z = P^-1 C, S = D - R Z)."""
+        solve = self._scaled(factors)
+        Z = np.column_stack([solve(col) for col in self.C.T]) if self.C.shape[1] \
+            else np.zeros((self.n, 0))
+        S = self.D - self.R @ Z
+        scale = np.abs(self.D).max(initial=0.0) + np.linalg.norm(self.R) * np.linalg.norm(Z)
+        if S.size and not abs(np.linalg.det(S / scale)) > 1e-14 ** S.shape[0]:
+            raise np.linalg.LinAlgError("bordered preconditioner singular")
+        return Z, S
 
     def inverse(self, factors: _Factors):
-        return factors.solve
+        solve = self._scaled(factors)
+        if not self.D.size:
+            return solve
+        Z, S = self._schur(factors)
+        lu = sla.lu_factor(S, check_finite=False)
+        n = self.n
+
+        def inverse(v):
+            z1 = solve(v[:n])
+            mu = sla.lu_solve(lu, v[n:] - self.R @ z1, check_finite=False)
+            return np.concatenate([z1 - Z @ mu, mu])
+
+        return inverse
 
     def sign(self, factors: _Factors) -> float:
-        return factors.sign
-
-
-class _Bordered(_Plain):
-    """[[J, col], [row, corner]] and the preconditioner bordered the same way (block
-    elimination with the per-order factors)."""
-
-    def __init__(self, J, col, row, corner):
-        super().__init__(J)
-        self.col, self.row, self.corner = col, row, float(corner)
-
-    def apply(self, v):
-        n = v.size - 1
-        return np.append(self.J.matvec(v[:n]) + self.col * v[n], self.row @ v[:n]
-                         + self.corner * v[n])
-
-    def _schur(self, factors):
-        z2 = factors.solve(self.col)
-        den = self.corner - self.row @ z2
-        scale = abs(self.corner) + np.linalg.norm(self.row) * np.linalg.norm(z2)
-        if not abs(den) > 1e-14 * scale:
-            raise np.linalg.LinAlgError("bordered preconditioner singular")
-        return z2, den
-
-    def inverse(self, factors):
-        z2, den = self._schur(factors)
-
-        def solve(v):
-            n = v.size - 1
-            z1 = factors.solve(v[:n])
-            mu = (v[n] - self.row @ z1) / den
-            return np.append(z1 - mu * z2, mu)
-
-        return solve
-
-    def sign(self, factors) -> float:
-        return factors.sign * float(np.sign(self._schur(factors)[1]))
+        s = factors.sign
+        for d in (self.r, self.c):
+            if d is not None:
+                s *= float(np.prod(np.sign(d)))
+        if self.D.size:
+            s *= float(np.sign(np.linalg.det(self._schur(factors)[1])))
+        return s
 
 
 @dataclass(frozen=True)
@@ -342,7 +422,7 @@ class Preconditioner:
         self.refreshes += 1
         return self._factors
 
-    def _run(self, J: BalanceJacobian, system: _Plain, rhs: np.ndarray, rtol: float):
+    def _run(self, J: BalanceJacobian, system: _Bordered, rhs: np.ndarray, rtol: float):
         """GMRES on the current factors; where it fails, on fresh ones, then on fresh ones
         in double precision: (x, Arnoldi matrix, the factors it ran on); LinAlgError where
         even the last fails."""
@@ -378,16 +458,16 @@ class Preconditioner:
             return False
         return its > max(REFRESH_ITERATIONS, REFRESH_GROWTH * self._first)
 
-    def solve(self, J: BalanceJacobian, system: _Plain, rhs: np.ndarray,
+    def solve(self, J: BalanceJacobian, system: _Bordered, rhs: np.ndarray,
               rtol: float = RTOL) -> np.ndarray:
         if not np.all(np.isfinite(rhs)):
             raise ValueError("right-hand side has NaN or Inf")
         return self._run(J, system, rhs, rtol)[0]
 
-    def sign(self, J: BalanceJacobian, system: _Plain) -> float:
+    def sign(self, J: BalanceJacobian, system: _Bordered) -> float:
         """sign det of the system: the factors' sign times that of the Arnoldi matrix of
         GMRES from a fixed random start, run to SIGN_RTOL."""
-        n = J.shape[0] + int(isinstance(system, _Bordered))
+        n = system.size
         start = np.random.default_rng(n).standard_normal(n)
         # converged, or the Ritz values are not yet the eigenvalues and the sign is a
         # guess: then on fresh factors (old ones: the slow run makes them new), then in

@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .branch import NewtonResult
-from .jacobian import BalanceJacobian
+from .jacobian import STRUCTURED, BalanceJacobian, BorderedJacobian
 
 Problem = Callable[[np.ndarray, float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]]
 
@@ -137,11 +137,11 @@ def _norm(R: np.ndarray, f_scale: float) -> float:
     return float(np.max(np.abs(R))) / f_scale if R.size else 0.0
 
 
-def _solve(J: np.ndarray | BalanceJacobian, R: np.ndarray, keep: list | None = None
-           ) -> np.ndarray:
+def _solve(J: np.ndarray | BalanceJacobian | BorderedJacobian, R: np.ndarray,
+           keep: list | None = None) -> np.ndarray:
     """J^-1 R by LU (a structured J: its own solve); the LU factors are put in ``keep`` if
     given (for reuse)."""
-    if isinstance(J, BalanceJacobian):
+    if isinstance(J, STRUCTURED):
         return J.solve(R)
     if not np.all(np.isfinite(J)):
         raise ValueError("Jacobian has NaN or Inf")
@@ -204,7 +204,7 @@ def branch_tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac
     gives s from the factors of any bordered matrix."""
     J, dR, *factors = jac if jac is not None else fun(x, lam, True)[1:]
     n = x.size
-    if isinstance(J, BalanceJacobian):
+    if isinstance(J, STRUCTURED):
         return _structured_tangent(J, dR, xs, lam_scale, f_scale, previous, direction)
     if previous is not None and factors and factors[0] and n >= REUSE_FACTORS:
         rhs = np.zeros(n + 1)
@@ -264,7 +264,7 @@ def _bordered(J, dR, row, xs, lam_scale, f_scale, rhs, keep=None) -> np.ndarray:
     """z of [J diag(xs) / f_scale, dR lam_scale / f_scale; row] z = rhs (the scaled
     bordered system), the LU factors of a dense one put in ``keep``."""
     n = xs.size
-    if isinstance(J, BalanceJacobian):  # in u = xs z[:n], the unscaled unknowns
+    if isinstance(J, STRUCTURED):  # in u = xs z[:n], the unscaled unknowns
         # the arc equation in force units too, so that GMRES's one residual norm weighs
         # both rows as the dense path's scaling does
         z = J.bordered_solve(dR * lam_scale, row[:n] * (f_scale / xs), row[n] * f_scale,

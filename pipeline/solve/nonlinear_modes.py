@@ -17,7 +17,19 @@ In the linear limit (contacts stuck or open) w is the linear natural frequency a
 = psi^H C psi`` (psi mass-normalized), ``2 zeta w`` of a proportionally damped mode.
 
 The balance is condensed on the contact DOFs per order as the forced one is (exact), its
-condensation made at each (w, xi) with the factors kept for both derivatives.
+condensation made at each (w, xi) with the factors kept for both derivatives. Newton solves
+the balance's Jacobian bordered by the two conditions and the two unknowns (w, xi): dense,
+or as the forced balance's structured Jacobian (``solve.jacobian.BorderedJacobian``: GMRES
+on the per-order factors, the borders by block elimination) on large models.
+
+The levels are stepped in log10 a (natural continuation, secant predictor): a backbone is
+a function of the amplitude, and arclength's tangent is no guide on a friction mode: once
+every point of a friction-held body (a damper) slips during the cycle its static position
+is nearly indeterminate (a Jenkins slider's force history does not depend on its mean
+position), the Jacobian at a fixed level nearly singular along that static drift, and the
+branch's tangent points along the drift (measured on 15_blisk_damper at 7.3 x the damper
+mass: 423 arclength points, most of them retracing the static drift between two kinks,
+against 51 levels stepped in a).
 """
 
 from __future__ import annotations
@@ -29,10 +41,11 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as sla
 
-from .arclength import arclength
 from .branch import Branch
 from .condensation import Condensed
+from .continuation import natural
 from .hbm import HarmonicBalance
+from .jacobian import BorderedJacobian
 from .linear import OperatingPoint
 from .newton import DEFAULT, Settings, newton
 from .response import Response
@@ -41,6 +54,11 @@ LN10 = np.log(10.0)
 #: The linear modes are found by a dense eigen-solve up to this many DOFs of the order (a
 #: lumped model or reduced bodies: a few hundred); a larger order is refused, saying so.
 DENSE_EIGEN = 3000
+#: The static unknowns' scale in the continuation's metric (Newton's step cap, the test of a
+#: level landing far from its predictor), against 1 for the others: the static part may
+#: drift along its near-null direction between levels (see the module) without that
+#: counting as a jump to another branch.
+STATIC_WEIGHT = 1e3
 
 
 @dataclass(frozen=True)
@@ -144,15 +162,17 @@ class ModalBalance:
         derivative by omega and the factors kept (for the one by xi)."""
         return self.model.condensed(self.at(omega, xi), "frequency")
 
-    def balance(self, x: np.ndarray, omega: float, xi: float, jacobian: bool = True):
-        """R(x) (n,), and with ``jacobian`` dR/dx (n, n) dense, dR/domega (n,), dR/dxi
-        (n,) and dD/dxi per order (else None each); the condensation (for the amplitude
-        condition). dR/dxi has no load term: the condensed loads of the dynamic orders are
-        zero (no dynamic load) and order 0 has no xi."""
+    def balance(self, x: np.ndarray, omega: float, xi: float, jacobian: bool = True,
+                structured: bool = False):
+        """R(x) (n,), and with ``jacobian`` dR/dx (n, n) dense or (``structured``) a
+        :class:`~microslip.solve.jacobian.BalanceJacobian`, dR/domega (n,), dR/dxi (n,) and
+        dD/dxi per order (else None each); the condensation (for the amplitude condition).
+        dR/dxi has no load term: the condensed loads of the dynamic orders are zero (no
+        dynamic load) and order 0 has no xi."""
         h = self.model.harmonics
         point = self.at(omega, xi)
         # by "frequency" always: one condensation (cached) serves the residual and q
-        R, J, R_w = self.model.residual(x, point, "frequency", jacobian)
+        R, J, R_w = self.model.residual(x, point, "frequency", jacobian, structured)
         lin = self.model.condensed(point, "frequency")
         if not jacobian:
             return R, None, None, None, None, lin
@@ -324,7 +344,8 @@ def backbone(modal: ModalBalance, start: LinearMode, amplitudes: tuple[float, fl
              settings: Settings | None = None,
              progress: Callable[[int, float, int], None] | None = None) -> Backbone:
     """The nonlinear mode continued from the linear mode ``start`` over modal amplitudes
-    ``amplitudes`` = (a_start, a_stop) [kg^1/2 m], by pseudo-arclength in log10 a."""
+    ``amplitudes`` = (a_start, a_stop) [kg^1/2 m], stepped in log10 a (see the module; the
+    static unknowns weigh 1 / STATIC_WEIGHT in the steps' metric)."""
     a0, a1 = amplitudes
     if not (0.0 < a0 < a1 and np.isfinite(a1)):
         raise ValueError(f"nonlinear modes: amplitudes {amplitudes}: expected 0 < start < "
@@ -343,8 +364,9 @@ def backbone(modal: ModalBalance, start: LinearMode, amplitudes: tuple[float, fl
                          [1.0 * start.omega / sc.omega0, start.xi / sc.omega0]])
     settings = settings or Settings(step=0.02, max_step=0.1)
     solver = ModeSolver(modal, sc, settings)
-    branch = arclength(solver.fun, y0, np.log10(a0), np.log10(a1), parameter="log10 amplitude",
-                       settings=settings, progress=progress)
+    xs = np.append(np.where(static, STATIC_WEIGHT, 1.0), [1.0, 1.0])
+    branch = natural(solver.fun, y0, np.log10(a0), np.log10(a1), parameter="log10 amplitude",
+                     x_scale=xs, settings=settings, progress=progress)
     lam = np.asarray(branch.values, dtype=float)
     ys = np.asarray(branch.x, dtype=float).reshape(-1, n + 2)
     a = 10.0 ** lam
@@ -381,6 +403,7 @@ def _problem(modal: ModalBalance, sc: Scales):
     h = model.harmonics
     dynamic = ~sc.static
     k1 = modal.fundamental
+    structured = model.structured
 
     def fun(y: np.ndarray, lam: float, jacobian: bool = True):
         a = 10.0 ** lam
@@ -388,26 +411,30 @@ def _problem(modal: ModalBalance, sc: Scales):
         row = np.where(sc.static, 1.0 / sc.static_force, 1.0 / (a * sc.dynamic_force))
         x = y[:n] * col
         omega, xi = y[n] * sc.omega0, y[n + 1] * sc.omega0
-        R, J, R_w, R_xi, d_xi, lin = modal.balance(x, omega, xi, jacobian)
+        R, J, R_w, R_xi, d_xi, lin = modal.balance(x, omega, xi, jacobian, structured)
         psi = modal.fundamental_of(x) / a
         q, g, q_w, q_xi = modal.modal_mass(lin, psi, d_xi)
         out = np.concatenate([row * R, [q - 1.0, y[sc.ref]]])
         if not jacobian:
             return out, None, None
-        Jy = np.zeros((n + 2, n + 2))
         R_lam = np.zeros(n + 2)
         x_dyn = np.where(dynamic, x, 0.0)
-        R_lam[:n] = LN10 * (row * (J @ x_dyn) - np.where(dynamic, row * R, 0.0))
+        J_x = J.matvec(x_dyn) if structured else J @ x_dyn
+        R_lam[:n] = LN10 * (row * J_x - np.where(dynamic, row * R, 0.0))
+        # the borders: columns d/domega, d/dxi; rows q(psi) (psi = fundamental of y's
+        # dynamic part x shape) and the phase
+        cols = np.column_stack([row * R_w, row * R_xi]) * sc.omega0
+        rows = np.zeros((2, n))
+        rows[0] = 2.0 * h.from_complex({k1: g}, (model.dofs.size,)).ravel() * sc.shape \
+            * dynamic
+        rows[1, sc.ref] = 1.0
+        corner = np.array([[q_w, q_xi], [0.0, 0.0]]) * sc.omega0
+        if structured:
+            return out, BorderedJacobian(J, row, col, cols, rows, corner), R_lam
+        Jy = np.empty((n + 2, n + 2))
         J *= row[:, None]  # (the residual's own array: scaled in place)
         J *= col[None, :]
-        Jy[:n, :n] = J
-        Jy[:n, n] = row * R_w * sc.omega0
-        Jy[:n, n + 1] = row * R_xi * sc.omega0
-        # q(psi): psi = fundamental(x) / a = fundamental of y's dynamic part x shape
-        grad = 2.0 * h.from_complex({k1: g}, (model.dofs.size,)).ravel()
-        Jy[n, :n] = grad * sc.shape * dynamic
-        Jy[n, n], Jy[n, n + 1] = q_w * sc.omega0, q_xi * sc.omega0
-        Jy[n + 1, sc.ref] = 1.0
+        Jy[:n, :n], Jy[:n, n:], Jy[n:, :n], Jy[n:, n:] = J, cols, rows, corner
         return out, Jy, R_lam
 
     return fun

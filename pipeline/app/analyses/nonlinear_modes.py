@@ -16,7 +16,7 @@ import numpy as np
 from microslip.case import Case, curve_variants, operating_point, settings, task_seconds
 from microslip.case import analysis_rules as rules
 from microslip.case.checks import is_number, number
-from microslip.case.estimate import CURVE_POINTS, balance_point_seconds, balance_points
+from microslip.case.estimate import CURVE_POINTS, balance_point_seconds
 from microslip.case.kinds import AnalysisKind, Checking
 from microslip.case.specs import Analysis, Family
 from microslip.draw import backbones
@@ -47,14 +47,6 @@ STARTS = ("stuck", "free")
 #: twice the synthesis' own against the FRF peak: 1.2e-3 / 8e-4 at zeta 2.7 %, 9.5e-3 /
 #: 4.4e-3 at 13 %, 0.68 / 0.10 at 24 % on the Jenkins oscillator).
 DOMINANCE = 0.01
-#: A backbone's Newton solves its bordered system dense (the structured Jacobian does not
-#: take the border yet): ~ITERATIONS solves a level of (2/3) n^3 flops at DENSE_FLOPS, as
-#: measured on 15_blisk_damper (1298 unknowns: 0.18 s an iteration, 3.2 iterations a
-#: level, one BLAS thread, 2026-11-29).
-DENSE_FLOPS = 8e9
-ITERATIONS = 3.2
-
-
 @dataclass(frozen=True, kw_only=True)
 class NonlinearModes(Analysis):
     """Linear mode number ``mode`` (1: the lowest elastic one of the fundamental harmonic,
@@ -119,16 +111,15 @@ def _map_faults(c: Checking) -> None:
 
 
 def seconds(data: dict, spec: NonlinearModes, variant: dict | None = None) -> float:
-    """One backbone: about as many levels as an FRF curve has points, each a balance point
-    or its dense bordered solves, whichever costs more."""
-    n = max(p[0] for p in balance_points(data, spec, variant)) + 2
-    dense = ITERATIONS * (2.0 / 3.0) * n**3 / DENSE_FLOPS
-    return CURVE_POINTS * max(balance_point_seconds(data, spec, variant), dense)
+    """One backbone: at most as many levels as an FRF curve has points (1 / step: 50 at
+    the default), each about a balance point (its Newton on the same structured or dense
+    Jacobian, bordered by two rows and columns)."""
+    return CURVE_POINTS * balance_point_seconds(data, spec, variant)
 
 
 def plan(case: Case, spec: NonlinearModes, context: PlanContext) -> list[Stage]:
     """Its pictures and a backbone per family member."""
-    return curve_stages(case, spec, context, ("arclength",),
+    return curve_stages(case, spec, context, ("backbone",),
                         lambda c, method: context.store.key(c.data, spec.table(),
                                                             curve="backbone"))
 
