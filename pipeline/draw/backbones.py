@@ -15,9 +15,26 @@ from microslip.results.writer import attr_text
 from . import plots
 from .pictures import Options, analysis_spec, curves, frf_maps
 
+#: A family of more members than this is drawn in graded colours, its first and last
+#: members named in the legend (a legend of every member would not fit the picture).
+NAMED_MEMBERS = 6
+
 
 def _label(c: h5py.Group) -> str | None:
     return attr_text(c.attrs.get("label", "")) or None
+
+
+def _styles(members: list[h5py.Group]) -> list[dict]:
+    """Per member its legend label and colour: each its own in a small family; in a large
+    one colours graded from the first to the last member, only those two named."""
+    n = len(members)
+    if n <= NAMED_MEMBERS:
+        return [{"label": _label(c)} for c in members]
+    from matplotlib import colormaps
+
+    grade = colormaps["viridis"]
+    return [{"label": _label(c) if k in (0, n - 1) else None,
+             "color": grade(k / (n - 1))} for k, c in enumerate(members)]
 
 
 def draw(g: h5py.Group, name: str, out: Path, options: Options | None = None) -> list[Path]:
@@ -31,24 +48,25 @@ def draw(g: h5py.Group, name: str, out: Path, options: Options | None = None) ->
     amp = f"max |{output}(t)| [m]" if spec.measure == "peak" else \
         f"max |{output}(t) - {output}0| [m]"
     paths = [out / f"{name}_frequency.png", out / f"{name}_damping.png"]
+    styles = _styles(members)
     plots.curves(paths[0], f"{name}: natural frequency of mode {spec.mode} against the "
-                 "level", amp, [{"x": c["response"][:, 0], "y": c["omega"][()],
-                                 "label": _label(c)} for c in members],
+                 "level", amp, [{"x": c["response"][:, 0], "y": c["omega"][()]} | st
+                                for c, st in zip(members, styles)],
                  "natural frequency w [rad/s]", logx=True)
     plots.curves(paths[1], f"{name}: modal damping ratio against the level", amp,
-                 [{"x": c["response"][:, 0], "y": 100.0 * c["damping_ratio"][()],
-                   "label": _label(c)} for c in members],
+                 [{"x": c["response"][:, 0], "y": 100.0 * c["damping_ratio"][()]} | st
+                  for c, st in zip(members, styles)],
                  "damping ratio zeta [%]", logx=True)
     paths.append(out / f"{name}_peaks.png")
     plots.curves(paths[-1], f"{name}: resonance peak of {output} against the excitation, "
                  "from the mode", "excitation: multiple of the case's load [-]",
-                 [{"x": c["peak_excitation"][()], "y": c["response"][:, 0],
-                   "label": _label(c)} for c in members if "peak_excitation" in c],
+                 [{"x": c["peak_excitation"][()], "y": c["response"][:, 0]} | st
+                  for c, st in zip(members, styles) if "peak_excitation" in c],
                  f"resonance peak, {amp}", logx=True, logy=True)
     if spec.excitations:
         paths.append(out / f"{name}_frf.png")
         plots.curves(paths[-1], f"{name}: FRFs of {output} synthesized from the mode",
-                     "excitation frequency w [rad/s]", _synthesized(members), amp)
+                     "excitation frequency w [rad/s]", _synthesized(members, styles), amp)
     design = _design_curves(members)
     if design:
         paths.append(out / f"{name}_optimization.png")
@@ -75,19 +93,24 @@ def _design_curves(members: list[h5py.Group]) -> list[dict]:
     return series
 
 
-def _synthesized(members: list[h5py.Group]) -> list[dict]:
+def _synthesized(members: list[h5py.Group], styles: list[dict]) -> list[dict]:
     """Per member and excitation the closed FRF curve (below the resonance, then back
-    above it), and the backbone dashed."""
+    above it), and the backbone dashed (a large family: in its member's colour, the
+    first and last members named)."""
     series = []
-    for c in members:
+    graded = len(members) > NAMED_MEMBERS
+    for c, st in zip(members, styles):
         if "frequencies" not in c:
             continue
         y = c["response"][:, 0]
         tag = _label(c)
+        named = not graded or st["label"] is not None
         for e, (low, high) in zip(c["excitations"][()], c["frequencies"][()]):
             x = np.concatenate([low, high[::-1]])
-            series.append({"x": x, "y": np.concatenate([y, y[::-1]]),
-                           "label": f"{tag + ', ' if tag else ''}excitation x{e:g}"})
-        series.append({"x": c["omega"][()], "y": y, "ls": "--", "color": "0.45",
-                       "lw": 1.0, "label": f"backbone{' ' + tag if tag else ''}"})
+            series.append({"x": x, "y": np.concatenate([y, y[::-1]]), "color": st.get("color"),
+                           "label": f"{tag + ', ' if tag else ''}excitation x{e:g}"
+                           if named else None})
+        series.append({"x": c["omega"][()], "y": y, "ls": "--",
+                       "color": st.get("color", "0.45"), "lw": 1.0,
+                       "label": f"backbone{' ' + tag if tag else ''}" if named else None})
     return series
