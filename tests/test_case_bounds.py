@@ -173,8 +173,9 @@ def test_check_prints_the_estimate_of_shipped_cases(capsys, memory):
                  str(CASES / "01_sdof_wall.toml")]) == 0
     out = capsys.readouterr().out.splitlines()
     # 2 patches x 9 x 4 node pairs x 2 nodes x 3 DOFs = 432 contact DOFs, x 3 coefficients
-    assert out[0].endswith("(3 analyses: frf, optimization, low_mass; largest analysis: low_mass, "
-                           "1,296 unknowns, ~0.6 GB)")
+    assert out[0].endswith("(4 analyses: frf, optimization, optimization_from_modes, "
+                           "low_mass; largest analysis: optimization_from_modes, 1,296 "
+                           "unknowns, ~0.6 GB)")
     assert out[1].endswith("largest analysis: frf_N0, 3 unknowns, <1 MB)")
 
 
