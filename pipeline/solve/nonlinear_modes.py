@@ -22,14 +22,15 @@ the balance's Jacobian bordered by the two conditions and the two unknowns (w, x
 or as the forced balance's structured Jacobian (``solve.jacobian.BorderedJacobian``: GMRES
 on the per-order factors, the borders by block elimination) on large models.
 
-The levels are stepped in log10 a (natural continuation, secant predictor): a backbone is
-a function of the amplitude, and arclength's tangent is no guide on a friction mode: once
-every point of a friction-held body (a damper) slips during the cycle its static position
-is nearly indeterminate (a Jenkins slider's force history does not depend on its mean
-position), the Jacobian at a fixed level nearly singular along that static drift, and the
-branch's tangent points along the drift (measured on 15_blisk_damper at 7.3 x the damper
-mass: 423 arclength points, most of them retracing the static drift between two kinks,
-against 51 levels stepped in a).
+The levels are continued by pseudo-arclength in log10 a with the static unknowns weighted
+1 / STATIC_WEIGHT in its metric: once every point of a friction-held body (a damper) slips
+during the cycle, its static position is nearly indeterminate (a Jenkins slider's force
+history does not depend on its mean position), the Jacobian at a fixed level nearly
+singular along that static drift, and with the static unknowns weighted as the others the
+tangent follows the drift (measured on 15_blisk_damper at 7.3 x the damper mass: 423
+points, most of them retracing the drift between two kinks; weighted, 26). Stepping in a
+instead (natural continuation) passes the drift too, but not the corner where a contact
+lifts off at once, which arclength crosses.
 """
 
 from __future__ import annotations
@@ -41,9 +42,9 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as sla
 
+from .arclength import arclength
 from .branch import Branch
 from .condensation import Condensed
-from .continuation import natural
 from .hbm import HarmonicBalance
 from .jacobian import BorderedJacobian
 from .linear import OperatingPoint
@@ -54,10 +55,9 @@ LN10 = np.log(10.0)
 #: The linear modes are found by a dense eigen-solve up to this many DOFs of the order (a
 #: lumped model or reduced bodies: a few hundred); a larger order is refused, saying so.
 DENSE_EIGEN = 3000
-#: The static unknowns' scale in the continuation's metric (Newton's step cap, the test of a
-#: level landing far from its predictor), against 1 for the others: the static part may
-#: drift along its near-null direction between levels (see the module) without that
-#: counting as a jump to another branch.
+#: The static unknowns' scale in the continuation's metric (the arc length, Newton's step
+#: cap), against 1 for the others: the static part may drift along its near-null direction
+#: (see the module) without spending the steps.
 STATIC_WEIGHT = 1e3
 
 
@@ -344,8 +344,8 @@ def backbone(modal: ModalBalance, start: LinearMode, amplitudes: tuple[float, fl
              settings: Settings | None = None,
              progress: Callable[[int, float, int], None] | None = None) -> Backbone:
     """The nonlinear mode continued from the linear mode ``start`` over modal amplitudes
-    ``amplitudes`` = (a_start, a_stop) [kg^1/2 m], stepped in log10 a (see the module; the
-    static unknowns weigh 1 / STATIC_WEIGHT in the steps' metric)."""
+    ``amplitudes`` = (a_start, a_stop) [kg^1/2 m], by pseudo-arclength in log10 a (the
+    static unknowns weighted 1 / STATIC_WEIGHT in its metric: see the module)."""
     a0, a1 = amplitudes
     if not (0.0 < a0 < a1 and np.isfinite(a1)):
         raise ValueError(f"nonlinear modes: amplitudes {amplitudes}: expected 0 < start < "
@@ -365,8 +365,8 @@ def backbone(modal: ModalBalance, start: LinearMode, amplitudes: tuple[float, fl
     settings = settings or Settings(step=0.02, max_step=0.1)
     solver = ModeSolver(modal, sc, settings)
     xs = np.append(np.where(static, STATIC_WEIGHT, 1.0), [1.0, 1.0])
-    branch = natural(solver.fun, y0, np.log10(a0), np.log10(a1), parameter="log10 amplitude",
-                     x_scale=xs, settings=settings, progress=progress)
+    branch = arclength(solver.fun, y0, np.log10(a0), np.log10(a1), parameter="log10 amplitude",
+                       x_scale=xs, settings=settings, progress=progress)
     lam = np.asarray(branch.values, dtype=float)
     ys = np.asarray(branch.x, dtype=float).reshape(-1, n + 2)
     a = 10.0 ** lam
