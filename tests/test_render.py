@@ -30,7 +30,7 @@ EVERY_KIND = copy.deepcopy(TWO_DOF) | {"title": "every picture", "analysis": [
      "points": 3, "window": [0.8, 1.2], "output": "x"},
     {"name": "spread", "type": "uncertainty", "window": [0.8, 1.2], "output": "x",
      "samples": 4, "limit": 0.5, "parameters": {"mu": {"uniform": [0.2, 0.4]}}},
-    {"name": "backbone", "type": "nonlinear_modes", "output": "x", "amplitude": [0.01, 0.1],
+    {"name": "backbone", "type": "nonlinear_modes", "output": "x", "amplitude": [0.01, 1.0],
      "excitations": [1.0], "family": {"key": "contacts.0.n0", "values": [0.5, 0.7]}},
 ]}
 EVERY_KIND["model"]["damping"] = [0.05, 0.05]
