@@ -19,12 +19,13 @@ TOPS = {"geometry": "microslip.geometry", "pipeline": "microslip"}
 # Each stage and the stages below it that it may import (besides its own modules). Read top
 # down, this is the data flow: cli -> bench -> app -> case -> assembly -> solve -> laws,
 # fe -> geometry; app reads cases (case), writes results (results) and draws them (draw);
+# report makes a results file's page from its pictures (draw) and numbers (results);
 # draw reads only results, the analysis specs that name what they hold, and the numerical
 # stages' constants (states, harmonics, frames), never app.
 _GEO, _FE, _LAWS = "microslip.geometry", "microslip.fe", "microslip.laws"
 _FOURIER = "microslip.fourier"  # the harmonic-balance layout: the floor of the numerics
 _SOLVE, _ASSEMBLY = "microslip.solve", "microslip.assembly"
-_RESULTS, _DRAW = "microslip.results", "microslip.draw"
+_RESULTS, _DRAW, _REPORT = "microslip.results", "microslip.draw", "microslip.report"
 _CASE, _APP = "microslip.case", "microslip.app"
 _BENCH = "microslip.bench"
 _NUMERICS = {_ASSEMBLY, _SOLVE, _LAWS, _FOURIER, _FE, _GEO}
@@ -38,9 +39,11 @@ BELOW = {
     _CASE: _NUMERICS,
     _RESULTS: set(),
     _DRAW: {_RESULTS, _CASE, _LAWS, _FOURIER, _FE, _GEO},
+    # the page of a results file: its pictures (draw) and numbers (results), as draw reads
+    _REPORT: {_DRAW, _RESULTS, _CASE, _LAWS, _FOURIER, _FE, _GEO},
     _APP: {_CASE, _DRAW, _RESULTS} | _NUMERICS,
     _BENCH: {_APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
-    "microslip.cli": {_BENCH, _APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
+    "microslip.cli": {_BENCH, _APP, _CASE, _DRAW, _REPORT, _RESULTS} | _NUMERICS,
     # the package's __init__: the public API (``from microslip import ...``), over every stage
     "microslip": {_BENCH, _APP, _CASE, _DRAW, _RESULTS} | _NUMERICS,
 }

@@ -205,3 +205,24 @@ def test_the_analyses_table_gives_each_number_and_switch_default_of_the_specs():
         for key, text in said.items():
             value = {"true": True, "false": False}.get(text)
             assert scalar[key] == (value if value is not None else float(text)), (kind, key)
+
+
+def test_the_walk_through_of_a_case_of_ones_own_runs_and_writes_its_page(tmp_path):
+    """The bash lines of "Writing your own case", run as written in a folder holding a copy
+    of the shipped cases: the case checks, runs complete and its page shows the new
+    analysis and the changed contact."""
+    import shutil
+    import subprocess
+    import sys
+
+    # (the block's own comment lines start with "#": not read as headings here)
+    block = re.search(r"^### Writing your own case.*?^```bash\n(.*?)^```", README,
+                      re.M | re.S).group(1)
+    shutil.copytree(Path(__file__).parents[1] / "cases", tmp_path / "cases")
+    env = {"PATH": f"{Path(sys.executable).parent}:/usr/bin:/bin", "HOME": str(tmp_path)}
+    done = subprocess.run(["bash", "-e", "-c", block], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "kt = 6.0 " in (tmp_path / "my_wall.toml").read_text()
+    page = (tmp_path / "out" / "my_wall" / "report.html").read_text()
+    assert "my_mode" in page and "complete" in page

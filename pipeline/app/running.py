@@ -76,7 +76,9 @@ def computed_curves(run: Run, group: h5py.Group, tasks: list[Task],
     def keep(i: int, outcome: Outcome) -> None:
         j, key, curve = targets[i]
         if outcome.data:  # a task that failed on a worker brought nothing
-            run.writer.write_group(group, curve, outcome.data, outcome.attrs)
+            warned = [line for line in outcome.lines if line.startswith("warning:")]
+            attrs = outcome.attrs | ({"warnings": json.dumps(warned)} if warned else {})
+            run.writer.write_group(group, curve, outcome.data, attrs)
             run.writer.flush()
         out[j] = (outcome.status, outcome.message)
         if outcome.status in ("complete", "stopped"):

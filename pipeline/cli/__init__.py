@@ -2,7 +2,7 @@
 
 run_command       ``run`` (dry run, workers, SIGTERM) and ``cache``
 case_commands     ``check``, ``mesh`` and the ``demo``: a case file before a run
-results_commands  ``show``, ``render``, ``compare``: a results folder
+results_commands  ``show``, ``render``, ``report``, ``compare``: a results folder
 shared            exit codes, a case loaded or refused in one line, the output folder
 """
 
@@ -12,7 +12,7 @@ import os
 import sys
 
 from microslip.cli.case_commands import check, demo, mesh
-from microslip.cli.results_commands import compare, render, show
+from microslip.cli.results_commands import compare, render, report, show
 from microslip.cli.run_command import cache, run
 from microslip.cli.shared import BROKEN_PIPE, INTERRUPTED
 
@@ -44,7 +44,7 @@ def bench(argv: list[str]) -> int:
 
 
 COMMANDS = {"demo": demo, "run": run, "check": check, "show": show, "render": render,
-            "compare": compare, "mesh": mesh, "cache": cache, "bench": bench}
+            "report": report, "compare": compare, "mesh": mesh, "cache": cache, "bench": bench}
 
 
 def _version() -> str:
@@ -68,13 +68,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if not argv or argv[0] in ("-h", "--help"):
         asked = bool(argv)
-        print("usage: microslip [--version] {demo,run,check,show,render,compare,mesh,cache,"
-              "bench} ...\n\n"
+        print("usage: microslip [--version] {demo,run,check,show,render,report,compare,mesh,"
+              "cache,bench} ...\n\n"
               "  demo             frequency response of the single-DOF Jenkins oscillator\n"
               "  run CASE.toml    run a case: results.h5 and pictures in out/<case>\n"
               "  check CASE.toml  validate a case file without running it\n"
               "  show DIR         summarise a results file\n"
               "  render DIR       redraw a results folder's pictures from results.h5\n"
+              "  report DIR       write a results folder's page, report.html (--index: a "
+              "course)\n"
               "  compare OLD NEW  compare two results files' numbers, dataset by dataset\n"
               "  mesh CASE.toml   mesh a case's geometry: .msh, .vtu, PNG previews\n"
               "  cache            the meshes and reduced models every run shares (--clear)\n"

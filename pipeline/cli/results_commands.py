@@ -1,4 +1,4 @@
-"""Commands on a results folder: ``show``, ``render``, ``compare``."""
+"""Commands on a results folder: ``show``, ``render``, ``report``, ``compare``."""
 
 from __future__ import annotations
 
@@ -187,3 +187,28 @@ def compare(argv: list[str]) -> int:
         return 2
     print(text)
     return 0 if same else 1
+
+
+def report(argv: list[str]) -> int:
+    """Write a results folder's page, report.html: one self-contained HTML file drawn from
+    results.h5 (``--index OUT``: an index page linking the pages of several folders, in the
+    order given: a course)."""
+    from microslip.report import write_index, write_report
+
+    parser = argparse.ArgumentParser(prog="microslip report", description=report.__doc__)
+    parser.add_argument("folders", type=Path, nargs="+", help="results folder(s) (or "
+                        "results.h5)")
+    parser.add_argument("--index", type=Path, default=None, metavar="OUT",
+                        help="also write an index page (OUT.html, or OUT/index.html) "
+                        "linking every folder's page")
+    args = parser.parse_args(argv)
+    absent = [p for p in args.folders if not p.exists()]
+    if absent:
+        print(f"microslip report: {absent[0]}: no such file or folder", file=sys.stderr)
+        return 2
+    for folder in args.folders:
+        print(f"wrote {write_report(folder)}")
+    if args.index is not None:
+        folders = [p if p.is_dir() else p.parent for p in args.folders]
+        print(f"wrote {write_index(folders, args.index)}")
+    return 0

@@ -60,6 +60,8 @@ def run(argv: list[str]) -> int:
             path = run_case(c, out, progress=lambda msg: print(msg, flush=True),
                             cache=not args.no_cache, executor=executor, shared=shared)
             status, message = _report_run(path, out, t)
+            if not args.no_report:
+                _write_page(path)
         except InputError as err:  # found once the mesh exists: before any heavy work
             print(f"microslip run: {args.case}: {err}", file=sys.stderr)
             return 2
@@ -83,6 +85,18 @@ def run(argv: list[str]) -> int:
     return 1
 
 
+def _write_page(results: Path) -> None:
+    """The results folder's page (report.html); a page that cannot be written is said in
+    one line, the run's results stand."""
+    from microslip.report import write_report
+
+    try:
+        print(f"wrote {write_report(results)}", flush=True)
+    except OSError as err:
+        print(f"microslip run: the page report.html was not written ({err}); the results "
+              "are complete as said: microslip report writes it later", file=sys.stderr)
+
+
 def _run_parser() -> argparse.ArgumentParser:
     """The arguments of ``microslip run``."""
     from microslip.app.tasks import BLAS_THREADS
@@ -94,6 +108,9 @@ def _run_parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-cache", action="store_true",
                         help="compute every curve afresh (by default a curve whose inputs "
                         "did not change since a run into the same folder is reused)")
+    parser.add_argument("--no-report", action="store_true",
+                        help="do not write the folder's page, report.html (microslip report "
+                        "writes it later)")
     parser.add_argument("--dry-run", action="store_true",
                         help="list the stages the run would compute and those it would read "
                         "from the caches, with rough time and memory; compute nothing")

@@ -189,7 +189,7 @@ def static_lines(static: np.ndarray, names: list[str]) -> list[tuple[str, np.nda
 LETTERS = "abcdefghijklmnopqrstuvwxyz"
 
 
-def _map_groups(g: h5py.Group) -> list[tuple[str, h5py.Group, h5py.Group]]:
+def lettered_maps(g: h5py.Group) -> list[tuple[str, h5py.Group, h5py.Group]]:
     """(letter, curve, point) of every map point of an frf analysis, lettered a, b, c...
     in curve order."""
     out = []
@@ -203,7 +203,7 @@ def map_marks(g: h5py.Group) -> dict[str, list[dict]]:
     """Per output, markers at the points that got maps (peaks, the solutions at a given
     frequency), labelled by their letter."""
     marks: dict[str, list[dict]] = {}
-    for letter, c, p in _map_groups(g):
+    for letter, c, p in lettered_maps(g):
         outs = [attr_text(x) for x in _list(c.attrs.get("outputs", "[]"))]
         for k, n in enumerate(outs):
             marks.setdefault(n, []).append({
@@ -313,7 +313,7 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
                                 {p: pg[p]["state"][i] for p in pg},
                                 {p: pg[p]["static"][i] for p in pg}))
         return out
-    for letter, c, p in _map_groups(g):
+    for letter, c, p in lettered_maps(g):
         label = attr_text(c.attrs.get("label", ""))
         pg = p[schema.PATCHES]
         what = _what(p, par)
@@ -371,7 +371,7 @@ def frf_shapes(g: h5py.Group, name: str, out: Path, options: Options = Options()
     par = analysis_spec(g).parameter
     panel = shapes.PANEL if options.panel == maps.PANEL else options.panel
     paths = []
-    for letter, c, p in _map_groups(g):
+    for letter, c, p in lettered_maps(g):
         found = shapes.read(g.file, p)
         if found is None:
             continue

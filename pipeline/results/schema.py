@@ -132,7 +132,8 @@ def data(name: str, doc: str) -> Entry:
     return Entry(name, doc, dataset=True)
 
 
-_RUN = ("status (complete | stopped | interrupted | failed)", "message")
+_RUN = ("status (complete | stopped | interrupted | failed)", "message",
+        "warnings (JSON list: the lines the curve warned of, if any)")
 _CONTACT_HISTORY = (data("T", "(steps, points, dim) N tangential force"),
                     data("N", "(steps, points) N normal force"),
                     data("state", "(steps, points) state per step (codes as an frf's)"))

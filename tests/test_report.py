@@ -1,0 +1,187 @@
+"""The results page (pipeline/report): what it holds against results.h5, what it says of a
+broken folder, the command and the index, and the page in a real browser (headless
+Chromium: no console errors, every picture loaded, a point's numbers when pointed at, the
+legend hiding a curve; screenshots at a desktop and a phone width kept for a person)."""
+
+import copy
+import html
+import json
+import re
+import tempfile
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from browser import Browser, missing
+from case_helpers import TWO_DOF
+
+from microslip import case as cases
+from microslip.app.run import run_case
+from microslip.cli import main
+from microslip.draw.pictures import render
+from microslip.report import write_report
+from microslip.report.numbers import length, length_unit
+
+#: where the browser test keeps its screenshots for a person to look at
+SHOTS = Path(tempfile.gettempdir()) / "microslip-report-screenshots"
+
+CASE = copy.deepcopy(TWO_DOF) | {
+    "title": "two masses, a contact with a variable normal load",
+    "description": "The page's test case: an FRF through the resonance and its nonlinear mode.",
+    "analysis": [
+        {"name": "curve", "type": "frf", "start": 0.8, "stop": 1.2, "outputs": ["x"],
+         "family": {"key": "contacts.0.n0", "values": [0.3, 0.5]}},
+        {"name": "mode", "type": "nonlinear_modes", "output": "x", "amplitude": [0.01, 1.0],
+         "excitations": [1.0]},
+    ]}
+CASE["model"]["damping"] = [0.05, 0.05]
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    path = run_case(cases.Case(copy.deepcopy(CASE), "page.toml"), out, progress=lambda m: None)
+    return path, write_report(out)
+
+
+def _text(page: Path) -> str:
+    return html.unescape(re.sub(r"<[^>]+>", " ", page.read_text()))
+
+
+def test_the_page_holds_the_runs_status_numbers_and_pictures(run, tmp_path):
+    path, page = run
+    text, raw = _text(page), page.read_text()
+    with h5py.File(path) as f:
+        assert f.attrs["status"] in text and f.attrs["title"] in text
+        assert "The page's test case" in text  # the case's description
+        for key in ("curve_000", "curve_001"):  # every peak as results.h5 has it
+            resp = f["curve"][key]["response"][:, 0]
+            unit = length_unit([f["curve"][k]["response"][()].max() for k in ("curve_000",
+                                                                                "curve_001")])
+            assert f"{length(resp.max(), unit)}" in text
+        mode = f["mode/curve_000"]
+        assert f"{mode['omega'][0]:.6g}" in text  # the linear limit of the mode
+    # every picture the results draw, inlined; nothing fetched from elsewhere
+    drawn = render(path, tmp_path)
+    assert raw.count("src='data:image/png;base64,") == len(drawn)
+    assert not re.search(r"""(src|href)=['"](https?:|//|file:)""", raw)
+    assert "<link" not in raw
+    # the interactive FRF's data are the curves' points
+    data = [json.loads(d) for d in re.findall(
+        r"<script type='application/json'>(.*?)</script>", raw, re.S)]
+    assert len(data) == 1 and len(data[0]["series"]) >= 2
+    with h5py.File(path) as f:
+        c = f["curve/curve_000"]
+        scale = {"m": 1.0, "mm": 1e3, "um": 1e6}[data[0]["unit"]]
+        np.testing.assert_allclose(data[0]["series"][0]["y"], scale * c["response"][:, 0],
+                                   rtol=1e-6)  # 7 significant digits kept
+        assert data[0]["series"][0]["stable"] == [int(s) for s in c["stable"][()]]
+
+
+def test_a_missing_or_broken_results_folder_gives_a_page_that_says_so(tmp_path):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert "the run did not write one" in _text(write_report(empty))
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "results.h5").write_bytes(b"not an HDF5 file")
+    assert "cannot open as HDF5" in _text(write_report(broken))
+    killed = tmp_path / "killed"
+    killed.mkdir()
+    (killed / "results.h5.tmp").write_bytes(b"")
+    assert "killed before it finished" in _text(write_report(killed))
+
+
+def test_report_writes_pages_and_an_index_in_the_order_given(run, tmp_path, capsys):
+    path, _ = run
+    empty = tmp_path / "not_run"
+    empty.mkdir()
+    assert main(["report", str(path.parent), str(empty), "--index", str(tmp_path / "course")]) == 0
+    index = tmp_path / "course" / "index.html"
+    raw = index.read_text()
+    # the run's page linked relative to the index, then the folder without results
+    link = re.search(r"href='([^']+)'", raw).group(1)
+    assert (index.parent / link).resolve() == (path.parent / "report.html").resolve()
+    assert raw.index("two masses") < raw.index("not_run")
+    assert "no results" in _text(index)
+    assert main(["report", str(tmp_path / "nowhere")]) == 2
+    assert "no such file or folder" in capsys.readouterr().err
+
+
+def test_a_run_writes_its_page_unless_told_not_to(tmp_path):
+    """(The README's walk-through runs a shipped case and opens its page: test_readme.)"""
+    case = tmp_path / "c.toml"
+    case.write_text(LINEAR)
+    assert main(["run", str(case), "--out", str(tmp_path / "a"), "--workers", "0"]) == 0
+    assert "complete" in _text(tmp_path / "a" / "report.html")
+    assert main(["run", str(case), "--out", str(tmp_path / "b"), "--workers", "0",
+                 "--no-report"]) == 0
+    assert not (tmp_path / "b" / "report.html").exists()
+
+
+#: a linear oscillator's FRF (sampled, no continuation): the quickest run there is
+LINEAR = """title = "a linear oscillator"
+[model]
+dofs = ["x"]
+mass = [1.0]
+stiffness = [1.0]
+damping = [0.02]
+[[loads]]
+dof = "x"
+amplitude = 0.1
+harmonic = 1
+[harmonics]
+max = 1
+samples = 32
+[[analysis]]
+name = "a"
+type = "frf"
+start = 0.5
+stop = 1.5
+"""
+
+
+@pytest.mark.skipif(bool(missing()), reason=missing() or "browser present")
+def test_the_page_in_a_browser(run, tmp_path):
+    """No console error, every picture loaded, the status and peaks on the page as in
+    results.h5, the numbers of a point when pointed at, a curve hidden by its legend box;
+    screenshots at 1280 and 390 px wide (kept in SHOTS)."""
+    path, page = run
+    SHOTS.mkdir(exist_ok=True)
+    with Browser(tmp_path / "profile") as b:
+        b.open(page.as_uri())
+        assert b.run("return document.getElementById('run-status').textContent;") == \
+            h5py.File(path)["/"].attrs["status"]
+        loaded = b.run("return Array.from(document.images).map("
+                       "i => i.complete && i.naturalWidth > 0);")
+        assert loaded and all(loaded)
+        data = json.loads(b.run("return document.querySelector("
+                                "\".ms-plot script[type='application/json']\").textContent;"))
+        # point at the first curve's peak (where the curves part): its numbers appear
+        s = data["series"][0]
+        i = int(np.nanargmax(np.array(s["y"], dtype=float)))
+        circles = b.run("return Array.from(document.querySelectorAll("
+                        "\".ms-pt[data-series='0']\")).map(c => +c.dataset.index);")
+        b.point_at(".ms-pt[data-series='0']", circles.index(i))
+        time.sleep(0.2)
+        tip = b.run("return document.querySelector('.ms-tip').innerText;")
+        # (near the peak the points crowd: the pointer may land on a neighbour; the numbers
+        # shown must be those of the point the tip names)
+        j = int(re.search(r"point (\d+) of", tip).group(1)) - 1
+        assert abs(j - i) <= 3 and s["label"] in tip
+        assert f"{s['x'][j]:.7g}" in tip and f"{s['y'][j]:.5g}" in tip
+        assert "response" in tip and "slipping" in tip
+        # the legend's box hides the first curve's points, and shows them again
+        count = "return document.querySelectorAll(\".ms-pt[data-series='0']\").length;"
+        shown = b.run(count)
+        b.run("document.querySelector('.ms-legend input').click();")
+        assert shown > 0 and b.run(count) == 0
+        b.run("document.querySelector('.ms-legend input').click();")
+        assert b.run(count) == shown
+        errors = [e for e in b.console() if e.get("level") == "SEVERE"]
+        assert not errors, errors
+        assert b.screenshot(SHOTS / "page_desktop.png").stat().st_size > 10_000
+        b.size(390, 844)
+        assert b.screenshot(SHOTS / "page_phone.png").stat().st_size > 10_000
