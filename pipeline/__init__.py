@@ -13,6 +13,7 @@ The sub-packages read as the data flow; imports run one way, from the top down
     app        a run: the analyses, the structural stage, the curve cache, tasks, limits
     case       case files: read, validated, their specs, estimates and models
     draw       pictures of a results file (FRFs, maps, previews, shapes)
+    report     the page of a results folder (report.html) and an index over several
     results    results.h5: its layout, writer and comparison
     assembly   reduced bodies joined by contact patches
     solve      harmonic balance, continuation, response curves, stability, time integration

@@ -41,7 +41,7 @@ def test_unknown_command_is_a_usage_error(capsys):
     assert main(["fly"]) == 2
     assert capsys.readouterr().err == (
         "microslip: 'fly' is not a command; the commands: demo, run, check, show, render, "
-        "compare, mesh, cache, bench (microslip --help: what each does)\n")
+        "report, compare, mesh, cache, bench (microslip --help: what each does)\n")
     assert main([]) == 2
     assert "usage: microslip" in capsys.readouterr().err
 
@@ -56,11 +56,12 @@ def test_version(capsys):
 def test_top_level_help_lists_version(capsys):
     assert main(["--help"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("usage: microslip [--version] {demo,run,check,show,render,compare,"
-                          "mesh,cache,bench}")
+    assert out.startswith("usage: microslip [--version] {demo,run,check,show,render,report,"
+                          "compare,mesh,cache,bench}")
 
 
 @pytest.mark.parametrize("command", [["run"], ["check"], ["show"], ["mesh"], ["demo"], ["compare"],
+                                     ["report"],
                                      ["bench", "core"], ["bench", "mesh"],
                                      ["bench", "reduction"], ["bench", "teaching"],
                                      ["bench", "assembly"], ["bench", "trade"]])

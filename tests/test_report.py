@@ -185,3 +185,64 @@ def test_the_page_in_a_browser(run, tmp_path):
         assert b.screenshot(SHOTS / "page_desktop.png").stat().st_size > 10_000
         b.size(390, 844)
         assert b.screenshot(SHOTS / "page_phone.png").stat().st_size > 10_000
+
+
+def _layout_faults(fig) -> list[str]:
+    """What a reader would trip on in a matplotlib figure: a labelled curve missing from
+    its legend, text boxes (title, axis labels, legend) overlapping one another, or any of
+    them (tick labels too) cut by the canvas' edge."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    canvas = fig.bbox
+    faults = []
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        named = {t.get_text() for t in legend.get_texts()} if legend else set()
+        for line in ax.get_lines():
+            label = line.get_label()
+            if len(line.get_xdata()) and label and not label.startswith("_") \
+                    and label not in named:
+                faults.append(f"{ax.get_title()}: curve {label!r} not in the legend")
+        boxes = [(what, t.get_window_extent(r)) for what, t in (
+            ("title", ax.title), ("x label", ax.xaxis.label), ("y label", ax.yaxis.label))
+            if t.get_text()]
+        if legend:
+            boxes.append(("legend", legend.get_window_extent(r)))
+        for i, (a, ba) in enumerate(boxes):
+            for b, bb in boxes[i + 1:]:
+                if ba.overlaps(bb):
+                    faults.append(f"{ax.get_title()}: {a} overlaps {b}")
+        ticks = [t.label1.get_window_extent(r) for axis in (ax.xaxis, ax.yaxis)
+                 for t in axis.get_major_ticks() if t.label1.get_visible()
+                 and t.label1.get_text() and min(axis.get_view_interval())
+                 <= t.get_loc() <= max(axis.get_view_interval())]
+        for what, box in boxes + [("a tick label", t) for t in ticks]:
+            if box.x0 < canvas.x0 - 1 or box.x1 > canvas.x1 + 1 or box.y0 < canvas.y0 - 1 \
+                    or box.y1 > canvas.y1 + 1:
+                faults.append(f"{ax.get_title()}: {what} cut by the canvas")
+    return faults
+
+
+def test_every_line_picture_names_its_curves_and_nothing_overlaps(run, tmp_path,
+                                                                   monkeypatch):
+    """Every matplotlib picture the run's results draw (FRFs with their limits, static
+    forces, the mode's pictures), checked as drawn: each labelled curve in its legend, no
+    text box on another, nothing cut; the lengths in the unit a person reads."""
+    from microslip.draw import plots
+
+    drawn = []
+    save = plots._save
+    monkeypatch.setattr(plots, "_save", lambda fig, path: drawn.append(save(fig, path))
+                        or drawn[-1])
+    path, _ = run
+    render(path, tmp_path)
+    assert len(drawn) >= 5
+    faults = [f for fig in drawn for f in _layout_faults(fig)]
+    assert not faults, faults
+    # an axis in m holds lengths of at least 0.5 m (smaller ones read in mm or um)
+    for ax in (ax for fig in drawn for ax in fig.axes):
+        for label, values in ((ax.get_ylabel(), [ln.get_ydata() for ln in ax.get_lines()]),
+                              (ax.get_xlabel(), [ln.get_xdata() for ln in ax.get_lines()])):
+            if " [m]" in label:
+                top = max(np.nanmax(np.abs(np.asarray(v, float))) for v in values if len(v))
+                assert top >= 0.5, (label, top)

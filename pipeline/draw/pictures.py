@@ -221,6 +221,9 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     normalised = any(bool(c.attrs.get("normalised", False)) for _, c in curves(g))
     paths = []
     for n, lines in series.items():
+        if any(s.get("label") for s in lines):  # every curve named beside the limits
+            lines = [s if s.get("label") else {**s, "label": "with the friction contacts"}
+                     for s in lines]
         path = out / f"{name}_{n}.png"
         label = MEASURE_LABEL[measure].format(n)
         if normalised:

@@ -22,7 +22,7 @@ if TYPE_CHECKING:  # matplotlib loads when a picture is drawn (as pyvista does i
 LABELS = {
     "frequency": "excitation frequency w [rad/s]",
     "excitation": "excitation: multiple of the nominal load [-]",
-    "preload": "preload: multiple of the nominal N0 [-] (N0 in N when n0 = 1 N)",
+    "preload": "preload: multiple of the case's N0 [-]",
     "mass": "mass: multiple of the nominal mass [-]",
 }
 DECADES = 1.5  # an axis whose positive values span more decades than this is drawn in log
@@ -146,6 +146,29 @@ def _scale(ax: Axes, axis: str, log: bool | None, arrays: list) -> None:
         scale.set_minor_formatter(NullFormatter())
 
 
+def _readable(series: Sequence[dict], markers: Sequence[dict], label: str, axis: str
+              ) -> tuple[tuple[list[dict], list[dict]], str]:
+    """Series and markers with the ``axis`` values of a length axis ("... [m]") in the unit
+    a person reads them in (mm below 0.5 m, um below 0.5 mm), and the label saying so."""
+    if " [m]" not in label:
+        return (list(series), list(markers)), label
+    values = [np.asarray(d[axis], dtype=float) for d in (*series, *markers)]
+    finite = np.concatenate([np.abs(v[np.isfinite(v)]).ravel() for v in values] or [[]])
+    top = float(finite.max()) if finite.size else 1.0
+    if top >= 0.5:
+        return (list(series), list(markers)), label
+    factor, unit = (1e3, "mm") if top >= 5e-4 else (1e6, "um")
+
+    def scaled(d: dict) -> dict:
+        out = {**d, axis: np.asarray(d[axis], dtype=float) * factor}
+        if axis == "y" and "bifurcations" in d:
+            out["bifurcations"] = [(k, xb, yb * factor) for k, xb, yb in d["bifurcations"]]
+        return out
+
+    return ([scaled(d) for d in series], [scaled(d) for d in markers]), \
+        label.replace(" [m]", f" [{unit}]")
+
+
 def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: str,
            *, logx: bool | None = None, logy: bool | None = None,
            markers: Sequence[dict] = (), optimum: tuple[str, str] | None = None) -> Figure:
@@ -156,6 +179,12 @@ def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: 
     ``logx``/``logy`` None: log when the axis' data span decades. ``optimum`` =
     (parameter name, unit of y): mark and label each curve's minimum (but of series with
     ``optimum: False``, e.g. reference levels)."""
+    (series, markers), xlabel = _readable(series, markers, xlabel, "x")
+    (series, markers), ylabel = _readable(series, markers, ylabel, "y")
+    if optimum and " [mm]" in ylabel:
+        optimum = (optimum[0], "mm")
+    elif optimum and " [um]" in ylabel:
+        optimum = (optimum[0], "um")
     fig = _figure((7, 4.5))
     ax = fig.add_subplot()
     for s in series:

@@ -205,26 +205,36 @@ def _save(pl: pv.Plotter, path: Path) -> Path:
     return path
 
 
-def _legend(pl: pv.Plotter, width: float, entries: int) -> None:
+def _legend(pl: pv.Plotter, width: float, entries: list[dict]) -> None:
     """The legend in the lower right corner of the model's view, one text size whatever
-    the number of entries (VTK fits the text to the box). Placed explicitly: pyvista
-    places a right-hand legend by its height, pushing a wide one off the picture."""
-    size = (width, 0.04 * entries)
-    legend = pl.add_legend(bcolor="white", size=size, loc="lower right")
+    the number of entries (VTK fits the text to the box); ``entries``: {label, color,
+    face}, the face as drawn (a surface a rectangle, points a circle). Placed explicitly:
+    pyvista places a right-hand legend by its height, pushing a wide one off the picture."""
+    size = (width, 0.04 * len(entries))
+    legend = pl.add_legend(entries, bcolor="white", size=size, loc="lower right")
     legend.SetPosition(1.0 - width - 0.01, 0.02)
+
+
+#: where a patch's side b lies, by its sector offset
+SECTOR = {0: "this sector", 1: "the next sector", -1: "the previous sector"}
 
 
 def render_sector(mesh: MeshView, path: Path) -> Path:
     """The sector (or plain model) with each body in its own colour and mesh edges."""
     pl = _plotter(f"{mesh.model}: {mesh.nodes} nodes, {mesh.elements}")
+    entries = []
     for i, body in enumerate(mesh.bodies):
-        pl.add_mesh(body.polydata(), color=BODY_COLOURS[i % len(BODY_COLOURS)],
-                    show_edges=True, edge_color="dimgray", line_width=0.5, label=body.name)
+        colour = BODY_COLOURS[i % len(BODY_COLOURS)]
+        pl.add_mesh(body.polydata(), color=colour, show_edges=True, edge_color="dimgray",
+                    line_width=0.5)
+        entries.append({"label": body.name, "color": colour, "face": "rectangle"})
     for cyc in mesh.cyclic:
         for side, colour in (("left", "green"), ("right", "purple")):
             pl.add_points(getattr(cyc, side), color=colour, point_size=4,
-                          render_points_as_spheres=True, label=f"cyclic {cyc.body} {side}")
-    _legend(pl, 0.26, len(mesh.bodies) + 2 * len(mesh.cyclic))
+                          render_points_as_spheres=True)
+            entries.append({"label": f"cyclic {cyc.body} {side}", "color": colour,
+                            "face": "circle"})
+    _legend(pl, 0.26, entries)
     pl.add_axes()
     points = np.concatenate([b.points for b in mesh.bodies])
     axial_view(pl, points.mean(axis=0), np.ptp(points, axis=0).max())
@@ -251,20 +261,22 @@ def render_contacts(mesh: MeshView, path: Path) -> Path:
     for i, body in enumerate(mesh.bodies):
         pl.add_mesh(body.polydata(), color=BODY_COLOURS[i % len(BODY_COLOURS)],
                     opacity=0.25, show_edges=True, edge_color="gray", line_width=0.3)
-    centres = []
+    centres, entries = [], []
     for i, patch in enumerate(mesh.patches):
         colour = PATCH_COLOURS[i % len(PATCH_COLOURS)]
         a, b_own = patch.points_a, patch.points_b
-        pl.add_mesh(patch.surface(), color=colour, show_edges=True, edge_color="black",
-                    label=f"{patch.name} {patch.size}: {patch.body_a} face")
+        pl.add_mesh(patch.surface(), color=colour, show_edges=True, edge_color="black")
+        entries.append({"label": f"{patch.name} {patch.size}: {patch.body_a} face",
+                        "color": colour, "face": "rectangle"})
         centres.append(a.reshape(-1, 3).mean(axis=0))
         if len(b_own):  # (the ground has none)
             pl.add_points(b_own.reshape(-1, 3), color=colour, point_size=8,
-                          render_points_as_spheres=True,
-                          label=f"{patch.name}: {patch.body_b} nodes, offset "
-                                f"{patch.b_sector_offset}")
+                          render_points_as_spheres=True)
+            where = SECTOR.get(patch.b_sector_offset, f"sector {patch.b_sector_offset:+d}")
+            entries.append({"label": f"{patch.name}: {patch.body_b} nodes, of {where}",
+                            "color": colour, "face": "circle"})
             centres.append(b_own.reshape(-1, 3).mean(axis=0))
-    _legend(pl, 0.42, 2 * len(mesh.patches))  # a corner away from the centred patches
+    _legend(pl, 0.42, entries)  # a corner away from the centred patches
     pl.add_axes()
     if centres:
         pts = np.array(centres)
