@@ -357,7 +357,8 @@ def _segments(xy: np.ndarray, edges: np.ndarray, z: float):
     return pv.PolyData(pts, lines=lines)
 
 
-FILL = 0.55  # share of a panel's height (or width) the patch fills
+FILL = 0.55  # share of a panel's height the patch fills at most (the caption above it)
+FILL_WIDTH = 0.85  # share of a panel's width the patch fills at most
 LOWER = 0.12  # the patch sits this share of the panel's height below its centre (the
               # caption and the high-radius label above it keep their room)
 
@@ -371,7 +372,7 @@ def _view(pl, caption: str, grid: PatchGrid, aspect: float) -> None:
     pl.reset_camera()
     c = 1e3 * (cell_corners(grid.plane) if grid.structured else grid.cell_plane).reshape(-1, 2)
     w, h = np.ptp(c, axis=0)
-    scale = 0.5 * max(h, w / aspect) / FILL  # half the panel's height in mm
+    scale = 0.5 * max(h / FILL, w / aspect / FILL_WIDTH)  # half the panel's height in mm
     centre = c.min(axis=0) + 0.5 * np.array([w, h]) + np.array([0.0, 2 * LOWER * scale])
     pl.camera.focal_point = (*centre, 0.0)
     pl.camera.position = (*centre, 10 * max(w, h))
@@ -456,9 +457,10 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
 
     bar = pv.PolyData(np.zeros((1, 3)))  # a hidden carrier of the colour scale
     bar["force"] = values[:1]
+    # the scale's title under it (VTK puts a horizontal bar's title among its labels)
     pl.add_mesh(bar, scalars="force", cmap=cmap, clim=clim, opacity=0.0,
-                scalar_bar_args={"title": label, "vertical": False, "position_x": 0.2,
-                                 "position_y": 0.35, "width": 0.6, "height": 0.5,
-                                 "color": "black", "title_font_size": 14,
-                                 "label_font_size": 12, "fmt": "%.4g"})
+                scalar_bar_args={"title": "", "vertical": False, "position_x": 0.2,
+                                 "position_y": 0.45, "width": 0.6, "height": 0.45,
+                                 "color": "black", "label_font_size": 12, "fmt": "%.4g"})
+    pl.add_text(label, position="lower_edge", font_size=9, color="black")
     return save(pl, path)

@@ -8,6 +8,7 @@ picture needs and the file does not hold is a defect of the file, not of the pic
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -330,8 +331,11 @@ def map_points(g: h5py.Group, at: float | None = None) -> list[MapPoint]:
 def _what(p: h5py.Group, par: str) -> str:
     """A map point's description ("peak" with where it is)."""
     what = attr_text(p.attrs["what"])
+    unit = {"frequency": " rad/s"}.get(par, "")
     if what == "peak":
-        what += f" at {par} {float(p.attrs['parameter']):.6g}"
+        what += f" at {par} {float(p.attrs['parameter']):.6g}{unit}"
+    elif unit:  # "frequency = 3156.5, solution 1 of 3": the unit after the value
+        what = re.sub(rf"^({par} = [-+.\deE]+)", rf"\1{unit}", what)
     return what
 
 
