@@ -266,20 +266,27 @@ class Panel:
     caption: str
 
 
+#: the font size of a map picture's title
+TITLE_SIZE = 11
+
+
 def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
     """Off-screen plotter: a title strip, rows x cols panels (one column as wide as two:
     the title and the legend need the room), a legend strip."""
     import pyvista as pv
 
-    strip = max(1, round(panel[1] / 7))
-    size = [_panel_width(cols, panel) * cols, panel[1] * rows + 2 * strip]
-    from microslip.draw.previews import title_strip, vtk_warnings_off
+    from microslip.draw.previews import fitted, title_strip, vtk_warnings_off
 
+    strip = max(1, round(panel[1] / 7))
+    width = _panel_width(cols, panel) * cols
+    title = fitted(title, width, TITLE_SIZE)  # a narrow picture: the title on more lines
+    top = strip * (title.count("\n") + 1)
+    size = [width, panel[1] * rows + top + strip]
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
-                        row_weights=[strip] + [panel[1]] * rows + [strip],
+                        row_weights=[top] + [panel[1]] * rows + [strip],
                         groups=[(0, np.s_[:]), (rows + 1, np.s_[:])], border=False)
-    title_strip(pl, title, 11)
+    title_strip(pl, title, TITLE_SIZE)
     return pl
 
 

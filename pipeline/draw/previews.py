@@ -185,11 +185,28 @@ def _plotter(title: str) -> pv.Plotter:
     return pl
 
 
-def title_strip(pl: pv.Plotter, title: str, font_size: int) -> None:
+#: VTK's text: pixels of one character's width per point of font size (measured on its
+#: default Arial: an 85-character title at size 11 is ~860 px wide)
+CHAR_WIDTH = 0.95
+
+
+def fitted(title: str, width: int, font_size: int) -> str:
+    """``title`` broken into lines at spaces so that each fits ``width`` pixels at
+    ``font_size`` (a narrow picture, ``render --size 400x300``, keeps its whole title)."""
+    import textwrap
+
+    per_line = max(10, int(0.96 * width / (CHAR_WIDTH * font_size)))
+    return "\n".join(textwrap.wrap(title, per_line)) if len(title) > per_line else title
+
+
+def title_strip(pl: pv.Plotter, title: str, font_size: int, width: int | None = None
+                ) -> None:
     """White background everywhere and ``title`` centred in the first renderer (the strip
-    a picture keeps for its title)."""
+    a picture keeps for its title), broken into lines to fit ``width`` pixels if given."""
     pl.set_background("white", all_renderers=True)
     pl.subplot(0, 0)
+    if width is not None:
+        title = fitted(title, width, font_size)
     text = pl.add_text(title, position=(0.5, 0.5), viewport=True, font_size=font_size,
                        color="black")
     text.prop.justification_horizontal = "center"
