@@ -36,7 +36,8 @@ def _slip(c: h5py.Group) -> list | None:
 def frf_plots(g: h5py.Group, name: str) -> list[dict]:
     """One plot per output of the frf analysis group ``g``: {title, x, y, series: [{label,
     x, y [unit], stable (1, 0, -1 or null), slip [%] or null, kind: curve | limit}], marks:
-    [{letter, x, y [unit]}], unit: m, mm or um as the responses' size reads}."""
+    [{letter, x, y [unit], target: the id of the status maps' figure}], unit: m, mm or um
+    as the responses' size reads}."""
     par = analysis_spec(g).parameter
     members = [(k, c) for k, c in curves(g) if "response" in c and len(c["parameter"])]
     outputs = json.loads(attr_text(members[0][1].attrs.get("outputs", "[]"))) if members \
@@ -54,8 +55,9 @@ def frf_plots(g: h5py.Group, name: str) -> list[dict]:
                     "stable": None, "slip": None}
                    for key, lg in sorted(g.items()) if schema.is_linear(key)
                    and "response" in lg and par == "frequency"]
+        # a map point's letter leads to the contact-status maps (the figure's id)
         marks = [{"letter": letter, "x": float(p.attrs["parameter"]),
-                  "y": float(scale * p["response"][k])}
+                  "y": float(scale * p["response"][k]), "target": f"fig-{name}_status"}
                  for letter, _, p in lettered_maps(g) if "response" in p]
         plots.append({"title": f"{name}: {out}", "x": AXES.get(par, par), "unit": unit,
                       "y": f"{out}: response [{unit}]", "series": series, "marks": marks})

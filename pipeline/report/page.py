@@ -67,6 +67,7 @@ pre{white-space:pre-wrap;background:#f7f7f7;padding:8px}
 .ms-plot{position:relative;margin:12px 0}.ms-svg{width:100%;height:auto;font-size:12px;
 user-select:none}.ms-frame{fill:none;stroke:#999}.ms-grid{stroke:#eee}
 .ms-title{font-weight:bold}.ms-mark{font-weight:bold;font-size:13px}
+.ms-link{fill:#1050c0;cursor:pointer;text-decoration:underline}
 .ms-band{fill:rgba(30,120,220,.12);stroke:#1e78dc}
 .ms-tip{display:none;position:absolute;background:#fff;border:1px solid #888;padding:4px 8px;
 font-size:12px;pointer-events:none;box-shadow:0 1px 4px rgba(0,0,0,.2);z-index:2}
@@ -241,5 +242,6 @@ def _interactive(plot: dict) -> str:
 
 def _figure(path: Path, text: str) -> str:
     data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return (f"<figure><img src='data:image/png;base64,{data}' alt='{escape(text)}'>"
+    return (f"<figure id='fig-{escape(path.stem)}'><img src='data:image/png;base64,{data}' "
+            f"alt='{escape(text)}'>"
             f"<figcaption><b>{escape(path.name)}</b>: {escape(text)}</figcaption></figure>")

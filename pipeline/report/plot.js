@@ -2,8 +2,8 @@
 // network: the page opens offline). Each <div class="ms-plot"> holds its data as JSON in a
 // <script type="application/json"> child (report/interactive.py). Pointing at a computed
 // point shows its numbers; the legend's boxes hide and show curves; dragging a box zooms in,
-// a double click or the button zooms back out. Without JavaScript the page keeps its
-// pictures and tables: this only adds to them.
+// a double click or the button zooms back out; a map point's letter leads to its contact
+// maps. Without JavaScript the page keeps its pictures and tables: this only adds to them.
 (function () {
   "use strict";
   var NS = "http://www.w3.org/2000/svg";
@@ -156,8 +156,14 @@
       });
       data.marks.forEach(function (m) {
         if (m.x < view.x0 || m.x > view.x1 || m.y < view.y0 || m.y > view.y1) { return; }
-        svg("text", {x: sx(m.x) + 6, y: sy(m.y) - 6, "class": "ms-mark"}, box)
-          .textContent = m.letter;
+        var t = svg("text", {x: sx(m.x) + 6, y: sy(m.y) - 6, "class": "ms-mark"}, box);
+        t.textContent = m.letter;
+        var target = document.getElementById(m.target);
+        if (target) {  // the letter leads to the point's contact maps
+          t.setAttribute("class", "ms-mark ms-link");
+          t.addEventListener("click", function () { target.scrollIntoView(); });
+          svg("title", {}, t).textContent = "contact maps at point " + m.letter;
+        }
       });
     }
 
