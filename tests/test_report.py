@@ -3,6 +3,7 @@ broken folder, the command and the index, and the page in a real browser (headle
 Chromium: no console errors, every picture loaded, a point's numbers when pointed at, the
 legend hiding a curve; screenshots at a desktop and a phone width kept for a person)."""
 
+import base64
 import copy
 import html
 import json
@@ -116,6 +117,11 @@ def test_a_run_writes_its_page_unless_told_not_to(tmp_path):
     case.write_text(LINEAR)
     assert main(["run", str(case), "--out", str(tmp_path / "a"), "--workers", "0"]) == 0
     assert "complete" in _text(tmp_path / "a" / "report.html")
+    # the run's page takes the pictures the run drew (not drawn twice): the same bytes
+    raw = (tmp_path / "a" / "report.html").read_text()
+    pictures = sorted((tmp_path / "a").glob("*.png"))
+    assert pictures and all(base64.b64encode(p.read_bytes()).decode() in raw
+                            for p in pictures)
     assert main(["run", str(case), "--out", str(tmp_path / "b"), "--workers", "0",
                  "--no-report"]) == 0
     assert not (tmp_path / "b" / "report.html").exists()

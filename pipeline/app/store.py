@@ -186,7 +186,10 @@ def draw_once(draw, group: h5py.Group, spec, out: Path, progress, keys: list[str
     stamps = PictureStamps(out / "cache" / "pictures")
     key = stamps.key(list(keys), spec.table())
     kept = stamps.current(spec.name, key) if cached else None
-    if kept is not None:
+    if kept is None:
+        kept = draw(group, spec.name, out)
+        stamps.remember(spec.name, key, kept)
+    else:
         progress(f"[{spec.name}] pictures unchanged ({len(kept)} files)")
-        return
-    stamps.remember(spec.name, key, draw(group, spec.name, out))
+    # the pictures' names with the analysis: the folder's page takes them from there
+    group.attrs["pictures"] = json.dumps([Path(p).name for p in kept])

@@ -91,7 +91,7 @@ def _write_page(results: Path) -> None:
     from microslip.report import write_report
 
     try:
-        print(f"wrote {write_report(results)}", flush=True)
+        print(f"wrote {write_report(results, drawn=True)}", flush=True)
     except OSError as err:
         print(f"microslip run: the page report.html was not written ({err}); the results "
               "are complete as said: microslip report writes it later", file=sys.stderr)

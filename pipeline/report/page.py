@@ -77,19 +77,21 @@ footer{margin-top:2em;font-size:.85em;color:#666}
 """
 
 
-def write_report(results: Path, out: Path | None = None) -> Path:
+def write_report(results: Path, out: Path | None = None, *, drawn: bool = False) -> Path:
     """Write the page of ``results`` (results.h5 or its folder) to ``out`` (default:
-    report.html beside it), whole or not at all; the path written."""
+    report.html beside it), whole or not at all; the path written. ``drawn``: the run that
+    wrote results.h5 has just drawn its pictures into the folder (each analysis lists them):
+    those are taken instead of drawing them again."""
     path = results / "results.h5" if results.is_dir() else results
     out = out or path.parent / REPORT
-    text = page(path)
+    text = page(path, drawn=drawn)
     with written(out) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return out
 
 
-def page(path: Path) -> str:
-    """The HTML of the page of results file ``path``."""
+def page(path: Path, *, drawn: bool = False) -> str:
+    """The HTML of the page of results file ``path`` (``drawn``: see write_report)."""
     if not path.is_file():
         leftover = path.with_name(path.name + ".tmp")
         why = (f"no {path.name} in {path.parent}: only {leftover.name}, left by a run that "
@@ -101,7 +103,7 @@ def page(path: Path) -> str:
     except ResultsError as err:
         return _missing(path, str(err))
     with f, tempfile.TemporaryDirectory() as scratch:
-        return _document(f, Path(scratch))
+        return _document(f, Path(scratch), path.parent if drawn else None)
 
 
 def _missing(path: Path, why: str) -> str:
@@ -120,8 +122,9 @@ def html_page(title: str, body: str, script: str = "") -> str:
             + (f"<script>\n{script}\n</script>\n" if script else "") + "</body></html>\n")
 
 
-def _document(f: h5py.File, scratch: Path) -> str:
-    """The whole page of an open results file (pictures drawn into ``scratch``)."""
+def _document(f: h5py.File, scratch: Path, folder: Path | None) -> str:
+    """The whole page of an open results file (pictures drawn into ``scratch``, or taken
+    from ``folder`` where its run drew them)."""
     a = f.attrs
     case = json.loads(attr_text(f["case"].attrs["json"])) if "case" in f else {}
     title = attr_text(a["title"])
@@ -142,7 +145,7 @@ def _document(f: h5py.File, scratch: Path) -> str:
     if "geometry" in f:
         parts.append(_geometry(f["geometry"], scratch / "geometry"))
     for name in names:
-        parts.append(_analysis(f[name], name, scratch / name))
+        parts.append(_analysis(f[name], name, scratch / name, folder))
     versions = json.loads(attr_text(a["versions"]))
     parts.append(f"<footer>From {escape(attr_text(a['source']))}, {escape(attr_text(a['created']))}"
                  f"; case {escape(attr_text(a['case_hash'])[:12])}; "
@@ -163,8 +166,9 @@ def _geometry(g: h5py.Group, scratch: Path) -> str:
                               for p in figures) + "</section>")
 
 
-def _analysis(g: h5py.Group, name: str, scratch: Path) -> str:
-    """One analysis: what it computes, its status, warnings, tables, plots, pictures."""
+def _analysis(g: h5py.Group, name: str, scratch: Path, folder: Path | None) -> str:
+    """One analysis: what it computes, its status, warnings, tables, plots, pictures (from
+    ``folder`` where the run drew them all, else drawn into ``scratch``)."""
     from microslip.case.kinds import kinds_or_shipped
 
     kind = attr_text(g.attrs.get("type", ""))
@@ -183,14 +187,23 @@ def _analysis(g: h5py.Group, name: str, scratch: Path) -> str:
     if kind == "frf":
         out += [_interactive(p) for p in _plots(g, name)]
     known = kinds_or_shipped(None)
-    if kind in known and known[kind].draw is not None:
+    figures = _run_pictures(g, folder)
+    if figures is None and kind in known and known[kind].draw is not None:
         scratch.mkdir(parents=True, exist_ok=True)
         figures, fault = _drawn(lambda: known[kind].draw(g, name, scratch, Options()))
         out.append(fault)
-        par = getattr(_spec(g), "parameter", "frequency")
-        out += [_figure(p, caption(kind, name, p.name, par)) for p in figures]
+    par = getattr(_spec(g), "parameter", "frequency")
+    out += [_figure(p, caption(kind, name, p.name, par)) for p in figures or ()]
     out.append("</section>")
     return "\n".join(out)
+
+
+def _run_pictures(g: h5py.Group, folder: Path | None) -> list[Path] | None:
+    """The pictures the run drew of this analysis, where they are all in ``folder``."""
+    if folder is None or "pictures" not in g.attrs:
+        return None
+    paths = [folder / n for n in json.loads(attr_text(g.attrs["pictures"]))]
+    return paths if all(p.is_file() for p in paths) else None
 
 
 def _spec(g: h5py.Group):
