@@ -472,3 +472,28 @@ def test_a_nonlinear_mode_of_the_assembly_with_its_maps_and_peaks(tmp_path):
         assert c["damping_ratio"][-1] > c["damping_ratio"][0]  # the slip damps
         assert c["peak_response"][0, 0] == pytest.approx(c["peak_check"][0, 0], rel=1e-3)
     assert (tmp_path / "mode_status.png").is_file()
+
+
+def test_the_page_of_a_meshed_run_shows_its_models_and_maps(coarse_run):
+    """The results page of a meshed case: the reduced models as results.h5 has them (each
+    body's master DOFs and modes per nodal diameter, the patches' stiffness), the mesh
+    previews and the contact maps inlined, the map letters leading to the status maps."""
+    import html
+    import re
+
+    from microslip.report import write_report
+
+    raw = write_report(coarse_run).read_text()
+    text = html.unescape(re.sub(r"<[^>]+>", " | ", raw))
+    with h5py.File(coarse_run / "results.h5") as f:
+        red = f["reduction"]
+        for body in ("blisk", "damper"):
+            for nd, m in red[body].items():
+                row = (f"| {body} |  | {nd.removeprefix('nd')} |  | "
+                       f"{int(m.attrs['n_master_dofs'])} |  | {int(m.attrs['n_modes'])} |")
+                assert row in text, row
+        for patch in red["contact_stiffness"]:
+            assert f"| {patch} |" in text
+    for picture in ("blisk_sector_contacts.png", "frf_status.png", "frf_normal_load.png"):
+        assert f"<b>{picture}</b>" in raw
+    assert '"target":"fig-frf_status"' in raw and "id='fig-frf_status'" in raw

@@ -179,3 +179,30 @@ def _dti(g: h5py.Group) -> list[Table]:
     return [Table("Steady states by time integration", ("curve", "w [rad/s]",
                                                          f"response [{unit[1]}]", "periodic"),
                   tuple(rows))]
+
+
+def reduction_tables(g: h5py.Group) -> list[Table]:
+    """The reduced models (per body and nodal diameter: masters, modes, the first
+    frequencies of the reduced model with its masters free) and each patch's contact
+    stiffness (the mean over its node pairs)."""
+    rows = []
+    for body, bg in g.items():
+        if body == schema.CONTACT_STIFFNESS or not isinstance(bg, h5py.Group):
+            continue
+        for nd, m in sorted(bg.items(), key=lambda kv: int(kv[0][2:]) if kv[0][2:].isdigit()
+                            else -1):
+            f = m["frequencies_hz"][()] if "frequencies_hz" in m else np.zeros(0)
+            elastic = f[f > 1e-3 * f.max()] if f.size and f.max() > 0 else f
+            rows.append((body, nd.removeprefix("nd"), str(int(m.attrs.get("n_master_dofs", 0))),
+                         str(int(m.attrs.get("n_modes", 0))),
+                         ", ".join(f"{v:.5g}" for v in elastic[:3]) or "-"))
+    out = [Table("Reduced models (Craig-Bampton, every contact node a master)",
+                 ("body", "nodal diameter", "master DOFs", "modes",
+                  "first elastic frequencies [Hz]"), tuple(rows))]
+    if schema.CONTACT_STIFFNESS in g:
+        kt = [(patch, f"{np.mean(pg['normal_n_per_m'][()]):.4g}",
+               f"{np.mean(pg['tangential_n_per_m'][()]):.4g}")
+              for patch, pg in g[schema.CONTACT_STIFFNESS].items()]
+        out.append(Table("Contact stiffness of the patches (flat punch, mean per node pair)",
+                         ("patch", "normal [N/m]", "tangential [N/m]"), tuple(kt)))
+    return out

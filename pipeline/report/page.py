@@ -21,7 +21,7 @@ from microslip.results.writer import NOT_ANALYSES, ResultsError, attr_text, open
 
 from .captions import caption
 from .interactive import frf_plots
-from .numbers import Table, tables
+from .numbers import Table, reduction_tables, tables
 
 #: the page's file name in the results folder
 REPORT = "report.html"
@@ -144,6 +144,8 @@ def _document(f: h5py.File, scratch: Path, folder: Path | None) -> str:
     parts.append("</header>")
     if "geometry" in f:
         parts.append(_geometry(f["geometry"], scratch / "geometry"))
+    if "reduction" in f:
+        parts.append(_reduction(f["reduction"]))
     for name in names:
         parts.append(_analysis(f[name], name, scratch / name, folder))
     versions = json.loads(attr_text(a["versions"]))
@@ -164,6 +166,18 @@ def _geometry(g: h5py.Group, scratch: Path) -> str:
     return ("<section id='a-geometry'><h2>The model <small>mesh</small></h2>"
             + fault + "".join(_figure(p, caption("geometry", "geometry", p.name))
                               for p in figures) + "</section>")
+
+
+def _reduction(g: h5py.Group) -> str:
+    """The reduced models and the contact stiffness."""
+    try:
+        body = "".join(_table(t) for t in reduction_tables(g))
+    except (KeyError, ValueError) as err:  # a partial or older group
+        body = f"<p class='missing'>reduction not shown: {escape(str(err))}</p>"
+    return ("<section id='a-reduction'><h2>The reduced models <small>reduction</small></h2>"
+            "<p>The bodies' finite-element models reduced per nodal diameter (cyclic "
+            "symmetry, Craig-Bampton): what the harmonic balance solves.</p>"
+            + body + "</section>")
 
 
 def _analysis(g: h5py.Group, name: str, scratch: Path, folder: Path | None) -> str:
