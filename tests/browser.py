@@ -40,9 +40,11 @@ def _free_port() -> int:
 
 
 class Browser:
-    """One chromedriver and one browser session; ``with Browser(profile) as b: ...``."""
+    """One chromedriver and one browser session; ``with Browser(profile) as b: ...``
+    (``scripts=False``: the page's JavaScript switched off, as a reader may have it)."""
 
-    def __init__(self, profile: Path, width: int = 1280, height: int = 900):
+    def __init__(self, profile: Path, width: int = 1280, height: int = 900,
+                 scripts: bool = True):
         self.port = _free_port()
         self.driver = subprocess.Popen([CHROMEDRIVER, f"--port={self.port}"],
                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -50,7 +52,8 @@ class Browser:
         caps = {"capabilities": {"alwaysMatch": {
             "browserName": "chrome", "goog:loggingPrefs": {"browser": "ALL"},
             "goog:chromeOptions": {"binary": CHROMIUM, "args": [
-                *FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}"]}}}}
+                *FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}",
+                *([] if scripts else ["--blink-settings=scriptEnabled=false"])]}}}}
         self.session = self._call("POST", "/session", caps)["sessionId"]
 
     def _wait_ready(self) -> None:

@@ -95,6 +95,19 @@ def test_a_missing_or_broken_results_folder_gives_a_page_that_says_so(tmp_path):
     assert "killed before it finished" in _text(write_report(killed))
 
 
+def test_the_page_of_a_partial_run_names_the_analyses_it_lacks(run, tmp_path):
+    import shutil
+
+    path, _ = run
+    shutil.copy(path, tmp_path / "results.h5")
+    with h5py.File(tmp_path / "results.h5", "a") as f:  # as a run stopped before "mode"
+        del f["mode"]
+        f.attrs["status"] = "partial"
+    text = _text(write_report(tmp_path))
+    assert "Not in the results (the run stopped before them): mode" in text
+    assert "partial" in text
+
+
 def test_report_writes_pages_and_an_index_in_the_order_given(run, tmp_path, capsys):
     path, _ = run
     empty = tmp_path / "not_run"
@@ -252,3 +265,17 @@ def test_every_line_picture_names_its_curves_and_nothing_overlaps(run, tmp_path,
             if " [m]" in label:
                 top = max(np.nanmax(np.abs(np.asarray(v, float))) for v in values if len(v))
                 assert top >= 0.5, (label, top)
+
+
+@pytest.mark.skipif(bool(missing()), reason=missing() or "browser present")
+def test_the_page_without_javascript_keeps_its_pictures_and_tables(run, tmp_path):
+    _, page = run
+    with Browser(tmp_path / "profile", scripts=False) as b:
+        b.open(page.as_uri())
+        # WebDriver's own scripts still run; the page's do not: no plot was drawn
+        assert b.run("return document.querySelectorAll('.ms-svg').length;") == 0
+        loaded = b.run("return Array.from(document.images).map("
+                       "i => i.complete && i.naturalWidth > 0);")
+        assert loaded and all(loaded)
+        assert b.run("return document.querySelectorAll('table').length;") >= 3
+        assert "needs JavaScript" in b.run("return document.body.innerText;")

@@ -138,6 +138,10 @@ def _document(f: h5py.File, scratch: Path, folder: Path | None) -> str:
              f"{escape(status)}</span> {escape(message)}</p>"]
     if case.get("description"):
         parts.append(f"<p class='about'>{escape(case['description'].strip())}</p>")
+    absent = [n for n in listed if n and n not in f]
+    if absent:  # a run stopped before them (interrupted, or failed earlier)
+        parts.append("<p class='missing'>Not in the results (the run stopped before "
+                     f"them): {escape(', '.join(absent))}</p>")
     if names:
         parts.append("<nav><b>Analyses:</b> " + " &middot; ".join(
             f"<a href='#a-{escape(n)}'>{escape(n)}</a>" for n in names) + "</nav>")

@@ -9,7 +9,7 @@
   var NS = "http://www.w3.org/2000/svg";
   var COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
                  "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
-  var W = 760, H = 430, M = {l: 70, r: 18, t: 30, b: 50};
+  var H = 430, M = {l: 70, r: 18, t: 30, b: 50};
 
   function svg(tag, attrs, parent) {
     var e = document.createElementNS(NS, tag);
@@ -60,6 +60,8 @@
 
   function plot(div) {
     var data = JSON.parse(div.querySelector("script[type='application/json']").textContent);
+    // the drawing as wide as the page's room (a phone's text stays readable), 480-760
+    var W = Math.max(480, Math.min(760, div.clientWidth || 760));
     var hidden = data.series.map(function () { return false; });
     var view = extent(data, hidden);
     var box = svg("svg", {viewBox: "0 0 " + W + " " + H, "class": "ms-svg", role: "img",
