@@ -243,6 +243,7 @@ def test_a_larger_slip_force_moves_the_damping_to_larger_levels(modes_case):
     ("mode", 0, "analysis.mode.mode"),
     ("excitations", [1.0, -2.0], "analysis.mode.excitations = [1.0, -2.0]: expected a list"),
     ("output", "y", "analysis.mode.output = 'y': unknown"),
+    ("figure", 5, "analysis.mode.figure = 5: expected text"),
 ])
 def test_bad_keys_are_named_before_any_work(key, value, expected):
     data = tomllib.loads(CASE.read_text())

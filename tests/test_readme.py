@@ -116,14 +116,14 @@ def _documented_keys(text: str, section: str) -> set[str]:
 
 def _analysis_keys() -> set[str]:
     """analysis.<type>.<key> from the Analyses table (its keys column) and the sentence
-    that gives every analysis a ``name`` and a ``type``."""
+    that gives every analysis a ``name``, a ``type`` and optionally a ``figure``."""
     text = _section("Case files")
-    assert "(`[[analysis]]`, each with a `name` and a `type`)" in text
+    assert "(`[[analysis]]`, each with a `name` and a `type`; `figure` names" in text
     keys = set()
     for row in _tables(text, "type")[0]:
         kind = row[0].strip("`")
         found = re.findall(r"`(\w+)`", _strip_parentheses(row[1]))
-        keys |= {f"analysis.{kind}.{k}" for k in found + ["name", "type"]}
+        keys |= {f"analysis.{kind}.{k}" for k in found + ["name", "type", "figure"]}
     return keys
 
 

@@ -32,7 +32,8 @@ CASE = copy.deepcopy(TWO_DOF) | {
     "title": "two masses, a contact with a variable normal load",
     "description": "The page's test case: an FRF through the resonance and its nonlinear mode.",
     "analysis": [
-        {"name": "curve", "type": "frf", "start": 0.8, "stop": 1.2, "outputs": ["x"],
+        {"name": "curve", "type": "frf", "figure": "Fig. 5", "start": 0.8, "stop": 1.2,
+         "outputs": ["x"],
          "family": {"key": "contacts.0.n0", "values": [0.3, 0.5]}},
         {"name": "mode", "type": "nonlinear_modes", "output": "x", "amplitude": [0.01, 1.0],
          "excitations": [1.0]},
@@ -57,6 +58,7 @@ def test_the_page_holds_the_runs_status_numbers_and_pictures(run, tmp_path):
     with h5py.File(path) as f:
         assert f.attrs["status"] in text and f.attrs["title"] in text
         assert "The page's test case" in text  # the case's description
+        assert re.search(r"Reproduces\s+Firrone & Zucca Fig. 5", text)  # its figure
         for key in ("curve_000", "curve_001"):  # every peak as results.h5 has it
             resp = f["curve"][key]["response"][:, 0]
             unit = length_unit([f["curve"][k]["response"][()].max() for k in ("curve_000",

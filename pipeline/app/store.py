@@ -27,7 +27,7 @@ from microslip.results.writer import signals_held
 NEUTRAL = ("title", "description", "analysis")
 #: Analysis keys that do not change a curve (naming, drawing, the family itself: its value
 #: is in the case variant).
-DRAWING_KEYS = ("name", "family", "set", "map_types")
+DRAWING_KEYS = ("name", "family", "set", "map_types", "figure")
 FORMAT = 1  # bump when the stored layout changes
 
 

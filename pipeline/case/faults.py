@@ -435,6 +435,9 @@ def _analysis(i: int, a, data: dict, contacts: set[str], outputs: set[str],
     cls = kinds[kind].spec
     unknown_keys(pre + ".", a, specs.keys(cls), out)
     given, a = a, specs.defaults(cls) | a  # every default from the spec
+    if not isinstance(a.get("figure", ""), str):
+        out.append(f"{pre}.figure = {a['figure']!r}: expected text (the reference text's "
+                   "figure the analysis reproduces, e.g. \"Fig. 5\")")
     overrides = a.get("set", {})
     if not isinstance(overrides, dict):
         out.append(f"{pre}.set: expected a table {{\"key.path\" = value}}")

@@ -45,12 +45,14 @@ class Family:
 
 @dataclass(frozen=True, kw_only=True)
 class Analysis:
-    """What every analysis has: its ``name`` and the case keys it overrides (``set``,
-    dotted paths). ``given``: the table as the case wrote it (what results.h5 shows)."""
+    """What every analysis has: its ``name``, the case keys it overrides (``set``, dotted
+    paths) and the reference text's figure it reproduces (``figure``, words shown on the
+    results page). ``given``: the table as the case wrote it (what results.h5 shows)."""
 
     type: ClassVar[str]
     name: str
     set: Mapping[str, Any] = field(default_factory=dict)
+    figure: str = ""
     given: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def table(self) -> dict[str, Any]:

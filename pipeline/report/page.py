@@ -193,6 +193,9 @@ def _analysis(g: h5py.Group, name: str, scratch: Path, folder: Path | None) -> s
     status = attr_text(g.attrs.get("status", "")) or "partial"
     out = [f"<section id='a-{escape(name)}'><h2>{escape(name)} <small>{escape(kind)}"
            f"</small></h2>", f"<p>{escape(ABOUT.get(kind, ''))}</p>",
+           *([f"<p class='figure'><b>Reproduces</b> Firrone &amp; Zucca "
+              f"{escape(attr_text(g.attrs['figure']))}</p>"]
+             if attr_text(g.attrs.get("figure", "")) else []),
            f"<p><span class='status status-{escape(status)}'>{escape(status)}</span> "
            f"{escape(attr_text(g.attrs.get('message', '')))}"
            + (f" ({float(g.attrs['elapsed_s']):.1f} s)" if "elapsed_s" in g.attrs else "")
