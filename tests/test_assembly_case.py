@@ -241,6 +241,10 @@ def test_render_redraws_the_pictures_from_the_results_file_alone(coarse_run, tmp
     # (the title strip is one line per line of the title, broken to fit 600 px: here two)
     strip = round(200 / 7)
     assert w == 600 and h - 200 in (2 * strip, 3 * strip)
+    # nothing of the title cut by the picture's edges: its strip's ink keeps off them
+    title = np.asarray(Image.open(tmp_path / "frf_status.png").convert("L"))[:h - 200 - strip]
+    ink = np.flatnonzero((title < 128).any(axis=0))
+    assert ink.size and ink.min() > 2 and ink.max() < w - 3
 
 
 def test_the_shapes_at_the_map_points_are_the_solution_on_the_contact_nodes(coarse_run):

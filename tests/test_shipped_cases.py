@@ -53,6 +53,10 @@ def test_the_lumped_cases_run_to_the_end_without_a_warning(path, tmp_path, capsy
         assert f.attrs["status"] == "complete"
         analyses = [a for a in _table(path)["analysis"]]
         assert all(f[a["name"]].attrs["status"] == "complete" for a in analyses)
+    # its page: every analysis there with its pictures, nothing it could not show
+    page = (tmp_path / "report.html").read_text()
+    assert all(f"id='a-{a['name']}'" in page for a in analyses)
+    assert "class='missing'" not in page and page.count("data:image/png") >= len(analyses)
 
 
 def test_a_case_named_without_its_number_is_found_in_one_line(capsys):
