@@ -146,18 +146,24 @@ def _scale(ax: Axes, axis: str, log: bool | None, arrays: list) -> None:
         scale.set_minor_formatter(NullFormatter())
 
 
+def length_unit(values) -> tuple[float, str]:
+    """(factor, unit) that shows lengths [m] as a person reads them: m from 0.5 m (a
+    teaching oscillator's), mm from 0.5 mm, else um (by the largest finite value)."""
+    v = np.abs(np.concatenate([np.ravel(np.asarray(a, dtype=float)) for a in values]
+                              or [[]]))
+    v = v[np.isfinite(v)]
+    top = float(v.max()) if v.size else 1.0
+    return (1.0, "m") if top >= 0.5 else (1e3, "mm") if top >= 5e-4 else (1e6, "um")
+
+
 def _readable(series: Sequence[dict], markers: Sequence[dict], label: str, axis: str
-              ) -> tuple[tuple[list[dict], list[dict]], str]:
-    """Series and markers with the ``axis`` values of a length axis ("... [m]") in the unit
-    a person reads them in (mm below 0.5 m, um below 0.5 mm), and the label saying so."""
+              ) -> tuple[list[dict], list[dict], str, str | None]:
+    """Series, markers and label with the ``axis`` values of a length axis ("... [m]") in
+    the unit a person reads them in (:func:`length_unit`), and that unit (None: the axis is
+    not a length)."""
     if " [m]" not in label:
-        return (list(series), list(markers)), label
-    values = [np.asarray(d[axis], dtype=float) for d in (*series, *markers)]
-    finite = np.concatenate([np.abs(v[np.isfinite(v)]).ravel() for v in values] or [[]])
-    top = float(finite.max()) if finite.size else 1.0
-    if top >= 0.5:
-        return (list(series), list(markers)), label
-    factor, unit = (1e3, "mm") if top >= 5e-4 else (1e6, "um")
+        return list(series), list(markers), label, None
+    factor, unit = length_unit([d[axis] for d in (*series, *markers)])
 
     def scaled(d: dict) -> dict:
         out = {**d, axis: np.asarray(d[axis], dtype=float) * factor}
@@ -165,8 +171,8 @@ def _readable(series: Sequence[dict], markers: Sequence[dict], label: str, axis:
             out["bifurcations"] = [(k, xb, yb * factor) for k, xb, yb in d["bifurcations"]]
         return out
 
-    return ([scaled(d) for d in series], [scaled(d) for d in markers]), \
-        label.replace(" [m]", f" [{unit}]")
+    return ([scaled(d) for d in series], [scaled(d) for d in markers],
+            label.replace(" [m]", f" [{unit}]"), unit)
 
 
 def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: str,
@@ -179,12 +185,10 @@ def curves(path: Path, title: str, xlabel: str, series: Sequence[dict], ylabel: 
     ``logx``/``logy`` None: log when the axis' data span decades. ``optimum`` =
     (parameter name, unit of y): mark and label each curve's minimum (but of series with
     ``optimum: False``, e.g. reference levels)."""
-    (series, markers), xlabel = _readable(series, markers, xlabel, "x")
-    (series, markers), ylabel = _readable(series, markers, ylabel, "y")
-    if optimum and " [mm]" in ylabel:
-        optimum = (optimum[0], "mm")
-    elif optimum and " [um]" in ylabel:
-        optimum = (optimum[0], "um")
+    series, markers, xlabel, _ = _readable(series, markers, xlabel, "x")
+    series, markers, ylabel, unit = _readable(series, markers, ylabel, "y")
+    if optimum and unit:
+        optimum = (optimum[0], unit)
     fig = _figure((7, 4.5))
     ax = fig.add_subplot()
     for s in series:

@@ -199,14 +199,11 @@ def fitted(title: str, width: int, font_size: int) -> str:
     return "\n".join(textwrap.wrap(title, per_line)) if len(title) > per_line else title
 
 
-def title_strip(pl: pv.Plotter, title: str, font_size: int, width: int | None = None
-                ) -> None:
+def title_strip(pl: pv.Plotter, title: str, font_size: int) -> None:
     """White background everywhere and ``title`` centred in the first renderer (the strip
-    a picture keeps for its title), broken into lines to fit ``width`` pixels if given."""
+    a picture keeps for its title; :func:`fitted` breaks a long one into lines)."""
     pl.set_background("white", all_renderers=True)
     pl.subplot(0, 0)
-    if width is not None:
-        title = fitted(title, width, font_size)
     text = pl.add_text(title, position=(0.5, 0.5), viewport=True, font_size=font_size,
                        color="black")
     text.prop.justification_horizontal = "center"

@@ -5,6 +5,7 @@ picture's name after the analysis' own (the drawers' naming, ``draw.pictures``).
 from __future__ import annotations
 
 from microslip.draw.maps import STATE_COLOURS
+from microslip.draw.plots import LABELS
 from microslip.laws.states import STATE_NAMES
 
 #: the colours' names as a reader says them
@@ -63,7 +64,7 @@ def caption(kind: str, name: str, picture: str, parameter: str = "frequency") ->
     stem = picture.removesuffix(".png")
     suffix = stem[len(name) + 1:] if stem.startswith(name + "_") else \
         ("" if stem == name else stem)
-    par = {"frequency": "excitation frequency [rad/s]"}.get(parameter, parameter)
+    par = LABELS.get(parameter, parameter)
     if kind == "geometry":
         return _preview(suffix or stem)
     if kind in BY_SUFFIX and suffix in BY_SUFFIX[kind]:

@@ -4,7 +4,6 @@ see in it (the case's ``description``, else its title)."""
 
 from __future__ import annotations
 
-import json
 import os
 from html import escape
 from pathlib import Path
@@ -12,7 +11,7 @@ from pathlib import Path
 from microslip.draw.files import written
 from microslip.results.writer import ResultsError, attr_text, open_results
 
-from .page import REPORT, html_page
+from .page import REPORT, case_table, html_page
 
 
 def write_index(folders: list[Path], out: Path, title: str = "microslip: the course") -> Path:
@@ -37,7 +36,7 @@ def _item(number: int, folder: Path, base: Path) -> str:
     try:
         with open_results(folder / "results.h5") as f:
             title, status = attr_text(f.attrs["title"]), attr_text(f.attrs["status"])
-            case = json.loads(attr_text(f["case"].attrs["json"])) if "case" in f else {}
+            case = case_table(f)
     except (ResultsError, OSError, KeyError) as err:
         return (f"<li><b>{escape(folder.name)}</b> <span class='status status-missing'>no "
                 f"results</span><p class='missing'>{escape(str(err))}</p></li>")

@@ -5,20 +5,15 @@ points whose contact maps the page shows, by their letters."""
 
 from __future__ import annotations
 
-import json
-
 import h5py
 import numpy as np
 
 from microslip.draw.pictures import analysis_spec, curves, lettered_maps
+from microslip.draw.plots import LABELS, length_unit
 from microslip.results import schema
 from microslip.results.writer import attr_text
 
-from .numbers import length_unit
-
-#: the swept parameter's axis label
-AXES = {"frequency": "excitation frequency [rad/s]", "excitation": "excitation multiplier [-]",
-        "preload": "preload multiplier [-]", "mass": "mass multiplier [-]"}
+from .numbers import outputs_of
 
 
 def _finite(values: np.ndarray, digits: int = 7) -> list:
@@ -40,8 +35,7 @@ def frf_plots(g: h5py.Group, name: str) -> list[dict]:
     as the responses' size reads}."""
     par = analysis_spec(g).parameter
     members = [(k, c) for k, c in curves(g) if "response" in c and len(c["parameter"])]
-    outputs = json.loads(attr_text(members[0][1].attrs.get("outputs", "[]"))) if members \
-        else []
+    outputs = outputs_of(members[0][1]) if members else []
     plots = []
     for k, out in enumerate(outputs):
         scale, unit = length_unit([np.nanmax(c["response"][:, k]) for _, c in members])
@@ -59,6 +53,6 @@ def frf_plots(g: h5py.Group, name: str) -> list[dict]:
         marks = [{"letter": letter, "x": float(p.attrs["parameter"]),
                   "y": float(scale * p["response"][k]), "target": f"fig-{name}_status"}
                  for letter, _, p in lettered_maps(g) if "response" in p]
-        plots.append({"title": f"{name}: {out}", "x": AXES.get(par, par), "unit": unit,
+        plots.append({"title": f"{name}: {out}", "x": LABELS.get(par, par), "unit": unit,
                       "y": f"{out}: response [{unit}]", "series": series, "marks": marks})
     return plots

@@ -4,12 +4,14 @@ there, the folds, the linear limits, the optimum, the percentiles, the synthesiz
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 
 import h5py
 import numpy as np
 
 from microslip.draw.pictures import curves
+from microslip.draw.plots import length_unit
 from microslip.results import schema
 from microslip.results.writer import attr_text
 
@@ -21,14 +23,6 @@ class Table:
     title: str
     head: tuple[str, ...]
     rows: tuple[tuple[str, ...], ...]
-
-
-def length_unit(values) -> tuple[float, str]:
-    """(factor, unit) that shows displacements [m] as people read them: m from 0.5 m (a
-    teaching oscillator's), mm from 0.5 mm, else um."""
-    v = np.asarray(values, dtype=float)
-    top = float(np.nanmax(np.abs(v))) if v.size and np.isfinite(v).any() else 1e-3
-    return (1.0, "m") if top >= 0.5 else (1e3, "mm") if top >= 5e-4 else (1e6, "um")
 
 
 def length(value: float, unit: tuple[float, str]) -> str:
@@ -51,9 +45,8 @@ def _label(c: h5py.Group, default: str) -> str:
     return attr_text(c.attrs.get("label", "")) or default
 
 
-def _outputs(c: h5py.Group) -> list[str]:
-    import json
-
+def outputs_of(c: h5py.Group) -> list[str]:
+    """The output names of a curve (its ``outputs`` attribute)."""
     return json.loads(attr_text(c.attrs.get("outputs", "[]")))
 
 
@@ -79,7 +72,7 @@ def _frf(g: h5py.Group) -> list[Table]:
         folds = len(c["turning_points"][()]) if "turning_points" in c else 0
         bif = len(c["bifurcations"]["index"][()]) if "bifurcations" in c and \
             "index" in c["bifurcations"] else 0
-        for k, out in enumerate(_outputs(c) or ["response"]):
+        for k, out in enumerate(outputs_of(c) or ["response"]):
             i = int(np.nanargmax(resp[:, k]))
             rows.append((_label(c, key) + (f" ({out})" if resp.shape[1] > 1 else ""),
                          attr_text(c.attrs.get("status", "")), str(len(x)),

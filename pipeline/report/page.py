@@ -106,6 +106,11 @@ def page(path: Path, *, drawn: bool = False) -> str:
         return _document(f, Path(scratch), path.parent if drawn else None)
 
 
+def case_table(f: h5py.File) -> dict:
+    """The case a results file was run from (its TOML tables), {} if it keeps none."""
+    return json.loads(attr_text(f["case"].attrs["json"])) if "case" in f else {}
+
+
 def _missing(path: Path, why: str) -> str:
     """The page of a results file that cannot be read."""
     body = (f"<h1>{escape(str(path.parent))}</h1><p class='status status-missing'>no "
@@ -126,7 +131,7 @@ def _document(f: h5py.File, scratch: Path, folder: Path | None) -> str:
     """The whole page of an open results file (pictures drawn into ``scratch``, or taken
     from ``folder`` where its run drew them)."""
     a = f.attrs
-    case = json.loads(attr_text(f["case"].attrs["json"])) if "case" in f else {}
+    case = case_table(f)
     title = attr_text(a["title"])
     status, message = attr_text(a["status"]), attr_text(a["message"])
     # in the case's order (the file's groups are sorted by name)
@@ -147,7 +152,7 @@ def _document(f: h5py.File, scratch: Path, folder: Path | None) -> str:
             f"<a href='#a-{escape(n)}'>{escape(n)}</a>" for n in names) + "</nav>")
     parts.append("</header>")
     if "geometry" in f:
-        parts.append(_geometry(f["geometry"], scratch / "geometry"))
+        parts.append(_geometry(f["geometry"], scratch / "geometry", folder))
     if "reduction" in f:
         parts.append(_reduction(f["reduction"]))
     for name in names:
@@ -161,12 +166,17 @@ def _document(f: h5py.File, scratch: Path, folder: Path | None) -> str:
     return html_page(title, "\n".join(parts), script)
 
 
-def _geometry(g: h5py.Group, scratch: Path) -> str:
-    """The mesh previews."""
-    from microslip.draw.previews import geometry_previews
+def _geometry(g: h5py.Group, scratch: Path, folder: Path | None) -> str:
+    """The mesh previews (``folder``'s where its run drew them all, else drawn)."""
+    from microslip.draw.previews import MeshView, geometry_previews, preview_names
 
-    scratch.mkdir(parents=True, exist_ok=True)
-    figures, fault = _drawn(lambda: geometry_previews(g, "geometry", scratch, Options()))
+    figures, fault = None, ""
+    if folder is not None:
+        paths = [folder / n for n in preview_names(MeshView.from_results(g.file))]
+        figures = paths if all(p.is_file() for p in paths) else None
+    if figures is None:
+        scratch.mkdir(parents=True, exist_ok=True)
+        figures, fault = _drawn(lambda: geometry_previews(g, "geometry", scratch, Options()))
     return ("<section id='a-geometry'><h2>The model <small>mesh</small></h2>"
             + fault + "".join(_figure(p, caption("geometry", "geometry", p.name))
                               for p in figures) + "</section>")

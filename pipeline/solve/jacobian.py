@@ -119,8 +119,34 @@ class PointBlocks:
             np.add.at(J, (rows, cc), C)
 
 
+class _Solves:
+    """The solves of a structured Jacobian A, its ``_system()`` as GMRES sees it, on the
+    preconditioner of its balance's Jacobian: A^-1 rhs, and A bordered by one more row and
+    column (arclength's corrector and tangent) solved and its determinant's sign."""
+
+    def _system(self) -> _Bordered:
+        raise NotImplementedError
+
+    def solve(self, rhs: np.ndarray, rtol: float = RTOL) -> np.ndarray:
+        """A^-1 rhs by preconditioned GMRES to ``rtol``; np.linalg.LinAlgError where it
+        fails even with a preconditioner made from this Jacobian."""
+        system = self._system()
+        return system.J.store.solve(system.J, system, rhs, rtol)
+
+    def bordered_solve(self, col: np.ndarray, row: np.ndarray, corner: float,
+                       rhs: np.ndarray) -> np.ndarray:
+        """The solution z of [[A, col], [row, corner]] z = rhs (one size more than A)."""
+        system = self._system().extended(col, row, corner)
+        return system.J.store.solve(system.J, system, rhs)
+
+    def bordered_sign(self, col: np.ndarray, row: np.ndarray, corner: float) -> float:
+        """sign det [[A, col], [row, corner]] (see the module)."""
+        system = self._system().extended(col, row, corner)
+        return system.J.store.sign(system.J, system)
+
+
 @dataclass(frozen=True, eq=False)
-class BalanceJacobian:
+class BalanceJacobian(_Solves):
     """J = L + sum_p B_p^T J_p B_p of the balance at one state, as an operator on the real
     DOF-major unknowns (n = N_dof x n_coeffs).
 
@@ -202,23 +228,13 @@ class BalanceJacobian:
         return out
 
     # ------------------------------------------------------------------ solves
-    def solve(self, rhs: np.ndarray, rtol: float = RTOL) -> np.ndarray:
-        """J^-1 rhs by preconditioned GMRES to ``rtol``; np.linalg.LinAlgError where it
-        fails even with a preconditioner made from this Jacobian."""
-        return self.store.solve(self, _Bordered.plain(self), rhs, rtol)
-
-    def bordered_solve(self, col: np.ndarray, row: np.ndarray, corner: float,
-                       rhs: np.ndarray) -> np.ndarray:
-        """The (n + 1) solution of [[J, col], [row, corner]] z = rhs."""
-        return self.store.solve(self, _Bordered.plain(self).extended(col, row, corner), rhs)
-
-    def bordered_sign(self, col: np.ndarray, row: np.ndarray, corner: float) -> float:
-        """sign det [[J, col], [row, corner]] (see the module)."""
-        return self.store.sign(self, _Bordered.plain(self).extended(col, row, corner))
+    def _system(self) -> _Bordered:
+        n = self.shape[0]
+        return _Bordered(self, np.zeros((n, 0)), np.zeros((0, n)), np.zeros((0, 0)))
 
 
 @dataclass(frozen=True, eq=False)
-class BorderedJacobian:
+class BorderedJacobian(_Solves):
     """A :class:`BalanceJacobian` scaled and bordered by k rows and columns,
 
         A = [[diag(row_scale) J diag(col_scale), cols], [rows, corner]]   (n + k, n + k),
@@ -256,19 +272,6 @@ class BorderedJacobian:
         A[:n, n:], A[n:, :n], A[n:, n:] = self.cols, self.rows, self.corner
         return A
 
-    def solve(self, rhs: np.ndarray, rtol: float = RTOL) -> np.ndarray:
-        """A^-1 rhs (see :meth:`BalanceJacobian.solve`)."""
-        return self.J.store.solve(self.J, self._system(), rhs, rtol)
-
-    def bordered_solve(self, col: np.ndarray, row: np.ndarray, corner: float,
-                       rhs: np.ndarray) -> np.ndarray:
-        """The (n + k + 1) solution of [[A, col], [row, corner]] z = rhs."""
-        return self.J.store.solve(self.J, self._system().extended(col, row, corner), rhs)
-
-    def bordered_sign(self, col: np.ndarray, row: np.ndarray, corner: float) -> float:
-        """sign det [[A, col], [row, corner]] (see the module)."""
-        return self.J.store.sign(self.J, self._system().extended(col, row, corner))
-
 
 #: The Jacobians Newton and continuation solve by their own methods (not an LU).
 STRUCTURED = (BalanceJacobian, BorderedJacobian)
@@ -286,11 +289,6 @@ class _Bordered:
         self.n = J.shape[0]
         self.size = self.n + self.D.shape[0]
 
-    @classmethod
-    def plain(cls, J: BalanceJacobian) -> _Bordered:
-        n = J.shape[0]
-        return cls(J, np.zeros((n, 0)), np.zeros((0, n)), np.zeros((0, 0)))
-
     def extended(self, col: np.ndarray, row: np.ndarray, corner: float) -> _Bordered:
         """This system bordered by one more column ``col`` and row ``row`` (size + 1)."""
         n = self.n
@@ -304,6 +302,8 @@ class _Bordered:
         top = self.J.matvec(u)
         if self.r is not None:
             top *= self.r
+        if not self.D.size:  # J alone (GMRES's every iteration of a forced balance)
+            return top
         return np.concatenate([top + self.C @ v[n:], self.R @ v[:n] + self.D @ v[n:]])
 
     def _scaled(self, factors: _Factors):

@@ -181,14 +181,13 @@ class LinearDynamics:
     def dynamic_stiffness(self, point: OperatingPoint) -> tuple[np.ndarray, ...]:
         """Per order D_n = K_n - (n w)^2 M_n + i n w (C_n - xi M_n) at the point; order 0 is
         K_0 itself (real if stored real: read it, do not write it)."""
-        w, damped = point.omega, self._nonzero[0]
+        w, damped, masses = point.omega, self._nonzero[0], self.mass(point)
         D = tuple(K if o == 0 else _combined(M, -((o * w) ** 2), K, C if d else None, o * w)
-                  for o, K, M, C, d in zip(self.orders, self.K, self.mass(point), self.C,
-                                           damped))
+                  for o, K, M, C, d in zip(self.orders, self.K, masses, self.C, damped))
         if not point.xi:
             return D
         return tuple(Dk if o == 0 else Dk - 1j * o * w * point.xi * M
-                     for o, Dk, M in zip(self.orders, D, self.mass(point)))
+                     for o, Dk, M in zip(self.orders, D, masses))
 
     def d_dynamic_stiffness(self, point: OperatingPoint, parameter: str
                             ) -> tuple[np.ndarray | None, ...] | None:
@@ -197,12 +196,13 @@ class LinearDynamics:
         "xi": the self-excitation of a nonlinear mode."""
         w, damped, xi = point.omega, self._nonzero[0], point.xi
         if parameter == "frequency":
+            masses = self.mass(point)
             out = tuple(None if o == 0 else _combined(M, -2.0 * o**2 * w, None,
                                                       C if d else None, o)
-                        for o, M, C, d in zip(self.orders, self.mass(point), self.C, damped))
+                        for o, M, C, d in zip(self.orders, masses, self.C, damped))
             if xi:  # d/dw of -i n w xi M_n
                 out = tuple(d if o == 0 else d - 1j * o * xi * M
-                            for o, d, M in zip(self.orders, out, self.mass(point)))
+                            for o, d, M in zip(self.orders, out, masses))
             return out
         if parameter == "mass":  # -(n w)^2 M_part, and -i n w xi M_part at a mode's level
             return tuple(None if o == 0 else Mp * (-((o * w) ** 2) - (1j * o * w * xi if xi
