@@ -114,6 +114,15 @@ class Browser:
             "cmd": "Emulation.clearDeviceMetricsOverride", "params": {}})
         return path
 
+    def element_screenshot(self, selector: str, path: Path) -> Path:
+        """The first element matching ``selector``, as it shows now, as a PNG."""
+        element = self._session("POST", "/element", {"using": "css selector",
+                                                     "value": selector})
+        key = next(iter(element))  # the W3C element reference's key
+        path.write_bytes(base64.b64decode(
+            self._session("GET", f"/element/{element[key]}/screenshot")))
+        return path
+
     def __enter__(self) -> Browser:
         return self
 

@@ -81,6 +81,31 @@ def test_the_page_holds_the_runs_status_numbers_and_pictures(run, tmp_path):
         np.testing.assert_allclose(data[0]["series"][0]["y"], scale * c["response"][:, 0],
                                    rtol=1e-6)  # 7 significant digits kept
         assert data[0]["series"][0]["stable"] == [int(s) for s in c["stable"][()]]
+        # each point's hysteresis loop, to the page's 1 % of its span
+        cd = c["contacts/c"]
+        lp = data[0]["series"][0]["loops"][0]
+        step = -(-cd["loop_u"].shape[-1] // len(lp["u"][0]))
+        i = int(np.argmax(c["response"][:, 0]))
+        np.testing.assert_allclose(np.array(lp["T"][i]) * lp["sT"][i] / data[0]["levels"],
+                                   cd["loop_T"][i, 0, ::step], atol=0.006 * lp["sT"][i])
+
+
+def test_the_stored_hysteresis_loops_enclose_the_energy_dissipated(run):
+    """Each point's stored loop (the contact point dissipating most, at the balance's 64
+    samples) encloses the dissipation computed from the harmonic forces: an independent
+    check of its point, its sign and its alignment in time."""
+    path, _ = run
+    with h5py.File(path) as f:
+        cd = f["curve/curve_000/contacts/c"]
+        u, T = cd["loop_u"][:, 0, :].astype(float), cd["loop_T"][:, 0, :].astype(float)
+        work = np.sum(0.5 * (T + np.roll(T, -1, 1)) * (np.roll(u, -1, 1) - u), axis=1)
+        d = cd["dissipation"][()]
+        assert u.shape[1] == f["curve/curve_000"].attrs["samples"] == 64  # every sample
+    slipping = d > 1e-3 * d.max()
+    assert slipping.sum() > 10
+    # the polygon through the samples cuts the loop's stick-slip and lift-off corners, each
+    # by up to a sample (1/64 of the period): 1.7 % measured, hence 3 %
+    np.testing.assert_allclose(work[slipping], d[slipping], rtol=0.03)
 
 
 def test_a_missing_or_broken_results_folder_gives_a_page_that_says_so(tmp_path):
@@ -194,6 +219,12 @@ def test_the_page_in_a_browser(run, tmp_path):
         assert abs(j - i) <= 3 and s["label"] in tip
         assert f"{s['x'][j]:.7g}" in tip and f"{s['y'][j]:.5g}" in tip
         assert "response" in tip and "slipping" in tip
+        # and the contact's hysteresis loop there, its force range as stored
+        lp, levels = s["loops"][0], data["levels"]
+        assert b.run("return document.querySelectorAll('.ms-tip svg.ms-loop').length;") == 1
+        T = np.array(lp["T"][j]) * lp["sT"][j] / levels
+        assert f"{float(f'{T.max():.3g}'):g}" in tip and f"{float(f'{T.min():.3g}'):g}" in tip
+        assert b.element_screenshot(".ms-plot", SHOTS / "page_point.png").stat().st_size > 5_000
         # the legend's box hides the first curve's points, and shows them again
         count = "return document.querySelectorAll(\".ms-pt[data-series='0']\").length;"
         shown = b.run(count)

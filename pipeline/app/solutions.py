@@ -5,6 +5,7 @@ branch's points write of their contacts (states, dissipation, static forces, pat
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -133,9 +134,35 @@ def surfaces(mesh) -> dict[str, np.ndarray]:
     return {body: np.unique(mesh.surface(body)) for body in sorted(mesh.bodies)}
 
 
-def contact_data(r: Response, per_point: list) -> dict:
+#: samples per period of a stored hysteresis loop at most: a picture's, not the balance's
+LOOP_SAMPLES = 64
+
+
+def contact_rows(r: Response) -> tuple[list, list]:
+    """Every contact's evaluation at every point of a branch, without its time histories
+    (a fine grid's would not fit in memory over a branch), and per point and contact its
+    hysteresis loop: (the contact point dissipating most there, u (d, s) [m], T (d, s) [N])
+    at every ``ceil(ns / LOOP_SAMPLES)``-th sample of the period (float32: a picture's)."""
+    per_point, loops = [], []
+    for i in range(len(r)):
+        rows = r.contacts(i, histories=True)
+        loops.append([_loop(x) for x in rows])
+        per_point.append([replace(x, T=None, N=None, u=None, v=None, flags=None)
+                          for x in rows])
+    return per_point, loops
+
+
+def _loop(x) -> tuple[int, np.ndarray, np.ndarray]:
+    p = int(np.argmax(x.dissipation))  # all stuck: the first point
+    step = -(-x.u.shape[-1] // LOOP_SAMPLES)
+    return (p, x.u[p, :, ::step].astype(np.float32), x.T[p, :, ::step].astype(np.float32))
+
+
+def contact_data(r: Response, per_point: list, loops: list | None = None) -> dict:
     """Per contact and point: state, dissipation, slip fraction, static forces (and the
-    names of their columns per contact point)."""
+    names of their columns per contact point); with ``loops`` (:func:`contact_rows`) the
+    hysteresis loop of the point dissipating most (``loop_point``, ``loop_u``,
+    ``loop_T``)."""
     out = {}
     for ci, c in enumerate(r.model.contacts):
         rows = [contacts[ci] for contacts in per_point]
@@ -161,6 +188,10 @@ def contact_data(r: Response, per_point: list) -> dict:
             "columns": np.array(columns if static.shape[1] else [], dtype="S"),
             "undersampled": np.array([x.undersampled.sum() for x in rows]),
         }
+        if loops:
+            out[c.name] |= {"loop_point": np.array([lp[ci][0] for lp in loops]),
+                            "loop_u": np.array([lp[ci][1] for lp in loops]),
+                            "loop_T": np.array([lp[ci][2] for lp in loops])}
     return out
 
 

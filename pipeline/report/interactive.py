@@ -1,7 +1,8 @@
 """The FRFs of a results file as data for the page's interactive plot (report/plot.js):
 per output, every curve's points with what a person asks of one (the parameter, the
-response, its stability, the share of contact points slipping), the linear limits, and the
-points whose contact maps the page shows, by their letters."""
+response, its stability, the share of the period slipping, each contact's hysteresis
+loop where the run stored it), the linear limits, and the points whose contact maps the
+page shows, by their letters."""
 
 from __future__ import annotations
 
@@ -22,15 +23,50 @@ def _finite(values: np.ndarray, digits: int = 7) -> list:
 
 
 def _slip(c: h5py.Group) -> list | None:
-    """Per point the share [%] of every contact's points slipping (their mean), or None."""
+    """Per point the share [%] of the period the contact points slip (their mean over every
+    contact's points), or None."""
     parts = [cd["slip_fraction"][()] for cd in c.get(schema.CONTACTS, {}).values()
              if "slip_fraction" in cd]
     return _finite(100.0 * np.mean(parts, axis=0), 3) if parts else None
 
 
+#: the levels a loop's values are drawn at, per sign: 1 % of its span, a pixel of the
+#: tooltip's 120 px picture
+LOOP_LEVELS = 99
+#: a loop's samples on the page at most (the tooltip's picture, not the balance's period)
+LOOP_SAMPLES = 32
+
+
+def _scaled(v: np.ndarray) -> tuple[list, list]:
+    """(n, s) values as integers in [-LOOP_LEVELS, LOOP_LEVELS] per row and each row's
+    scale (its largest magnitude): a fourth of the JSON of 7-digit numbers."""
+    top = np.max(np.abs(v), axis=1)
+    safe = np.where(top > 0, top, 1.0)
+    ints = np.rint(LOOP_LEVELS * v / safe[:, None]).astype(int)
+    return ints.tolist(), _finite(top, 4)
+
+
+def _loops(c: h5py.Group) -> list[dict] | None:
+    """Per contact its stored hysteresis loops (the first tangential direction), one per
+    point: {contact, unit, u, su, T, sT} (u in unit: m, mm or um; T in N), or None where
+    the run stored none."""
+    out = []
+    for name, cd in sorted(c.get(schema.CONTACTS, {}).items()):
+        if "loop_u" not in cd or not len(cd["loop_u"]):
+            continue
+        step = -(-cd["loop_u"].shape[-1] // LOOP_SAMPLES)
+        u = cd["loop_u"][:, 0, ::step].astype(float)
+        T = cd["loop_T"][:, 0, ::step].astype(float)
+        scale, unit = length_unit([np.max(np.abs(u))])
+        (ui, su), (ti, st) = _scaled(scale * u), _scaled(T)
+        out.append({"contact": name, "unit": unit, "u": ui, "su": su, "T": ti, "sT": st})
+    return out or None
+
+
 def frf_plots(g: h5py.Group, name: str) -> list[dict]:
     """One plot per output of the frf analysis group ``g``: {title, x, y, series: [{label,
-    x, y [unit], stable (1, 0, -1 or null), slip [%] or null, kind: curve | limit}], marks:
+    x, y [unit], stable (1, 0, -1 or null), slip [%] or null, loops (:func:`_loops`) or
+    null, kind: curve | limit}], marks:
     [{letter, x, y [unit], target: the id of the status maps' figure}], unit: m, mm or um
     as the responses' size reads}."""
     par = analysis_spec(g).parameter
@@ -43,10 +79,10 @@ def frf_plots(g: h5py.Group, name: str) -> list[dict]:
                    "x": _finite(c["parameter"][()]),
                    "y": _finite(scale * c["response"][:, k]),
                    "stable": [int(s) for s in c["stable"][()]] if "stable" in c else None,
-                   "slip": _slip(c)} for key, c in members]
+                   "slip": _slip(c), "loops": _loops(c)} for key, c in members]
         series += [{"label": attr_text(lg.attrs.get("label", key)), "kind": "limit",
                     "x": _finite(lg["omega"][()]), "y": _finite(scale * lg["response"][:, k]),
-                    "stable": None, "slip": None}
+                    "stable": None, "slip": None, "loops": None}
                    for key, lg in sorted(g.items()) if schema.is_linear(key)
                    and "response" in lg and par == "frequency"]
         # a map point's letter leads to the contact-status maps (the figure's id)
@@ -54,5 +90,6 @@ def frf_plots(g: h5py.Group, name: str) -> list[dict]:
                   "y": float(scale * p["response"][k]), "target": f"fig-{name}_status"}
                  for letter, _, p in lettered_maps(g) if "response" in p]
         plots.append({"title": f"{name}: {out}", "x": LABELS.get(par, par), "unit": unit,
-                      "y": f"{out}: response [{unit}]", "series": series, "marks": marks})
+                      "y": f"{out}: response [{unit}]", "series": series, "marks": marks,
+                      "levels": LOOP_LEVELS})
     return plots

@@ -51,7 +51,8 @@ def outputs_of(c: h5py.Group) -> list[str]:
 
 
 def _slip_at(c: h5py.Group, i: int) -> str:
-    """The share of each contact's points slipping at point i, as 'name p %'."""
+    """The share of the period each contact slips at point i (the mean over its points), as
+    'name p %'."""
     parts = [f"{name} {100 * cd['slip_fraction'][i]:.0f} %"
              for name, cd in c.get(schema.CONTACTS, {}).items() if "slip_fraction" in cd]
     return ", ".join(parts) or "-"
@@ -80,7 +81,7 @@ def _frf(g: h5py.Group) -> list[Table]:
                          f"{folds} / {bif}"))
     out = [Table("Peaks of the computed curves",
                  ("curve", "status", "points", f"peak [{unit[1]}]", "at",
-                  "slipping at the peak", "folds / bifurcations"), tuple(rows))]
+                  "slipping at the peak [% of the period]", "folds / bifurcations"), tuple(rows))]
     limits = [(attr_text(lg.attrs.get("label", key)), length(np.nanmax(lg["response"][:, 0]), unit),
                num(lg["omega"][int(np.nanargmax(lg["response"][:, 0]))]))
               for key, lg in sorted(g.items()) if schema.is_linear(key) and "response" in lg

@@ -1,7 +1,8 @@
 // microslip report: the interactive FRF plots of a page, in plain JavaScript (no library, no
 // network: the page opens offline). Each <div class="ms-plot"> holds its data as JSON in a
 // <script type="application/json"> child (report/interactive.py). Pointing at a computed
-// point shows its numbers; the legend's boxes hide and show curves; dragging a box zooms in,
+// point shows its numbers and, where the run stored them, each contact's hysteresis loop
+// there; the legend's boxes hide and show curves; dragging a box zooms in,
 // a double click or the button zooms back out; a map point's letter leads to its contact
 // maps. Without JavaScript the page keeps its pictures and tables: this only adds to them.
 (function () {
@@ -53,9 +54,47 @@
       lines.push(s.stable[i] === 1 ? "stable" : s.stable[i] === 0 ? "unstable" :
                  "stability not computed");
     }
-    if (s.slip) { lines.push("contact points slipping: " + fmt(s.slip[i], 3) + " %"); }
+    if (s.slip) { lines.push("slipping: " + fmt(s.slip[i], 3) + " % of the period (contacts' mean)"); }
     lines.push("point " + (i + 1) + " of " + s.x.length);
     return lines;
+  }
+
+  // a contact's hysteresis loop at one point, as a small drawing for the tooltip: the
+  // tangential force against the relative displacement over the period, closed
+  var LW = 170, LH = 120, LM = {l: 44, r: 6, t: 16, b: 26};
+  function loopPicture(data, lp, i) {
+    var su = lp.su[i] / data.levels, sT = lp.sT[i] / data.levels;
+    var u = lp.u[i].map(function (v) { return v * su; });
+    var T = lp.T[i].map(function (v) { return v * sT; });
+    function range(v) {  // the values' span, a flat one widened to be drawn
+      var lo = Math.min.apply(null, v), hi = Math.max.apply(null, v);
+      var pad = hi > lo ? 0 : Math.max(Math.abs(hi), 1e-30);
+      return [lo - pad, hi + pad];
+    }
+    var ur = range(u), Tr = range(T);
+    var box = svg("svg", {width: LW, height: LH, viewBox: "0 0 " + LW + " " + LH,
+                          "class": "ms-loop"}, null);
+    function px(v) { return LM.l + (v - ur[0]) / (ur[1] - ur[0]) * (LW - LM.l - LM.r); }
+    function py(v) { return LH - LM.b - (v - Tr[0]) / (Tr[1] - Tr[0]) * (LH - LM.t - LM.b); }
+    svg("rect", {x: LM.l, y: LM.t, width: LW - LM.l - LM.r, height: LH - LM.t - LM.b,
+                 "class": "ms-frame"}, box);
+    var d = "";
+    u.forEach(function (v, j) {
+      d += (j ? "L" : "M") + px(v).toFixed(1) + " " + py(T[j]).toFixed(1);
+    });
+    svg("path", {d: d + "Z", fill: "none", stroke: "#c03020", "stroke-width": 1.4}, box);
+    svg("text", {x: 2, y: 11}, box).textContent = lp.contact + ": T [N] against u";
+    svg("text", {x: LM.l - 3, y: LM.t + 8, "text-anchor": "end"}, box).textContent =
+      fmt(Tr[1], 3);
+    svg("text", {x: LM.l - 3, y: LH - LM.b, "text-anchor": "end"}, box).textContent =
+      fmt(Tr[0], 3);
+    svg("text", {x: LM.l, y: LH - LM.b + 12, "text-anchor": "start"}, box).textContent =
+      fmt(ur[0], 3);
+    svg("text", {x: LW - LM.r, y: LH - LM.b + 12, "text-anchor": "end"}, box).textContent =
+      fmt(ur[1], 3);
+    svg("text", {x: (LM.l + LW - LM.r) / 2, y: LH - 3, "text-anchor": "middle"}, box)
+      .textContent = "u [" + lp.unit + "]";
+    return box;
   }
 
   function plot(div) {
@@ -137,6 +176,7 @@
         p.textContent = t;
         tip.appendChild(p);
       });
+      (s.loops || []).forEach(function (lp) { tip.appendChild(loopPicture(data, lp, i)); });
       var r = div.getBoundingClientRect();
       tip.style.left = (ev.clientX - r.left + 12) + "px";
       tip.style.top = (ev.clientY - r.top + 12) + "px";

@@ -182,7 +182,12 @@ FRF_CURVE = group(
                 data("slip_fraction", "(n,) share of the period slipping"),
                 data("static_force", "(n, columns) N"),
                 data("columns", "names of static_force's columns (T0, T0_1, T0_2, N0)"),
-                data("undersampled", "(n,) stick arcs within two samples"))),
+                data("undersampled", "(n,) stick arcs within two samples"),
+                data("loop_point", "(n,) the contact point dissipating most at each point "
+                     "(all stuck: the first): whose hysteresis loop is stored"),
+                data("loop_u", "(n, d, s) m float32, its relative tangential displacement "
+                     "over a period (every sample up to 64, else every ceil(ns / 64)-th)"),
+                data("loop_T", "(n, d, s) N float32, its tangential force there"))),
     data("sampling_change", "(n,) where undersampled: first-order relative change of "
          "the response at twice the samples"),
     data("sampling_shift", "(n,) and the shift of the parameter"),

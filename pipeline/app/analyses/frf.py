@@ -49,6 +49,7 @@ from ..running import (
 )
 from ..solutions import (
     contact_data,
+    contact_rows,
     map_groups,
     map_solutions,
     patch_data,
@@ -254,8 +255,8 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
     shown = response_measure(hb.harmonics, coef, measure) if len(r) else amp
     if spec.normalise and len(r):  # per unit of the excitation multiplier
         shown = shown / np.array([r.point(i).excitation for i in range(len(r))])[:, None]
-    per_point = [r.contacts(i) for i in range(len(r))]  # every contact, once per point
-    contacts = contact_data(r, per_point)
+    per_point, loops = contact_rows(r)  # every contact, once per point
+    contacts = contact_data(r, per_point, loops)
     try:
         stability = _stability_data(r, spec, settings(c), idx, progress, which)
     except KeyboardInterrupt:  # the branch is kept, without its stability
