@@ -2,11 +2,13 @@
 fault), then mesh -> reduction -> assembly -> FRF with the linear limits, into results.h5."""
 
 import copy
+from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 from case_helpers import case_faults
+from vtk_layout import layout_faults
 
 from microslip import case as cases
 from microslip import geometry
@@ -218,9 +220,37 @@ def test_the_map_colours_of_the_nodes_equal_their_stored_states(coarse_run):
                 np.testing.assert_array_equal(sg.cell_data["rgb"][cell], rgb)
 
 
+def checked_layouts(monkeypatch) -> dict[str, list[str]]:
+    """Every VTK picture drawn from now on: its layout faults (:func:`layout_faults`) by
+    its file name, taken as it is saved."""
+    import pyvista as pv
+
+    faults, original = {}, pv.Plotter.screenshot
+
+    def screenshot(self, filename=None, *args, **kwargs):
+        faults[Path(str(filename)).name.replace(".tmp", "").lstrip(".")] = \
+            layout_faults(self)
+        return original(self, filename, *args, **kwargs)
+
+    monkeypatch.setattr(pv.Plotter, "screenshot", screenshot)
+    return faults
+
+
+def edge_ink(png: Path) -> bool:
+    """Whether a picture has dark pixels (text, lines) on its outermost 2 pixels: drawn
+    past its edge."""
+    from PIL import Image
+
+    grey = np.asarray(Image.open(png).convert("L"))
+    return bool((np.concatenate([grey[:2].ravel(), grey[-2:].ravel(), grey[:, :2].ravel(),
+                                 grey[:, -2:].ravel()]) < 128).any())
+
+
 def test_render_redraws_the_pictures_from_the_results_file_alone(coarse_run, tmp_path,
                                                                    monkeypatch):
     from PIL import Image
+
+    layouts = checked_layouts(monkeypatch)
 
     # no model may be rebuilt: render reads results.h5 only
     monkeypatch.setitem(geometry.MODELS, "blisk_sector",
@@ -236,15 +266,27 @@ def test_render_redraws_the_pictures_from_the_results_file_alone(coarse_run, tmp
     for name in previews:  # the mesh previews as the run drew them, pixel for pixel
         np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / name)),
                                       np.asarray(Image.open(coarse_run / name)), err_msg=name)
-    # one row of maps (--at: one point per curve), two patches of 300 x 200 pixels
+    # one row of maps (--at: one point per curve), two patches of 300 x 200 pixels, the
+    # title (broken into lines to fit 600 px) and the legend in strips of their own
     w, h = Image.open(tmp_path / "frf_status.png").size
-    # (the title strip is one line per line of the title, broken to fit 600 px: here two)
-    strip = round(200 / 7)
-    assert w == 600 and h - 200 in (2 * strip, 3 * strip)
-    # nothing of the title cut by the picture's edges: its strip's ink keeps off them
-    title = np.asarray(Image.open(tmp_path / "frf_status.png").convert("L"))[:h - 200 - strip]
-    ink = np.flatnonzero((title < 128).any(axis=0))
-    assert ink.size and ink.min() > 2 and ink.max() < w - 3
+    assert w == 600 and 200 + 60 < h < 200 + 200
+    # no text off the picture, out of its strip or over another text or a map, measured
+    # by VTK as each picture is saved; no ink on any picture's edge
+    assert set(layouts) >= {"frf_status.png", "frf_normal_load.png", *previews}
+    assert not any(layouts.values()), layouts
+    assert not [p.name for p in tmp_path.glob("*.png") if edge_ink(p)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("size", ["1400x400", "300x700", "520x420"])
+def test_no_map_or_shape_text_runs_off_or_over_another_at_any_size(coarse_run, tmp_path,
+                                                                    monkeypatch, size):
+    layouts = checked_layouts(monkeypatch)
+    assert main(["render", str(coarse_run), "--out", str(tmp_path), "--size", size,
+                 "--maps", "status,normal_load,shape", "--analysis", "frf"]) == 0
+    assert {"frf_status.png", "frf_normal_load.png", "frf_shape_a.png"} <= set(layouts)
+    assert not any(layouts.values()), layouts
+    assert not [p.name for p in tmp_path.glob("*.png") if edge_ink(p)]
 
 
 def test_the_shapes_at_the_map_points_are_the_solution_on_the_contact_nodes(coarse_run):
@@ -290,17 +332,20 @@ def test_the_full_disk_is_continuous_across_every_sector_boundary(coarse_run):
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * scale)
 
 
-def test_a_shape_picture_is_a_non_blank_png_of_the_asked_size(coarse_run, tmp_path):
+def test_a_shape_picture_is_a_non_blank_png_of_the_asked_size(coarse_run, tmp_path,
+                                                              monkeypatch):
     from PIL import Image
 
+    layouts = checked_layouts(monkeypatch)
     assert main(["render", str(coarse_run), "--out", str(tmp_path), "--maps", "shape",
                  "--size", "400x300"]) == 0
     names = sorted(p.name for p in tmp_path.glob("frf_shape_*.png"))
     assert names == ["frf_shape_a.png", "frf_shape_b.png"]
     image = np.asarray(Image.open(tmp_path / "frf_shape_a.png").convert("RGB"))
-    # two panels of 400 x 300 below a title strip of a ninth of their height
-    assert image.shape == (300 + round(300 / 9), 800, 3)
+    # two panels of 400 x 300 between the title and captions' strips and the colour scale
+    assert image.shape[1:] == (800, 3) and 300 + 100 < image.shape[0] < 300 + 300
     assert (image.min(axis=2) < 200).mean() > 0.05  # a drawn model, not a white page
+    assert layouts["frf_shape_a.png"] == [] and not edge_ink(tmp_path / "frf_shape_a.png")
     # the summary names the surfaces, not as an analysis of no points
     from microslip.results.writer import summary
 

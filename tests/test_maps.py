@@ -90,9 +90,16 @@ def test_an_off_screen_status_map_is_a_png_of_the_asked_size(tmp_path):
     path = maps.status_maps(tmp_path / "status.png", "one map",
                             [[maps.Panel(grid, states, "test")]], panel=panel)
     image = np.asarray(Image.open(path).convert("RGB"))
-    strip = max(1, round(panel[1] / 7))
-    # one column is drawn two panels wide (its title and the legend need the room)
-    assert image.shape == (panel[1] + 2 * strip, 2 * panel[0], 3)
+    from microslip.draw import text
+
+    # one column is drawn two panels wide (its title and the legend need the room); the
+    # title's strip as tall as its line, the legend's as its rows (two at 600 px wide)
+    strip = text.measure("one map", text.TITLE)[1] + 2 * text.GAP
+    rows = len(maps.legend_rows(["stick", "stick-slip", "gross slip", "partial lift-off",
+                                 "open"], 2 * panel[0]))
+    assert rows == 2
+    assert image.shape == (panel[1] + strip + rows * maps.LEGEND_ROW + 2 * text.GAP,
+                           2 * panel[0], 3)
     assert image.std() > 10  # not blank
     open_rgb = np.round(255 * np.array(to_rgb(maps.STATE_COLOURS[OPEN])))
     hits = np.all(np.abs(image[strip: strip + panel[1]] - open_rgb) < 3, axis=-1)

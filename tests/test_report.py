@@ -167,6 +167,27 @@ def test_a_run_writes_its_page_unless_told_not_to(tmp_path):
     assert not (tmp_path / "b" / "report.html").exists()
 
 
+def test_ctrl_c_while_the_page_is_written_keeps_the_results_and_leaves_no_page(
+        tmp_path, monkeypatch, capsys):
+    from microslip import report
+    from microslip.cli.shared import INTERRUPTED
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "write_report", interrupted)
+    case = tmp_path / "c.toml"
+    case.write_text(LINEAR)
+    assert main(["run", str(case), "--out", str(tmp_path / "a"), "--workers", "0"]) == \
+        INTERRUPTED
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "interrupted while writing the page" in err[0]
+    assert "results are complete" in err[0] and "microslip report" in err[0]
+    with h5py.File(tmp_path / "a" / "results.h5") as f:
+        assert f.attrs["status"] == "complete"
+    assert not list((tmp_path / "a").glob("*.html"))
+
+
 #: a linear oscillator's FRF (sampled, no continuation): the quickest run there is
 LINEAR = """title = "a linear oscillator"
 [model]

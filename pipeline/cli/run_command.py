@@ -60,8 +60,8 @@ def run(argv: list[str]) -> int:
             path = run_case(c, out, progress=lambda msg: print(msg, flush=True),
                             cache=not args.no_cache, executor=executor, shared=shared)
             status, message = _report_run(path, out, t)
-            if not args.no_report:
-                _write_page(path)
+            if not args.no_report and not _write_page(path, status):
+                return TERMINATED if received else INTERRUPTED
         except InputError as err:  # found once the mesh exists: before any heavy work
             print(f"microslip run: {args.case}: {err}", file=sys.stderr)
             return 2
@@ -74,7 +74,7 @@ def run(argv: list[str]) -> int:
         except KeyboardInterrupt:  # Terminated too
             why = "terminated (SIGTERM)" if received else "interrupted"
             print(f"microslip run: {why}; the results file keeps what finished, marked "
-                  "partial", file=sys.stderr)
+                  f"partial (`microslip report {out}` writes its page)", file=sys.stderr)
             return TERMINATED if received else INTERRUPTED
     if status == "complete":
         return 0
@@ -85,16 +85,23 @@ def run(argv: list[str]) -> int:
     return 1
 
 
-def _write_page(results: Path) -> None:
+def _write_page(results: Path, status: str) -> bool:
     """The results folder's page (report.html); a page that cannot be written is said in
-    one line, the run's results stand."""
+    one line, the run's results stand. False: the user interrupted it (no page is left
+    half written: it is written whole or not at all)."""
     from microslip.report import write_report
 
+    later = f"`microslip report {results.parent}` writes it later"
     try:
         print(f"wrote {write_report(results, drawn=True)}", flush=True)
     except OSError as err:
         print(f"microslip run: the page report.html was not written ({err}); the results "
-              "are complete as said: microslip report writes it later", file=sys.stderr)
+              f"are {status} as said: {later}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print(f"microslip run: interrupted while writing the page report.html; the results "
+              f"are {status} as said: {later}", file=sys.stderr)
+        return False
+    return True
 
 
 def _run_parser() -> argparse.ArgumentParser:

@@ -6,5 +6,6 @@ plots       line plots: FRFs, peak curves, loops, time histories (matplotlib, of
 maps        contact-status and static-load maps of the patches (pyvista, off screen)
 shapes      deformed sector and full disk at a map point (pyvista)
 previews    the mesh previews: bodies, contact patches, full disk (pyvista)
+text        the pyvista pictures' text: measured, broken into lines to fit, placed in pixels
 files       pictures written whole or not at all
 """

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from microslip.draw import text
 from microslip.draw.files import written
 from microslip.laws.states import (
     GROSS_SLIP,
@@ -266,27 +267,23 @@ class Panel:
     caption: str
 
 
-#: the font size of a map picture's title
-TITLE_SIZE = 11
-
-
-def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int]):
-    """Off-screen plotter: a title strip, rows x cols panels (one column as wide as two:
-    the title and the legend need the room), a legend strip."""
+def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int], bottom: int):
+    """Off-screen plotter: a title strip as tall as the title (broken into lines to fit
+    the width), rows x cols panels (one column as wide as two: the title and the legend
+    need the room), a strip ``bottom`` pixels tall for the legend or the colour scale."""
     import pyvista as pv
 
-    from microslip.draw.previews import fitted, title_strip, vtk_warnings_off
+    from microslip.draw.previews import title_strip, vtk_warnings_off
 
-    strip = max(1, round(panel[1] / 7))
     width = _panel_width(cols, panel) * cols
-    title = fitted(title, width, TITLE_SIZE)  # a narrow picture: the title on more lines
-    top = strip * (title.count("\n") + 1)
-    size = [width, panel[1] * rows + top + strip]
+    title = text.fit(title, width - 2 * text.GAP, text.TITLE)
+    top = text.measure(title, text.TITLE)[1] + 2 * text.GAP
+    size = [width, panel[1] * rows + top + bottom]
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
-                        row_weights=[top] + [panel[1]] * rows + [strip],
+                        row_weights=[top] + [panel[1]] * rows + [bottom],
                         groups=[(0, np.s_[:]), (rows + 1, np.s_[:])], border=False)
-    title_strip(pl, title, TITLE_SIZE)
+    title_strip(pl, title)
     return pl
 
 
@@ -312,10 +309,11 @@ def patch_borders(grid: PatchGrid) -> np.ndarray:
     return np.array(out).reshape(-1, 2, 2)
 
 
-def _outline(pl, grid: PatchGrid) -> None:
-    """The patch outline (black) and its high-radius edge (thick, labelled): a grid's
-    outer row or column at the highest radius; named surfaces' outline edges within a
-    twentieth of the radius range of the highest; averaged points' borders (grey)."""
+def _outline(pl, grid: PatchGrid) -> np.ndarray | None:
+    """The patch outline (black) and its high-radius edge (thick): a grid's outer row or
+    column at the highest radius; named surfaces' outline edges within a twentieth of the
+    radius range of the highest; averaged points' borders (grey). The high-radius edge's
+    points (k, 2) [mm] (None: none found), for its label."""
     import pyvista as pv
 
     borders = patch_borders(grid)
@@ -331,7 +329,6 @@ def _outline(pl, grid: PatchGrid) -> None:
         pts = np.column_stack([ring, np.full(len(ring), 0.01)])
         pl.add_mesh(pv.lines_from_points(pts, close=True), color="black", line_width=2)
         edges = [(c[0], c[-1], c[:, 0], c[:, -1])[grid.high_edge]]
-        flat = c.reshape(-1, 2)
     else:
         xy = 1e3 * grid.cell_plane
         outline = boundary_edges(grid.faces)
@@ -340,19 +337,10 @@ def _outline(pl, grid: PatchGrid) -> None:
         top = r.max() - 0.05 * max(np.ptp(r), 1e-300)
         high = outline[(r[outline] >= top).all(axis=1)]
         edges = [xy[e] for e in high]
-        flat = xy
     for edge in edges:
         e = np.column_stack([edge, np.full(len(edge), 0.02)])
         pl.add_mesh(pv.lines_from_points(e), color=HIGH_RADIUS, line_width=6)
-    if not edges:
-        return
-    size = np.ptp(flat, axis=0).max()
-    mid = np.vstack(edges).mean(axis=0)
-    out = mid - flat.mean(axis=0)
-    at = mid + 0.08 * size * out / max(np.linalg.norm(out), 1e-300)
-    pl.add_point_labels([[*at, 0.03]], ["high radius"], show_points=False, shape=None,
-                        text_color=HIGH_RADIUS, font_size=12, always_visible=True,
-                        justification_horizontal="center")
+    return np.vstack(edges) if edges else None
 
 
 def _segments(xy: np.ndarray, edges: np.ndarray, z: float):
@@ -364,46 +352,86 @@ def _segments(xy: np.ndarray, edges: np.ndarray, z: float):
     return pv.PolyData(pts, lines=lines)
 
 
-FILL = 0.55  # share of a panel's height the patch fills at most (the caption above it)
-FILL_WIDTH = 0.85  # share of a panel's width the patch fills at most
-LOWER = 0.12  # the patch sits this share of the panel's height below its centre (the
-              # caption and the high-radius label above it keep their room)
+FILL = 0.9  # share of the room below the caption the patch fills at most, in height
+FILL_WIDTH = 0.85  # and in width
 
 
-def _view(pl, caption: str, grid: PatchGrid, aspect: float) -> None:
-    """Caption, and the camera on the map plane with the patch filling FILL of the panel,
-    below its centre (``aspect``: the panel's width / height)."""
-    pl.add_text(caption, position="upper_edge", font_size=8, color="black")
+def _view(pl, caption: str, grid: PatchGrid, panel: tuple[int, int],
+          high: np.ndarray | None) -> None:
+    """The caption at the top of the panel (``panel``: its width and height [px]), the
+    camera on the map plane with the patch filling the room below it, and the high-radius
+    edge (``high``: (k, 2) [mm]) labelled just above the patch."""
+    w, h = panel
+    caption = text.fit(caption, w - 2 * text.GAP, text.CAPTION)
+    text.place(pl, caption, 0.5, 1 - text.GAP / h, size=text.CAPTION, v="top")
+    label = text.measure(HIGH_LABEL, text.CAPTION)[1] if high is not None else 0
+    room_top = h - 3 * text.GAP - text.measure(caption, text.CAPTION)[1] - label
+    room = max(room_top - text.GAP, 1)  # [px] from GAP up to room_top
     pl.view_xy()
     pl.enable_parallel_projection()
     pl.reset_camera()
     c = 1e3 * (cell_corners(grid.plane) if grid.structured else grid.cell_plane).reshape(-1, 2)
-    w, h = np.ptp(c, axis=0)
-    scale = 0.5 * max(h / FILL, w / aspect / FILL_WIDTH)  # half the panel's height in mm
-    centre = c.min(axis=0) + 0.5 * np.array([w, h]) + np.array([0.0, 2 * LOWER * scale])
+    lo, (pw, ph) = c.min(axis=0), np.ptp(c, axis=0)
+    mm = max(ph / (FILL * room), pw / (FILL_WIDTH * w), 1e-300)  # [mm / px]
+    # the patch's centre at the room's: the camera's centre that far above or below it
+    centre = lo + 0.5 * np.array([pw, ph]) + np.array([0.0, (h / 2 - (text.GAP + room / 2)) * mm])
     pl.camera.focal_point = (*centre, 0.0)
-    pl.camera.position = (*centre, 10 * max(w, h))
-    pl.camera.parallel_scale = scale
+    pl.camera.position = (*centre, 10 * max(pw, ph))
+    pl.camera.parallel_scale = 0.5 * h * mm
+    if high is not None:  # centred on the edge, just above the patch's top
+        x = 0.5 + (high[:, 0].mean() - centre[0]) / (w * mm)
+        y = 0.5 + (lo[1] + ph - centre[1]) / (h * mm) + text.GAP / h
+        text.place(pl, HIGH_LABEL, x, y, size=text.CAPTION, color=HIGH_RADIUS, v="bottom")
 
 
-def _legend(pl, entries: Sequence[tuple[str, str]]) -> None:
-    """A row of squares with black outlines and black names (VTK's legend writes each name
-    in its entry's colour: white is unreadable on white)."""
+#: the label of a patch's high-radius edge
+HIGH_LABEL = "high radius"
+#: a legend entry's square [px]
+SQUARE = 18
+
+
+def legend_rows(names: Sequence[str], width: int) -> list[list[tuple[int, str]]]:
+    """The legend's entries flowed into rows of ``width`` pixels: per row (x [px] of the
+    entry's square, its index)."""
+    rows, x = [[]], text.GAP
+    for k, name in enumerate(names):
+        w = SQUARE + text.GAP + text.measure(name, text.NAME)[0] + 3 * text.GAP
+        if rows[-1] and x + w > width - text.GAP:
+            rows.append([])
+            x = text.GAP
+        rows[-1].append((x, k))
+        x += w
+    return rows
+
+
+#: pixels of a legend row
+LEGEND_ROW = SQUARE + 2 * text.GAP
+
+
+def _legend(pl, entries: Sequence[tuple[str, str]], width: int, height: int) -> None:
+    """Squares with black outlines and black names (VTK's legend writes each name in its
+    entry's colour: white is unreadable on white), flowed into rows across the strip
+    (``width`` x ``height`` pixels; the camera's unit is the strip's pixel)."""
     import pyvista as pv
 
-    for k, (name, colour) in enumerate(entries):
-        x = 4.0 * k
-        pl.add_mesh(pv.Rectangle([[x, 0, 0], [x + 0.6, 0, 0], [x + 0.6, 0.6, 0]]),
-                    color=colour, show_edges=True, edge_color="black", line_width=1,
-                    lighting=False)
-        pl.add_point_labels([[x + 0.8, 0.3, 0]], [name], show_points=False, shape=None,
-                            text_color="black", font_size=12, always_visible=True,
-                            justification_horizontal="left", justification_vertical="center")
+    rows = legend_rows([n for n, _ in entries], width)
+    top = height - (height - len(rows) * LEGEND_ROW) / 2  # the rows centred in the strip
+    for r, row in enumerate(rows):
+        y = top - (r + 0.5) * LEGEND_ROW  # [px] the row's middle
+        for x, k in row:
+            name, colour = entries[k]
+            y0 = y - SQUARE / 2
+            pl.add_mesh(pv.Rectangle([[x, y0, 0], [x + SQUARE, y0, 0],
+                                      [x + SQUARE, y0 + SQUARE, 0]]),
+                        color=colour, show_edges=True, edge_color="black", line_width=1,
+                        lighting=False)
+            text.place(pl, name, (x + SQUARE + text.GAP) / width, y / height,
+                       size=text.NAME, h="left")
     pl.view_xy()
     pl.enable_parallel_projection()
-    pl.camera.focal_point = (2.0 * len(entries), 0.3, 0.0)
-    pl.camera.position = (2.0 * len(entries), 0.3, 50.0)
-    pl.camera.parallel_scale = 0.9
+    pl.camera.focal_point = (width / 2, height / 2, 0.0)
+    pl.camera.position = (width / 2, height / 2, 100.0)
+    pl.camera.parallel_scale = height / 2
 
 
 def save(pl, path: str | Path) -> Path:
@@ -426,18 +454,43 @@ def status_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]],
     """A PNG of contact-status maps: rows x columns of panels (``values``: (P,) states),
     the legend of the states below them."""
     rows, cols = len(panels), max(len(r) for r in panels)
-    pl = _plotter(title, rows, cols, panel)
+    entries = [(STATE_NAMES[s], colours[s]) for s in range(len(STATE_NAMES))]
+    width = _panel_width(cols, panel) * cols
+    bottom = len(legend_rows([n for n, _ in entries], width)) * LEGEND_ROW + 2 * text.GAP
+    pl = _plotter(title, rows, cols, panel, bottom)
     for i, row in enumerate(panels):
         for j, p in enumerate(row):
             pl.subplot(i + 1, j)
             pl.add_mesh(cells(p.grid, state_rgb(p.values, colours), "rgb"), scalars="rgb",
                         rgb=True, show_edges=p.grid.owner is None, edge_color=CELL_EDGES,
                         lighting=False)
-            _outline(pl, p.grid)
-            _view(pl, p.caption, p.grid, _panel_width(cols, panel) / panel[1])
+            high = _outline(pl, p.grid)
+            _view(pl, p.caption, p.grid, (_panel_width(cols, panel), panel[1]), high)
     pl.subplot(rows + 1, 0)
-    _legend(pl, [(STATE_NAMES[s], colours[s]) for s in range(len(STATE_NAMES))])
+    _legend(pl, entries, width, bottom)
     return save(pl, path)
+
+
+#: pixels of a colour scale's bar and of its labels above it
+BAR, BAR_LABELS = 16, 28
+
+
+def colour_scale(pl, label: str, width: int, height: int, args: dict) -> None:
+    """The colour scale of the current renderer's last scalars across a strip (``width``
+    x ``height`` pixels): a horizontal bar with its labels above, its title below it
+    (VTK puts a horizontal bar's title among its labels); ``args`` are pyvista's scalar
+    bar arguments of the scalars (their colour map and range)."""
+    below = text.measure(label, text.NAME)[1] + 2 * text.GAP
+    bar = {"title": "", "vertical": False, "position_x": 0.15, "width": 0.7,
+           "position_y": below / height, "height": (BAR + BAR_LABELS) / height,
+           "color": "black", "label_font_size": 11, "fmt": "%.4g", "n_labels": 5} | args
+    pl.add_scalar_bar(**bar)
+    text.place(pl, label, 0.5, text.GAP / height, size=text.NAME, v="bottom")
+
+
+def scale_height(label: str) -> int:
+    """Pixels of the strip :func:`colour_scale` draws ``label``'s scale in."""
+    return BAR + BAR_LABELS + text.measure(label, text.NAME)[1] + 4 * text.GAP
 
 
 def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *,
@@ -445,8 +498,11 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
               panel: tuple[int, int] = PANEL) -> Path:
     """A PNG of maps of a force per node pair (``values``: (P,) [N]) on one colour scale
     (shared by every panel, so two distributions compare by colour), its bar below."""
+    import pyvista as pv
+
     rows, cols = len(panels), max(len(r) for r in panels)
-    pl = _plotter(title, rows, cols, panel)
+    bottom = scale_height(label)
+    pl = _plotter(title, rows, cols, panel, bottom)
     values = np.concatenate([np.ravel(p.values) for row in panels for p in row])
     clim = (float(values.min()), float(values.max()))
     if clim[1] <= clim[0]:
@@ -457,17 +513,12 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
             pl.add_mesh(cells(p.grid, p.values, "force"), scalars="force", cmap=cmap,
                         clim=clim, show_edges=p.grid.owner is None, edge_color=CELL_EDGES,
                         lighting=False, show_scalar_bar=False)
-            _outline(pl, p.grid)
-            _view(pl, p.caption, p.grid, _panel_width(cols, panel) / panel[1])
+            high = _outline(pl, p.grid)
+            _view(pl, p.caption, p.grid, (_panel_width(cols, panel), panel[1]), high)
     pl.subplot(rows + 1, 0)
-    import pyvista as pv
-
-    bar = pv.PolyData(np.zeros((1, 3)))  # a hidden carrier of the colour scale
-    bar["force"] = values[:1]
-    # the scale's title under it (VTK puts a horizontal bar's title among its labels)
-    pl.add_mesh(bar, scalars="force", cmap=cmap, clim=clim, opacity=0.0,
-                scalar_bar_args={"title": "", "vertical": False, "position_x": 0.2,
-                                 "position_y": 0.45, "width": 0.6, "height": 0.45,
-                                 "color": "black", "label_font_size": 12, "fmt": "%.4g"})
-    pl.add_text(label, position="lower_edge", font_size=9, color="black")
+    carrier = pv.PolyData(np.zeros((1, 3)))  # a hidden carrier of the colour scale
+    carrier["force"] = values[:1]
+    pl.add_mesh(carrier, scalars="force", cmap=cmap, clim=clim, opacity=0.0,
+                show_scalar_bar=False)
+    colour_scale(pl, label, _panel_width(cols, panel) * cols, bottom, {})
     return save(pl, path)

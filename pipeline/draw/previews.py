@@ -15,6 +15,7 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkCommonCore import vtkObject
 
+from microslip.draw import text
 from microslip.draw.files import written
 from microslip.geometry.mesh import Mesh, rotation_z
 from microslip.geometry.pairing import paired_contact
@@ -24,7 +25,6 @@ from microslip.results.writer import ATTRS, attr_text
 BODY_COLOURS = ("lightsteelblue", "orange", "palegreen", "plum", "khaki")
 PATCH_COLOURS = ("red", "blue", "magenta", "darkgreen")
 WINDOW = (1200, 900)  # pixels of every preview
-TITLE_ROWS = (1, 12)  # heights of the title strip and of the model below it
 
 
 @dataclass(frozen=True)
@@ -177,37 +177,23 @@ def _plotter(title: str) -> pv.Plotter:
     """An off-screen plotter with the title in a strip of its own (a title drawn over the
     model hides part of it, and a tall model runs into it); the model's renderer, below
     the strip, is left active."""
+    title = text.fit(title, WINDOW[0] - 2 * text.GAP, text.TITLE)
+    top = text.measure(title, text.TITLE)[1] + 2 * text.GAP
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=list(WINDOW), shape=(2, 1),
-                        row_weights=TITLE_ROWS, border=False)
-    title_strip(pl, title, 12)
+                        row_weights=[top, WINDOW[1] - top], border=False)
+    title_strip(pl, title)
     pl.subplot(1, 0)
     return pl
 
 
-#: VTK's text: pixels of one character's width per point of font size (measured on its
-#: default Arial: an 85-character title at size 11 is ~860 px wide)
-CHAR_WIDTH = 0.95
-
-
-def fitted(title: str, width: int, font_size: int) -> str:
-    """``title`` broken into lines at spaces so that each fits ``width`` pixels at
-    ``font_size`` (a narrow picture, ``render --size 400x300``, keeps its whole title)."""
-    import textwrap
-
-    per_line = max(10, int(0.96 * width / (CHAR_WIDTH * font_size)))
-    return "\n".join(textwrap.wrap(title, per_line)) if len(title) > per_line else title
-
-
-def title_strip(pl: pv.Plotter, title: str, font_size: int) -> None:
+def title_strip(pl: pv.Plotter, title: str) -> None:
     """White background everywhere and ``title`` centred in the first renderer (the strip
-    a picture keeps for its title; :func:`fitted` breaks a long one into lines)."""
+    a picture keeps for its title, as tall as the title: :func:`text.fit` breaks a long
+    one into lines to fit its width)."""
     pl.set_background("white", all_renderers=True)
     pl.subplot(0, 0)
-    text = pl.add_text(title, position=(0.5, 0.5), viewport=True, font_size=font_size,
-                       color="black")
-    text.prop.justification_horizontal = "center"
-    text.prop.justification_vertical = "center"
+    text.place(pl, title, 0.5, 0.5, size=text.TITLE)
 
 
 def _save(pl: pv.Plotter, path: Path) -> Path:

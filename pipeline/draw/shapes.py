@@ -22,7 +22,8 @@ from microslip.fourier import Harmonics
 from microslip.geometry.mesh import rotation_z
 from microslip.results import schema
 
-from .maps import save
+from . import text
+from .maps import colour_scale, save, scale_height
 
 SCALE_SHARE = 0.08  # the largest displacement drawn as this share of the sector's size
 INSTANTS = 72  # phases tried for the instant of the largest motion (5 degrees apart)
@@ -140,40 +141,51 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
     factor = scale(surfaces, shape, theta)
     disk = shape.sectors > 0
     cols = 2 if disk else 1
-    strip = max(1, round(panel[1] / 9))
+    width = panel[0] * cols
+    title = text.fit(f"{title}\nvibration (orders >= 1) at the instant of largest motion, "
+                     f"drawn x {factor:.3g}", width - 2 * text.GAP, text.TITLE)
+    top = text.measure(title, text.TITLE)[1] + 2 * text.GAP
+    label = "displacement [mm] (true scale)"
+    bottom = scale_height(label)
+    waves = ", ".join(f"order {n}: ND {k:+d}" for n, k in zip(shape.orders,
+                                                               shape.wave_numbers) if n)
+    captions = [text.fit(c, panel[0] - 2 * text.GAP, text.CAPTION) for c in
+                ["sector, every body (undeformed in grey)",
+                 f"full disk, {shape.sectors} sectors ({waves})"][:cols]]
+    high = max(text.measure(c, text.CAPTION)[1] for c in captions) + 2 * text.GAP
     copies = [sector_mesh(surfaces, shape, theta, factor, s)
               for s in range(max(shape.sectors, 1))]
     sector = copies[0]
     values = sector["|u| [mm]"]
     clim = (0.0, float(values.max()) if values.max() > 0 else 1.0)
-    with vtk_warnings_off():
-        pl = pv.Plotter(off_screen=True, window_size=[panel[0] * cols, panel[1] + strip],
-                        shape=(2, cols), row_weights=[strip, panel[1]],
-                        groups=[(0, np.s_[:])], border=False)
-    title_strip(pl, f"{title}\nvibration (orders >= 1) at the instant of largest motion, "
-                    f"drawn x {factor:.3g}", 10)
-    bar = {"title": "displacement [mm] (true scale)", "vertical": False, "position_x": 0.2,
-           "position_y": 0.01, "width": 0.6, "height": 0.06, "color": "black",
-           "title_font_size": 12, "label_font_size": 10, "fmt": "%.3g"}
-    pl.subplot(1, 0)
+    with vtk_warnings_off():  # title, the captions (a row of their own: a model's view
+        # may reach its panel's top), the panels, the colour scale
+        pl = pv.Plotter(off_screen=True,
+                        window_size=[width, top + high + panel[1] + bottom],
+                        shape=(4, cols), row_weights=[top, high, panel[1], bottom],
+                        groups=[(0, np.s_[:]), (3, np.s_[:])], border=False)
+    title_strip(pl, title)
+    for j, caption in enumerate(captions):
+        pl.subplot(1, j)
+        text.place(pl, caption, 0.5, 0.5, size=text.CAPTION)
+    pl.subplot(2, 0)
     for s in surfaces.values():
         pl.add_mesh(_polydata(s, s.points), color="lightgrey", opacity=0.25)
-    pl.add_mesh(sector, scalars="|u| [mm]", cmap="plasma", clim=clim, scalar_bar_args=bar)
-    pl.add_text("sector, every body (undeformed in grey)", position="upper_edge",
-                font_size=9, color="black")
+    pl.add_mesh(sector, scalars="|u| [mm]", cmap="plasma", clim=clim, show_scalar_bar=False)
     points = np.concatenate([s.points for s in surfaces.values()])
     axial_view(pl, points.mean(axis=0), np.ptp(points, axis=0).max())
     pl.reset_camera()
-    pl.camera.zoom(0.8)  # room for the colour bar below a tall sector
     if disk:
-        pl.subplot(1, 1)
+        pl.subplot(2, 1)
         pl.add_mesh(pv.merge(copies), scalars="|u| [mm]", cmap="plasma", clim=clim,
                     show_scalar_bar=False)
-        waves = ", ".join(f"order {n}: ND {k:+d}" for n, k in zip(shape.orders,
-                                                                   shape.wave_numbers) if n)
-        pl.add_text(f"full disk, {shape.sectors} sectors ({waves})", position="upper_edge",
-                    font_size=9, color="black")
         pl.view_xy()
         pl.camera.elevation = -25.0
         pl.reset_camera()
+    pl.subplot(3, 0)
+    carrier = pv.PolyData(np.zeros((1, 3)))  # a hidden carrier of the colour scale
+    carrier["|u| [mm]"] = np.array([clim[0]])
+    pl.add_mesh(carrier, scalars="|u| [mm]", cmap="plasma", clim=clim, opacity=0.0,
+                show_scalar_bar=False)
+    colour_scale(pl, label, width, bottom, {"fmt": "%.3g"})
     return save(pl, path)
