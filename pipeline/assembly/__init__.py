@@ -4,4 +4,6 @@ spec       what couples the bodies: contacts per patch, loads, speed, outputs (d
 join       ``couple``: per-order linear blocks, contact kinematics (neighbour-sector phase
            and rotation), nodal and centrifugal loads
 recovery   the assembly model and its recovery to bodies, patches, nodes and outputs
+annulus    the whole annulus from a sector's reductions at every nodal diameter, tuned or
+           mistuned blade by blade (real coordinates)
 """
