@@ -210,6 +210,7 @@ def craig_bampton(
     eigen_method: str = "block",
     loads: Mapping[str, NDArray] | None = None,
     averaged: AveragedMasters | None = None,
+    region_dofs: Sequence[int] | IntArray = (),
 ) -> ReducedModel:
     """Craig-Bampton reduction of a sector model (one body, one ND).
 
@@ -230,11 +231,14 @@ def craig_bampton(
         coordinates are W u, the static modes the least-energy fields with W u = e_j (and
         W u = 0 for the nodes' columns), the fixed-interface modes those with W u = 0
         (``linalg.ConstrainedFactor``); a force on them reaches the nodes as W^H f.
+    region_dofs: (n_b,) body DOFs of a region whose stiffness may deviate (a mistuned
+        blade's): the basis rows there are kept (``ReducedModel.region``).
     All inputs are checked before any factorization.
     """
     part = _partition(model, master_nodes, n_modes, recovery_nodes, patches, backend, cutoff,
                       f_max, eigen_method, averaged)
     loads = check_loads(model, loads)
+    region_dofs = _check_region(model, region_dofs)
     t0 = time.perf_counter()
     factor, W_m = _slave_factor(model, part)
     t1 = time.perf_counter()
@@ -246,6 +250,7 @@ def craig_bampton(
     k_red, m_red = _reduced_matrices(part, Psi, lam, Phi)
     R = _recovery(model, part, Psi, Phi)
     reduced_loads = _reduced_loads(model, part, Psi, Phi, loads)
+    region = _basis_rows(part, model.expansion[region_dofs], Psi, Phi)
     t4 = time.perf_counter()
     if timings is not None:
         timings.update(factorize=t1 - t0, static_modes=t2 - t1, eigen=t3 - t2,
@@ -268,8 +273,10 @@ def craig_bampton(
         damping_spec=damping,
         key=reduction_key(model, "craig-bampton", part.masters, n_modes, part.recovery,
                           part.patches, cutoff, f_max, loads,
-                          averaged.digest if averaged is not None else ""),
+                          averaged.digest if averaged is not None else "", region_dofs),
         loads=reduced_loads,
+        region_dofs=region_dofs,
+        region=region,
     )
 
 
@@ -431,17 +438,35 @@ def _recovery(model: cyclic.SectorModel, part: _Partition, Psi: NDArray, Phi: ND
               ) -> NDArray:
     """(p, 3, r) the recovery rows: u_body = P u_free, u_free[m] = q_m, u_free[s] = Psi q_m
     + Phi eta."""
-    n_c = part.n_c
-    r = n_c + Phi.shape[1]
     if not len(part.recovery):
-        return np.zeros((0, 3, r), dtype=part.dtype)
-    rows = recovery_rows(model, part.recovery)
-    R = np.zeros((rows.shape[0], r), dtype=np.result_type(part.dtype, rows.dtype))
+        return np.zeros((0, 3, part.n_c + Phi.shape[1]), dtype=part.dtype)
+    R = _basis_rows(part, recovery_rows(model, part.recovery), Psi, Phi)
+    return R.reshape(len(part.recovery), 3, -1)
+
+
+def _basis_rows(part: _Partition, rows: sp.spmatrix, Psi: NDArray, Phi: NDArray) -> NDArray:
+    """(k, r) the reduction basis' rows of body DOFs: ``rows`` (k, n_f) their rows of the
+    expansion P, times T = [masters: I; slaves: Psi, Phi]."""
+    n_c = part.n_c
+    R = np.zeros((rows.shape[0], n_c + Phi.shape[1]),
+                 dtype=np.result_type(part.dtype, rows.dtype))
+    if not rows.shape[0]:
+        return R
     R[:, part.cols] = rows[:, part.m_idx].toarray()
     Rs = rows[:, part.s_idx]
     R[:, :n_c] += Rs @ Psi
     R[:, n_c:] = Rs @ Phi
-    return R.reshape(len(part.recovery), 3, r)
+    return R
+
+
+def _check_region(model: cyclic.SectorModel, region_dofs) -> IntArray:
+    """The region's body DOFs, sorted and checked (ValueError naming the first bad one)."""
+    dofs = np.unique(np.asarray(region_dofs, dtype=np.int64))
+    bad = dofs[(dofs < 0) | (dofs >= model.body.n_dofs)]
+    if len(bad):
+        raise ValueError(f"region_dofs: {int(bad[0])} is not a DOF of body "
+                         f"{model.body.body!r} (0..{model.body.n_dofs - 1})")
+    return dofs
 
 
 def _reduced_loads(model: cyclic.SectorModel, part: _Partition, Psi: NDArray, Phi: NDArray,

@@ -72,6 +72,10 @@ class ReducedModel:
         virtual work). "centrifugal" (``CENTRIFUGAL``): per unit Omega^2, N/(rad/s)^2 on the
         master DOFs (the modal entries in the units of the mass-normalised modes), present at
         ND 0 of a cyclic body and for a body without cyclic symmetry.
+    region_dofs: (n_b,) body DOFs of a region whose stiffness may deviate (a mistuned
+        blade; empty: none); region: (n_b, r) the rows of the basis there, u[region_dofs] =
+        region @ q (the cyclic expansion included: a right-face DOF's row carries its
+        phase), what an annulus projects the region's stiffness with.
     key: content hash of everything that produced the reduction (the damping spec is a
         separate field, applied without re-reducing). A mass study scales the mass by a
         multiplier in the harmonic balance (``LinearDynamics.mass``): exact, since re-reducing
@@ -94,6 +98,8 @@ class ReducedModel:
     damping_spec: Damping | None = None
     key: str = ""
     loads: Mapping[str, NDArray] = field(default_factory=dict)
+    region_dofs: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    region: NDArray = field(default_factory=lambda: np.zeros((0, 0)))
 
     # --- sizes and maps the harmonic balance needs ---------------------------------------
 
@@ -213,6 +219,9 @@ class ReducedModel:
         lg = g.create_group("loads")
         for name, vector in self.loads.items():
             lg.create_dataset(name, data=np.asarray(vector))
+        if len(self.region_dofs):  # (only where there is one: older files have none)
+            g.create_dataset("region_dofs", data=np.asarray(self.region_dofs, np.int64))
+            g.create_dataset("region", data=np.asarray(self.region))
         g.attrs["format_version"] = FORMAT_VERSION
         g.attrs["body"] = self.body
         g.attrs["method"] = self.method
@@ -239,6 +248,8 @@ class ReducedModel:
                 "mode_frequencies", "recovery_nodes", "recovery")}
             patches = {name: g["patches"][name][()] for name in g["patches"]}
             loads = {name: g["loads"][name][()] for name in g["loads"]}
+            if "region_dofs" in g:
+                arrays |= {"region_dofs": g["region_dofs"][()], "region": g["region"][()]}
             spec = json.loads(g.attrs["damping"])
             nd, ns = int(g.attrs["nodal_diameter"]), int(g.attrs["sectors"])
             return cls(
@@ -283,17 +294,21 @@ def reduction_key(
     f_max: float | None = None,
     loads: Iterable[str] = (),
     averaged_digest: str = "",
+    region_dofs: IntArray = (),
 ) -> str:
     """Content hash of the inputs of a reduction (mesh, body, material, order, constraints,
     ND, masters, modes, recovery nodes, patches, names of the projected loads, format
-    version; ``averaged_digest``: that of the averaged masters, ``AveragedMasters.digest``).
+    version; ``averaged_digest``: that of the averaged masters, ``AveragedMasters.digest``;
+    ``region_dofs``: a mistuned region's DOFs, whose basis rows are kept).
     Load vectors enter by name only: those ``reduce_body`` projects are functions of mesh,
     body, material and order, already in the hash."""
     body = model.body
     key = model_key(body.mesh_hash, body.body, body.order, body.material, model.clamped_nodes,
                model.nodal_diameter, method, master_nodes, n_modes, recovery_nodes, patches,
                cutoff, f_max, loads, model.supports)
-    return _hash([key, averaged_digest]) if averaged_digest else key
+    key = _hash([key, averaged_digest]) if averaged_digest else key
+    # (a region enters only where there is one: the keys of models without stay as they were)
+    return _hash([key, _nodes_digest(region_dofs)]) if len(region_dofs) else key
 
 
 def model_key(mesh_hash: str, body: str, order: int, material: Material, clamped: IntArray,
