@@ -55,6 +55,19 @@ def _pair_transform(m: int) -> np.ndarray:
     return np.block([[eye, 1j * eye], [eye, -1j * eye]]) / np.sqrt(2.0)
 
 
+def as_real(A: np.ndarray, what: str) -> np.ndarray:
+    """The real part of an annulus quantity whose imaginary part the conjugate ND pairs
+    cancel (ValueError where they do not: reductions that are not each other's
+    conjugates)."""
+    A = np.asarray(A)
+    scale = max(float(np.abs(A).max()), 1e-300) if A.size else 1.0
+    imag = float(np.abs(A.imag).max()) / scale if A.size else 0.0
+    if imag > 1e-10:
+        raise ValueError(f"annulus: the {what} is not real ({imag:.1e} of its size): the "
+                         "reductions are not conjugate-consistent")
+    return np.ascontiguousarray(A.real)
+
+
 @dataclass(frozen=True, eq=False)
 class Annulus:
     """The annulus of ``sectors`` sectors from its sector's reductions ``nd`` (ND 0 ..
@@ -99,7 +112,7 @@ class Annulus:
         travelling pair)."""
         out, at = {}, self.sectors * self.n_master
         for h in range(self.sectors // 2 + 1):
-            width = self.n_modes(h) * (1 if self._standing(h) else 2)
+            width = self.n_modes(h) * (1 if self.standing(h) else 2)
             out[h] = slice(at, at + width)
             at += width
         return out
@@ -108,7 +121,8 @@ class Annulus:
     def n(self) -> int:
         return self.modal_slices[self.sectors // 2].stop
 
-    def _standing(self, h: int) -> bool:
+    def standing(self, h: int) -> bool:
+        """Whether ND h's waves stand (h = 0, N/2: real matrices, its coordinates real)."""
         return h == 0 or 2 * h == self.sectors
 
     def _turn(self, s: int) -> np.ndarray:
@@ -127,7 +141,7 @@ class Annulus:
             T[:nm, s * nm:(s + 1) * nm] = np.exp(-1j * h * s * phi) * self._turn(s).T
         T[:nm] /= np.sqrt(N)
         m, cols = self.n_modes(g), self.modal_slices[g]
-        if self._standing(g):
+        if self.standing(g):
             T[nm:, cols] = np.eye(m)
         else:  # eta_h = (a + i b) / sqrt 2, eta_{N-h} its conjugate
             sign = 1.0 if h == g else -1.0
@@ -139,20 +153,12 @@ class Annulus:
         A = getattr(self.nd[g], which)
         return A if h == g else A.conj()
 
-    def _real(self, A: np.ndarray, what: str) -> np.ndarray:
-        scale = max(float(np.abs(A).max()), 1e-300)
-        imag = float(np.abs(A.imag).max()) / scale
-        if imag > 1e-10:  # the conjugate pairs cancel it: a wrong basis does not
-            raise ValueError(f"annulus: the {what} is not real ({imag:.1e} of its size): "
-                             "the reductions are not conjugate-consistent")
-        return np.ascontiguousarray(A.real)
-
     def _assembled(self, which: str) -> np.ndarray:
         out = np.zeros((self.n, self.n), dtype=complex)
         for h in range(self.sectors):
             T = self.to_nd(h)
             out += T.conj().T @ self._nd_matrix(h, which) @ T
-        return self._real(0.5 * (out + out.conj().T), which)
+        return as_real(0.5 * (out + out.conj().T), which)
 
     @cached_property
     def stiffness(self) -> np.ndarray:
@@ -194,7 +200,7 @@ class Annulus:
             S[t * nm:(t + 1) * nm, src * nm:(src + 1) * nm] = back
         for h, cols in self.modal_slices.items():
             m = self.n_modes(h)
-            if self._standing(h):  # exp(i h s phi) = +-1
+            if self.standing(h):  # exp(i h s phi) = +-1
                 S[cols, cols] = np.cos(h * s * phi) * np.eye(m)
             else:  # a + i b turned by h s phi
                 c, sn = np.cos(h * s * phi), np.sin(h * s * phi)
@@ -211,7 +217,7 @@ class Annulus:
             g = h if 2 * h <= N else N - h
             W = self._region(g) if h == g else self._region(g).conj()
             out += np.exp(1j * h * s * phi) * (W @ self.to_nd(h))
-        return self._real(out / np.sqrt(N), "region's motion")
+        return as_real(out / np.sqrt(N), "region's motion")
 
     def _region(self, h: int) -> np.ndarray:
         W = self.nd[h].region

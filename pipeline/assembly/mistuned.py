@@ -1,0 +1,153 @@
+"""The whole bladed disk, tuned or mistuned, as the reduced bodies of the full disk
+(``geometry.full_disk``'s names: a cyclic body one body of every sector, another body N
+copies "<body>#s", patches and node sets "<name>#s"), built from the sector's reductions at
+every nodal diameter (``annulus.Annulus``) without the full disk's FE model: what ``join``
+couples into the harmonic balance with every sector's contacts present, and the case's
+spec on every sector (the engine order's phase on each sector's loads, each sector's
+outputs)."""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from microslip.fe.reduced_model import CENTRIFUGAL, ReducedModel
+from microslip.geometry.full_disk import disk_node_map, sector_count
+from microslip.geometry.mesh import Mesh, rotation_z
+
+from .annulus import Annulus, SectorND, as_real
+from .spec import AssemblySpec, NodalLoad, Output
+
+
+@dataclass(frozen=True, eq=False)
+class Mistuning:
+    """Blade-to-blade mistuning of a cyclic body: sector s's region (``ReducedModel.region_dofs``
+    of every ND's reduction) stiffer by ``deviation[s]`` (a fraction: -0.03 is 3 % softer);
+    ``region_stiffness``: (n_b, n_b) [N/m] the region's stiffness on those DOFs (its
+    Young's modulus' share: K(2E) - K(E) over the region's elements)."""
+
+    body: str
+    deviation: tuple[float, ...]
+    region_stiffness: np.ndarray
+
+    def __post_init__(self):
+        d = np.asarray(self.deviation, dtype=float)
+        if d.ndim != 1 or not np.all(np.isfinite(d)) or np.any(d <= -1):
+            raise ValueError(f"mistuning.deviation = {self.deviation!r}: finite fractions > -1 "
+                             "(one per sector)")
+
+
+def annulus_bodies(sector: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
+                   mistuning: Mistuning | None = None) -> dict[str, dict[int, ReducedModel]]:
+    """The full disk's reduced bodies (name -> {0: model}) from the sector's (body -> ND
+    -> model; a cyclic body reduced at every ND 0 .. N/2)."""
+    N = sector_count(sector)
+    node_map = disk_node_map(sector)
+    if mistuning is not None and mistuning.body not in sector.cyclic:
+        raise ValueError(f"mistuning.body = {mistuning.body!r}: not a cyclic body of the "
+                         f"mesh; it has {sorted(sector.cyclic)}")
+    out = {}
+    for body, per_nd in models.items():
+        if body in sector.cyclic:
+            own = mistuning if mistuning is not None and mistuning.body == body else None
+            out[body] = {0: _annulus_body(body, per_nd, N, node_map, own)}
+        else:
+            m = per_nd[min(per_nd)]
+            for s in range(N):
+                out[f"{body}#{s}"] = {0: _turned_copy(m, f"{body}#{s}", s, N, node_map)}
+    return out
+
+
+def annulus_spec(spec: AssemblySpec, sectors: int, cyclic_bodies: Sequence[str]
+                 ) -> AssemblySpec:
+    """The sector's spec on every sector of the full disk: each patch's contacts, each
+    load with the engine order's phase ``harmonic EO s phi`` on sector s, each output per
+    sector ("<name>#s"), the centrifugal and mass bodies' copies."""
+    phi = 2.0 * np.pi / sectors
+    every = range(sectors)
+
+    def bodies(names):
+        return tuple(b if b in cyclic_bodies else f"{b}#{s}" for b in names for s in every
+                     if b not in cyclic_bodies or s == 0)
+
+    return replace(
+        spec,
+        contacts=tuple(replace(c, patch=f"{c.patch}#{s}") for s in every
+                       for c in spec.contacts),
+        loads=tuple(NodalLoad(f"{x.node_set}#{s}", x.direction, x.amplitude, x.harmonic,
+                              x.phase + x.harmonic * spec.engine_order * s * phi, x.spread)
+                    for s in every for x in spec.loads),
+        outputs=tuple(Output(f"{o.name}#{s}", f"{o.node_set}#{s}", o.direction)
+                      for s in every for o in spec.outputs),
+        centrifugal=bodies(spec.centrifugal), mass_bodies=bodies(spec.mass_bodies))
+
+
+def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
+                  node_map: np.ndarray, mistuning: Mistuning | None) -> ReducedModel:
+    missing = [h for h in range(N // 2 + 1) if h not in per_nd]
+    if missing:
+        raise ValueError(f"body {body!r}: the annulus needs its reduction at every nodal "
+                         f"diameter 0..{N // 2}; missing {missing}")
+    first = per_nd[0]
+    for h, m in per_nd.items():
+        if not np.array_equal(m.master_nodes, first.master_nodes):
+            raise ValueError(f"body {body!r}: ND {h} has other master nodes than ND 0")
+    regions = mistuning is not None
+    a = Annulus(N, {h: SectorND(per_nd[h].stiffness, per_nd[h].mass,
+                                per_nd[h].region if regions else None)
+                    for h in range(N // 2 + 1)}, first.n_masters)
+    K = a.stiffness
+    if mistuning is not None:
+        if len(mistuning.deviation) != N:
+            raise ValueError(f"mistuning.deviation: {len(mistuning.deviation)} values for "
+                             f"{N} sectors")
+        K = a.mistuned_stiffness(mistuning.deviation, a.region_energy(
+            np.asarray(mistuning.region_stiffness)))
+    turns = [rotation_z(s * a.phi) for s in range(N)]
+    loads = {}
+    if CENTRIFUGAL in first.loads:  # the same on every sector: ND 0's, its work N times
+        loads[CENTRIFUGAL] = as_real(np.sqrt(N) * (a.to_nd(0).conj().T
+                                                   @ first.loads[CENTRIFUGAL]),
+                                     "centrifugal load")
+    modes = np.concatenate([np.tile(per_nd[h].mode_frequencies, 1 if a.standing(h) else 2)
+                            for h in range(N // 2 + 1)])
+    return ReducedModel(
+        body=body, method="annulus", stiffness=K, mass=a.mass,
+        master_nodes=np.concatenate([node_map[s, first.master_nodes] for s in range(N)]),
+        master_coordinates=np.concatenate([first.master_coordinates @ R.T for R in turns]),
+        n_modes=a.n - N * first.n_masters, mode_frequencies=modes,
+        recovery_nodes=np.zeros(0, dtype=np.int64), recovery=np.zeros((0, 3, a.n)),
+        patches={f"{p}#{s}": node_map[s, nodes] for p, nodes in first.patches.items()
+                 for s in range(N)},
+        damping_spec=first.damping_spec, loads=loads,
+        key=_key([per_nd[h].key for h in sorted(per_nd)], mistuning))
+
+
+def _turned_copy(m: ReducedModel, name: str, s: int, N: int, node_map: np.ndarray
+                 ) -> ReducedModel:
+    """A body without cyclic symmetry copied into sector s: its masters' coordinates
+    turned by R(s phi) (global frame), its modes as they are."""
+    R = rotation_z(2.0 * np.pi * s / N)
+    T = np.eye(m.size)
+    T[:m.n_masters, :m.n_masters] = np.kron(np.eye(len(m.master_nodes)), R)
+    return replace(
+        m, body=name, stiffness=T @ m.stiffness @ T.T, mass=T @ m.mass @ T.T,
+        master_nodes=node_map[s, m.master_nodes],
+        master_coordinates=m.master_coordinates @ R.T,
+        recovery_nodes=node_map[s, m.recovery_nodes],
+        recovery=np.einsum("ij,pjr,kr->pik", R, m.recovery, T) if len(m.recovery_nodes)
+        else np.zeros((0, 3, m.size)),
+        patches={f"{p}#{s}": node_map[s, nodes] for p, nodes in m.patches.items()},
+        loads={k: T @ v for k, v in m.loads.items()},
+        key=_key([m.key, str(s)], None))
+
+
+def _key(parts: Sequence[str], mistuning: Mistuning | None) -> str:
+    h = hashlib.sha256("|".join(parts).encode())
+    if mistuning is not None:
+        h.update(np.asarray(mistuning.deviation, dtype=float).tobytes())
+        h.update(np.ascontiguousarray(mistuning.region_stiffness, dtype=float).tobytes())
+    return h.hexdigest()
