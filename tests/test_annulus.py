@@ -162,7 +162,7 @@ def test_a_soft_blade_localizes_as_the_closed_form_of_a_mono_coupled_chain():
 
 
 def test_no_mistuning_pattern_amplifies_beyond_whiteheads_bound():
-    """The largest blade response over a frequency window, mistuned against tuned, for 40
+    """The largest blade response over a frequency window, mistuned against tuned, for 15
     random patterns at each of three spreads: never above (1 + sqrt N) / 2 (Whitehead,
     1966: the bound of one mode family); and some patterns amplify (the test could fail)."""
     N, eo = 12, 3
@@ -176,7 +176,7 @@ def test_no_mistuning_pattern_amplifies_beyond_whiteheads_bound():
     rng = np.random.default_rng(11)
     factors = []
     for sigma in (0.005, 0.02, 0.08):
-        for _ in range(40):
+        for _ in range(15):
             K = a.mistuned_stiffness(rng.normal(0.0, sigma, N), E0)
             factors.append(_blade_tip_peak(a, K, C, f) / tuned)
     assert max(factors) <= (1 + np.sqrt(N)) / 2
@@ -191,10 +191,10 @@ def _tip_force(a: Annulus, s: int) -> np.ndarray:
 
 def _blade_tip_peak(a, K, C, f) -> float:
     """The largest tip amplitude over the blades and a window about the blade-dominated
-    family (4.91-5.50 rad/s tuned: the second of the lumped sector's three), 400
-    frequencies."""
+    family (4.91-5.50 rad/s tuned: the second of the lumped sector's three), 250
+    frequencies (a step of 1/4 of a peak's half-power width at 0.2 % damping)."""
     tips = np.array([a.region_motion(s)[2] for s in range(a.sectors)])
-    w = np.linspace(4.7, 5.7, 400)
+    w = np.linspace(4.7, 5.7, 250)
     peak = 0.0
     for wk in w:
         z = np.linalg.solve(K + 1j * wk * C - wk**2 * a.mass, f)

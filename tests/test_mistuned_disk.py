@@ -72,7 +72,8 @@ def test_the_full_disks_spec_puts_the_sectors_contacts_loads_and_outputs_on_ever
     assert s.centrifugal == tuple(f"damper#{k}" for k in range(NS))
 
 
-@pytest.mark.parametrize("eo", [1, 5])  # ND 1 forward, and backward (conjugated matrices)
+@pytest.mark.parametrize("eo", [5, pytest.param(1, marks=pytest.mark.slow)])  # ND 1
+# backward (conjugated matrices), and forward
 @pytest.mark.parametrize("mu, amplitude, tol", [
     # stuck: the same linear system seen through the same bases, measured 1e-12
     (1e4, 1.0, 1e-8),
@@ -82,7 +83,7 @@ def test_the_full_disks_spec_puts_the_sectors_contacts_loads_and_outputs_on_ever
     # damper's mean contact forces by 6 %, measured), and sector s of the whole disk starts
     # its march EO s phi later in its own cycle than the sector model does: the travelling
     # wave is not an exact solution of the sampled whole disk (issue 43's notes)
-    (0.5, 15.0, 1e-4)])
+    pytest.param(0.5, 15.0, 1e-4, marks=pytest.mark.slow)])
 def test_the_tuned_whole_disk_is_the_cyclic_sector_on_every_blade(sector, whole, eo, mu,
                                                                     amplitude, tol):
     """Every blade's tip (static and first harmonic) against the cyclic sector's at three

@@ -81,8 +81,9 @@ def _cb_errors(model, masters, selections):
 #   default "auto" (cut-off 4 x the 10th fixed-interface frequency, 69-85 modes):
 #             4.1e-4 3.2e-4 3.1e-4 3.5e-4
 # The error follows (f_10 / f_cut)^2: a fixed count of 30 gives 0.1 % only on the first five.
-# ND 2 repeats what ND 1 (complex) and ND 3 (real, the other end) check: slow.
-@pytest.mark.parametrize("h", [0, 1, pytest.param(2, marks=pytest.mark.slow), 3])
+# ND 0 and 2 repeat what ND 1 (complex) and ND 3 (real, the other end) check: slow.
+@pytest.mark.parametrize("h", [pytest.param(0, marks=pytest.mark.slow), 1,
+                               pytest.param(2, marks=pytest.mark.slow), 3])
 def test_craig_bampton_default_within_a_tenth_of_a_percent(disk, h):
     errors, counts = _cb_errors(_sector(disk, h), disk[2], (10, 30, reduced_model.DEFAULT_MODES))
     assert reduced_model.DEFAULT_MODES == "auto" and counts[-1] > 30
@@ -436,7 +437,9 @@ def test_block_eigensolver_stops_at_an_unreachable_tolerance(disk):
         eigen.lowest_modes(model.stiffness, model.mass, 10, tol=1e-17)
 
 
-@pytest.mark.parametrize("k", [42, 45, 80])
+# (45: the count that stopped; 42 and 80 repeat it with fewer and more restarts: slow)
+@pytest.mark.parametrize("k", [pytest.param(42, marks=pytest.mark.slow), 45,
+                               pytest.param(80, marks=pytest.mark.slow)])
 def test_block_eigensolver_converges_past_many_restarts(disk, k):
     """Many modes of a small sector take several thick restarts; the residuals must keep
     falling through them (they grew ~3x per restart while M Z was carried by recurrence after

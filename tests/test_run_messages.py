@@ -189,7 +189,8 @@ def stiff():
     return jenkins_oscillator(H=5, n_samples=1024, kt=1e4, P=0.1)
 
 
-@pytest.mark.parametrize("w", [0.9, 1.1])
+@pytest.mark.parametrize("w", [pytest.param(0.9, marks=pytest.mark.slow), 1.1])  # (below
+# the resonance the same ramp: slow)
 def test_a_failed_cold_start_is_reached_by_an_excitation_ramp(stiff, w):
     p = OperatingPoint(w)
     cold = solve_point(stiff, p, retry=False)

@@ -223,6 +223,7 @@ def test_a_task_that_raises_is_a_failed_curve_not_retried(cluster):
     assert after["erred"] - before.get("erred", 0) == 1
 
 
+@pytest.mark.slow  # (the local cluster's test gives the same numbers through the same code)
 def test_a_cluster_by_address_gives_the_serial_numbers(serial, cluster, tmp_path, capsys):
     address = cluster._cluster.scheduler_address  # as if started by `dask scheduler`
     before = scheduled(cluster.client)
