@@ -46,7 +46,7 @@ def _run_on_tmpfs(tmp_path: Path, size: str) -> tuple[subprocess.CompletedProces
     return done, str(out)
 
 
-@pytest.mark.parametrize("size", ["300k", "700k"])
+@pytest.mark.parametrize("size", [pytest.param("300k", marks=pytest.mark.slow), "700k"])
 def test_a_disk_that_fills_keeps_what_finished_in_one_line(tmp_path, size):
     """The main job on a small disk (it writes ~1.1 MB): the run stops where the disk
     filled, says so in one line naming the folder and the space it had, exit 1; results.h5
@@ -100,6 +100,7 @@ def test_a_second_run_into_a_folder_in_use_is_refused(tmp_path, capsys):
         FolderLock(out).__enter__()
 
 
+@pytest.mark.slow  # (two processes, 6 s: the lock itself is held in process by the test above)
 def test_two_runs_at_once_one_is_refused_and_the_other_complete(tmp_path):
     """Two `microslip run` processes into one folder: the one that comes second is refused
     (exit 2, one line); the first completes and its results file reads."""
