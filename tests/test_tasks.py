@@ -383,6 +383,8 @@ FAMILY_TOML = STUDY_TOML.split("[[analysis]]")[0].replace("samples = 128", """sa
     """)
 
 
+@pytest.mark.slow  # (7 s: a cluster of two started and stopped; Ctrl-C and a lost worker
+# keep what finished in the fast tests of the serial run and of the lost worker)
 def test_ctrl_c_on_a_cluster_keeps_every_finished_curve(tmp_path):
     (tmp_path / "family.toml").write_text(FAMILY_TOML)
     out = tmp_path / "o"
