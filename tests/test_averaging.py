@@ -109,6 +109,7 @@ def test_static_condensation_equals_the_constrained_unreduced_model(fine):
     np.testing.assert_allclose(red.master_coordinates, mesh.points[ids], atol=1e-15)
 
 
+@pytest.mark.slow  # (a convergence study: 3.7 s of the fast suite)
 def test_free_vibration_frequencies_converge_to_the_unreduced_model(fine):
     """The masters free, the reduced model's lowest frequencies are the unreduced model's
     within the Craig-Bampton error of the default cut-off (< 0.1 % on the first ten, see

@@ -71,6 +71,7 @@ def test_natural_sweep_stops_where_the_solution_set_ends():
     assert -1e-5 <= b.values[-1] <= 1e-12
 
 
+@pytest.mark.slow  # (Fig. 24's folds stay fast: test_fig24_natural_sweeps_jump_at_both_folds)
 def test_softening_fold_of_the_variable_normal_load_oscillator():
     """Firrone & Zucca Fig. 8 / 24: a preload that lets the contact open softens the peak
     into a fold; arclength follows it, natural continuation cannot."""

@@ -168,9 +168,9 @@ def test_old_factors_are_reused_until_slow_then_refreshed():
     assert pc.refreshes == 2 or pc.iterations - before <= jacobian.REFRESH_ITERATIONS
 
 
-@pytest.mark.parametrize("model", ["grid, disjoint, cyclic", pytest.param(
-    "grid, shared nodes, real", marks=pytest.mark.slow)])  # (shared nodes: the products'
-# and solves' own tests hold them fast)
+@pytest.mark.slow  # (a whole sweep each, 3.7 s: the structured products, solves and signs
+# against the dense matrix are fast tests of their own)
+@pytest.mark.parametrize("model", ["grid, disjoint, cyclic", "grid, shared nodes, real"])
 def test_continuation_with_structured_solves_follows_the_dense_branch(model, monkeypatch):
     """The same arclength sweep through the resonance, every Newton step by GMRES or by a
     dense LU: the same points (the step sizes follow the iteration counts, so one different
