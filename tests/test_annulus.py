@@ -91,7 +91,7 @@ def test_the_tuned_annulus_is_the_directly_assembled_one_seen_through_the_bases(
     # eigen-solver's rounding (1e-12 of the largest)
     np.testing.assert_allclose(frequencies(a.stiffness, a.mass), frequencies(K, M),
                                rtol=1e-10)
-    assert np.allclose(a.stiffness, a.stiffness.T) and np.isrealobj(a.stiffness)
+    assert np.allclose(a.stiffness, a.stiffness.T)
 
 
 @pytest.mark.parametrize("N", [6, 7])

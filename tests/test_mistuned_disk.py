@@ -3,6 +3,8 @@ diameter (assembly/mistuned), in the harmonic balance with every sector's contac
 it is the cyclic sector's solution on every sector (the friction too); the names and the
 engine order's phases of the full disk's spec."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -70,6 +72,12 @@ def test_the_full_disks_spec_puts_the_sectors_contacts_loads_and_outputs_on_ever
     # sector s: the phase harmonic EO s phi
     np.testing.assert_allclose([x.phase for x in s.loads], 2 * np.arange(NS) * 2 * np.pi / NS)
     assert s.centrifugal == tuple(f"damper#{k}" for k in range(NS))
+    # a direction in the global frame turns with its sector; a node's own one stays
+    x = annulus_spec(replace(spec(0.5, 2, 3.0), loads=(NodalLoad("blisk/excitation", "x", 1.0),)),
+                     NS, ("blisk",))
+    np.testing.assert_allclose(x.loads[1].direction, [np.cos(np.pi / 3), np.sin(np.pi / 3), 0],
+                               atol=1e-15)
+    assert s.loads[1].direction == s.outputs[1].direction == "tangential"
 
 
 @pytest.mark.parametrize("eo", [5, pytest.param(1, marks=pytest.mark.slow)])  # ND 1

@@ -77,12 +77,24 @@ def annulus_spec(spec: AssemblySpec, sectors: int, cyclic_bodies: Sequence[str]
         spec,
         contacts=tuple(replace(c, patch=f"{c.patch}#{s}") for s in every
                        for c in spec.contacts),
-        loads=tuple(NodalLoad(f"{x.node_set}#{s}", x.direction, x.amplitude, x.harmonic,
+        loads=tuple(NodalLoad(f"{x.node_set}#{s}", _turned(x.direction, s * phi),
+                              x.amplitude, x.harmonic,
                               x.phase + x.harmonic * spec.engine_order * s * phi, x.spread)
                     for s in every for x in spec.loads),
-        outputs=tuple(Output(f"{o.name}#{s}", f"{o.node_set}#{s}", o.direction)
+        outputs=tuple(Output(f"{o.name}#{s}", f"{o.node_set}#{s}", _turned(o.direction,
+                                                                          s * phi))
                       for s in every for o in spec.outputs),
         centrifugal=bodies(spec.centrifugal), mass_bodies=bodies(spec.mass_bodies))
+
+
+def _turned(direction, angle: float):
+    """A load's or output's direction on the sector turned by ``angle``: x, y and vectors
+    (the global frame) turned with it; z and the node's own radial, tangential and axial
+    directions as they are (each node reads them at its own place)."""
+    if isinstance(direction, str) and direction not in ("x", "y"):
+        return direction
+    d = np.eye(3)["xyz".index(direction)] if isinstance(direction, str) else np.asarray(direction)
+    return tuple(float(v) for v in rotation_z(angle) @ d)
 
 
 def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
@@ -92,10 +104,16 @@ def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
         raise ValueError(f"body {body!r}: the annulus needs its reduction at every nodal "
                          f"diameter 0..{N // 2}; missing {missing}")
     first = per_nd[0]
+    spec = first.damping_spec
+    if spec is not None and len(spec.modal_ratios) > 1:
+        raise ValueError(f"body {body!r}: a list of modal damping ratios means each ND's "
+                         "lowest modes in the sector, not the annulus' lowest: give one ratio")
     for h, m in per_nd.items():
         if not np.array_equal(m.master_nodes, first.master_nodes):
             raise ValueError(f"body {body!r}: ND {h} has other master nodes than ND 0")
     regions = mistuning is not None
+    if regions:
+        _check_regions(body, per_nd, N, mistuning)
     a = Annulus(N, {h: SectorND(per_nd[h].stiffness, per_nd[h].mass,
                                 per_nd[h].region if regions else None)
                     for h in range(N // 2 + 1)}, first.n_masters)
@@ -126,6 +144,24 @@ def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
         key=_key([per_nd[h].key for h in sorted(per_nd)], mistuning))
 
 
+def _check_regions(body: str, per_nd: Mapping[int, ReducedModel], N: int,
+                   mistuning: Mistuning) -> None:
+    """ValueError unless every ND's reduction kept the same region's rows and the region's
+    stiffness is square over them."""
+    dofs = per_nd[0].region_dofs
+    if not len(dofs):
+        raise ValueError(f"mistuning: body {body!r} was reduced without a region's rows "
+                         "(craig_bampton region_dofs): nothing to mistune")
+    for h in range(N // 2 + 1):
+        if not np.array_equal(per_nd[h].region_dofs, dofs):
+            raise ValueError(f"mistuning: body {body!r}: ND {h} kept another region than "
+                             "ND 0")
+    if np.shape(mistuning.region_stiffness) != (len(dofs), len(dofs)):
+        raise ValueError(f"mistuning.region_stiffness: shape "
+                         f"{np.shape(mistuning.region_stiffness)}, expected "
+                         f"{(len(dofs), len(dofs))} (the region's DOFs)")
+
+
 def _turned_copy(m: ReducedModel, name: str, s: int, N: int, node_map: np.ndarray
                  ) -> ReducedModel:
     """A body without cyclic symmetry copied into sector s: its masters' coordinates
@@ -142,6 +178,7 @@ def _turned_copy(m: ReducedModel, name: str, s: int, N: int, node_map: np.ndarra
         else np.zeros((0, 3, m.size)),
         patches={f"{p}#{s}": node_map[s, nodes] for p, nodes in m.patches.items()},
         loads={k: T @ v for k, v in m.loads.items()},
+        region_dofs=np.zeros(0, dtype=np.int64), region=np.zeros((0, m.size)),
         key=_key([m.key, str(s)], None))
 
 

@@ -60,7 +60,7 @@ def run(argv: list[str]) -> int:
             path = run_case(c, out, progress=lambda msg: print(msg, flush=True),
                             cache=not args.no_cache, executor=executor, shared=shared)
             status, message = _report_run(path, out, t)
-            if not args.no_report and not _write_page(path, status):
+            if not args.no_report and not _write_page(path, status, received):
                 return TERMINATED if received else INTERRUPTED
         except InputError as err:  # found once the mesh exists: before any heavy work
             print(f"microslip run: {args.case}: {err}", file=sys.stderr)
@@ -85,7 +85,7 @@ def run(argv: list[str]) -> int:
     return 1
 
 
-def _write_page(results: Path, status: str) -> bool:
+def _write_page(results: Path, status: str, terminated: list | None = None) -> bool:
     """The results folder's page (report.html); a page that cannot be written is said in
     one line, the run's results stand. False: the user interrupted it (no page is left
     half written: it is written whole or not at all)."""
@@ -98,7 +98,8 @@ def _write_page(results: Path, status: str) -> bool:
         print(f"microslip run: the page report.html was not written ({err}); the results "
               f"are {status} as said: {later}", file=sys.stderr)
     except KeyboardInterrupt:
-        print(f"microslip run: interrupted while writing the page report.html; the results "
+        why = "terminated (SIGTERM)" if terminated else "interrupted"
+        print(f"microslip run: {why} while writing the page report.html; the results "
               f"are {status} as said: {later}", file=sys.stderr)
         return False
     return True

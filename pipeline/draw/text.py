@@ -40,8 +40,9 @@ def measure(text: str, size: int, bold: bool = False) -> tuple[int, int]:
 
 
 def fit(text: str, width: float, size: int) -> str:
-    """``text`` broken at spaces into the fewest lines each at most ``width`` pixels wide
-    (a word longer than the width alone on its line); its own line breaks kept."""
+    """``text`` broken at spaces into lines each at most ``width`` pixels wide (the line
+    length shrunk in steps of a twentieth until they fit; a word longer than the width,
+    a path, is broken inside); its own line breaks kept."""
     out = []
     for para in text.split("\n"):
         n = len(para)

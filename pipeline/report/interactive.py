@@ -37,19 +37,22 @@ LOOP_LEVELS = 99
 LOOP_SAMPLES = 32
 
 
-def _scaled(v: np.ndarray) -> tuple[list, list]:
-    """(n, s) values as integers in [-LOOP_LEVELS, LOOP_LEVELS] per row and each row's
-    scale (its largest magnitude): a fourth of the JSON of 7-digit numbers."""
-    top = np.max(np.abs(v), axis=1)
-    safe = np.where(top > 0, top, 1.0)
-    ints = np.rint(LOOP_LEVELS * v / safe[:, None]).astype(int)
-    return ints.tolist(), _finite(top, 4)
+def _scaled(v: np.ndarray) -> tuple[list, list, list]:
+    """(n, s) values as integers in [-LOOP_LEVELS, LOOP_LEVELS] across each row's span
+    (its least value -LOOP_LEVELS, its largest LOOP_LEVELS: a loop riding on a large static
+    part keeps its shape) and each row's least and largest values: a fourth of the JSON of
+    7-digit numbers."""
+    lo, hi = v.min(axis=1), v.max(axis=1)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    ints = np.rint(2 * LOOP_LEVELS * (v - lo[:, None]) / span[:, None]) - LOOP_LEVELS
+    return ints.astype(int).tolist(), _finite(lo, 6), _finite(hi, 6)
 
 
 def _loops(c: h5py.Group) -> list[dict] | None:
     """Per contact its stored hysteresis loops (the first tangential direction), one per
-    point: {contact, unit, u, su, T, sT} (u in unit: m, mm or um; T in N), or None where
-    the run stored none."""
+    point: {contact, unit, u, u0, u1, T, T0, T1} (:func:`_scaled`: the integers and each
+    loop's least and largest value; u in unit: m, mm or um; T in N), or None where the run
+    stored none."""
     out = []
     for name, cd in sorted(c.get(schema.CONTACTS, {}).items()):
         if "loop_u" not in cd or not len(cd["loop_u"]):
@@ -58,8 +61,9 @@ def _loops(c: h5py.Group) -> list[dict] | None:
         u = cd["loop_u"][:, 0, ::step].astype(float)
         T = cd["loop_T"][:, 0, ::step].astype(float)
         scale, unit = length_unit([np.max(np.abs(u))])
-        (ui, su), (ti, st) = _scaled(scale * u), _scaled(T)
-        out.append({"contact": name, "unit": unit, "u": ui, "su": su, "T": ti, "sT": st})
+        (ui, u0, u1), (ti, t0, t1) = _scaled(scale * u), _scaled(T)
+        out.append({"contact": name, "unit": unit, "u": ui, "u0": u0, "u1": u1,
+                    "T": ti, "T0": t0, "T1": t1})
     return out or None
 
 

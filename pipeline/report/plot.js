@@ -63,9 +63,11 @@
   // tangential force against the relative displacement over the period, closed
   var LW = 170, LH = 120, LM = {l: 44, r: 6, t: 16, b: 26};
   function loopPicture(data, lp, i) {
-    var su = lp.su[i] / data.levels, sT = lp.sT[i] / data.levels;
-    var u = lp.u[i].map(function (v) { return v * su; });
-    var T = lp.T[i].map(function (v) { return v * sT; });
+    // integers -L..L across each loop's span [lo, hi] (interactive.py's _scaled)
+    function decoded(ints, lo, hi) {
+      return ints.map(function (k) { return lo + (k + data.levels) * (hi - lo) / (2 * data.levels); });
+    }
+    var u = decoded(lp.u[i], lp.u0[i], lp.u1[i]), T = decoded(lp.T[i], lp.T0[i], lp.T1[i]);
     function range(v) {  // the values' span, a flat one widened to be drawn
       var lo = Math.min.apply(null, v), hi = Math.max.apply(null, v);
       var pad = hi > lo ? 0 : Math.max(Math.abs(hi), 1e-30);
