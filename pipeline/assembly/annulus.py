@@ -134,6 +134,15 @@ class Annulus:
     # ------------------------------------------------------------ the transform
     def to_nd(self, h: int) -> np.ndarray:
         """(n_h, n) complex: ND h's coordinates q_h (h = 0 .. N-1) from the annulus'."""
+        return self._transforms[h]
+
+    @cached_property
+    def _transforms(self) -> list[np.ndarray]:
+        """Every ND's :meth:`to_nd`, formed once (the matrices, the region's motion and
+        each wave read them)."""
+        return [self._to_nd(h) for h in range(self.sectors)]
+
+    def _to_nd(self, h: int) -> np.ndarray:
         N, nm, phi = self.sectors, self.n_master, self.phi
         g = h if 2 * h <= N else N - h  # the reduction it conjugates
         T = np.zeros((nm + self.n_modes(g), self.n), dtype=complex)

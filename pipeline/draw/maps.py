@@ -276,8 +276,7 @@ def _plotter(title: str, rows: int, cols: int, panel: tuple[int, int], bottom: i
     from microslip.draw.previews import title_strip, vtk_warnings_off
 
     width = _panel_width(cols, panel) * cols
-    title = text.fit(title, width - 2 * text.GAP, text.TITLE)
-    top = text.measure(title, text.TITLE)[1] + 2 * text.GAP
+    title, top = text.strip(title, width, text.TITLE)
     size = [width, panel[1] * rows + top + bottom]
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=size, shape=(rows + 2, cols),
@@ -475,16 +474,22 @@ def status_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]],
 BAR, BAR_LABELS = 16, 28
 
 
-def colour_scale(pl, label: str, width: int, height: int, args: dict) -> None:
-    """The colour scale of the current renderer's last scalars across a strip (``width``
-    x ``height`` pixels): a horizontal bar with its labels above, its title below it
-    (VTK puts a horizontal bar's title among its labels); ``args`` are pyvista's scalar
-    bar arguments of the scalars (their colour map and range)."""
+def colour_scale(pl, label: str, width: int, height: int, cmap: str,
+                 clim: tuple[float, float], fmt: str = "%.4g") -> None:
+    """The colour scale ``cmap`` over ``clim`` across the current renderer's strip
+    (``width`` x ``height`` pixels): a horizontal bar with its labels above, its title below
+    it (VTK puts a horizontal bar's title among its labels). The bar is a hidden point's:
+    the panels draw their own values on the same ``clim``."""
+    import pyvista as pv
+
+    carrier = pv.PolyData(np.zeros((1, 3)))
+    carrier["scale"] = np.array([clim[0]])
+    pl.add_mesh(carrier, scalars="scale", cmap=cmap, clim=clim, opacity=0.0,
+                show_scalar_bar=False)
     below = text.measure(label, text.NAME)[1] + 2 * text.GAP
-    bar = {"title": "", "vertical": False, "position_x": 0.15, "width": 0.7,
-           "position_y": below / height, "height": (BAR + BAR_LABELS) / height,
-           "color": "black", "label_font_size": 11, "fmt": "%.4g", "n_labels": 5} | args
-    pl.add_scalar_bar(**bar)
+    pl.add_scalar_bar(title="", vertical=False, position_x=0.15, width=0.7,
+                      position_y=below / height, height=(BAR + BAR_LABELS) / height,
+                      color="black", label_font_size=11, fmt=fmt, n_labels=5)
     text.place(pl, label, 0.5, text.GAP / height, size=text.NAME, v="bottom")
 
 
@@ -498,8 +503,6 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
               panel: tuple[int, int] = PANEL) -> Path:
     """A PNG of maps of a force per node pair (``values``: (P,) [N]) on one colour scale
     (shared by every panel, so two distributions compare by colour), its bar below."""
-    import pyvista as pv
-
     rows, cols = len(panels), max(len(r) for r in panels)
     bottom = scale_height(label)
     pl = _plotter(title, rows, cols, panel, bottom)
@@ -516,9 +519,5 @@ def load_maps(path: str | Path, title: str, panels: Sequence[Sequence[Panel]], *
             high = _outline(pl, p.grid)
             _view(pl, p.caption, p.grid, (_panel_width(cols, panel), panel[1]), high)
     pl.subplot(rows + 1, 0)
-    carrier = pv.PolyData(np.zeros((1, 3)))  # a hidden carrier of the colour scale
-    carrier["force"] = values[:1]
-    pl.add_mesh(carrier, scalars="force", cmap=cmap, clim=clim, opacity=0.0,
-                show_scalar_bar=False)
-    colour_scale(pl, label, _panel_width(cols, panel) * cols, bottom, {})
+    colour_scale(pl, label, _panel_width(cols, panel) * cols, bottom, cmap, clim)
     return save(pl, path)

@@ -177,8 +177,7 @@ def _plotter(title: str) -> pv.Plotter:
     """An off-screen plotter with the title in a strip of its own (a title drawn over the
     model hides part of it, and a tall model runs into it); the model's renderer, below
     the strip, is left active."""
-    title = text.fit(title, WINDOW[0] - 2 * text.GAP, text.TITLE)
-    top = text.measure(title, text.TITLE)[1] + 2 * text.GAP
+    title, top = text.strip(title, WINDOW[0], text.TITLE)
     with vtk_warnings_off():
         pl = pv.Plotter(off_screen=True, window_size=list(WINDOW), shape=(2, 1),
                         row_weights=[top, WINDOW[1] - top], border=False)
@@ -189,8 +188,8 @@ def _plotter(title: str) -> pv.Plotter:
 
 def title_strip(pl: pv.Plotter, title: str) -> None:
     """White background everywhere and ``title`` centred in the first renderer (the strip
-    a picture keeps for its title, as tall as the title: :func:`text.fit` breaks a long
-    one into lines to fit its width)."""
+    a picture keeps for its title, as tall as the title: :func:`text.strip` breaks a
+    long one into lines to fit its width)."""
     pl.set_background("white", all_renderers=True)
     pl.subplot(0, 0)
     text.place(pl, title, 0.5, 0.5, size=text.TITLE)

@@ -142,17 +142,16 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
     disk = shape.sectors > 0
     cols = 2 if disk else 1
     width = panel[0] * cols
-    title = text.fit(f"{title}\nvibration (orders >= 1) at the instant of largest motion, "
-                     f"drawn x {factor:.3g}", width - 2 * text.GAP, text.TITLE)
-    top = text.measure(title, text.TITLE)[1] + 2 * text.GAP
+    title, top = text.strip(f"{title}\nvibration (orders >= 1) at the instant of largest "
+                            f"motion, drawn x {factor:.3g}", width, text.TITLE)
     label = "displacement [mm] (true scale)"
     bottom = scale_height(label)
     waves = ", ".join(f"order {n}: ND {k:+d}" for n, k in zip(shape.orders,
                                                                shape.wave_numbers) if n)
-    captions = [text.fit(c, panel[0] - 2 * text.GAP, text.CAPTION) for c in
-                ["sector, every body (undeformed in grey)",
-                 f"full disk, {shape.sectors} sectors ({waves})"][:cols]]
-    high = max(text.measure(c, text.CAPTION)[1] for c in captions) + 2 * text.GAP
+    captions, heights = zip(*(text.strip(c, panel[0], text.CAPTION) for c in
+                              ["sector, every body (undeformed in grey)",
+                               f"full disk, {shape.sectors} sectors ({waves})"][:cols]))
+    high = max(heights)
     copies = [sector_mesh(surfaces, shape, theta, factor, s)
               for s in range(max(shape.sectors, 1))]
     sector = copies[0]
@@ -183,9 +182,5 @@ def draw(path: str | Path, title: str, surfaces: Mapping[str, Surface], shape: S
         pl.camera.elevation = -25.0
         pl.reset_camera()
     pl.subplot(3, 0)
-    carrier = pv.PolyData(np.zeros((1, 3)))  # a hidden carrier of the colour scale
-    carrier["|u| [mm]"] = np.array([clim[0]])
-    pl.add_mesh(carrier, scalars="|u| [mm]", cmap="plasma", clim=clim, opacity=0.0,
-                show_scalar_bar=False)
-    colour_scale(pl, label, width, bottom, {"fmt": "%.3g"})
+    colour_scale(pl, label, width, bottom, "plasma", clim, "%.3g")
     return save(pl, path)

@@ -52,6 +52,13 @@ def fit(text: str, width: float, size: int) -> str:
     return "\n".join(out)
 
 
+def strip(text: str, width: float, size: int) -> tuple[str, int]:
+    """``text`` fitted to a strip ``width`` pixels wide (:func:`fit`, a gap each side) and
+    the strip's height [px]: its lines and a gap above and below."""
+    fitted = fit(text, width - 2 * GAP, size)
+    return fitted, measure(fitted, size)[1] + 2 * GAP
+
+
 def place(pl, text: str, x: float, y: float, *, size: int, color: str = "black",
           h: str = "center", v: str = "center"):
     """``text`` in the plotter's current renderer at (x, y) in its normalized viewport
