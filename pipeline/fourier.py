@@ -173,6 +173,18 @@ class Harmonics:
             D[js, ic] = -o
         return D
 
+    def time_shift(self, phase: float) -> np.ndarray:
+        """(n_coeffs, n_coeffs) orthogonal Q: the coefficients of ``x(theta + phase)`` are
+        ``Q @ c`` when ``c`` are those of ``x(theta)`` (phase in rad of the fundamental).
+
+        ``a cos n(theta + p) + b sin n(theta + p)`` has cosine ``a cos np + b sin np`` and
+        sine ``b cos np - a sin np``; its inverse is ``Q.T``."""
+        Q = np.eye(self.n_coeffs)
+        for o, ic, js in zip(self.dynamic_orders, self.cos_index, self.sin_index):
+            c, s = np.cos(o * phase), np.sin(o * phase)
+            Q[ic, ic], Q[ic, js], Q[js, ic], Q[js, js] = c, s, -s, c
+        return Q
+
     def work(self, force: np.ndarray, displacement: np.ndarray) -> np.ndarray:
         """Work per period of a force on a displacement, from coefficients.
 

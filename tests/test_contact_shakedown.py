@@ -19,6 +19,8 @@ sample touching the limit flipping between stick and slip with the last bits of 
 and with it the sub-sample kink term.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from derivatives import fd_contact_jacobian
@@ -219,3 +221,36 @@ def test_jacobian_of_mixed_1d_points_in_one_call():
     Jfd = fd_jacobian(el, g, H)
     for p in range(P):  # FD_RTOL, as above
         assert np.max(np.abs(J[p] - Jfd[p])) <= FD_RTOL * np.max(np.abs(J[p])), p
+
+
+@pytest.mark.parametrize("name", ["D-coupled-plain", "D-coupled-corner", "B-coupled",
+                                  "C-coupled-plain"])
+def test_a_start_phase_is_the_march_from_that_point_of_the_period(name):
+    """``start_phase`` p marches from time p of the period: the same as the march from 0 of
+    the motion advanced by p, x(t + p), whose samples are taken here directly at t_k + p
+    (not through the coefficient rotation the elements use). Its forces are those, read
+    back at t - p; the mean force is where a shakedown's start shows (it differs from the
+    start at 0), and the Jacobian is the derivative of the same forces."""
+    el, g, _ = case(name)
+    p = 2.0 * np.pi * 0.37  # not a whole number of samples
+    shifted = replace(el, start_phase=p)
+    E_p = H.synthesis_at(H.theta + p)
+    advanced = np.einsum("kc,pjc->pjk", E_p, g) @ H.analysis.T  # x(t + p), exact to H
+    r0 = el.evaluate(advanced, H, jacobian=False, histories=True)
+    r = shifted.evaluate(g, H, histories=True)
+    # histories: rounding of the coefficients turned and summed, ~1e-15
+    assert np.allclose(r.u, r0.u, rtol=0, atol=1e-13)
+    assert np.allclose(r.T, r0.T, rtol=0, atol=1e-12)
+    # the forces: at t_k + p the same samples as the advanced march's at t_k
+    scale = np.abs(r0.forces).max()
+    assert np.allclose(np.einsum("kc,pjc->pjk", E_p, r.forces),
+                       np.einsum("kc,pjc->pjk", H.synthesis, r0.forces), rtol=0,
+                       atol=1e-12 * scale)
+    # the start matters for these cycles: the mean forces move by more than rounding
+    moved = np.abs(r.forces[..., 0] - el.evaluate(g, H, jacobian=False).forces[..., 0]).max()
+    assert moved > 1e-6 * scale
+    J = r.jacobian.reshape(1, g[0].size, g[0].size)
+    assert np.max(np.abs(J - fd_jacobian(shifted, g, H))) <= FD_RTOL * np.max(np.abs(J))
+    assert np.max(np.abs(r.d_n0 - fd_n0(shifted, g, H))) <= FD_RTOL * max(
+        np.abs(r.d_n0).max(), 1)
+

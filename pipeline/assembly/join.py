@@ -218,12 +218,14 @@ def _patch_contacts(mesh: Mesh, pc: PatchFriction, stiffness: PatchStiffness,
     if pc.elements == "2D":
         rows = [(0, 1, 2)]
         elements = [ContactElements.create("D", kt=kt, kn=kn, mu=pc.mu,
-                                           interference=interference, coupled=True)]
+                                           interference=interference, coupled=True,
+                                           start_phase=pc.start_phase)]
         names = [pc.patch]
     else:  # two orthogonal 1D elements sharing the pair's normal stiffness
         rows = [(0, 2), (1, 2)]
         elements = [ContactElements.create("B", kt=kt, kn=0.5 * kn, mu=pc.mu,
-                                           interference=interference, coupled=True)] * 2
+                                           interference=interference, coupled=True,
+                                           start_phase=pc.start_phase)] * 2
         names = [f"{pc.patch}.t1", f"{pc.patch}.t2"]
     out = []
     for comps, el, name in zip(rows, elements, names):

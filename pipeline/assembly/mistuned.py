@@ -63,7 +63,8 @@ def annulus_bodies(sector: Mesh, models: Mapping[str, Mapping[int, ReducedModel]
 
 def annulus_spec(spec: AssemblySpec, sectors: int, cyclic_bodies: Sequence[str]
                  ) -> AssemblySpec:
-    """The sector's spec on every sector of the full disk: each patch's contacts, each
+    """The sector's spec on every sector of the full disk: each patch's contacts (their
+    march started at sector s's own excitation's start, ``-EO s phi``), each
     load with the engine order's phase ``harmonic EO s phi`` on sector s, each output per
     sector ("<name>#s"), the centrifugal and mass bodies' copies."""
     phi = 2.0 * np.pi / sectors
@@ -75,8 +76,9 @@ def annulus_spec(spec: AssemblySpec, sectors: int, cyclic_bodies: Sequence[str]
 
     return replace(
         spec,
-        contacts=tuple(replace(c, patch=f"{c.patch}#{s}") for s in every
-                       for c in spec.contacts),
+        contacts=tuple(replace(c, patch=f"{c.patch}#{s}",
+                               start_phase=c.start_phase - spec.engine_order * s * phi)
+                       for s in every for c in spec.contacts),
         loads=tuple(NodalLoad(f"{x.node_set}#{s}", _turned(x.direction, s * phi),
                               x.amplitude, x.harmonic,
                               x.phase + x.harmonic * spec.engine_order * s * phi, x.spread)

@@ -60,7 +60,9 @@ class PatchFriction:
     the geometric gap of each pair subtracted (Firrone & Zucca eq. 24:
     ``N = max(kn (Delta + v), 0)``);
     elements: see ELEMENTS; stiffness_scale: multiplier of the patch's contact stiffness
-    (the flat-punch kn and kt of every pair; its uncertainty, e.g. from roughness).
+    (the flat-punch kn and kt of every pair; its uncertainty, e.g. from roughness);
+    start_phase: where in the period [rad of the fundamental] the friction law's march
+    starts (ContactElements.start_phase; the whole disk sets each sector's).
     """
 
     patch: str
@@ -68,11 +70,13 @@ class PatchFriction:
     interference: float = 0.0
     elements: str = "2D"
     stiffness_scale: float = 1.0
+    start_phase: float = 0.0
 
     def __post_init__(self):
         _finite(f"contacts.{self.patch}.mu", self.mu, nonneg=True)
         _finite(f"contacts.{self.patch}.interference", self.interference)
         _finite(f"contacts.{self.patch}.stiffness_scale", self.stiffness_scale, positive=True)
+        _finite(f"contacts.{self.patch}.start_phase", self.start_phase)
         if self.elements not in ELEMENTS:
             raise ValueError(f"contacts.{self.patch}.elements = {self.elements!r}: expected one "
                              f"of {list(ELEMENTS)}")

@@ -32,7 +32,7 @@ coupled (Firrone & Zucca eqs. 24-28): ``N = max(kn (interference + v), 0)`` with
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -137,7 +137,8 @@ class ContactResponse:
         none: the force reverses between two slipping samples). The sampled
         force then changes in steps as a transition crosses a sample, and Newton
         may stall to a residual of that size; more samples help.
-    T, N, u, v: time histories (P, d, ns), (P, ns), (P, d, ns), (P, ns) if asked.
+    T, N, u, v: time histories (P, d, ns), (P, ns), (P, d, ns), (P, ns) if asked, sampled
+        from the elements' start phase.
     flags: (P, ns) int8 per-sample state (SAMPLE_STICK, SAMPLE_SLIP, SAMPLE_OPEN) if asked.
     """
 
@@ -175,6 +176,12 @@ class ContactElements:
     kn: normal contact stiffness, N/m (> 0 for the variable laws B and D; 0 for
         A and C).
     coupled: static/dynamic coupling (Firrone & Zucca section 4.2).
+    start_phase: where in the period, rad of the fundamental, the march starts from its
+        convention (a contact sticking all period after slipping in its first periods keeps
+        the offset that start gave it). 0 is the time origin of the harmonics. The whole
+        disk gives sector s's contacts its own excitation's start, so every sector's
+        contacts meet the same point of their cycle (a tuned disk is then the travelling
+        wave to rounding).
     """
 
     law: str
@@ -183,6 +190,7 @@ class ContactElements:
     mu: np.ndarray
     n0: np.ndarray
     coupled: bool = False
+    start_phase: float = 0.0
 
     @classmethod
     def create(
@@ -196,6 +204,7 @@ class ContactElements:
         interference=None,
         coupled: bool = False,
         n_points: int | None = None,
+        start_phase: float = 0.0,
     ) -> ContactElements:
         """Validate and broadcast per-point parameters.
 
@@ -240,7 +249,9 @@ class ContactElements:
                     f"contact: law {law} has a constant normal load; 'n0' must be >= 0, "
                     f"got min {n0_arr.min():g}"
                 )
-        return cls(law, kt_arr, kn_arr, mu_arr, n0_arr, bool(coupled))
+        if not np.isfinite(start_phase):
+            raise ValueError(f"contact: 'start_phase' must be finite, got {start_phase}")
+        return cls(law, kt_arr, kn_arr, mu_arr, n0_arr, bool(coupled), float(start_phase))
 
     # ----------------------------------------------------------------- layout
     @property
@@ -263,9 +274,7 @@ class ContactElements:
 
     def with_n0(self, n0) -> ContactElements:
         """Same contacts with another preload (continuation in N0)."""
-        return ContactElements(
-            self.law, self.kt, self.kn, self.mu, _per_point("n0", n0, (self.size,)), self.coupled
-        )
+        return replace(self, n0=_per_point("n0", n0, (self.size,)))
 
     # ----------------------------------------------------- the law interface
     def stuck_stiffness(self) -> np.ndarray:
@@ -315,6 +324,16 @@ class ContactElements:
             )
         if not np.all(np.isfinite(g)):
             raise ValueError("contact: relative displacements contain NaN or Inf")
+        if self.start_phase:  # march from the start: evaluate x(theta + start), turn back
+            Q = harmonics.time_shift(self.start_phase)
+            r = replace(self, start_phase=0.0).evaluate(
+                g @ Q.T, harmonics, jacobian=jacobian, histories=histories,
+                max_periods=max_periods, rtol=rtol, corrections=corrections)
+            jac = r.jacobian
+            if jac is not None:
+                jac = np.einsum("ji,pajbk,kl->paibl", Q, jac, Q, optimize=True)
+            return replace(r, forces=r.forces @ Q, jacobian=jac,
+                           d_n0=None if r.d_n0 is None else r.d_n0 @ Q)
         static = harmonics.static_mask
         if not self.coupled and static.any():
             g = g.copy()
