@@ -8,7 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from microslip.case import analysis_rules, assembly_table, faults, reduction_table, specs
+from microslip.case import (
+    analysis_rules,
+    assembly_table,
+    faults,
+    mistuning_table,
+    reduction_table,
+    specs,
+)
 from microslip.case.kinds import shipped
 
 README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
@@ -152,7 +159,9 @@ def _accepted() -> set[str]:
               "reduction.damping": reduction_table.DAMPING_KEYS,
               "reduction.bodies.<body>": reduction_table.BODY_KEYS,
               "reduction.contact_stiffness.<patch>": reduction_table.STIFFNESS_KEYS,
-              "assembly": assembly_table.KEYS - {"contacts", "loads", "outputs"},
+              "assembly": assembly_table.KEYS - {"contacts", "loads", "outputs",
+                                                 "mistuning"},
+              "assembly.mistuning": mistuning_table.KEYS,
               "assembly.contacts": assembly_table.CONTACT_KEYS,
               "assembly.loads": assembly_table.LOAD_KEYS,
               "assembly.outputs": assembly_table.OUTPUT_KEYS}

@@ -26,7 +26,8 @@ def linear_limits(models: AssemblyModels, case: Case, spec: Analysis, writer: Re
     """The free blisk (no damper) and the fully stuck system over the FRF's range, solved
     directly (linear): written beside the curves (the pictures draw them with them). The
     stuck system once per damper mass the curves have (a mass family: one each)."""
-    names = list(spec.outputs) if spec.outputs is not None else models.names(case)
+    names = (models.expanded(case, list(spec.outputs)) if spec.outputs is not None
+             else models.names(case))
     measure = spec.measure
     ws = np.linspace(spec.start, spec.stop, LINEAR_POINTS)
     variants = {}  # mass multiplier -> (case variant, assembly model, operating point)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from microslip.case import Case, assembly_table, harmonics, lumped_model
+from microslip.case.mistuning_table import MistuningTable
 from microslip.solve.hbm import HarmonicBalance
 
 if TYPE_CHECKING:
@@ -24,6 +25,10 @@ class LumpedModels:
 
     def names(self, case: Case) -> list[str]:
         return case.dofs
+
+    def expanded(self, case: Case, names: list[str]) -> list[str]:
+        """The curves the named outputs make: one each."""
+        return names
 
     def selection(self, case: Case, names: list[str]) -> list[int]:
         """DOF indices (what Response.coefficients and peak_curve take)."""
@@ -48,6 +53,7 @@ class AssemblyModels:
         self.structure = structure
         self._built: dict[str, AssemblyModel] = {}
         self._surfaces: dict[str, Any] | None = None
+        self._full: Any = None  # the full disk's mesh, for a mistuned case
 
     def surfaces(self) -> dict[str, Any]:
         """Per body its outer-surface nodes (``solutions.surfaces``), found once per run:
@@ -70,18 +76,56 @@ class AssemblyModels:
         if key not in self._built:
             if len(self._built) >= KEPT_ASSEMBLIES:
                 self._built.pop(next(iter(self._built)))
+            mesh, models = self.mesh, self.structure.models
+            stiffness = self.structure.patch_stiffness
+            spec = assembly_table.spec(case.data, tuple(sorted(mesh.bodies)),
+                                       tuple(mesh.cyclic))
+            mistuning = self._mistuning(case)
+            if mistuning is not None:
+                disk = self._whole_disk(spec, mistuning)
+                mesh, models, stiffness, spec = (disk.mesh, disk.bodies, disk.patch_stiffness,
+                                                 disk.spec)
             self._built[key] = join(
-                self.mesh, self.structure.models, self.structure.patch_stiffness,
-                assembly_table.spec(case.data, tuple(sorted(self.mesh.bodies)),
-                              tuple(self.mesh.cyclic)), harmonics(case),
+                mesh, models, stiffness, spec, harmonics(case),
                 sub_sample=case.solver_table.sub_sample, jacobian=case.solver_table.jacobian)
         return self._built[key]
+
+    def _mistuning(self, case: Case) -> Any:
+        """The case's Mistuning (None: a cyclic case)."""
+        table = MistuningTable.of((case.data.get("assembly") or {}).get("mistuning"))
+        if table is None:
+            return None
+        from microslip.assembly.mistuned import Mistuning
+        from microslip.geometry.full_disk import sector_count
+
+        return Mistuning(table.body_of(tuple(self.mesh.cyclic)),
+                         table.deviations(sector_count(self.mesh)))
+
+    def _whole_disk(self, spec: Any, mistuning: Any) -> Any:
+        """The whole disk's bodies, patches and spec (the full disk's mesh built once)."""
+        from microslip.assembly.mistuned import whole_disk
+        from microslip.geometry.full_disk import full_disk
+
+        if self._full is None:
+            self._full = full_disk(self.mesh)
+        return whole_disk(self.mesh, self._full, self.structure.models,
+                          self.structure.patch_stiffness, spec, mistuning)
 
     def model(self, case: Case) -> HarmonicBalance:
         return self.assembly(case).hb
 
     def names(self, case: Case) -> list[str]:
-        return assembly_table.output_names(case.data)
+        return self.expanded(case, assembly_table.output_names(case.data))
+
+    def expanded(self, case: Case, names: list[str]) -> list[str]:
+        """The curves the named outputs make: one each, or, on the whole disk, one per
+        blade ("<name>#s")."""
+        if self._mistuning(case) is None:
+            return names
+        from microslip.assembly.mistuned import blade_outputs
+        from microslip.geometry.full_disk import sector_count
+
+        return blade_outputs(names, sector_count(self.mesh))
 
     def selection(self, case: Case, names: list[str]) -> np.ndarray:
         """(n_outputs, n_dof) rows of the named outputs over the shared DOFs."""

@@ -96,7 +96,7 @@ def outputs(case: Case, names: tuple[str, ...] | None, models=None
     """(output names, their selection: DOF indices or rows of the shared DOFs); ``names``
     None: every output of the case."""
     models = models or LumpedModels()
-    names = list(names) if names is not None else models.names(case)
+    names = models.expanded(case, list(names)) if names is not None else models.names(case)
     return names, models.selection(case, names)
 
 

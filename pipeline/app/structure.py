@@ -72,7 +72,10 @@ def reduce_structure(mesh: Any, red: Mapping[str, Any] | ReductionTable,
     fixed-interface frequency of the cyclic bodies as theirs.
     """
     red = ReductionTable.of(red)
-    specs = body_specs(mesh, red, surfaces)
+    try:  # (the mistuned body and its region are resolved on the mesh here)
+        specs = body_specs(mesh, red, surfaces)
+    except ValueError as err:
+        raise InputError(str(err)) from None
     sectors = {b.sectors for b in mesh.cyclic.values()}
     if not sectors:
         nds: tuple[int, ...] = (0,)

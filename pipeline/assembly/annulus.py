@@ -236,9 +236,9 @@ class Annulus:
 
     def region_energy(self, region_stiffness: np.ndarray) -> np.ndarray:
         """(n, n) E_0: the strain energy of sector 0's region (``region_stiffness``:
-        (n_b, n_b) [N/m], its stiffness) in annulus coordinates."""
+        (n_b, n_b) [N/m], dense or sparse, its stiffness) in annulus coordinates."""
         B = self.region_motion(0)
-        E = B.T @ region_stiffness @ B
+        E = B.T @ np.asarray(region_stiffness @ B)
         return 0.5 * (E + E.T)
 
     def mistuned_stiffness(self, deviation: Sequence[float],

@@ -11,8 +11,10 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from microslip.fe.reduced_model import CENTRIFUGAL, ReducedModel
 from microslip.geometry.full_disk import disk_node_map, sector_count
@@ -27,11 +29,12 @@ class Mistuning:
     """Blade-to-blade mistuning of a cyclic body: sector s's region (``ReducedModel.region_dofs``
     of every ND's reduction) stiffer by ``deviation[s]`` (a fraction: -0.03 is 3 % softer);
     ``region_stiffness``: (n_b, n_b) [N/m] the region's stiffness on those DOFs (its
-    Young's modulus' share: K(2E) - K(E) over the region's elements)."""
+    Young's modulus' share: K(2E) - K(E) over the region's elements); None: the one the
+    reduction kept (``ReducedModel.region_stiffness``)."""
 
     body: str
     deviation: tuple[float, ...]
-    region_stiffness: np.ndarray
+    region_stiffness: Any = None
 
     def __post_init__(self):
         d = np.asarray(self.deviation, dtype=float)
@@ -124,8 +127,8 @@ def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
         if len(mistuning.deviation) != N:
             raise ValueError(f"mistuning.deviation: {len(mistuning.deviation)} values for "
                              f"{N} sectors")
-        K = a.mistuned_stiffness(mistuning.deviation, a.region_energy(
-            np.asarray(mistuning.region_stiffness)))
+        K = a.mistuned_stiffness(mistuning.deviation,
+                                 a.region_energy(_region_stiffness(first, mistuning)))
     turns = [rotation_z(s * a.phi) for s in range(N)]
     loads = {}
     if CENTRIFUGAL in first.loads:  # the same on every sector: ND 0's, its work N times
@@ -158,10 +161,19 @@ def _check_regions(body: str, per_nd: Mapping[int, ReducedModel], N: int,
         if not np.array_equal(per_nd[h].region_dofs, dofs):
             raise ValueError(f"mistuning: body {body!r}: ND {h} kept another region than "
                              "ND 0")
-    if np.shape(mistuning.region_stiffness) != (len(dofs), len(dofs)):
-        raise ValueError(f"mistuning.region_stiffness: shape "
-                         f"{np.shape(mistuning.region_stiffness)}, expected "
+    K = _region_stiffness(per_nd[0], mistuning)
+    if K is None:
+        raise ValueError(f"mistuning: body {body!r}: no region stiffness given or kept by "
+                         "its reduction")
+    if K.shape != (len(dofs), len(dofs)):
+        raise ValueError(f"mistuning.region_stiffness: shape {K.shape}, expected "
                          f"{(len(dofs), len(dofs))} (the region's DOFs)")
+
+
+def _region_stiffness(model: ReducedModel, mistuning: Mistuning):
+    """The region's stiffness: the mistuning's, else the one the reduction kept."""
+    K = mistuning.region_stiffness
+    return model.region_stiffness if K is None else K
 
 
 def _turned_copy(m: ReducedModel, name: str, s: int, N: int, node_map: np.ndarray
@@ -181,12 +193,43 @@ def _turned_copy(m: ReducedModel, name: str, s: int, N: int, node_map: np.ndarra
         patches={f"{p}#{s}": node_map[s, nodes] for p, nodes in m.patches.items()},
         loads={k: T @ v for k, v in m.loads.items()},
         region_dofs=np.zeros(0, dtype=np.int64), region=np.zeros((0, m.size)),
-        key=_key([m.key, str(s)], None))
+        region_stiffness=None, key=_key([m.key, str(s)], None))
 
 
 def _key(parts: Sequence[str], mistuning: Mistuning | None) -> str:
     h = hashlib.sha256("|".join(parts).encode())
     if mistuning is not None:
         h.update(np.asarray(mistuning.deviation, dtype=float).tobytes())
-        h.update(np.ascontiguousarray(mistuning.region_stiffness, dtype=float).tobytes())
+        if mistuning.region_stiffness is not None:  # (else the models' keys hold it)
+            K = sp.csr_matrix(mistuning.region_stiffness)
+            for part in (K.data, K.indices, K.indptr):
+                h.update(np.ascontiguousarray(part).tobytes())
     return h.hexdigest()
+
+
+@dataclass(frozen=True, eq=False)
+class WholeDisk:
+    """What ``join`` takes for the whole disk: the full disk's mesh, its reduced bodies,
+    every sector's patch stiffness and the spec on every sector."""
+
+    mesh: Mesh
+    bodies: dict[str, dict[int, ReducedModel]]
+    patch_stiffness: dict[str, Any]
+    spec: AssemblySpec
+
+
+def whole_disk(sector: Mesh, full: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
+               patch_stiffness: Mapping[str, Any], spec: AssemblySpec,
+               mistuning: Mistuning | None) -> WholeDisk:
+    """The whole disk of a sector case (``full``: ``geometry.full_disk(sector)``): each
+    sector's patches with the sector's stiffness, the spec on every sector."""
+    N = sector_count(sector)
+    return WholeDisk(
+        full, annulus_bodies(sector, models, mistuning),
+        {f"{p}#{s}": ps for p, ps in patch_stiffness.items() for s in range(N)},
+        annulus_spec(spec, N, tuple(sector.cyclic)))
+
+
+def blade_outputs(names: Sequence[str], sectors: int) -> list[str]:
+    """Every blade's copy of each output, blade by blade within an output: "<name>#s"."""
+    return [f"{n}#{s}" for n in names for s in range(sectors)]

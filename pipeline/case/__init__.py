@@ -14,6 +14,7 @@ units            whether an imported model is plausible in its units
 geometry_table   the [geometry] table: a parametric model or an imported mesh
 reduction_table  the [reduction] table: bodies, masters, supports, mode selection
 assembly_table   the [assembly] table: contacts per patch, loads, outputs
+mistuning_table  the [assembly.mistuning] table: the whole disk, each blade's deviation
 """
 
 from .build import (

@@ -54,10 +54,11 @@ from microslip.assembly.spec import (
     static_anchor_allowed,
 )
 
+from . import mistuning_table
 from .checks import is_int, is_number, number, unknown_keys
 
 KEYS = {"engine_order", "speed", "centrifugal", "mass_bodies", "mass_multiplier", "contacts",
-        "loads", "outputs", "static_anchor", "excitation"}
+        "loads", "outputs", "static_anchor", "excitation", "mistuning"}
 CONTACT_KEYS = {"patch", "mu", "interference", "stiffness_scale", "elements"}
 LOAD_KEYS = {"node_set", "direction", "amplitude", "harmonic", "phase", "spread"}
 OUTPUT_KEYS = {"name", "node_set", "direction"}
@@ -126,6 +127,11 @@ def check(table: Any, data: Mapping[str, Any], out: list[str],
     _contacts(table, names, out)
     _loads(table, names, out)
     _outputs(table, names, out)
+    if "mistuning" in table:
+        params = geo.get("parameters", {}) if isinstance(geo, dict) else {}
+        sectors = params.get("sectors") if isinstance(params, dict) else None
+        mistuning_table.check(table["mistuning"], out, names,
+                              sectors if is_int(sectors) else None)
 
 
 def _contacts(table: dict, names: Mapping[str, Any] | None, out: list[str]) -> None:

@@ -61,6 +61,7 @@ from microslip.geometry.pairing import paired_contact
 
 from .checks import is_int, is_number, unknown_keys
 from .geometry_table import GeometryTable
+from .mistuning_table import MistuningTable
 
 STEEL = Material(2.0e11, 0.3, 7850.0)
 FROM_FILE = "file"  # material = "file": each body's from the imported deck's cards
@@ -312,6 +313,7 @@ class ReductionTable:
     damping: Damping | None = None
     bodies: Mapping[str, BodyTable] = field(default_factory=dict)
     contact_stiffness: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    mistuning: MistuningTable | None = None  # [assembly.mistuning]: the blade region kept
 
     @property
     def factorization(self) -> str | None:
@@ -319,8 +321,11 @@ class ReductionTable:
         return None if self.backend == "auto" else self.backend
 
     @classmethod
-    def of(cls, table: Mapping[str, Any] | ReductionTable) -> ReductionTable:
-        """The spec of a validated [reduction] table (a spec is returned as it is)."""
+    def of(cls, table: Mapping[str, Any] | ReductionTable,
+           mistuning: MistuningTable | None = None) -> ReductionTable:
+        """The spec of a validated [reduction] table (a spec is returned as it is);
+        ``mistuning``: the case's [assembly.mistuning], whose blade region every ND of its
+        body keeps (and every ND is reduced)."""
         if isinstance(table, ReductionTable):
             return table
         base = material(table.get("material"))
@@ -345,7 +350,8 @@ class ReductionTable:
             backend=table.get("backend", cls.backend),
             material=base, damping=damping(table.get("damping")), bodies=bodies,
             contact_stiffness={name: (float(t["normal"]), float(t["tangential"]))
-                               for name, t in table.get("contact_stiffness", {}).items()})
+                               for name, t in table.get("contact_stiffness", {}).items()},
+            mistuning=mistuning)
 
 
 def needed_nodal_diameters(red: Mapping[str, Any] | ReductionTable, sectors: int,
@@ -353,8 +359,11 @@ def needed_nodal_diameters(red: Mapping[str, Any] | ReductionTable, sectors: int
     """The NDs of a [reduction] table: explicit, or those of the harmonic orders under the
     engine order (``cyclic.nodal_diameters``: backward waves fold onto 0..Ns/2). Orders:
     0..``harmonics`` of the table, else the case's harmonic orders (``case_orders``), else
-    0..1; order 0 (the static part, ND 0) always."""
+    0..1; order 0 (the static part, ND 0) always. A mistuned case: every ND 0..Ns/2
+    (the whole annulus is built from them all)."""
     red = ReductionTable.of(red)
+    if red.mistuning is not None:
+        return tuple(range(sectors // 2 + 1))
     if red.nodal_diameters is not None:
         nds = red.nodal_diameters
         for h in nds:
@@ -419,12 +428,20 @@ def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: boo
             cutoff=red.cutoff,
             f_max=red.f_max,
             order=red.order,
+            region=_region(mesh, red.mistuning, body),
         ))
     unknown = sorted(set(red.bodies) - set(mesh.bodies))
     if unknown:
         raise ValueError(f"reduction.bodies: {unknown} are not bodies of this mesh; it has "
                          f"{sorted(mesh.bodies)}")
     return specs
+
+
+def _region(mesh: Any, mistuning: MistuningTable | None, body: str) -> tuple[int, ...]:
+    """The mistuned region's elements if ``body`` is the mistuned one, else ()."""
+    if mistuning is None or mistuning.body_of(tuple(mesh.cyclic)) != body:
+        return ()
+    return tuple(int(e) for e in mistuning.elements(mesh, body))
 
 
 def body_supports(mesh: Any, body: str,

@@ -15,6 +15,7 @@ from . import specs
 from .faults import faults
 from .geometry_table import GeometryTable
 from .kinds import Kinds, kinds_or_shipped
+from .mistuning_table import MistuningTable
 from .paths import set_path
 from .reduction_table import ReductionTable
 
@@ -85,7 +86,8 @@ class Case:
     @cached_property
     def reduction_table(self) -> ReductionTable:
         """[reduction] as its spec, defaults resolved."""
-        return ReductionTable.of(self.data["reduction"])
+        return ReductionTable.of(self.data["reduction"], MistuningTable.of(
+            (self.data.get("assembly") or {}).get("mistuning")))
 
     @property
     def draws_shapes(self) -> bool:

@@ -4,9 +4,10 @@ reused when the content key of its inputs matches."""
 
 from __future__ import annotations
 
+import hashlib
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,14 @@ from microslip.geometry.stored import written_whole
 from . import cyclic, eigen, fem, linalg
 from .craig_bampton import averaged_masters, craig_bampton
 from .fem import Damping, IntArray, Material, MeshLike
-from .reduced_model import CENTRIFUGAL, CUTOFF, DEFAULT_MODES, ReducedModel, model_key
+from .reduced_model import (
+    CENTRIFUGAL,
+    CUTOFF,
+    DEFAULT_MODES,
+    ReducedModel,
+    model_key,
+    nodes_digest,
+)
 
 
 class ReductionError(RuntimeError):
@@ -38,6 +46,8 @@ class BodySpec:
     patches: contact-patch names whose nodes in this body are masters.
     n_modes, cutoff, f_max: fixed-interface mode selection (see ``craig_bampton``).
     order: element order.
+    region: mesh elements of a region whose stiffness may deviate (a mistuned blade):
+        every ND's model keeps its basis rows and stiffness (``ReducedModel.region``).
     """
 
     body: str
@@ -53,6 +63,7 @@ class BodySpec:
     f_max: float | None = None
     order: int = 2
     damping: Damping | None = None
+    region: tuple[int, ...] = ()
 
 
 def patch_nodes(mesh: MeshLike, name: str, body: str) -> IntArray:
@@ -120,7 +131,14 @@ def _path(cache_dir: str | Path, mesh: MeshLike, spec: BodySpec, master_nodes: I
     key = model_key(mesh.content_hash, spec.body, spec.order, spec.material, clamped,
                nodal_diameter, "craig-bampton", master_nodes, spec.n_modes, recovery, patches,
                spec.cutoff, spec.f_max, _body_load_names(nodal_diameter), spec.supports)
-    return Path(cache_dir) / f"cb-{key[:32]}.h5"
+    return Path(cache_dir) / f"cb-{_with_region(key, spec)[:32]}.h5"
+
+
+def _with_region(key: str, spec: BodySpec) -> str:
+    """A key with the spec's region in it (a key without one as it was)."""
+    if not spec.region:
+        return key
+    return hashlib.sha256((key + nodes_digest(np.asarray(spec.region))).encode()).hexdigest()
 
 
 def _body_load_names(nodal_diameter: int | None) -> tuple[str, ...]:
@@ -168,7 +186,7 @@ def reduce_body(
             cyclic.check_nodal_diameter(h, boundary.sectors)
     nds = sorted(set(int(h) for h in nodal_diameters)) if boundary is not None else [0]
     out: dict[int, ReducedModel] = {}
-    body_model = None
+    body_model = region_K = region_dofs = None
     for h in nds:
         t = time.perf_counter()
         path = None if cache_dir is None else _path(cache_dir, mesh, spec, master_nodes, patches,
@@ -179,6 +197,10 @@ def reduce_body(
         if not cached:
             if body_model is None:
                 body_model = fem.assemble(mesh, spec.body, spec.material, spec.order)
+            if spec.region and region_K is None:
+                region_K = fem.region_stiffness(mesh, spec.body, spec.material, spec.order,
+                                                np.asarray(spec.region), body_model)
+                region_dofs = np.unique(region_K.nonzero()[0])
             sector = cyclic.sector_model(body_model, clamped, boundary, h, spec.supports)
             names = _body_load_names(h if boundary is not None else None)
             loads = {CENTRIFUGAL: fem.centrifugal_load(body_model)} if names else None
@@ -186,7 +208,11 @@ def reduce_body(
                 model = craig_bampton(sector, master_nodes, spec.n_modes, recovery, patches,
                                       spec.damping, backend, cutoff=spec.cutoff,
                                       f_max=spec.f_max, loads=loads,
-                                      averaged=averaged_masters(mesh, master_nodes))
+                                      averaged=averaged_masters(mesh, master_nodes),
+                                      region_dofs=() if region_K is None else region_dofs)
+                if region_K is not None:
+                    model = replace(model, key=_with_region(model.key, spec),
+                                    region_stiffness=region_K[region_dofs][:, region_dofs])
             except eigen.EigenSolverError as err:
                 raise ReductionError(_eigen_failure(spec, h, sector.n_free, backend,
                                                     boundary is not None, err)) from err

@@ -441,6 +441,33 @@ def assemble(mesh: MeshLike, body: str, material: Material, order: int = 2) -> B
     )
 
 
+def region_stiffness(mesh: MeshLike, body: str, material: Material | MaterialZones,
+                     order: int, elements: IntArray, nominal: BodyModel | None = None
+                     ) -> sp.csr_matrix:
+    """(n, n) [N/m] over the body's DOFs: the stiffness of the region ``elements`` (mesh
+    element indices of ``body``) alone, dK/d(ln E) there (K is linear in E): K with the
+    region's Young's modulus doubled, less K (``nominal``, if assembled already). What a
+    mistuned blade's per-blade deviation delta scales: K + delta K_region."""
+    elements = np.unique(np.asarray(elements, dtype=np.int64))
+    index = np.sort(np.asarray(mesh.bodies[body], dtype=np.int64))
+    if not len(elements) or not np.all(np.isin(elements, index)):
+        raise ValueError(f"region: {len(elements)} elements, not a non-empty subset of body "
+                         f"{body!r}'s")
+    zones = material.zones if isinstance(material, MaterialZones) else ((material, index),)
+    doubled = []
+    for m, members in zones:
+        twice = Material(2.0 * m.youngs_modulus, m.poisson_ratio, m.density)
+        doubled += [(m, np.setdiff1d(members, elements)),
+                    (twice, np.intersect1d(members, elements))]
+    stiffer = assemble(mesh, body, MaterialZones(tuple((m, e) for m, e in doubled if len(e))),
+                       order).stiffness
+    base = (nominal if nominal is not None else assemble(mesh, body, material, order)).stiffness
+    K = (stiffer - base).tocsr()
+    K.data[np.abs(K.data) <= 1e-12 * np.abs(K.data).max()] = 0.0  # the rest cancels exactly
+    K.eliminate_zeros()
+    return K
+
+
 def _zones_of(mesh: MeshLike, body: str, material: Material | MaterialZones
               ) -> dict[str, IntArray]:
     """Shape -> the zone of each row of the body's cells of that shape (empty for one

@@ -20,6 +20,7 @@ from typing import Any
 
 import h5py
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from . import cyclic, fem
@@ -75,7 +76,9 @@ class ReducedModel:
     region_dofs: (n_b,) body DOFs of a region whose stiffness may deviate (a mistuned
         blade; empty: none); region: (n_b, r) the rows of the basis there, u[region_dofs] =
         region @ q (the cyclic expansion included: a right-face DOF's row carries its
-        phase), what an annulus projects the region's stiffness with.
+        phase), what an annulus projects the region's stiffness with; region_stiffness:
+        (n_b, n_b) sparse [N/m] the region's own stiffness there (``fem.region_stiffness``),
+        or None.
     key: content hash of everything that produced the reduction (the damping spec is a
         separate field, applied without re-reducing). A mass study scales the mass by a
         multiplier in the harmonic balance (``LinearDynamics.mass``): exact, since re-reducing
@@ -100,6 +103,7 @@ class ReducedModel:
     loads: Mapping[str, NDArray] = field(default_factory=dict)
     region_dofs: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     region: NDArray = field(default_factory=lambda: np.zeros((0, 0)))
+    region_stiffness: Any = None
 
     # --- sizes and maps the harmonic balance needs ---------------------------------------
 
@@ -222,6 +226,11 @@ class ReducedModel:
         if len(self.region_dofs):  # (only where there is one: older files have none)
             g.create_dataset("region_dofs", data=np.asarray(self.region_dofs, np.int64))
             g.create_dataset("region", data=np.asarray(self.region))
+        if self.region_stiffness is not None:
+            K = sp.csr_matrix(self.region_stiffness)
+            rg = g.create_group("region_stiffness")
+            for name in ("data", "indices", "indptr"):
+                rg.create_dataset(name, data=getattr(K, name))
         g.attrs["format_version"] = FORMAT_VERSION
         g.attrs["body"] = self.body
         g.attrs["method"] = self.method
@@ -250,6 +259,10 @@ class ReducedModel:
             loads = {name: g["loads"][name][()] for name in g["loads"]}
             if "region_dofs" in g:
                 arrays |= {"region_dofs": g["region_dofs"][()], "region": g["region"][()]}
+            if "region_stiffness" in g:
+                rg, n = g["region_stiffness"], len(arrays["region_dofs"])
+                arrays["region_stiffness"] = sp.csr_matrix(
+                    (rg["data"][()], rg["indices"][()], rg["indptr"][()]), shape=(n, n))
             spec = json.loads(g.attrs["damping"])
             nd, ns = int(g.attrs["nodal_diameter"]), int(g.attrs["sectors"])
             return cls(
@@ -278,7 +291,7 @@ def _hash(obj: object) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def _nodes_digest(nodes: NDArray) -> str:
+def nodes_digest(nodes: NDArray) -> str:
     a = np.ascontiguousarray(np.asarray(nodes, dtype=np.int64))
     return hashlib.sha256(a.tobytes()).hexdigest()
 
@@ -308,7 +321,7 @@ def reduction_key(
                cutoff, f_max, loads, model.supports)
     key = _hash([key, averaged_digest]) if averaged_digest else key
     # (a region enters only where there is one: the keys of models without stay as they were)
-    return _hash([key, _nodes_digest(region_dofs)]) if len(region_dofs) else key
+    return _hash([key, nodes_digest(region_dofs)]) if len(region_dofs) else key
 
 
 def model_key(mesh_hash: str, body: str, order: int, material: Material, clamped: IntArray,
@@ -325,13 +338,13 @@ def model_key(mesh_hash: str, body: str, order: int, material: Material, clamped
         "body": body,
         "order": int(order),
         "material": material.as_tuple(),
-        "clamped": _nodes_digest(np.unique(clamped)),
+        "clamped": nodes_digest(np.unique(clamped)),
         "nd": nodal_diameter,
         "method": method,
-        "masters": _nodes_digest(master_nodes),
+        "masters": nodes_digest(master_nodes),
         "modes": mode_selection(n_modes, cutoff, f_max),
-        "recovery": _nodes_digest(np.unique(recovery_nodes)),
-        "patches": {k: _nodes_digest(v) for k, v in (patches or {}).items()},
+        "recovery": nodes_digest(np.unique(recovery_nodes)),
+        "patches": {k: nodes_digest(v) for k, v in (patches or {}).items()},
         "loads": sorted(loads),
     })
 
