@@ -72,8 +72,8 @@ CASE = {"title": "two masses", "model": {"dofs": ["x1", "x2"], "mass": [1.0, 1.0
 
 def test_the_shipped_kinds_are_the_analyses_modules():
     assert shipped() is shipped() and shipped() is KINDS
-    assert list(KINDS) == ["frf", "peak", "uncertainty", "loops", "dti", "transient", "modes",
-                           "nonlinear_modes"]
+    assert list(KINDS) == ["frf", "peak", "uncertainty", "mistuning", "loops", "dti", "transient",
+                           "modes", "nonlinear_modes"]
     assert all(k.spec.type == name for name, k in KINDS.items())
 
 

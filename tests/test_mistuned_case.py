@@ -172,7 +172,7 @@ def test_a_drawn_pattern_is_seeded_and_has_the_spread_asked():
     (lambda m: m.update(blade_radius=-1.0), "blade_radius = -1.0"),
     (lambda m: m.update(deviation=[0.0] * 5), "5 values for 6 blades"),
     (lambda m: m.update(deviation=[0.0] * 5 + [-1.5]), "fractions > -1"),
-    (lambda m: m.update(sigma=0.02), "give one of deviation"),
+    (lambda m: m.update(sigma=0.02), "not both"),
     (lambda m: (m.pop("deviation"), m.update(sigma=MAX_SIGMA * 2)), "sigma = 0.4"),
     (lambda m: m.update(seed=3), "seed: only with sigma"),
     (lambda m: m.update(body="rotor"), "body = 'rotor'"),
@@ -182,3 +182,99 @@ def test_a_mistuning_fault_is_one_line_naming_the_key(mutate, expected):
     found = case_faults(CASE, lambda d: mutate(d["assembly"]["mistuning"]))
     assert any(expected in f for f in found), found
     assert all(f.count("\n") == 0 for f in found)
+
+
+STUDY = {"name": "amplification", "type": "mistuning", "window": [9600.0, 9800.0],
+         "output": "tip", "sigma": [1e-6, 0.03], "patterns": 2}
+
+
+def study_case(**changes) -> cases.Case:
+    data = copy.deepcopy(CASE)
+    del data["assembly"]["mistuning"]["deviation"]
+    data["analysis"] = [STUDY | changes]
+    return cases.Case(data, "study.toml")
+
+
+@pytest.mark.slow
+def test_a_mistuning_study_measures_the_worst_blade_against_the_tuned_sector(tmp_path):
+    """The tuned disk (the sector) and two patterns at each of two levels: a level of 1e-6
+    gives amplification 1 (the whole disk against the sector, two different models through
+    the same resonance), the free disk never exceeds Whitehead's bound, each pattern's
+    worst blade is its largest, and a second run takes every pattern from the store while a
+    grown study computes only its new patterns."""
+    lines = []
+    run_case(study_case(), tmp_path, progress=lines.append)
+    with h5py.File(tmp_path / "results.h5") as f:
+        assert f["amplification"].attrs["status"] == "complete"
+        p, a = f["amplification/patterns"], f["amplification/amplification"]
+        amp, free = p["amplification"][()], p["free_amplification"][()]
+        sigma, peaks = p["sigma"][()], p["blade_peaks"][()]
+        assert p["deviation"].shape == (4, NS) and peaks.shape == (4, NS)
+        whitehead = float(a.attrs["whitehead"])
+        assert whitehead == pytest.approx((1 + np.sqrt(NS)) / 2)
+        tuned = float(p.attrs["tuned_peak"])
+    # 1e-6 mistuning moves the peak by ~1e-6; the peaks are refined to 1e-6 of the window
+    # (Brent on the response): 1e-4 leaves room for both and is far below a blade's phase
+    # or force wrong (a factor)
+    np.testing.assert_allclose(amp[sigma == 1e-6], 1.0, atol=1e-4)
+    np.testing.assert_allclose(free[sigma == 1e-6], 1.0, atol=1e-4)
+    assert np.all(free <= whitehead) and np.all(amp > 0)
+    np.testing.assert_allclose(peaks.max(axis=1) / tuned, amp, rtol=1e-12)
+    # the same patterns at both levels: z drawn per pattern, scaled by sigma
+    dev = h5py.File(tmp_path / "results.h5")["amplification/patterns/deviation"][()]
+    np.testing.assert_allclose(dev[sigma == 0.03] / 0.03, dev[sigma == 1e-6] / 1e-6)
+    lines.clear()
+    run_case(study_case(), tmp_path, progress=lines.append)
+    assert any("5 from the cache, 0 to compute" in x for x in lines), lines
+    run_case(study_case(patterns=3), tmp_path, progress=lines.append)
+    assert any("5 from the cache, 2 to compute" in x for x in lines), lines
+
+
+def test_the_amplification_per_level_leaves_incomplete_patterns_out():
+    from microslip.app.analyses.mistuning import amplification_levels
+
+    sigma = np.array([0.01] * 4 + [0.02] * 4)
+    amp = np.array([1.0, 1.2, 1.4, 9.0, 1.1, np.nan, 1.3, 1.5])
+    ok = np.array([True, True, True, False, True, True, True, True])
+    out = amplification_levels(sigma, amp, ok, (0.01, 0.02, 0.04))
+    assert out["count"].tolist() == [3, 3, 0]
+    np.testing.assert_allclose(out["percentiles"][0], [1.02, 1.2, 1.38])  # linear percentiles
+    assert out["largest"][1] == 1.5 and out["mean"][1] == pytest.approx(1.3)
+    assert np.all(np.isnan(out["percentiles"][2]))
+
+
+def test_a_study_draws_each_pattern_from_its_seed_and_index_alone():
+    from microslip.app.analyses.mistuning import MistuningStudy
+
+    def study(**kw):
+        return MistuningStudy(name="s", window=(1.0, 2.0), output="tip", sigma=(0.01,),
+                              **kw)
+
+    z = study(patterns=4, seed=3).draws(48)
+    assert z.shape == (4, 48)
+    np.testing.assert_array_equal(study(patterns=2, seed=3).draws(48), z[:2])  # grown
+    assert not np.allclose(study(patterns=4, seed=4).draws(48), z)
+
+
+@pytest.mark.parametrize("changes, expected", [
+    ({"sigma": [0.0]}, ".sigma = [0.0]"),
+    ({"sigma": 0.02}, ".sigma = 0.02"),
+    ({"patterns": 0}, ".patterns = 0"),
+    ({"output": "hub"}, ".output = 'hub'"),
+    ({"window": [9800.0, 9600.0]}, ".window"),
+])
+def test_a_study_fault_is_one_line_naming_the_key(changes, expected):
+    data = copy.deepcopy(CASE)
+    data["analysis"] = [STUDY | changes]
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
+    assert any(expected in f for f in err.value.faults), err.value.faults
+
+
+def test_a_study_needs_the_blade_region():
+    data = copy.deepcopy(CASE)
+    del data["assembly"]["mistuning"]
+    data["analysis"] = [STUDY]
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
+    assert any("needs [assembly.mistuning]" in f for f in err.value.faults)

@@ -40,7 +40,7 @@ def linear_limits(models: AssemblyModels, case: Case, spec: Analysis, writer: Re
     cm0 = models.assembly(variants[masses[0]][0])
     cyclic = np.zeros(cm0.hb.linear.n_dof, dtype=bool)
     for b in cm0.layout:
-        cyclic[b.offset: b.offset + b.n_masters] = b.cyclic
+        cyclic[b.offset: b.offset + b.n_masters] = b.disk
     free = all(not np.any(cm0.outputs[n][~cyclic]) for n in names)
     runs = [("free", free_label(cm0), masses[0], schema.LINEAR_FREE)] if free else []
     for k, m in enumerate(masses):
@@ -68,7 +68,7 @@ def linear_limits(models: AssemblyModels, case: Case, spec: Analysis, writer: Re
 def free_label(cm) -> str:
     """What the free limit is: the cyclic bodies without the damper (a body of their own),
     or without their contacts (a shroud, a blade root)."""
-    return "free (no damper)" if any(not b.cyclic for b in cm.layout) else "free (no contact)"
+    return "free (no damper)" if any(not b.disk for b in cm.layout) else "free (no contact)"
 
 
 def linear_curve(cm, base: OperatingPoint, springs: str, names: list[str], measure: str,
@@ -128,18 +128,20 @@ def peak_levels(cm, base: OperatingPoint, par: str, values: np.ndarray, output_n
     progress(f"[{name}] free and fully stuck peak levels in {time.perf_counter() - t:.1f} s")
 
 
-def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str,
+def linear_peak(cm, point: OperatingPoint, springs: str, output_name: str | list[str],
                 window: tuple[float, float], vibration: bool,
                 grid: int = 101) -> tuple[float, float]:
     """(w, amplitude) of the largest response of a linear limit of an assembly model in a
-    frequency window: a grid, then :func:`refine_peak` between the grid neighbours of its
-    maximum (to 1e-6 of the window)."""
+    frequency window (of any of the outputs, given a list: every blade's): a grid, then
+    :func:`refine_peak` between the grid neighbours of its maximum (to 1e-6 of the
+    window)."""
     h = cm.hb.harmonics
+    names = [output_name] if isinstance(output_name, str) else list(output_name)
 
     def amp(x: float) -> float:
-        coef = cm.linear_outputs(point.set("frequency", x), springs, [output_name],
-                                 static=not vibration)[0]
-        return float(response_measure(h, coef, "vibration" if vibration else "peak"))
+        coef = cm.linear_outputs(point.set("frequency", x), springs, names,
+                                 static=not vibration)
+        return float(np.max(response_measure(h, coef, "vibration" if vibration else "peak")))
 
     ws = np.linspace(*window, grid)
     peaks = np.array([amp(x) for x in ws])

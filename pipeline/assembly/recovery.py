@@ -36,6 +36,12 @@ class BodyLayout:
     def n_masters(self) -> int:
         return 3 * len(self.master_nodes)
 
+    @property
+    def disk(self) -> bool:
+        """The bladed disk: a cyclic body, or the whole disk's annulus (what the free
+        limit keeps)."""
+        return self.cyclic or self.models[0].method == "annulus"
+
     def indices(self, k: int, own_start: int) -> np.ndarray:
         """Positions of the body's reduced coordinates (masters, then modes) in order k's
         vector, given where its modes start there."""
@@ -256,7 +262,7 @@ class AssemblyModel:
         return out
 
     def _cyclic_indices(self, k: int) -> np.ndarray:
-        """Order k's positions of the cyclic bodies' coordinates (masters and modes)."""
+        """Order k's positions of the disk's coordinates (masters and modes)."""
         keep = [idx for b, idx in body_positions(self.layout, k, self.hb.linear.n_dof)
-                if b.cyclic]
+                if b.disk]
         return np.concatenate(keep) if keep else np.zeros(0, dtype=int)

@@ -11,6 +11,7 @@ deviation = [0.0, 0.02, -0.01, ...]  # the region's Young's modulus x (1 + d), p
 # sigma = 0.02            #   drawn: d ~ normal(0, sigma), independent per blade,
 # seed = 0                #   from a seeded generator (the same pattern on every machine)
 ```
+(Neither: the tuned whole disk; a ``type = "mistuning"`` study draws its own patterns.)
 
 With the table the case is the whole disk (``assembly.mistuned``): the sector's reductions
 at every nodal diameter, each keeping the region's basis rows and stiffness, assembled into
@@ -72,7 +73,9 @@ class MistuningTable:
         return next(iter(cyclic_bodies))
 
     def deviations(self, sectors: int) -> tuple[float, ...]:
-        """One deviation per blade (a fraction)."""
+        """One deviation per blade (a fraction; none given: the tuned disk, all 0)."""
+        if self.sigma is None and self.deviation is None:
+            return (0.0,) * sectors
         if self.deviation is not None:
             if len(self.deviation) != sectors:
                 raise ValueError(f"assembly.mistuning.deviation: {len(self.deviation)} values "
@@ -126,8 +129,9 @@ def check(table: Any, out: list[str], names: Mapping[str, Any] | None = None,
     if region is not None and not (isinstance(region, str) and (
             names is None or region in names["node_sets"])):
         out.append(f"{pre}.region = {region!r}: expected a node set of the geometry")
-    if ("deviation" in table) == ("sigma" in table):
-        out.append(f"{pre}: give one of deviation (one fraction per blade) or sigma (drawn)")
+    if "deviation" in table and "sigma" in table:
+        out.append(f"{pre}: give deviation (one fraction per blade) or sigma (drawn), not "
+                   "both")
     dev = table.get("deviation")
     if dev is not None:
         if not (isinstance(dev, list) and dev and all(is_number(d) and d > -1 for d in dev)):

@@ -564,6 +564,47 @@ def uncertainty(g: h5py.Group, name: str, out: Path, options: Options = Options(
     return [hist, spread]
 
 
+def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
+              ) -> list[Path]:
+    """A mistuning study: the worst blade's amplification against the mistuning level
+    (median, 95 % and largest of the patterns, with the dampers and without them, and
+    Whitehead's bound); every blade's peak around the disk for the pattern of the largest
+    amplification at the highest level."""
+    spec = analysis_spec(g)
+    p, a = g[schema.PATTERNS], g[schema.AMPLIFICATION]
+    sigma = a["sigma"][()]
+    series = []
+    for case, label, ls in (("friction", "with the dampers", "-"),
+                            ("free", "without the dampers (linear)", "--")):
+        if f"{case}_percentiles" not in a:
+            continue
+        pc = a[f"{case}_percentiles"][()]
+        colour = "C0" if case == "friction" else "C1"
+        series += [{"x": 100 * sigma, "y": pc[:, 1], "label": f"{label}: median",
+                    "ls": ls, "color": colour, "marker": "o"},
+                   {"x": 100 * sigma, "y": pc[:, 2], "label": "95 %", "ls": ls,
+                    "color": colour, "alpha": 0.6},
+                   {"x": 100 * sigma, "y": a[f"{case}_largest"][()], "label": "largest",
+                    "ls": ls, "color": colour, "marker": "^", "alpha": 0.6}]
+    levels = [{"y": float(a.attrs["whitehead"]), "label": "Whitehead (1 + sqrt N) / 2"},
+              {"y": 1.0, "label": "tuned"}]
+    curve = out / f"{name}.png"
+    plots.amplification(curve, f"{name}: the worst blade's {spec.output} peak against the "
+                        "tuned one", series, levels)
+    amp = p["amplification"][()]
+    ok = (p["status"][()] == b"complete") & np.isfinite(amp)
+    top = p["sigma"][()] == sigma.max()
+    blades = out / f"{name}_blades.png"
+    if not (ok & top).any():
+        return [curve]
+    j = int(np.flatnonzero(ok & top)[np.argmax(amp[ok & top])])
+    tuned = float(p.attrs["tuned_peak"])
+    plots.around_the_disk(blades, f"{name}: every blade's peak, pattern {j + 1} (sigma "
+                          f"{100 * sigma.max():g} %, amplification {amp[j]:.3f})",
+                          p["blade_peaks"][j] / tuned, 100 * p["deviation"][j])
+    return [curve, blades]
+
+
 def render(results: Path, out: Path | None = None, options: Options = Options(),
            analyses: list[str] | None = None, kinds: Kinds | None = None) -> list[Path]:
     """Redraw the pictures of every analysis of a results file into ``out`` (default: the

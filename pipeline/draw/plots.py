@@ -333,3 +333,45 @@ def against_parameters(path: Path, title: str, columns: Sequence[dict], y: np.nd
     with written(path) as tmp:
         fig.savefig(tmp, dpi=110)
     return fig
+
+
+def amplification(path: Path, title: str, series: Sequence[dict], levels: Sequence[dict]
+                  ) -> Figure:
+    """The worst blade's amplification against the mistuning level [%]: ``series`` ``{x, y,
+    label, ls, color, marker, alpha}``, horizontal reference ``levels`` ``{y, label}``
+    (Whitehead's bound, the tuned disk)."""
+    fig = _figure((7, 4.5))
+    ax = fig.add_subplot()
+    for s in series:
+        ax.plot(s["x"], s["y"], label=s["label"], ls=s.get("ls", "-"), color=s.get("color"),
+                marker=s.get("marker"), ms=4, alpha=s.get("alpha", 1.0))
+    for k, lv in enumerate(levels):
+        ax.axhline(lv["y"], color="0.4", ls=(":", "-.")[k % 2], lw=1.0, label=lv["label"])
+    ax.set_xlabel("mistuning: standard deviation of the blades' Young's modulus [%]")
+    ax.set_ylabel("amplification: worst blade / tuned [-]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    return _save(fig, path)
+
+
+def around_the_disk(path: Path, title: str, peaks: np.ndarray, deviation: np.ndarray
+                    ) -> Figure:
+    """Every blade's peak over the tuned one (bars, blade by blade around the disk) over its
+    stiffness deviation [%] (a line, on its own axis)."""
+    fig = _figure((8, 4.2))
+    ax = fig.add_subplot()
+    blades = np.arange(len(peaks))
+    ax.bar(blades, peaks, color="C0", alpha=0.8, label="peak / tuned peak")
+    ax.axhline(1.0, color="0.4", ls=":", lw=1.0)
+    ax.set_xlabel("blade (around the disk)")
+    ax.set_ylabel("peak / tuned peak [-]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3, axis="y")
+    twin = ax.twinx()
+    twin.plot(blades, deviation, "o-", color="C3", ms=3, lw=1.0, label="stiffness deviation")
+    twin.axhline(0.0, color="C3", lw=0.5, alpha=0.5)
+    twin.set_ylabel("Young's modulus deviation [%]", color="C3")
+    handles = [*ax.get_legend_handles_labels()[0], *twin.get_legend_handles_labels()[0]]
+    ax.legend(handles, [h.get_label() for h in handles], fontsize=8, loc="upper right")
+    return _save(fig, path)

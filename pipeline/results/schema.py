@@ -39,6 +39,8 @@ LINEAR_FREE = "linear_free"
 LINEAR_STUCK = "linear_stuck"
 SAMPLES = "samples"
 STATISTICS = "statistics"
+PATTERNS = "patterns"
+AMPLIFICATION = "amplification"
 
 _CURVE = "curve_"
 _STEP = "step_"
@@ -300,6 +302,36 @@ LAYOUT = group(
                 data("percentiles", "(3,) m, at percent (5, 50, 95)"),
                 data("spearman", "(p,) rank correlation of the peak with each parameter"),
                 data("prcc", "(p,) partial rank correlation")),
+          group(PATTERNS, "(mistuning) one row per pattern, level by level",
+                ("seed", "sectors", "tuned_status", "tuned_peak", "tuned_omega",
+                 "tuned_free_peak", "tuned_free_omega (the cyclic sector's, m and rad/s)"),
+                data("sigma", "(n,) the pattern's standard deviation"),
+                data("deviation", "(n, N) each blade's Young's modulus x (1 + deviation)"),
+                data("blade_peaks", "(n, N) m, each blade's largest response over the "
+                     "computed points (the worst blade's refined)"),
+                data("peak", "(n,) m, the worst blade's peak (NaN: none)"),
+                data("omega", "(n,) rad/s, where it is"),
+                data("blade", "(n,) the worst blade"),
+                data("free_peak", "(n,) m, the worst blade's peak without the dampers "
+                     "(linear; NaN: free = false)"),
+                data("free_omega", "(n,) rad/s, where it is"),
+                data("amplification", "(n,) peak / tuned_peak"),
+                data("free_amplification", "(n,) free_peak / tuned_free_peak"),
+                data("points", "(n,) continuation points of the pattern's sweeps"),
+                data("samples", "(n,) time samples per period of its sweeps"),
+                data("seconds", "(n,) s, the pattern's task when it was computed"),
+                data("status", "(n,) complete | stopped | failed | not run")),
+          group(AMPLIFICATION, "(mistuning) the amplification per level, with the dampers "
+                "(friction_) and without (free_)", ("percent", "whitehead ((1 + sqrt N) / 2)",
+                                                    "cases (JSON)"),
+                data("sigma", "(k,) the levels"),
+                data("friction_percentiles", "(k, 3) at percent (5, 50, 95)"),
+                data("friction_largest", "(k,) the largest"),
+                data("friction_mean", "(k,)"),
+                data("friction_count", "(k,) complete patterns"),
+                data("free_percentiles", "(k, 3) without the dampers (free = true)"),
+                data("free_largest", "(k,)"), data("free_mean", "(k,)"),
+                data("free_count", "(k,)")),
           group("curve_NNN", "(loops) one loop per amplitude",
                 ("label", *_RUN, "law", "contact", "dim", "mu", "motion (u | u_x | v)"),
                 data("amplitude", "(a,) the multipliers"),

@@ -359,6 +359,9 @@ def _analysis_lines(f: h5py.File) -> list[str]:
         if ga.get("type") == "modes":
             lines.extend(_modes_lines(g))
             continue
+        if ga.get("type") == "mistuning":
+            lines.extend(_mistuning_lines(g))
+            continue
         for curve, c in g.items():
             if not isinstance(c, h5py.Group):
                 continue
@@ -409,6 +412,24 @@ def _uncertainty_lines(g: h5py.Group) -> list[str]:
     if np.isfinite(limit):
         line += f"; P(peak > {limit:g}) = {float(st.attrs['exceedance']):.3f}"
     return [line]
+
+
+def _mistuning_lines(g: h5py.Group) -> list[str]:
+    """A mistuning study: its patterns and, per level, the amplification's median and
+    largest with the dampers (and without)."""
+    if schema.PATTERNS not in g or schema.AMPLIFICATION not in g:
+        return []
+    p, a = g[schema.PATTERNS], g[schema.AMPLIFICATION]
+    status = p["status"][()]
+    lines = [f"  {status.size} patterns ({np.count_nonzero(status == b'complete')} "
+             f"complete); tuned peak {float(p.attrs['tuned_peak']):.6g} m; Whitehead "
+             f"{float(a.attrs['whitehead']):.3f}"]
+    for k, sigma in enumerate(a["sigma"][()]):
+        parts = [f"{case} median {a[f'{case}_percentiles'][k, 1]:.3f}, largest "
+                 f"{a[f'{case}_largest'][k]:.3f}" for case in ("friction", "free")
+                 if f"{case}_percentiles" in a]
+        lines.append(f"  sigma {sigma:g}: amplification " + "; ".join(parts))
+    return lines
 
 
 #: The largest first-order change a curve may show when its period is sampled twice as

@@ -4,6 +4,7 @@ tasks, and the drawer of its pictures, gathered in its ``KIND`` (``case.kinds``)
 frf                  response curves in a parameter, maps and linear limits
 peak                 the peak over a window against a parameter
 uncertainty          the spread of a peak over sampled uncertain parameters
+mistuning            the worst blade's amplification over random mistuning patterns
 loops                hysteresis loops of a law under a prescribed motion
 direct_integration   steady responses by time integration (``type = "dti"``)
 transient            the two load steps as time histories

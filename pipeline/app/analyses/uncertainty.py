@@ -137,20 +137,10 @@ def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertaint
     rows = models.selection(c, [spec.output])
     base = operating_point(c, spec.window[0])
     solver = settings(c)
-    up, down = _sweeps(hb, spec.window, base, solver, _undersampled(hb, base))
-    status, message = _coverage(up, down, *spec.window)
-    notes = []
-    if status == "stopped" and not _interrupted(up, down):
-        notes.append(f"at {hb.harmonics.n_samples} samples per period: {message}")
-        fine = hb.with_samples(2 * hb.harmonics.n_samples)
-        up, down = (_resumed(fine, chain, end, base, solver)
-                    for chain, end in ((up, spec.window[1]), (down, spec.window[0])))
-        status, message = _coverage(up, down, *spec.window)
-    if _interrupted(up, down):
+    swept = swept_window(hb, spec.window, base, solver)
+    if swept.interrupted:
         return Outcome({}, {}, "interrupted", "interrupted by the user")
-    found = [r for r in (*up, *down) if len(r)]
-    samples = max(r.model.harmonics.n_samples for r in (*up, *down))
-    message = "; ".join([*notes, message])
+    found, status, message, samples = swept.found, swept.status, swept.message, swept.samples
     if not found:
         return Outcome(dict.fromkeys(ROW, np.nan) | {"points": 0, "samples": samples}, {},
                        "failed", message or "no solution in the window")
@@ -165,6 +155,37 @@ def sample_task(models: LumpedModels | AssemblyModels, c: Case, spec: Uncertaint
     data = {"peak": float(response_at(model, x, point, rows, spec.measure)[0]), "omega": w,
             "slip_share": share, "points": sum(len(r) for r in found), "samples": samples}
     return Outcome(data, {}, status, message)
+
+
+@dataclass(frozen=True)
+class WindowSweeps:
+    """The branches that cover a frequency window (:func:`swept_window`): those with
+    points, whether together they cover it (status, message), the finest samples per
+    period they used, and whether the user interrupted them."""
+
+    found: list
+    status: str
+    message: str
+    samples: int
+    interrupted: bool
+
+
+def swept_window(hb, window: tuple[float, float], base, solver) -> WindowSweeps:
+    """The window swept upwards and, where that stops short, downwards from its top; where
+    the two do not cover it, each goes on from where it stopped at twice the samples per
+    period (what stops them is nearly always a stick/slip kink between samples)."""
+    up, down = _sweeps(hb, window, base, solver, _undersampled(hb, base))
+    status, message = _coverage(up, down, *window)
+    notes = []
+    if status == "stopped" and not _interrupted(up, down):
+        notes.append(f"at {hb.harmonics.n_samples} samples per period: {message}")
+        fine = hb.with_samples(2 * hb.harmonics.n_samples)
+        up, down = (_resumed(fine, chain, end, base, solver)
+                    for chain, end in ((up, window[1]), (down, window[0])))
+        status, message = _coverage(up, down, *window)
+    samples = max(r.model.harmonics.n_samples for r in (*up, *down))
+    return WindowSweeps([r for r in (*up, *down) if len(r)], status,
+                        "; ".join([*notes, message]), samples, _interrupted(up, down))
 
 
 def _sweeps(model, window: tuple[float, float], base, solver, undersampled

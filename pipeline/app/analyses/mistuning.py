@@ -1,0 +1,339 @@
+"""``type = "mistuning"``: how much the worst blade's resonance grows over random mistuning
+patterns, with the friction dampers and without them (issue 43).
+
+A case with ``[assembly.mistuning]`` (its blade region) runs, per standard deviation
+``sigma`` and pattern, the whole disk with blade s's Young's modulus times ``1 + sigma z_s``.
+z is the standard-normal vector of pattern j, drawn from ``seed`` and j alone: every sigma
+level sees the same z (common random numbers: the curve against sigma is smooth per
+pattern), and a study grown from 16 to 64 patterns computes the 48 new ones only (each
+pattern a task, kept in the store). The tuned disk is one more task: the cyclic sector at
+the same force.
+
+Per pattern: the window swept (upwards, then downwards where that stops, as the
+uncertainty study's samples), each blade's largest response over the computed points, the
+worst blade's peak refined, and the amplification A = that peak / the tuned peak. With
+``free``, the same for the disk without its dampers (linear, solved directly: the classic
+mistuned blisk, bounded by Whitehead's (1 + sqrt N) / 2).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import time
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import h5py
+import numpy as np
+
+from microslip.case import Case, operating_point, settings, task_seconds
+from microslip.case import analysis_rules as rules
+from microslip.case.checks import is_int, is_number
+from microslip.case.estimate import CURVE_POINTS, PEAK_SOLVES, balance_point_seconds
+from microslip.case.kinds import AnalysisKind, Checking
+from microslip.case.mistuning_table import MAX_SIGMA
+from microslip.case.specs import Analysis
+from microslip.draw import pictures
+from microslip.results import schema
+
+from ..limits import linear_peak
+from ..models import AssemblyModels
+from ..plan import PlanContext, Stage, samples_stage
+from ..progress import time_left
+from ..running import Run, draw_analysis, execute
+from ..solutions import refined_peak, response_at
+from ..tasks import Outcome, Progress, Task
+from .uncertainty import swept_window
+
+#: the percentiles of the amplification reported per sigma level
+PERCENTS = (5.0, 50.0, 95.0)
+#: the largest number of patterns per level
+MAX_PATTERNS = 100_000
+
+
+@dataclass(frozen=True, kw_only=True)
+class MistuningStudy(Analysis):
+    """The worst blade's peak of ``output`` over the frequency ``window`` (rad/s) for
+    ``patterns`` random mistuning patterns at each standard deviation in ``sigma``
+    (fractions of the blades' Young's modulus), ``seed``ed; ``free``: the disk without its
+    dampers too (linear)."""
+
+    type: ClassVar[str] = "mistuning"
+    window: tuple[float, float]
+    output: str
+    sigma: tuple[float, ...]
+    patterns: int = 16
+    seed: int = 0
+    measure: str = "vibration"
+    free: bool = True
+
+    def draws(self, sectors: int) -> np.ndarray:
+        """(patterns, sectors) z: pattern j's standard-normal draw, from (seed, j) alone."""
+        return np.array([np.random.default_rng([self.seed, j]).standard_normal(sectors)
+                         for j in range(self.patterns)])
+
+
+#: The numbers of a pattern's row (NaN where not found)
+ROW = ("peak", "omega", "blade", "free_peak", "free_omega", "points", "samples")
+
+
+def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy, index: int,
+                 *, progress: Progress, live: bool = True) -> Outcome:
+    """One pattern's worst blade (the variant ``c``, a whole disk), or the tuned disk's
+    peak (``c`` the cyclic sector): a task."""
+    names = models.expanded(c, [spec.output])
+    rows = models.selection(c, names)
+    base = operating_point(c, spec.window[0])
+    solver = settings(c)
+    swept = swept_window(models.model(c), spec.window, base, solver)
+    if swept.interrupted:
+        return Outcome({}, {}, "interrupted", "interrupted by the user")
+    data: dict[str, Any] = dict.fromkeys(ROW, np.nan) | {"points": 0,
+                                                        "samples": swept.samples}
+    if spec.free:
+        w, a = linear_peak(models.assembly(c), base, "free", names, spec.window,
+                           spec.measure == "vibration")
+        data |= {"free_peak": a, "free_omega": w}
+    if not swept.found:
+        return Outcome(data, {}, "failed", swept.message or "no solution in the window")
+    shown = [np.array([response_at(r.model, x, r.point(i), rows, spec.measure)
+                       for i, x in enumerate(r.branch.x)]) for r in swept.found]
+    blade_peaks = np.max([y.max(axis=0) for y in shown], axis=0)
+    blade = int(np.argmax(blade_peaks))
+    top = int(np.argmax([y[:, blade].max() for y in shown]))
+    w, x = refined_peak(swept.found[top], shown[top][:, blade], rows[blade:blade + 1],
+                        spec.measure, solver)
+    peak = float(response_at(swept.found[top].model, x, base.set("frequency", w),
+                             rows[blade:blade + 1], spec.measure)[0])
+    blade_peaks[blade] = max(blade_peaks[blade], peak)
+    data |= {"peak": peak, "omega": w, "blade": blade, "blade_peaks": blade_peaks,
+             "points": sum(len(r) for r in swept.found)}
+    return Outcome(data, {}, swept.status, swept.message)
+
+
+def variants(case: Case, spec: MistuningStudy) -> tuple[Case, list[tuple[float, np.ndarray]],
+                                                         list[Case]]:
+    """(the tuned sector, (sigma, deviations) per pattern, level by level, their whole
+    disks): the case's blade region kept, its own pattern replaced."""
+    base = case.with_values(spec.set)
+    table = dict(base.data["assembly"]["mistuning"])
+    region = {k: table[k] for k in ("body", "blade_radius", "region") if k in table}
+    tuned = _sector(base)
+    sectors = _sectors(base)
+    if sectors is None:
+        raise ValueError("mistuning study: the sector count is unknown before meshing")
+    z = spec.draws(sectors)
+    pairs = [(s, s * z[j]) for s in spec.sigma for j in range(spec.patterns)]
+    disks = [base.with_values({"assembly.mistuning": region | {"deviation": d.tolist()}})
+             for _, d in pairs]
+    return tuned, pairs, disks
+
+
+def _sector(case: Case) -> Case:
+    """The case as the cyclic sector (its [assembly.mistuning] left out): the tuned disk at
+    the same force, N times smaller. Its tables are the validated case's; its analyses,
+    which need the whole disk, are left out."""
+    data = copy.deepcopy(case.data)
+    del data["assembly"]["mistuning"]
+    data["analysis"] = []
+    return Case(data, case.source, case.renamed, case.kinds)
+
+
+def _sectors(case: Case) -> int | None:
+    """The blades of a case: its geometry's ``sectors`` parameter, or its imported mesh's."""
+    params = case.data.get("geometry", {}).get("parameters", {})
+    if is_int(params.get("sectors")):
+        return int(params["sectors"])
+    if case.geometry_table.imported:
+        from microslip.geometry.full_disk import sector_count
+
+        return sector_count(case.geometry_table.build())
+    return None
+
+
+def pattern_key(store, variant: Case, spec: MistuningStudy) -> str:
+    """The store key of a pattern or of the tuned disk: its variant and the window, output,
+    measure and ``free`` (not sigma, the count or the seed: the variant holds the pattern)."""
+    return store.key(variant.data, {"type": spec.type, "window": list(spec.window),
+                                    "output": spec.output, "measure": spec.measure,
+                                    "free": spec.free}, curve="pattern")
+
+
+def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
+                  ) -> tuple[str, str]:
+    """The tuned disk and every pattern (a task each, or from the store), their table, the
+    amplification's statistics per level and the pictures."""
+    name, store = spec.name, run.store
+    t0 = time.perf_counter()
+    tuned, pairs, disks = variants(case, spec)
+    cases = [tuned, *disks]
+    n = len(cases)
+    table: dict[str, np.ndarray] = {k: np.full(n, np.nan) for k in ROW} | {
+        "seconds": np.zeros(n)}
+    sectors = len(pairs[0][1])
+    blade_peaks = np.full((n, sectors), np.nan)
+    status = np.array(["not run"] * n, dtype=object)
+    messages = [""] * n
+    tasks, slots, keys = [], [], []
+    each = task_seconds(case.data, spec)
+    for i, variant in enumerate(cases):
+        key = pattern_key(store, variant, spec)
+        keys.append(key)
+        row = store.load_row(key)
+        if row is None:
+            label = "tuned disk" if i == 0 else f"pattern {i}"
+            tasks.append(Task(pattern_task, (variant, spec, i), f"[{name}] {label}", each))
+            slots.append((i, key))
+            continue
+        _fill(table, blade_peaks, status, messages, i, row)
+    run.progress(f"[{name}] the tuned disk and {len(pairs)} patterns ({len(spec.sigma)} "
+                 f"levels x {spec.patterns}, seed {spec.seed}) of {sectors} blades: "
+                 f"{n - len(tasks)} from the cache, {len(tasks)} to compute")
+    stopped = ""
+    t = time.perf_counter()
+    computed = 0
+
+    def keep(j: int, outcome: Outcome) -> None:
+        nonlocal stopped, computed
+        i, key = slots[j]
+        if outcome.status == "interrupted":
+            stopped = outcome.message
+            return
+        row = dict(outcome.data) | {"status": outcome.status, "message": outcome.message,
+                                    "seconds": outcome.seconds}
+        _fill(table, blade_peaks, status, messages, i, row)
+        if outcome.status in ("complete", "stopped"):
+            store.save_row(key, row)
+        computed += 1
+        left = time_left(time.perf_counter() - t, computed / len(tasks))
+        what = "tuned disk" if i == 0 else f"pattern {i} of {n - 1}"
+        run.progress(f"[{name}] {what} ({computed} of {len(tasks)} computed"
+                     f"{', ' + left if left else ''}): peak {table['peak'][i]:.4g} m at "
+                     f"{table['omega'][i]:.6g} rad/s {outcome.status} "
+                     f"{outcome.message}".rstrip())
+
+    if execute(run, tasks, f"[{name}] ", keep, count=False):
+        stopped = "interrupted by the user"
+    levels = _write(run.writer, group, spec, pairs, table, blade_peaks, status)
+    run.progress(_summary(spec, levels, table, sectors, n, time.perf_counter() - t0))
+    draw_analysis(pictures.mistuning, group, spec, run, keys, cached=not tasks)
+    if stopped:
+        return "interrupted", stopped
+    bad = [(i, status[i], messages[i]) for i in range(n) if status[i] != "complete"]
+    if bad:
+        i, s, m = bad[0]
+        what = "the tuned disk" if i == 0 else f"pattern {i}"
+        return ("failed" if len(bad) == n else "stopped"), (
+            f"{len(bad)} of {n} runs not complete (the statistics leave them out); {what}: "
+            f"{s} {m}".rstrip())
+    return "complete", ""
+
+
+def _fill(table: dict, blade_peaks: np.ndarray, status: np.ndarray, messages: list, i: int,
+          row: dict) -> None:
+    for k in (*ROW, "seconds"):
+        if k in row:
+            table[k][i] = row[k]
+    if "blade_peaks" in row:
+        blade_peaks[i] = row["blade_peaks"]
+    status[i] = str(row.get("status", "complete"))
+    messages[i] = str(row.get("message", ""))
+
+
+def amplification_levels(sigma: np.ndarray, amplification: np.ndarray, ok: np.ndarray,
+                         levels: tuple[float, ...]) -> dict[str, np.ndarray]:
+    """Per level: the percentiles (PERCENTS), the largest, the mean and the count of the
+    amplifications of its complete patterns (NaN where it has none)."""
+    out = {"percentiles": np.full((len(levels), len(PERCENTS)), np.nan),
+           "largest": np.full(len(levels), np.nan), "mean": np.full(len(levels), np.nan),
+           "count": np.zeros(len(levels), dtype=np.int64)}
+    for k, s in enumerate(levels):
+        a = amplification[(sigma == s) & ok & np.isfinite(amplification)]
+        out["count"][k] = a.size
+        if a.size:
+            out["percentiles"][k] = np.percentile(a, PERCENTS)
+            out["largest"][k], out["mean"][k] = a.max(), a.mean()
+    return out
+
+
+def _write(writer, group, spec: MistuningStudy, pairs, table, blade_peaks, status
+           ) -> dict[str, dict[str, np.ndarray]]:
+    """The patterns' table and the amplification per level, with friction and free."""
+    sigma = np.array([s for s, _ in pairs])
+    deviation = np.array([d for _, d in pairs])
+    tuned = {k: table[k][0] for k in ("peak", "omega", "free_peak", "free_omega")}
+    rows = {k: v[1:] for k, v in table.items()}
+    ok = status[1:] == "complete"
+    amp = rows["peak"] / tuned["peak"]
+    free_amp = rows["free_peak"] / tuned["free_peak"]
+    sectors = deviation.shape[1]
+    writer.write_group(group, schema.PATTERNS, {
+        "sigma": sigma, "deviation": deviation, "blade_peaks": blade_peaks[1:], **rows,
+        "amplification": amp, "free_amplification": free_amp,
+        "status": np.array(status[1:].tolist(), dtype="S")}, {
+        "seed": spec.seed, "sectors": sectors, "tuned_status": str(status[0]),
+        **{f"tuned_{k}": float(v) for k, v in tuned.items()}})
+    levels = {"friction": amplification_levels(sigma, amp, ok, spec.sigma)}
+    if spec.free:
+        levels["free"] = amplification_levels(sigma, free_amp, ok, spec.sigma)
+    writer.write_group(group, schema.AMPLIFICATION, {
+        "sigma": np.array(spec.sigma), **{f"{k}_{x}": v for k, d in levels.items()
+                                          for x, v in d.items()}}, {
+        "percent": list(PERCENTS), "whitehead": (1 + np.sqrt(sectors)) / 2,
+        "cases": json.dumps(list(levels))})
+    writer.flush()
+    return levels
+
+
+def _summary(spec: MistuningStudy, levels: dict, table: dict, sectors: int, n: int,
+             elapsed: float) -> str:
+    lines = [f"[{spec.name}] tuned peak {table['peak'][0]:.4g} m at {table['omega'][0]:.6g} "
+             f"rad/s" + (f", free {table['free_peak'][0]:.4g} m" if spec.free else "")
+             + f"; {n - 1} patterns in {elapsed:.1f} s; Whitehead's bound "
+             f"{(1 + np.sqrt(sectors)) / 2:.3f}"]
+    for k, s in enumerate(spec.sigma):
+        for what, d in levels.items():
+            p5, p50, p95 = d["percentiles"][k]
+            lines.append(f"[{spec.name}]   sigma {s:g}, {what}: amplification median "
+                         f"{p50:.3f}, 95 % {p95:.3f}, largest {d['largest'][k]:.3f} "
+                         f"({d['count'][k]} patterns)")
+    return "\n".join(lines)
+
+
+def check(c: Checking) -> None:
+    """A study's own rules: its window, output, levels, counts, and a case that is a
+    mistuned whole disk (its [assembly.mistuning] gives the blade region)."""
+    a = c.table
+    rules.window_faults(c)
+    rules.output_fault(c, "output")
+    sig = a.get("sigma")
+    if not (isinstance(sig, list) and sig and all(is_number(s) and 0 < s <= MAX_SIGMA
+                                                  for s in sig)):
+        c.fault(f".sigma = {sig!r}: expected a list of standard deviations in (0, "
+                f"{MAX_SIGMA}] (fractions of the blades' Young's modulus)")
+    if not (is_int(a["patterns"]) and 1 <= a["patterns"] <= MAX_PATTERNS):
+        c.fault(f".patterns = {a['patterns']!r}: expected an integer from 1 to {MAX_PATTERNS}")
+    if not (is_int(a["seed"]) and a["seed"] >= 0):
+        c.fault(f".seed = {a['seed']!r}: expected an integer >= 0")
+    rules.measure_faults(c, ("peak", "vibration"))
+    rules.flag(c, "free", " (the disk without its dampers too)")
+    if not isinstance((c.data.get("assembly") or {}).get("mistuning"), dict):
+        c.fault(": needs [assembly.mistuning] (its blade region: blade_radius or region; "
+                "the study draws the deviations)")
+
+
+def seconds(data: dict, spec: MistuningStudy, variant: dict | None = None) -> float:
+    """One pattern: a sweep of CURVE_POINTS points and its top refined (PEAK_SOLVES)."""
+    return (CURVE_POINTS + PEAK_SOLVES) * balance_point_seconds(data, spec, variant)
+
+
+def plan(case: Case, spec: MistuningStudy, context: PlanContext) -> list[Stage]:
+    """The tuned disk and the patterns as one stage: those the store does not have."""
+    tuned, _, disks = variants(case, spec)
+    keys = [pattern_key(context.store, v, spec) for v in (tuned, *disks)]
+    return [samples_stage(case, spec, context, keys)]
+
+
+KIND = AnalysisKind("mistuning", MistuningStudy, check, seconds, run_mistuning,
+                    pictures.mistuning, plan=plan, kernels=True, lumped=False, assembly=True)
