@@ -53,9 +53,10 @@ CASE = {
 }
 
 
-def run(tmp_path_factory, name: str, deviation) -> h5py.File:
+def run(tmp_path_factory, name: str, deviation, **analysis) -> h5py.File:
     data = copy.deepcopy(CASE)
     data["assembly"]["mistuning"]["deviation"] = list(deviation)
+    data["analysis"][0].update(analysis)
     out = tmp_path_factory.mktemp(name)
     run_case(cases.Case(data, f"{name}.toml"), out, progress=lambda s: None)
     return out / "results.h5"
@@ -112,13 +113,24 @@ def test_the_tuned_whole_disk_case_is_the_cyclic_sector_on_every_blade(tuned):
 
 @pytest.mark.slow
 def test_a_mistuned_case_localizes_and_its_pattern_is_the_one_asked(tmp_path_factory):
-    path = run(tmp_path_factory, "mistuned", [0.0, 0.04, -0.03, 0.06, -0.05, 0.02])
+    path = run(tmp_path_factory, "mistuned", [0.0, 0.04, -0.03, 0.06, -0.05, 0.02],
+               maps=["peak"], map_types=["status"])
     with h5py.File(path) as f:
         assert f.attrs["status"] == "complete"
         response = f["frf/curve_000/response"][()]
+        point = f["frf/curve_000/maps/point_00/patches"]
+        assert sorted(point) == sorted(f"damper_{side}#{s}" for side in ("left", "right")
+                                       for s in range(NS))
     peaks = response.max(axis=0)  # each blade's largest over the window
     # the blades' peaks spread (tuned: all equal to 1e-8); 1.1 against ~1.3 measured
     assert peaks.max() > 1.1 * peaks.min()
+    # one picture with every blade's curve, the maps a row per blade, sector 0's statics
+    folder = path.parent
+    assert (folder / "frf_tip.png").is_file() and not list(folder.glob("frf_tip#*"))
+    assert (folder / "frf_status.png").is_file()
+    assert [p.name for p in folder.glob("frf_static_*")] in (
+        ["frf_static_damper_left#0.png", "frf_static_damper_right#0.png"],
+        ["frf_static_damper_right#0.png", "frf_static_damper_left#0.png"])
 
 
 def test_the_reduction_keeps_the_blades_rows_and_stiffness(tmp_path):
@@ -278,3 +290,20 @@ def test_a_study_needs_the_blade_region():
     with pytest.raises(cases.CaseError) as err:
         cases.check(data)
     assert any("needs [assembly.mistuning]" in f for f in err.value.faults)
+
+
+@pytest.mark.parametrize("analysis", [
+    {"name": "p", "type": "peak", "parameter": "excitation", "start": 1.0, "stop": 2.0,
+     "window": [9600.0, 9800.0], "output": "tip"},
+    {"name": "u", "type": "uncertainty", "window": [9600.0, 9800.0], "output": "tip",
+     "samples": 4, "parameters": {"mu": {"uniform": [0.3, 0.6]}}},
+])
+def test_an_analysis_of_one_response_is_refused_on_the_whole_disk(analysis):
+    """peak, uncertainty and nonlinear modes follow one output; on the whole disk it is one
+    per blade: a fault naming what to use, not blade 0 silently."""
+    data = copy.deepcopy(CASE)
+    data["analysis"] = [analysis]
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
+    assert any("follows one response" in f and "one per blade" in f
+               for f in err.value.faults), err.value.faults

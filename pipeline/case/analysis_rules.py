@@ -69,6 +69,15 @@ def output_fault(c: Checking, what: str = "DOF") -> None:
                      f"{sorted(c.outputs)}")
 
 
+def sector_only(c: Checking) -> None:
+    """An analysis that follows one response: not on the whole disk ([assembly.mistuning]),
+    where each output is one per blade."""
+    if isinstance((c.data.get("assembly") or {}).get("mistuning"), dict):
+        c.out.append(f"{c.pre}: follows one response, and [assembly.mistuning] makes every "
+                     "output one per blade; on the whole disk use frf (every blade) or "
+                     "mistuning (the worst blade over patterns)")
+
+
 def window_faults(c: Checking) -> None:
     """``window`` = [w_low, w_high], 0 < w_low < w_high (rad/s)."""
     _window(c.pre, c.table.get("window"), c.out)

@@ -12,6 +12,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -217,6 +218,7 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     """Every picture of an frf analysis: the response of each output (with the linear
     limits and the map points marked), the static forces of each contact, and the maps."""
     par, series, static = frf_series(g)
+    series, static = _around_the_disk(series), _first_sector(static)
     measure = analysis_spec(g).measure
     marks = map_marks(g)
     normalised = any(bool(c.attrs.get("normalised", False)) for _, c in curves(g))
@@ -239,6 +241,35 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
                      lines, "static contact force [N]")
         paths.append(path)
     return paths + frf_maps(g, name, out, options) + slip_growth(g, name, out)
+
+
+def _blade(name: str) -> tuple[str, int | None]:
+    """("tip", 3) of a whole disk's "tip#3"; (name, None) of any other name."""
+    base, _, s = name.rpartition("#")
+    return (base, int(s)) if base and s.isdigit() else (name, None)
+
+
+def _around_the_disk(series: dict[str, list[dict]]) -> dict[str, list[dict]]:
+    """A whole disk's outputs ("tip#s") gathered into one picture per output: each blade's
+    computed curves, labelled by blade (its linear limits left out: N of each would hide
+    the blades); other outputs as they are."""
+    out: dict[str, list[dict]] = {}
+    for n, lines in series.items():
+        base, s = _blade(n)
+        if s is None:
+            out[n] = lines
+            continue
+        out.setdefault(base, []).extend(
+            {**x, "label": f"blade {s}" + (f", {x['label']}" if x.get("label") else ""),
+             "bifurcations": ()}
+            for x in lines if "bifurcations" in x)
+    return out
+
+
+def _first_sector(static: dict[str, list[dict]]) -> dict[str, list[dict]]:
+    """A whole disk's contacts: sector 0's static forces only (one picture per contact of
+    the sector, not N); other contacts as they are."""
+    return {c: v for c, v in static.items() if _blade(c)[1] in (None, 0)}
 
 
 def slip_at_peaks(g: h5py.Group) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -339,6 +370,18 @@ def _what(p: h5py.Group, par: str) -> str:
     return what
 
 
+def _map_rows(points: list) -> list[tuple[Any, list[str]]]:
+    """The rows of a maps picture: (map point, its patches) per point, and on a whole disk
+    per point and blade (each sector's patches "p#s" in a row of their own)."""
+    rows = []
+    for pt in points:
+        blades: dict[int | None, list[str]] = {}
+        for p in sorted(pt.state, key=lambda p: (_blade(p)[1] or 0, p)):
+            blades.setdefault(_blade(p)[1], []).append(p)
+        rows += [(pt, row) for row in blades.values()]
+    return rows
+
+
 def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> list[Path]:
     """Status maps (and static normal-load maps) of every map point: one row per point, one
     column per patch. Nothing when the analysis has no map points."""
@@ -348,11 +391,13 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
     if not points or not kinds:
         return []
     grids = contact_grids(g.file)
-    patches = sorted(points[0].state)
+    rows = _map_rows(points)
+    grids |= {p: grids[_blade(p)[0]] for _, row in rows for p in row if p not in grids}
+    patches = [p for _, row in rows[:1] for p in row]
     paths = []
     if "status" in kinds:
         panels = [[maps.Panel(grids[p], pt.state[p], _panel_caption(pt, p, True))
-                   for p in patches] for pt in points]
+                   for p in row] for pt, row in rows]
         path = out / f"{name}_status.png"
         maps.status_maps(path, f"{name}: contact status over the period "
                          f"({_seen(grids, patches)})", panels,
@@ -360,7 +405,7 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
         paths.append(path)
     if "normal_load" in kinds:
         panels = [[maps.Panel(grids[p], pt.static[p][:, 2], _panel_caption(pt, p, False))
-                   for p in patches] for pt in points]
+                   for p in row] for pt, row in rows]
         path = out / f"{name}_normal_load.png"
         maps.load_maps(path, f"{name}: static normal load per node pair "
                        f"({_seen(grids, patches)})", panels,

@@ -77,6 +77,7 @@ def check(c: Checking) -> None:
     """The output, the amplitude range, the mode number, the start, the excitations."""
     a, pre = c.table, c.pre
     rules.output_fault(c)
+    rules.sector_only(c)
     amp = a["amplitude"]
     if not (isinstance(amp, list) and len(amp) == 2 and all(is_number(v) for v in amp)
             and 0 < amp[0] < amp[1]):

@@ -77,6 +77,7 @@ def check(c: Checking) -> None:
     ok = rules.sweep_range(c, PEAK_PARAMETERS)
     rules.window_faults(c)
     rules.output_fault(c)
+    rules.sector_only(c)
     number(f"{pre}.points", a["points"], c.out, positive=True, integer=True)
     if a["tracking"] not in ("continuation", "sweep"):
         c.out.append(f"{pre}.tracking = {a.get('tracking')!r}: expected 'continuation' (the "

@@ -374,6 +374,7 @@ def check(c: Checking) -> None:
     """A study's own rules: its keys and distributions, the case at the extreme samples,
     its measure and flags."""
     rules.uncertainty_faults(c)
+    rules.sector_only(c)
     rules.measure_faults(c, ("peak", "vibration"))
     rules.flag(c, "levels", " (the free and fully stuck peak levels, an assembly case)")
 
