@@ -11,6 +11,7 @@ own ND); a mistuned pattern localizes; the table's faults are one line each.
 import copy
 
 import h5py
+import matplotlib.image as mpimg
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -23,8 +24,10 @@ from microslip.app.run import run_case
 from microslip.assembly.join import join
 from microslip.case import assembly_table
 from microslip.case.mistuning_table import MAX_SIGMA, MistuningTable
+from microslip.cli import main
 from microslip.fe.reduced_model import ReducedModel
 from microslip.fourier import Harmonics
+from microslip.results import schema
 from microslip.solve.continuation import Settings
 from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import solve_point
@@ -235,6 +238,15 @@ def test_a_mistuning_study_measures_the_worst_blade_against_the_tuned_sector(tmp
     # the same patterns at both levels: z drawn per pattern, scaled by sigma
     dev = h5py.File(tmp_path / "results.h5")["amplification/patterns/deviation"][()]
     np.testing.assert_allclose(dev[sigma == 0.03] / 0.03, dev[sigma == 1e-6] / 1e-6)
+    with h5py.File(tmp_path / "results.h5") as f:  # its groups are in the layout
+        assert schema.undescribed(f) == []
+    drawn = sorted(p.name for p in tmp_path.glob("amplification*.png"))
+    assert drawn == ["amplification.png", "amplification_blades.png"]
+    again = tmp_path / "again"  # redrawn from results.h5 alone, the same pixels
+    assert main(["render", str(tmp_path / "results.h5"), "--out", str(again)]) == 0
+    for name in drawn:
+        np.testing.assert_array_equal(mpimg.imread(again / name),
+                                      mpimg.imread(tmp_path / name), err_msg=name)
     lines.clear()
     run_case(study_case(), tmp_path, progress=lines.append)
     assert any("5 from the cache, 0 to compute" in x for x in lines), lines
