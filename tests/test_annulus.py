@@ -113,6 +113,9 @@ def test_each_sectors_region_energy_is_sector_zeros_turned():
         B = a.region_motion(s)
         S = a.shift(s)
         np.testing.assert_allclose(S.T @ E0 @ S, B.T @ Kb @ B, atol=1e-12 * np.abs(E0).max())
+        # the turn applied without forming S (what the mistuned stiffness uses)
+        np.testing.assert_allclose(a.turned(E0, s), B.T @ Kb @ B,
+                                   atol=1e-12 * np.abs(E0).max())
         np.testing.assert_allclose(S @ S.T, np.eye(a.n), atol=1e-13)
 
 

@@ -251,6 +251,33 @@ class Annulus:
             raise ValueError(f"annulus: {delta.size} deviations for {self.sectors} sectors")
         K = self.stiffness.copy()
         for s in np.flatnonzero(delta):
-            S = self.shift(int(s))
-            K += delta[s] * (S.T @ region_energy @ S)
+            K += delta[s] * self.turned(region_energy, int(s))
         return K
+
+    def turned(self, A: np.ndarray, s: int) -> np.ndarray:
+        """(n, n) S_s^T A S_s (:meth:`shift`) in O(n^2): S_s only moves sector blocks
+        (turning their triples) and turns each ND's [a; b] pairs, so it is applied to
+        the columns and then the rows, never formed."""
+        return self._shift_columns(self._shift_columns(A, s).T, s).T
+
+    def _shift_columns(self, A: np.ndarray, s: int) -> np.ndarray:
+        """A S_s for A (k, n)."""
+        N, nm, phi = self.sectors, self.n_master, self.phi
+        out = np.empty_like(A)
+        for t in range(N):  # S's block (t, t + s) is R(-s phi) on every triple
+            src = (t + s) % N
+            block = A[:, t * nm:(t + 1) * nm]
+            if self.triples:
+                block = (block.reshape(len(A), nm // 3, 3) @ rotation_z(-s * phi)
+                         ).reshape(len(A), nm)
+            out[:, src * nm:(src + 1) * nm] = block
+        for h, cols in self.modal_slices.items():
+            c, sn = np.cos(h * s * phi), np.sin(h * s * phi)
+            if self.standing(h):
+                out[:, cols] = c * A[:, cols]
+                continue
+            m = self.n_modes(h)
+            a, b = A[:, cols.start:cols.start + m], A[:, cols.start + m:cols.stop]
+            out[:, cols.start:cols.start + m] = c * a + sn * b
+            out[:, cols.start + m:cols.stop] = c * b - sn * a
+        return out
