@@ -319,3 +319,15 @@ def test_an_analysis_of_one_response_is_refused_on_the_whole_disk(analysis):
         cases.check(data)
     assert any("follows one response" in f and "one per blade" in f
                for f in err.value.faults), err.value.faults
+
+
+def test_the_estimates_count_every_sectors_contacts_on_the_whole_disk():
+    """The dry run's unknowns: 2 patches x 6 pairs x 2 nodes x 3 DOFs x 3 coefficients per
+    sector, N sectors on the whole disk (the join's own count, test_assembly_case)."""
+    from microslip.case import sizes
+
+    data = copy.deepcopy(CASE)
+    whole = sizes(data)[0].unknowns
+    del data["assembly"]["mistuning"]
+    assert sizes(data)[0].unknowns == 2 * 6 * 2 * 3 * 3
+    assert whole == NS * 2 * 6 * 2 * 3 * 3

@@ -241,16 +241,21 @@ def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
     model's patch has n_axial x n_flank node pairs, each pair a node of each body (3 DOFs
     each); an imported mesh's contacts are counted on the mesh (read at the check, kept); a
     parametric model's declared contacts are not known before meshing (left out: a lower
-    bound)."""
+    bound). The whole disk ([assembly.mistuning]) has every sector's contacts."""
     from microslip import geometry
+    from microslip.geometry.full_disk import sector_count
     from microslip.geometry.pairing import paired_contact
 
     from .geometry_table import IMPORT, GeometryTable
 
     geo = data["geometry"]
+    whole = isinstance(data["assembly"].get("mistuning"), dict)  # every sector's contacts
+    copies = 1
     counts: dict[str, tuple[int, int, int]] = {}  # contact -> (pairs, DOFs, DOFs per pair)
     if geo["model"] == IMPORT:
         mesh = GeometryTable.of(geo).build()
+        if whole and mesh.cyclic:
+            copies = sector_count(mesh)
         for name in mesh.contacts:
             p = paired_contact(mesh, name).pairing
             per_pair = 3 * (1 + int(np.diff(p.weights.indptr).max(initial=0)))
@@ -265,11 +270,14 @@ def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:
 
         # a patch's grid: the model's contact_n_* counts (axial x flank, radial x along, ...)
         pairs = math.prod(count(k) for k in fields if k.startswith("contact_n_"))
+        if whole and "sectors" in fields:
+            copies = count("sectors")
         counts = {name: (pairs, 6 * pairs, 6) for name in geometry.NAMES.get(
             geo["model"], {}).get("patches", ())}
     shapes, dofs = [], 0
     for c in data["assembly"]["contacts"]:
         pairs, n, per_pair = counts.get(c.get("patch"), (0, 0, 6))
+        pairs, n = copies * pairs, copies * n
         dofs += n
         if c.get("elements", PatchFriction.elements) == "2D":
             shapes.append(ContactShape(pairs, 3, 2, per_pair))
