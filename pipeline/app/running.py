@@ -63,6 +63,73 @@ def execute(run: Run, tasks: list[Task], what: str,
     return False
 
 
+@dataclass(frozen=True)
+class StoredRows:
+    """How a study's rows went (:func:`stored_rows`): why it stopped ("" if it did not)
+    and how many rows were not in the store (to compute)."""
+
+    stopped: str
+    to_compute: int
+
+
+def stored_rows(run: Run, name: str, keys: list[str], task: Callable[[int], Task],
+                fill: Callable[[int, dict], None], announce: Callable[[int, int], str],
+                line: Callable[[int, Outcome, str], str]) -> StoredRows:
+    """A study's rows (an uncertainty sample, a mistuning pattern), each from the store
+    under ``keys[i]`` or computed by ``task(i)`` (a task each, on the run's executor) and
+    stored once complete or stopped; ``fill(i, row)`` takes each in. ``announce(cached,
+    to_compute)`` is the line before; ``line(i, outcome, count)`` each computed row's
+    (``count``: "k of n computed" with the time left)."""
+    tasks, slots = [], []
+    for i, key in enumerate(keys):
+        row = run.store.load_row(key)
+        if row is None:
+            tasks.append(task(i))
+            slots.append((i, key))
+        else:
+            fill(i, row)
+    run.progress(announce(len(keys) - len(tasks), len(tasks)))
+    stopped, computed, t = "", 0, time.perf_counter()
+
+    def keep(j: int, outcome: Outcome) -> None:
+        nonlocal stopped, computed
+        i, key = slots[j]
+        if outcome.status == "interrupted":
+            stopped = outcome.message
+            return
+        row = dict(outcome.data) | {"status": outcome.status, "message": outcome.message,
+                                    "seconds": outcome.seconds}
+        fill(i, row)
+        if outcome.status in ("complete", "stopped"):
+            run.store.save_row(key, row)
+        computed += 1
+        left = time_left(time.perf_counter() - t, computed / len(tasks))
+        for text in outcome.lines:
+            run.progress(text)
+        run.progress(line(i, outcome, f"{computed} of {len(tasks)} computed"
+                          + (f", {left}" if left else "")))
+
+    if execute(run, tasks, f"[{name}] ", keep, count=False):
+        stopped = "interrupted by the user"
+    return StoredRows(stopped, len(tasks))
+
+
+def rows_status(stored: StoredRows, status: np.ndarray, messages: list[str], noun: str,
+                what: Callable[[int], str]) -> tuple[str, str]:
+    """(status, message) of a study from its rows' statuses: interrupted, complete, failed
+    (every row failed) or stopped, naming the first row not complete (``what(i)``)."""
+    if stored.stopped:
+        return "interrupted", stored.stopped
+    bad = [(i, status[i], messages[i]) for i in range(len(status)) if status[i] != "complete"]
+    if not bad:
+        return "complete", ""
+    i, s, m = bad[0]
+    failed = len(bad) == len(status) and all(x == "failed" for _, x, _ in bad)
+    return ("failed" if failed else "stopped"), (
+        f"{len(bad)} of {len(status)} {noun} not complete (the statistics leave them out); "
+        f"{what(i)}: {s} {m}".rstrip())
+
+
 def computed_curves(run: Run, group: h5py.Group, tasks: list[Task],
                     targets: list[tuple[int, str, str]], what: str
                     ) -> dict[int, tuple[str, str]]:

@@ -40,8 +40,7 @@ from microslip.results import schema
 from ..limits import linear_peak
 from ..models import AssemblyModels
 from ..plan import PlanContext, Stage, samples_stage
-from ..progress import time_left
-from ..running import Run, draw_analysis, execute
+from ..running import Run, draw_analysis, rows_status, stored_rows
 from ..solutions import refined_peak, response_at
 from ..tasks import Outcome, Progress, Task
 from .uncertainty import swept_window
@@ -175,59 +174,30 @@ def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
     blade_peaks = np.full((n, sectors), np.nan)
     status = np.array(["not run"] * n, dtype=object)
     messages = [""] * n
-    tasks, slots, keys = [], [], []
     each = task_seconds(case.data, spec)
-    for i, variant in enumerate(cases):
-        key = pattern_key(store, variant, spec)
-        keys.append(key)
-        row = store.load_row(key)
-        if row is None:
-            label = "tuned disk" if i == 0 else f"pattern {i}"
-            tasks.append(Task(pattern_task, (variant, spec, i), f"[{name}] {label}", each))
-            slots.append((i, key))
-            continue
-        _fill(table, blade_peaks, status, messages, i, row)
-    run.progress(f"[{name}] the tuned disk and {len(pairs)} patterns ({len(spec.sigma)} "
-                 f"levels x {spec.patterns}, seed {spec.seed}) of {sectors} blades: "
-                 f"{n - len(tasks)} from the cache, {len(tasks)} to compute")
-    stopped = ""
-    t = time.perf_counter()
-    computed = 0
+    keys = [pattern_key(store, v, spec) for v in cases]
 
-    def keep(j: int, outcome: Outcome) -> None:
-        nonlocal stopped, computed
-        i, key = slots[j]
-        if outcome.status == "interrupted":
-            stopped = outcome.message
-            return
-        row = dict(outcome.data) | {"status": outcome.status, "message": outcome.message,
-                                    "seconds": outcome.seconds}
+    def fill(i: int, row: dict) -> None:
         _fill(table, blade_peaks, status, messages, i, row)
-        if outcome.status in ("complete", "stopped"):
-            store.save_row(key, row)
-        computed += 1
-        left = time_left(time.perf_counter() - t, computed / len(tasks))
+
+    def line(i: int, outcome: Outcome, count: str) -> str:
         what = "tuned disk" if i == 0 else f"pattern {i} of {n - 1}"
-        run.progress(f"[{name}] {what} ({computed} of {len(tasks)} computed"
-                     f"{', ' + left if left else ''}): peak {table['peak'][i]:.4g} m at "
-                     f"{table['omega'][i]:.6g} rad/s {outcome.status} "
-                     f"{outcome.message}".rstrip())
+        return (f"[{name}] {what} ({count}): peak {table['peak'][i]:.4g} m at "
+                f"{table['omega'][i]:.6g} rad/s {outcome.status} {outcome.message}".rstrip())
 
-    if execute(run, tasks, f"[{name}] ", keep, count=False):
-        stopped = "interrupted by the user"
+    rows = stored_rows(
+        run, name, keys,
+        lambda i: Task(pattern_task, (cases[i], spec, i), f"[{name}] " + (
+            "tuned disk" if i == 0 else f"pattern {i}"), each),
+        fill, lambda cached, todo: (
+            f"[{name}] the tuned disk and {len(pairs)} patterns ({len(spec.sigma)} levels x "
+            f"{spec.patterns}, seed {spec.seed}) of {sectors} blades: {cached} from the "
+            f"cache, {todo} to compute"), line)
     levels = _write(run.writer, group, spec, pairs, table, blade_peaks, status)
     run.progress(_summary(spec, levels, table, sectors, n, time.perf_counter() - t0))
-    draw_analysis(pictures.mistuning, group, spec, run, keys, cached=not tasks)
-    if stopped:
-        return "interrupted", stopped
-    bad = [(i, status[i], messages[i]) for i in range(n) if status[i] != "complete"]
-    if bad:
-        i, s, m = bad[0]
-        what = "the tuned disk" if i == 0 else f"pattern {i}"
-        return ("failed" if len(bad) == n else "stopped"), (
-            f"{len(bad)} of {n} runs not complete (the statistics leave them out); {what}: "
-            f"{s} {m}".rstrip())
-    return "complete", ""
+    draw_analysis(pictures.mistuning, group, spec, run, keys, cached=not rows.to_compute)
+    return rows_status(rows, status, messages, "runs",
+                       lambda i: "the tuned disk" if i == 0 else f"pattern {i}")
 
 
 def _fill(table: dict, blade_peaks: np.ndarray, status: np.ndarray, messages: list, i: int,

@@ -35,8 +35,7 @@ from microslip.solve.sampling import PERCENTILES, Distribution, design, statisti
 from ..limits import linear_peak
 from ..models import AssemblyModels, LumpedModels
 from ..plan import PlanContext, Stage, samples_stage
-from ..progress import time_left
-from ..running import Run, draw_analysis, execute
+from ..running import Run, draw_analysis, rows_status, stored_rows
 from ..solutions import refined_peak, response_at
 from ..tasks import Outcome, Progress, Task
 
@@ -246,47 +245,25 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run: Run
     table = {k: np.full(n, np.nan) for k in ROW} | {"seconds": np.zeros(n)}
     status = np.array(["not run"] * n, dtype=object)
     messages = [""] * n
-    tasks, slots, keys = [], [], []
     each = task_seconds(case.data, spec)
-    for i, values in enumerate(sets):
-        variant = case.with_values(values)
-        key = sample_key(store, variant, spec)
-        keys.append(key)
-        row = store.load_row(key)
-        if row is None:
-            tasks.append(Task(sample_task, (variant, spec, i), f"[{name}] sample {i + 1}", each))
-            slots.append((i, key))
-            continue
-        _fill(table, status, messages, i, row)
-    run.progress(f"[{name}] {n} samples of {', '.join(names)} ({spec.design} design, seed "
-                 f"{spec.seed}): {n - len(tasks)} from the cache, {len(tasks)} to compute")
-    stopped = ""
-    t = time.perf_counter()
-    computed = 0
+    variants = [case.with_values(values) for values in sets]
+    keys = [sample_key(store, v, spec) for v in variants]
 
-    def keep(j: int, outcome: Outcome) -> None:
-        nonlocal stopped, computed
-        i, key = slots[j]
-        row = dict(outcome.data) | {"status": outcome.status, "message": outcome.message,
-                                    "seconds": outcome.seconds}
-        if outcome.status == "interrupted":
-            stopped = outcome.message
-            return
+    def fill(i: int, row: dict) -> None:
         _fill(table, status, messages, i, row)
-        if outcome.status in ("complete", "stopped"):
-            store.save_row(key, row)
-        computed += 1
-        left = time_left(time.perf_counter() - t, computed / len(tasks))
-        for line in outcome.lines:
-            run.progress(line)
-        run.progress(f"[{name}] sample {i + 1} of {n} ({computed} of {len(tasks)} computed"
-                     f"{', ' + left if left else ''}): peak {table['peak'][i]:.6g} at "
-                     f"{table['omega'][i]:.6g} rad/s, slip share "
-                     f"{table['slip_share'][i]:.2f} {outcome.status} "
-                     f"{outcome.message}".rstrip())
 
-    if execute(run, tasks, f"[{name}] ", keep, count=False):
-        stopped = "interrupted by the user"
+    def line(i: int, outcome: Outcome, count: str) -> str:
+        return (f"[{name}] sample {i + 1} of {n} ({count}): peak {table['peak'][i]:.6g} at "
+                f"{table['omega'][i]:.6g} rad/s, slip share {table['slip_share'][i]:.2f} "
+                f"{outcome.status} {outcome.message}".rstrip())
+
+    rows = stored_rows(
+        run, name, keys,
+        lambda i: Task(sample_task, (variants[i], spec, i), f"[{name}] sample {i + 1}", each),
+        fill, lambda cached, todo: (
+            f"[{name}] {n} samples of {', '.join(names)} ({spec.design} design, seed "
+            f"{spec.seed}): {cached} from the cache, {todo} to compute"), line)
+    stopped = rows.stopped
     _write_samples(run.writer, group, spec, names, x, table, status)
     complete = status == "complete"
     st = statistics(x[complete], table["peak"][complete], spec.limit)
@@ -294,16 +271,8 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run: Run
         run.models, AssemblyModels) and not stopped else {}
     _write_statistics(run.writer, group, spec, st, levels)
     run.progress(_summary(spec, names, st, levels, n, time.perf_counter() - t0))
-    draw_analysis(pictures.uncertainty, group, spec, run, keys, cached=not tasks)
-    if stopped:
-        return "interrupted", stopped
-    bad = [(i, status[i], messages[i]) for i in range(n) if status[i] != "complete"]
-    if bad:
-        i, s, m = bad[0]
-        return ("failed" if all(s == "failed" for _, s, _ in bad) and len(bad) == n
-                else "stopped"), (f"{len(bad)} of {n} samples not complete (the statistics "
-                                  f"leave them out); sample {i + 1}: {s} {m}".rstrip())
-    return "complete", ""
+    draw_analysis(pictures.uncertainty, group, spec, run, keys, cached=not rows.to_compute)
+    return rows_status(rows, status, messages, "samples", lambda i: f"sample {i + 1}")
 
 
 def sample_key(store, variant: Case, spec: Uncertainty) -> str:
