@@ -304,6 +304,16 @@ def test_a_study_needs_the_blade_region():
     assert any("needs [assembly.mistuning]" in f for f in err.value.faults)
 
 
+def test_shape_maps_are_refused_on_the_whole_disk():
+    data = copy.deepcopy(CASE)
+    data["analysis"][0].update(maps=["peak"], map_types=["status", "shape"])
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
+    assert any("'shape' is not drawn on the whole disk" in f for f in err.value.faults)
+    data["analysis"][0]["map_types"] = ["status", "normal_load"]
+    cases.check(data)  # the contact maps are
+
+
 @pytest.mark.parametrize("analysis", [
     {"name": "p", "type": "peak", "parameter": "excitation", "start": 1.0, "stop": 2.0,
      "window": [9600.0, 9800.0], "output": "tip"},

@@ -144,6 +144,10 @@ def _map_faults(pre: str, a: dict, data: dict, out: list[str]) -> None:
     kinds = a["map_types"]
     if not (isinstance(kinds, list) and all(k in MAP_TYPES for k in kinds)):
         out.append(f"{pre}.map_types = {kinds!r}: expected a list of {list(MAP_TYPES)}")
+    elif "shape" in kinds and isinstance(data["assembly"].get("mistuning"), dict):
+        # (every sector's surface in the annulus' coordinates: tens of GB at 48 blades)
+        out.append(f"{pre}.map_types: 'shape' is not drawn on the whole disk "
+                   "([assembly.mistuning]); its maps are 'status' and 'normal_load'")
 
 
 def seconds(data: dict, spec: Frf, variant: dict | None = None) -> float:
