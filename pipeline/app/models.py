@@ -53,7 +53,7 @@ class AssemblyModels:
         self.structure = structure
         self._built: dict[str, AssemblyModel] = {}
         self._surfaces: dict[str, Any] | None = None
-        self._full: Any = None  # the full disk's mesh, for a mistuned case
+        self._disk: tuple[Any, Any] | None = None  # (full disk's mesh, TunedDisk): mistuned
 
     def surfaces(self) -> dict[str, Any]:
         """Per body its outer-surface nodes (``solutions.surfaces``), found once per run:
@@ -102,14 +102,15 @@ class AssemblyModels:
                          table.deviations(sector_count(self.mesh)))
 
     def _whole_disk(self, spec: Any, mistuning: Any) -> Any:
-        """The whole disk's bodies, patches and spec (the full disk's mesh built once)."""
-        from microslip.assembly.mistuned import whole_disk
+        """The whole disk's bodies, patches and spec with a pattern (the full disk's mesh
+        and the tuned annulus formed once per run: a pattern changes one stiffness)."""
+        from microslip.assembly.mistuned import TunedDisk, whole_disk
         from microslip.geometry.full_disk import full_disk
 
-        if self._full is None:
-            self._full = full_disk(self.mesh)
-        return whole_disk(self.mesh, self._full, self.structure.models,
-                          self.structure.patch_stiffness, spec, mistuning)
+        if self._disk is None:
+            self._disk = (full_disk(self.mesh), TunedDisk.of(self.mesh, self.structure.models))
+        full, tuned = self._disk
+        return whole_disk(tuned, full, self.structure.patch_stiffness, spec, mistuning)
 
     def model(self, case: Case) -> HarmonicBalance:
         return self.assembly(case).hb
@@ -120,7 +121,7 @@ class AssemblyModels:
     def expanded(self, case: Case, names: list[str]) -> list[str]:
         """The curves the named outputs make: one each, or, on the whole disk, one per
         blade ("<name>#s")."""
-        if self._mistuning(case) is None:
+        if MistuningTable.of((case.data.get("assembly") or {}).get("mistuning")) is None:
             return names
         from microslip.assembly.mistuned import blade_outputs
         from microslip.geometry.full_disk import sector_count

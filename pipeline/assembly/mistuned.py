@@ -47,21 +47,65 @@ def annulus_bodies(sector: Mesh, models: Mapping[str, Mapping[int, ReducedModel]
                    mistuning: Mistuning | None = None) -> dict[str, dict[int, ReducedModel]]:
     """The full disk's reduced bodies (name -> {0: model}) from the sector's (body -> ND
     -> model; a cyclic body reduced at every ND 0 .. N/2)."""
-    N = sector_count(sector)
-    node_map = disk_node_map(sector)
-    if mistuning is not None and mistuning.body not in sector.cyclic:
-        raise ValueError(f"mistuning.body = {mistuning.body!r}: not a cyclic body of the "
-                         f"mesh; it has {sorted(sector.cyclic)}")
-    out = {}
-    for body, per_nd in models.items():
-        if body in sector.cyclic:
-            own = mistuning if mistuning is not None and mistuning.body == body else None
-            out[body] = {0: _annulus_body(body, per_nd, N, node_map, own)}
-        else:
-            m = per_nd[min(per_nd)]
-            for s in range(N):
-                out[f"{body}#{s}"] = {0: _turned_copy(m, f"{body}#{s}", s, N, node_map)}
-    return out
+    return TunedDisk.of(sector, models).bodies_with(mistuning)
+
+
+@dataclass(frozen=True, eq=False)
+class TunedDisk:
+    """What every mistuning pattern of one sector case shares, formed once: the tuned full
+    disk's bodies (each cyclic body one annulus body, the others turned copies) and each
+    cyclic body's annulus, whose region energy E_0 is formed at the first pattern."""
+
+    sector: Mesh
+    per_nd: Mapping[str, Mapping[int, ReducedModel]]  # the cyclic bodies' reductions
+    bodies: dict[str, dict[int, ReducedModel]]
+    annuli: dict[str, Annulus]
+
+    @classmethod
+    def of(cls, sector: Mesh, models: Mapping[str, Mapping[int, ReducedModel]]) -> TunedDisk:
+        N = sector_count(sector)
+        node_map = disk_node_map(sector)
+        bodies, annuli = {}, {}
+        for body, per_nd in models.items():
+            if body in sector.cyclic:
+                annuli[body] = _annulus(body, per_nd, N)
+                bodies[body] = {0: _annulus_body(body, per_nd, annuli[body], node_map)}
+            else:
+                m = per_nd[min(per_nd)]
+                for s in range(N):
+                    bodies[f"{body}#{s}"] = {0: _turned_copy(m, f"{body}#{s}", s, N, node_map)}
+        cyclic = {b: models[b] for b in annuli}
+        return cls(sector, cyclic, bodies, annuli)
+
+    def bodies_with(self, mistuning: Mistuning | None) -> dict[str, dict[int, ReducedModel]]:
+        """The bodies with ``mistuning``'s pattern (None: tuned): only its body's
+        stiffness changes."""
+        if mistuning is None:
+            return self.bodies
+        body = mistuning.body
+        if body not in self.annuli:
+            raise ValueError(f"mistuning.body = {body!r}: not a cyclic body of the mesh; it "
+                             f"has {sorted(self.sector.cyclic)}")
+        a, per_nd = self.annuli[body], self.per_nd[body]
+        _check_regions(body, per_nd, a.sectors, mistuning)
+        if len(mistuning.deviation) != a.sectors:
+            raise ValueError(f"mistuning.deviation: {len(mistuning.deviation)} values for "
+                             f"{a.sectors} sectors")
+        K = a.mistuned_stiffness(mistuning.deviation, self._region_energy(body, mistuning))
+        tuned = self.bodies[body][0]
+        return {**self.bodies, body: {0: replace(tuned, stiffness=K,
+                                                 key=_key([tuned.key], mistuning))}}
+
+    def _region_energy(self, body: str, mistuning: Mistuning) -> np.ndarray:
+        """E_0 of the reduction's region stiffness, formed once per body; of a given one,
+        each time."""
+        a = self.annuli[body]
+        if mistuning.region_stiffness is not None:
+            return a.region_energy(mistuning.region_stiffness)
+        cache = self.__dict__.setdefault("_energies", {})
+        if body not in cache:
+            cache[body] = a.region_energy(self.per_nd[body][0].region_stiffness)
+        return cache[body]
 
 
 def annulus_spec(spec: AssemblySpec, sectors: int, cyclic_bodies: Sequence[str]
@@ -102,8 +146,9 @@ def _turned(direction, angle: float):
     return tuple(float(v) for v in rotation_z(angle) @ d)
 
 
-def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
-                  node_map: np.ndarray, mistuning: Mistuning | None) -> ReducedModel:
+def _annulus(body: str, per_nd: Mapping[int, ReducedModel], N: int) -> Annulus:
+    """The tuned annulus of a cyclic body's reductions (with the region's rows where they
+    were kept), checked: every ND present, one damping ratio, the same masters."""
     missing = [h for h in range(N // 2 + 1) if h not in per_nd]
     if missing:
         raise ValueError(f"body {body!r}: the annulus needs its reduction at every nodal "
@@ -116,19 +161,16 @@ def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
     for h, m in per_nd.items():
         if not np.array_equal(m.master_nodes, first.master_nodes):
             raise ValueError(f"body {body!r}: ND {h} has other master nodes than ND 0")
-    regions = mistuning is not None
-    if regions:
-        _check_regions(body, per_nd, N, mistuning)
-    a = Annulus(N, {h: SectorND(per_nd[h].stiffness, per_nd[h].mass,
-                                per_nd[h].region if regions else None)
-                    for h in range(N // 2 + 1)}, first.n_masters)
-    K = a.stiffness
-    if mistuning is not None:
-        if len(mistuning.deviation) != N:
-            raise ValueError(f"mistuning.deviation: {len(mistuning.deviation)} values for "
-                             f"{N} sectors")
-        K = a.mistuned_stiffness(mistuning.deviation,
-                                 a.region_energy(_region_stiffness(first, mistuning)))
+    regions = all(len(per_nd[h].region_dofs) for h in range(N // 2 + 1))
+    return Annulus(N, {h: SectorND(per_nd[h].stiffness, per_nd[h].mass,
+                                   per_nd[h].region if regions else None)
+                       for h in range(N // 2 + 1)}, first.n_masters)
+
+
+def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], a: Annulus,
+                  node_map: np.ndarray) -> ReducedModel:
+    """The tuned annulus as the full disk's body: every sector's masters, each ND's modes."""
+    N, first = a.sectors, per_nd[0]
     turns = [rotation_z(s * a.phi) for s in range(N)]
     loads = {}
     if CENTRIFUGAL in first.loads:  # the same on every sector: ND 0's, its work N times
@@ -138,7 +180,7 @@ def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
     modes = np.concatenate([np.tile(per_nd[h].mode_frequencies, 1 if a.standing(h) else 2)
                             for h in range(N // 2 + 1)])
     return ReducedModel(
-        body=body, method="annulus", stiffness=K, mass=a.mass,
+        body=body, method="annulus", stiffness=a.stiffness, mass=a.mass,
         master_nodes=np.concatenate([node_map[s, first.master_nodes] for s in range(N)]),
         master_coordinates=np.concatenate([first.master_coordinates @ R.T for R in turns]),
         n_modes=a.n - N * first.n_masters, mode_frequencies=modes,
@@ -146,7 +188,7 @@ def _annulus_body(body: str, per_nd: Mapping[int, ReducedModel], N: int,
         patches={f"{p}#{s}": node_map[s, nodes] for p, nodes in first.patches.items()
                  for s in range(N)},
         damping_spec=first.damping_spec, loads=loads,
-        key=_key([per_nd[h].key for h in sorted(per_nd)], mistuning))
+        key=_key([per_nd[h].key for h in sorted(per_nd)], None))
 
 
 def _check_regions(body: str, per_nd: Mapping[int, ReducedModel], N: int,
@@ -218,16 +260,16 @@ class WholeDisk:
     spec: AssemblySpec
 
 
-def whole_disk(sector: Mesh, full: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
-               patch_stiffness: Mapping[str, Any], spec: AssemblySpec,
-               mistuning: Mistuning | None) -> WholeDisk:
-    """The whole disk of a sector case (``full``: ``geometry.full_disk(sector)``): each
-    sector's patches with the sector's stiffness, the spec on every sector."""
-    N = sector_count(sector)
+def whole_disk(tuned: TunedDisk, full: Mesh, patch_stiffness: Mapping[str, Any],
+               spec: AssemblySpec, mistuning: Mistuning | None) -> WholeDisk:
+    """The whole disk of a sector case (``full``: ``geometry.full_disk(sector)``) with
+    ``mistuning``'s pattern: each sector's patches with the sector's stiffness, the spec on
+    every sector."""
+    N = sector_count(tuned.sector)
     return WholeDisk(
-        full, annulus_bodies(sector, models, mistuning),
+        full, tuned.bodies_with(mistuning),
         {f"{p}#{s}": ps for p, ps in patch_stiffness.items() for s in range(N)},
-        annulus_spec(spec, N, tuple(sector.cyclic)))
+        annulus_spec(spec, N, tuple(tuned.sector.cyclic)))
 
 
 def blade_outputs(names: Sequence[str], sectors: int) -> list[str]:
