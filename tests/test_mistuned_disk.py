@@ -206,3 +206,33 @@ def test_the_mistuned_whole_disk_against_the_full_disks_own_reduction(sector):
         amp_a, amp_b = np.hypot(a[:, 1], a[:, 2]), np.hypot(b[:, 1], b[:, 2])
         assert amp_a.max() > 1.5 * amp_a.mean()  # the mistuning localizes
         np.testing.assert_allclose(amp_a, amp_b, rtol=3e-2)
+
+
+def test_the_modal_route_gives_the_whole_disks_balance_of_the_schur_route(sector, whole,
+                                                                          monkeypatch):
+    """The whole disk's residual, Jacobian, frequency derivative and recovered DOFs by the
+    modal route (solve.modal_condensation; the 6-blade disk is below the size it is chosen
+    at, so it is asked for) against the Schur complement's, at a state off the solution
+    (the contacts partly stuck, partly slipping). Both exact: 1e-9 of the largest entry
+    holds them to rounding amplified by the receptance's condition (measured 1e-12)."""
+    from microslip.solve import modal_condensation as modal
+
+    mesh, red = sector
+    full, bodies = whole
+    stiffness = {f"{p}#{s}": ps for p, ps in red.patch_stiffness.items() for s in range(NS)}
+    h = Harmonics.up_to(1, 64)
+    disk_spec = annulus_spec(spec(0.5, 5, 15.0), NS, ("blisk",))
+    point = OperatingPoint(first_bending(sector))
+    schur = join(full, bodies, stiffness, disk_spec, h).hb
+    assert schur._modal_form(point) is None  # (made once: the route stays)
+    monkeypatch.setattr(modal, "MODAL_FROM", 0.0)
+    monkeypatch.setattr(modal, "MODAL_GAIN", 0.0)
+    route = join(full, bodies, stiffness, disk_spec, h).hb
+    assert route._modal_form(point) is not None
+    x = schur.linear_guess(point, stuck=True)
+    x = x * (1.0 + 0.3 * np.random.default_rng(0).standard_normal(x.size))
+    got, want = (m.residual(x, point, "frequency") for m in (route, schur))
+    for a, b in zip(got, want):
+        assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
+    a, b = route.recover(x, point), schur.recover(x, point)
+    assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()

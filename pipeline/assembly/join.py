@@ -65,6 +65,8 @@ def join(mesh: Mesh, models: Mapping[str, Mapping[int, ReducedModel]],
     if 0 in harmonics.orders and spec.static_anchor > 0:
         free = {b for b, per_nd in models.items() if per_nd[min(per_nd)].has_rigid_mode}
         anchored = [c for c in contacts if {points[c.name].body_a, points[c.name].body_b} & free]
+        if any(K[o] is K[0] for o in K if o != 0):
+            K[0] = K[0].copy()  # (the other orders' stiffness has no anchor)
         K[0][:n_dof, :n_dof] += static_anchor(anchored, n_dof, spec.static_anchor)
     linear = LinearDynamics.create(K, M, C, harmonics=harmonics, mass_part=Mp, n_shared=n_dof)
     excitation = _excitation(mesh, layout, node_dof, n_dof, spec, harmonics)
@@ -148,6 +150,11 @@ def _linear(layout: list[BodyLayout], harmonics: Harmonics, n_dof: int, mass_bod
     modes past it in body order."""
     K, M, C, Mp = {}, {}, {}, {}
     for k, o in enumerate(harmonics.orders):
+        if k and all(b.models[k] is b.models[0] and b.conjugate[k] == b.conjugate[0]
+                     for b in layout):  # no cyclic body: every order the same matrices,
+            first = harmonics.orders[0]  # held once (a whole disk's are GBs each)
+            K[o], M[o], C[o], Mp[o] = K[first], M[first], C[first], Mp[first]
+            continue
         n = n_dof + sum(b.models[k].n_modes for b in layout)
         K[o], M[o], C[o], Mp[o] = (np.zeros((n, n), dtype=complex) for _ in range(4))
         for b, idx in body_positions(layout, k, n_dof):

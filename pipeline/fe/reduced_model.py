@@ -158,9 +158,11 @@ class ReducedModel:
             R = R[pos]
         return R @ q
 
-    @property
+    @cached_property
     def damping(self) -> NDArray | None:
-        """(r, r) damping matrix [N s/m] from ``damping_spec``, or None."""
+        """(r, r) damping matrix [N s/m] from ``damping_spec``, or None; formed once (modal
+        ratios take an eigendecomposition: a whole disk's annulus, thousands of coordinates,
+        is asked at every harmonic order)."""
         return fem.damping_matrix(self.stiffness, self.mass, self.damping_spec)
 
     def matrices(self, conjugate: bool = False) -> tuple[NDArray, NDArray, NDArray]:

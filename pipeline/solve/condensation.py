@@ -54,6 +54,11 @@ class Condensed:
                 out[k] = _product(D[:nc, :nc], x) - _product(D[:nc, nc:], _product(Y, x))
         return out
 
+    def recover(self, k: int, x: np.ndarray) -> np.ndarray:
+        """The condensed DOFs' amplitudes of order k, z_k - Y_k x, from the contact DOFs'
+        x (nc,)."""
+        return self.z[k] - self.Y[k] @ x
+
     def dS_product(self, X: np.ndarray) -> np.ndarray:
         """dS_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
         out = np.zeros(X.shape, dtype=complex)
@@ -137,12 +142,17 @@ class Reordered:
                       for n in linear.sizes)
 
         def take(mats):
-            out = []
+            out, made = [], {}
             for A, p in zip(mats, index):
+                key = (id(A), p.size)
+                if key in made and np.array_equal(made[key][1], p):
+                    out.append(made[key][0])  # an order with the same matrix: held once
+                    continue
                 B = A[np.ix_(p, p)]
                 B = B if np.any(B.imag) else np.ascontiguousarray(B.real)
                 B.flags.writeable = False
                 out.append(B)
+                made[key] = (B, p)
             return tuple(out)
 
         return cls(index, type(linear)(take(linear.K), take(linear.M), take(linear.C),

@@ -35,6 +35,7 @@ import scipy.sparse as sp
 from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactResponse
 from microslip.laws.interface import ContactSet
+from microslip.solve import modal_condensation as modal
 from microslip.solve.condensation import (
     Condensed,
     Reordered,
@@ -279,12 +280,31 @@ class HarmonicBalance:
             return hit
         lin = self.reordered()
         F, dF = self.forces(point, parameter)
+        form = self._modal_form(point) if parameter in modal.PARAMETERS \
+            and point.xi is None else None
+        if form is not None:
+            out = form.condensed(point.omega, lin.take(F),
+                                 None if dF is None else lin.take(dF), parameter)
+            self._cache.put(key, out, out.nbytes)
+            return out
         dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
         # a nonlinear mode's point (xi) keeps the factors: it needs the derivative by xi too
         out = condense(lin.linear.dynamic_stiffness(point), lin.take(F), self.dofs.size, dD,
                        None if dF is None else lin.take(dF), keep_factors=point.xi is not None)
         self._cache.put(key, out, out.nbytes)
         return out
+
+    def _modal_form(self, point: OperatingPoint) -> modal.ModalForm | None:
+        """The modal route's form at the point's mass multiplier (None: the Schur
+        complement's route), made once (pinned in the cache)."""
+        key = ("modal", point.mass_multiplier)
+        hit = self._cache.get(key)
+        if hit is None:
+            lin = self.reordered().linear
+            form = modal.ModalForm.of(lin, self.dofs.size, lin.mass(point))
+            hit = (form,)
+            self._cache.put(key, hit, 0 if form is None else form.nbytes, pinned=True)
+        return hit[0]
 
     def reordered(self) -> Reordered:
         """The linear part reordered for the condensation, built once (pinned in the cache:
@@ -381,7 +401,7 @@ class HarmonicBalance:
         for k, (o, n) in enumerate(zip(h.orders, self.linear.sizes)):
             X = np.zeros(n, dtype=complex)
             X[self.dofs] = Xc[o]
-            X[condensed_dofs(self.others, self.linear.n_dof, n)] = lin.z[k] - lin.Y[k] @ Xc[o]
+            X[condensed_dofs(self.others, self.linear.n_dof, n)] = lin.recover(k, Xc[o])
             out.append(X)
         return out
 

@@ -166,9 +166,13 @@ class LinearDynamics:
             return self.M
         if s not in self._scaled:  # a sweep at one mass forms it once, not per iterate
             self._scaled.clear()
-            self._scaled[s] = tuple(M + (s - 1.0) * Mp if scaled else M
-                                    for M, Mp, scaled in zip(self.M, self.M_part,
-                                                             self._nonzero[1]))
+            made: dict = {}  # orders with the same matrices share theirs
+            for M, Mp, scaled in zip(self.M, self.M_part, self._nonzero[1]):
+                key = (id(M), id(Mp))
+                if key not in made:
+                    made[key] = M + (s - 1.0) * Mp if scaled else M
+            self._scaled[s] = tuple(made[id(M), id(Mp)] for M, Mp in zip(self.M,
+                                                                          self.M_part))
         return self._scaled[s]
 
     @cached_property
