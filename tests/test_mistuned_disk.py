@@ -236,3 +236,47 @@ def test_the_modal_route_gives_the_whole_disks_balance_of_the_schur_route(sector
         assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
     a, b = route.recover(x, point), schur.recover(x, point)
     assert np.abs(a - b).max() <= 1e-9 * np.abs(b).max()
+
+
+def test_the_sectors_solution_turned_onto_every_sector_solves_the_tuned_whole_disk(sector,
+                                                                                   whole):
+    """travelling_wave: the cyclic sector's solution (microslip, EO 5: ND 1 backward)
+    mapped onto the whole disk is its solution: the residual there is rounding (1e-9 of
+    the force scale; a wrong phase or turn leaves O(1))."""
+    from microslip.assembly.mistuned import travelling_wave
+    from microslip.geometry.full_disk import disk_node_map
+    from microslip.solve.response import scales
+
+    mesh, red = sector
+    full, bodies = whole
+    stiffness = {f"{p}#{s}": ps for p, ps in red.patch_stiffness.items() for s in range(NS)}
+    h = Harmonics.up_to(1, 64)
+    cyc = join(mesh, red.models, red.patch_stiffness, spec(0.5, 5, 15.0), h)
+    disk = join(full, bodies, stiffness, annulus_spec(spec(0.5, 5, 15.0), NS, ("blisk",)), h)
+    point = OperatingPoint(first_bending(sector))
+    r = solve_point(cyc.hb, point, settings=TIGHT)
+    x = travelling_wave(cyc, disk, r.x, point, disk_node_map(mesh))
+    R = disk.hb.residual(x, point, jacobian=False)[0]
+    assert np.abs(R).max() <= 1e-9 * scales(disk.hb, point)[1]
+
+
+def test_the_free_disks_response_through_its_modes_is_the_direct_solve(sector, whole,
+                                                                       monkeypatch):
+    """The free limit (the annulus alone) through the annulus' modes against the dense
+    solve it replaces from FREE_MODAL_FROM DOFs, at every blade's tip through the
+    resonance: both exact; at the resonance the response amplifies rounding by ~1/(2 zeta) =
+    100 (measured 1.3e-9 of the largest), 1e-8 holds it."""
+    from microslip.assembly import recovery
+
+    mesh, red = sector
+    full, bodies = whole
+    stiffness = {f"{p}#{s}": ps for p, ps in red.patch_stiffness.items() for s in range(NS)}
+    cm = join(full, bodies, stiffness, annulus_spec(spec(0.5, 5, 15.0), NS, ("blisk",)),
+              Harmonics.up_to(1, 64))
+    points = [OperatingPoint(f * first_bending(sector)) for f in (0.98, 1.0, 1.02)]
+    direct = [cm.linear_outputs(p, "free") for p in points]
+    monkeypatch.setattr(recovery, "FREE_MODAL_FROM", 0)
+    modal = [cm.linear_outputs(p, "free") for p in points]
+    assert cm._free_modes[(1, 1.0)] is not None  # (the route taken)
+    for a, b in zip(modal, direct):
+        assert np.abs(a - b).max() <= 1e-8 * np.abs(b).max()

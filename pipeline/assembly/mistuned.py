@@ -275,3 +275,35 @@ def whole_disk(tuned: TunedDisk, full: Mesh, patch_stiffness: Mapping[str, Any],
 def blade_outputs(names: Sequence[str], sectors: int) -> list[str]:
     """Every blade's copy of each output, blade by blade within an output: "<name>#s"."""
     return [f"{n}#{s}" for n in names for s in range(sectors)]
+
+
+
+def travelling_wave(sector: Any, disk: Any, x: np.ndarray, point: Any,
+                    node_map: np.ndarray) -> np.ndarray:
+    """The whole disk's unknowns of the cyclic sector's solution ``x`` at ``point``:
+    the tuned disk's travelling wave. ``sector``, ``disk``: assembly.recovery.AssemblyModel
+    of the sector and of the full disk; ``node_map`` (N, sector nodes): the full disk's node
+    of each sector's node (``disk_node_map``). Sector s's DOFs are sector 0's turned by
+    R(s phi) and delayed by the engine order's phase (order n: the complex amplitude times
+    exp(i n EO s phi)). The tuned whole disk's solution, and a mistuned one's start (from
+    a cold start the whole disk's sweep first ramps the excitation: minutes at 48 blades)."""
+    N, eo = node_map.shape[0], sector.spec.engine_order
+    hs, hd = sector.hb.harmonics, disk.hb.harmonics
+    U = hs.to_complex(sector.hb.recover(x, point))  # every shared DOF of the sector
+    nodes, first = _first_dofs(sector.dof_nodes)
+    disk_first = dict(zip(*_first_dofs(disk.dof_nodes)))
+    triples = first[:, None] + np.arange(3)  # (nodes, 3) the sector's x, y, z DOFs
+    X = {o: np.zeros(disk.hb.linear.n_dof, dtype=complex) for o in hd.orders}
+    for s in range(N):
+        to = np.array([disk_first[n] for n in node_map[s, nodes]])[:, None] + np.arange(3)
+        turn = rotation_z(2.0 * np.pi * s / N)
+        for o in hd.orders:
+            X[o][to] = np.exp(1j * o * eo * s * 2.0 * np.pi / N) * (U[o][triples] @ turn.T)
+    return hd.from_complex({o: v[disk.hb.dofs] for o, v in X.items()},
+                           (disk.hb.dofs.size,)).ravel()
+
+
+def _first_dofs(dof_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes, the first of each one's three consecutive shared DOFs)."""
+    nodes, first = np.unique(dof_nodes, return_index=True)
+    return nodes, first

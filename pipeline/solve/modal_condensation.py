@@ -366,12 +366,7 @@ def _grouped(parts, K, M, C) -> tuple[_Group, ...]:
         modes, lams, damps = [], [], []
         for _, d in members:
             ix = np.ix_(d, d)
-            lam, phi = sla.eigh(K[ix], M[ix], check_finite=False)
-            cm = phi.conj().T @ C[ix] @ phi
-            c = np.real(np.diag(cm)).copy()
-            off = np.abs(cm - np.diag(np.diag(cm))).max(initial=0.0)
-            if off > DIAGONAL_TOL * max(np.abs(c).max(initial=0.0), 1e-300) and off > 0:
-                raise ValueError("damping not diagonal in the modes")
+            lam, phi, c = diagonal_modes(K[ix], M[ix], C[ix])
             modes.append(phi)
             lams.append(lam)
             damps.append(c)
@@ -379,6 +374,20 @@ def _grouped(parts, K, M, C) -> tuple[_Group, ...]:
                              np.array([d for _, d in members]), np.array(modes),
                              np.array(lams), np.array(damps)))
     return tuple(groups)
+
+
+def diagonal_modes(K: np.ndarray, M: np.ndarray, C: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lam (n,), Phi (n, n) mass-normalised, c (n,)) with Phi^H K Phi = diag(lam) and
+    Phi^H C Phi = diag(c) to DIAGONAL_TOL. ValueError where C is not diagonal in the modes
+    of (K, M); LinAlgError where M is not positive definite."""
+    lam, phi = sla.eigh(K, M, check_finite=False)
+    cm = phi.conj().T @ C @ phi
+    c = np.real(np.diag(cm)).copy()
+    off = np.abs(cm - np.diag(np.diag(cm))).max(initial=0.0)
+    if off > 0 and off > DIAGONAL_TOL * max(np.abs(c).max(initial=0.0), 1e-300):
+        raise ValueError("damping not diagonal in the modes")
+    return lam, phi, c
 
 
 def _same(linear, masses, j: int, k: int) -> bool:

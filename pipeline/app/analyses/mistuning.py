@@ -85,7 +85,8 @@ def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy, index: i
     rows = models.selection(c, names)
     base = operating_point(c, spec.window[0])
     solver = settings(c)
-    swept = swept_window(models.model(c), spec.window, base, solver)
+    start = _tuned_start(models, c, base, solver) if index else None
+    swept = swept_window(models.model(c), spec.window, base, solver, start)
     if swept.interrupted:
         return Outcome({}, {}, "interrupted", "interrupted by the user")
     data: dict[str, Any] = dict.fromkeys(ROW, np.nan) | {"points": 0,
@@ -109,6 +110,20 @@ def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy, index: i
     data |= {"peak": peak, "omega": w, "blade": blade, "blade_peaks": blade_peaks,
              "points": sum(len(r) for r in swept.found)}
     return Outcome(data, {}, swept.status, swept.message)
+
+
+def _tuned_start(models: AssemblyModels, c: Case, point, solver) -> np.ndarray | None:
+    """A pattern's start at the window's: the tuned sector's solution there turned onto
+    every sector (the travelling wave), None where the sector does not converge."""
+    from microslip.assembly.mistuned import travelling_wave
+    from microslip.geometry.full_disk import disk_node_map
+    from microslip.solve.response import solve_point
+
+    sector = models.assembly(_sector(c))
+    r = solve_point(sector.hb, point, settings=solver)
+    if not r.converged:
+        return None
+    return travelling_wave(sector, models.assembly(c), r.x, point, disk_node_map(models.mesh))
 
 
 def variants(case: Case, spec: MistuningStudy) -> tuple[Case, list[tuple[float, np.ndarray]],

@@ -169,11 +169,13 @@ class WindowSweeps:
     interrupted: bool
 
 
-def swept_window(hb, window: tuple[float, float], base, solver) -> WindowSweeps:
-    """The window swept upwards and, where that stops short, downwards from its top; where
-    the two do not cover it, each goes on from where it stopped at twice the samples per
-    period (what stops them is nearly always a stick/slip kink between samples)."""
-    up, down = _sweeps(hb, window, base, solver, _undersampled(hb, base))
+def swept_window(hb, window: tuple[float, float], base, solver,
+                 x0: np.ndarray | None = None) -> WindowSweeps:
+    """The window swept upwards (from ``x0`` where given: a guess at its start) and, where
+    that stops short, downwards from its top; where the two do not cover it, each goes on
+    from where it stopped at twice the samples per period (what stops them is nearly always
+    a stick/slip kink between samples)."""
+    up, down = _sweeps(hb, window, base, solver, _undersampled(hb, base), x0)
     status, message = _coverage(up, down, *window)
     notes = []
     if status == "stopped" and not _interrupted(up, down):
@@ -187,13 +189,16 @@ def swept_window(hb, window: tuple[float, float], base, solver) -> WindowSweeps:
                         "; ".join([*notes, message]), samples, _interrupted(up, down))
 
 
-def _sweeps(model, window: tuple[float, float], base, solver, undersampled
+def _sweeps(model, window: tuple[float, float], base, solver, undersampled, x0=None
             ) -> tuple[list, list]:
     """(upward, downward) sweeps of the window: the downward one (from its top) only where
     the upward one stops; each stopped where it crawls under-resolved (UnderResolved)."""
     lo, hi = window
-    up = [sweep(model, "frequency", lo, hi, base, settings=solver,
+    up = [sweep(model, "frequency", lo, hi, base, settings=solver, x0=x0,
                 watch=UnderResolved(undersampled, hi - lo))]
+    if x0 is not None and not len(up[0]) and up[0].branch.status == "stopped":
+        up = [sweep(model, "frequency", lo, hi, base, settings=solver,  # a cold start
+                    watch=UnderResolved(undersampled, hi - lo))]
     if up[0].branch.status != "stopped":
         return up, []
     return up, [sweep(model, "frequency", hi, lo, base.set("frequency", hi), settings=solver,
