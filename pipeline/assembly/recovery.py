@@ -207,20 +207,21 @@ class AssemblyModel:
             raise ValueError(f"springs = {springs!r}: expected 'stuck', 'normal' or 'free'")
         hb, h = self.hb, self.hb.harmonics
         n_dof = hb.linear.n_dof
-        D = hb.linear.dynamic_stiffness(point)
+        # (the free limit through the modes needs no D: a whole disk's is GBs an order)
+        D = None if springs == "free" else hb.linear.dynamic_stiffness(point)
         F, _ = hb.forces(point)
         X = []
         for k, o in enumerate(h.orders):
             if o == 0 and not static:
                 X.append(np.zeros(n_dof, dtype=complex))
                 continue
-            A, b = D[k].copy(), F[k].copy()
             if springs == "free":
                 keep = self._cyclic_indices(k)
-                x = np.zeros(A.shape[0], dtype=complex)
-                x[keep] = self._free_response(k, o, point, A, b, keep)
+                x = np.zeros(F[k].size, dtype=complex)
+                x[keep] = self._free_response(k, o, point, F[k], keep)
                 X.append(x[:n_dof])
                 continue
+            A, b = D[k].copy(), F[k].copy()
             A[:n_dof, :n_dof] += self._spring_stiffness(o, springs)
             if o == 0:  # the preload kn Delta of the normal springs
                 for c in hb.contacts:
@@ -231,16 +232,20 @@ class AssemblyModel:
         names = list(self.outputs) if names is None else names
         return np.array([self.outputs[n] @ Q for n in names]).reshape(len(names), -1)
 
-    def _free_response(self, k: int, order: int, point: OperatingPoint, D: np.ndarray,
-                       F: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    def _free_response(self, k: int, order: int, point: OperatingPoint, F: np.ndarray,
+                       keep: np.ndarray) -> np.ndarray:
         """The cyclic bodies' response to F alone at order k: D[keep, keep]^-1 F[keep], by
         their modes where their damping is diagonal in them and they are large (a whole
         disk's annulus: one eigendecomposition, then n^2 a frequency instead of a dense
         solve, n^3 / 3, at each of a peak search's hundred frequencies)."""
         from microslip.solve.modal_condensation import diagonal_modes
 
-        if keep.size < FREE_MODAL_FROM or point.xi:
+        def direct():
+            D = self.hb.linear.dynamic_stiffness(point)[k]
             return np.linalg.solve(D[np.ix_(keep, keep)], F[keep])
+
+        if keep.size < FREE_MODAL_FROM or point.xi:
+            return direct()
         cache = self.__dict__.setdefault("_free_modes", {})
         key = (k, point.mass_multiplier)
         if key not in cache:
@@ -251,7 +256,7 @@ class AssemblyModel:
             except (ValueError, np.linalg.LinAlgError):
                 cache[key] = None
         if cache[key] is None:
-            return np.linalg.solve(D[np.ix_(keep, keep)], F[keep])
+            return direct()
         lam, phi, c = cache[key]
         w = order * point.omega
         return phi @ ((phi.conj().T @ F[keep]) / (lam - w * w + 1j * w * c))
