@@ -577,15 +577,17 @@ def rayleigh_damping(K: Any, M: Any, alpha: float, beta: float) -> Any:
     return alpha * M + beta * K
 
 
-def modal_damping(K: NDArray, M: NDArray, ratios: Sequence[float]) -> NDArray:
+def modal_damping(K: NDArray, M: NDArray, ratios: Sequence[float],
+                  modes: tuple[NDArray, NDArray] | None = None) -> NDArray:
     """Dense damping matrix with modal damping ratios on (K, M) (r, r), Hermitian.
 
     C = M Phi diag(2 zeta_j omega_j) Phi^H M, Phi mass-normalised; rigid-body modes (omega = 0)
-    get no damping. ``ratios`` as in ``Damping.modal_ratios``.
+    get no damping. ``ratios`` as in ``Damping.modal_ratios``; ``modes``: (lam, Phi) of
+    (K, M) where already known.
     """
     K = np.asarray(K)
     M = np.asarray(M)
-    lam, phi = sla.eigh(K, M)
+    lam, phi = sla.eigh(K, M) if modes is None else modes
     omega = np.sqrt(np.clip(lam, 0.0, None))
     ratios = np.asarray(ratios, dtype=float).ravel()
     if ratios.size == 0:
@@ -596,12 +598,15 @@ def modal_damping(K: NDArray, M: NDArray, ratios: Sequence[float]) -> NDArray:
     return (mphi * (2.0 * zeta * omega)) @ mphi.conj().T
 
 
-def damping_matrix(K: NDArray, M: NDArray, damping: Damping | None) -> NDArray | None:
-    """Dense damping matrix of a (reduced) model from a ``Damping`` spec; None if no damping."""
+def damping_matrix(K: NDArray, M: NDArray, damping: Damping | None,
+                   modes=None) -> NDArray | None:
+    """Dense damping matrix of a (reduced) model from a ``Damping`` spec; None if no damping.
+    ``modes``: a callable giving (lam, Phi) of (K, M), asked only for modal ratios."""
     if damping is None or damping.is_zero:
         return None
     C = rayleigh_damping(np.asarray(K), np.asarray(M), damping.rayleigh_alpha,
                          damping.rayleigh_beta)
     if any(damping.modal_ratios):
-        C = C + modal_damping(K, M, damping.modal_ratios)
+        C = C + modal_damping(K, M, damping.modal_ratios,
+                              None if modes is None else modes())
     return 0.5 * (C + C.conj().T)

@@ -20,6 +20,7 @@ from typing import Any
 
 import h5py
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
@@ -163,7 +164,15 @@ class ReducedModel:
         """(r, r) damping matrix [N s/m] from ``damping_spec``, or None; formed once (modal
         ratios take an eigendecomposition: a whole disk's annulus, thousands of coordinates,
         is asked at every harmonic order)."""
-        return fem.damping_matrix(self.stiffness, self.mass, self.damping_spec)
+        return fem.damping_matrix(self.stiffness, self.mass, self.damping_spec,
+                                  lambda: self._modes)
+
+    @cached_property
+    def _modes(self) -> tuple[NDArray, NDArray]:
+        """(lam, Phi) of (K, M), masters free: the modal damping's modes, whose eigenvalues
+        the frequencies then reuse (a whole disk's annulus: one eigendecomposition of its
+        thousands of coordinates per pattern, not two)."""
+        return sla.eigh(self.stiffness, self.mass)
 
     def matrices(self, conjugate: bool = False) -> tuple[NDArray, NDArray, NDArray]:
         """(K, M, C) dense; C zero if undamped; complex conjugates for a backward wave."""
@@ -186,7 +195,8 @@ class ReducedModel:
 
     @cached_property
     def _frequencies(self) -> NDArray[np.float64]:
-        lam = np.linalg.eigvalsh(_generalized(self.stiffness, self.mass))
+        lam = self.__dict__["_modes"][0] if "_modes" in self.__dict__ else \
+            np.linalg.eigvalsh(_generalized(self.stiffness, self.mass))
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
     @property
