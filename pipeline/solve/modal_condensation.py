@@ -125,9 +125,11 @@ class ModalForm:
         dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
         if not dynamic or nc == 0:
             return None
-        parts = {}
-        for k in dynamic:
-            parts[k] = _components(linear.K[k], masses[k], linear.C[k], nc)
+        parts, same = {}, {}
+        for k in dynamic:  # orders with the same matrices (a lumped model) share theirs
+            same[k] = next((j for j in dynamic if j < k and _same(linear, masses, j, k)), k)
+            parts[k] = parts[same[k]] if same[k] != k else \
+                _components(linear.K[k], masses[k], linear.C[k], nc)
         n_i = [linear.sizes[k] - nc for k in dynamic]
         schur = sum(ni**3 / 3 + ni**2 * nc + nc**2 * ni for ni in n_i)
         modal = sum(c.size**2 * d.size + c.size**3 / 3 for k in dynamic
@@ -136,9 +138,8 @@ class ModalForm:
             return None
         groups: list[tuple[_Group, ...] | None] = [None] * len(linear.orders)
         for k in dynamic:
-            same = next((j for j in dynamic if j < k and _same(linear, masses, j, k)), None)
-            if same is not None:  # a lumped model: every order the same matrices
-                groups[k] = groups[same]
+            if same[k] != k:
+                groups[k] = groups[same[k]]
                 continue
             try:
                 groups[k] = _grouped(parts[k], linear.K[k], masses[k], linear.C[k])
