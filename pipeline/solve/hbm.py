@@ -296,15 +296,16 @@ class HarmonicBalance:
 
     def _modal_form(self, point: OperatingPoint) -> modal.ModalForm | None:
         """The modal route's form at the point's mass multiplier (None: the Schur
-        complement's route), made once (pinned in the cache)."""
-        key = ("modal", point.mass_multiplier)
+        complement's route), made once per multiplier and pinned in the cache, the last
+        multiplier's only (a mass family's whole disk: each form holds its modes)."""
+        key, s = ("modal",), point.mass_multiplier
         hit = self._cache.get(key)
-        if hit is None:
+        if hit is None or hit[0] != s:
             lin = self.reordered().linear
             form = modal.ModalForm.of(lin, self.dofs.size, lin.mass(point))
-            hit = (form,)
+            hit = (s, form)
             self._cache.put(key, hit, 0 if form is None else form.nbytes, pinned=True)
-        return hit[0]
+        return hit[1]
 
     def reordered(self) -> Reordered:
         """The linear part reordered for the condensation, built once (pinned in the cache:
