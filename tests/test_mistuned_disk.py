@@ -277,6 +277,7 @@ def test_the_free_disks_response_through_its_modes_is_the_direct_solve(sector, w
     direct = [cm.linear_outputs(p, "free") for p in points]
     monkeypatch.setattr(recovery, "FREE_MODAL_FROM", 0)
     modal = [cm.linear_outputs(p, "free") for p in points]
-    assert cm._free_modes[(1, 1.0)] is not None  # (the route taken)
+    # (order 1's: order 0's stiffness holds the static anchor, so its C is not modal there)
+    assert any(v is not None for v in cm._free_modes.values())
     for a, b in zip(modal, direct):
         assert np.abs(a - b).max() <= 1e-8 * np.abs(b).max()

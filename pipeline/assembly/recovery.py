@@ -247,12 +247,15 @@ class AssemblyModel:
         if keep.size < FREE_MODAL_FROM or point.xi:
             return direct()
         cache = self.__dict__.setdefault("_free_modes", {})
-        key = (k, point.mass_multiplier)
+        lin = self.hb.linear
+        mats = (lin.K[k], lin.mass(point)[k], lin.C[k])
+        key = (*(id(A) for A in mats), keep.size)  # orders with the same matrices share
         if key not in cache:
-            lin, ix = self.hb.linear, np.ix_(keep, keep)
+            if len(cache) >= len(self.hb.harmonics.orders):
+                cache.clear()  # (another mass multiplier: the last one's modes kept)
+            ix = np.ix_(keep, keep)
             try:
-                cache[key] = diagonal_modes(lin.K[k][ix], lin.mass(point)[k][ix],
-                                            lin.C[k][ix])
+                cache[key] = diagonal_modes(*(A[ix] for A in mats))
             except (ValueError, np.linalg.LinAlgError):
                 cache[key] = None
         if cache[key] is None:

@@ -160,8 +160,9 @@ class Reordered:
 
     @property
     def nbytes(self) -> int:
-        lin = self.linear
-        return sum(a.nbytes for a in (*self.index, *lin.K, *lin.M, *lin.C, *lin.M_part))
+        lin = self.linear  # (a matrix orders share counted once)
+        held = {id(a): a.nbytes for a in (*self.index, *lin.K, *lin.M, *lin.C, *lin.M_part)}
+        return sum(held.values())
 
     def take(self, vectors: Sequence[np.ndarray]) -> list[np.ndarray]:
         """Per order (n_k,) vectors reordered like the matrices."""

@@ -280,6 +280,8 @@ class HarmonicBalance:
             return hit
         lin = self.reordered()
         F, dF = self.forces(point, parameter)
+        if parameter == "mass":  # a mass continuation: every point another multiplier
+            self._cache.put(("mass varies",), True, 0, pinned=True)
         form = self._modal_form(point) if parameter in modal.PARAMETERS \
             and point.xi is None else None
         if form is not None:
@@ -300,6 +302,8 @@ class HarmonicBalance:
         multiplier's only (a mass family's whole disk: each form holds its modes)."""
         key, s = ("modal",), point.mass_multiplier
         hit = self._cache.get(key)
+        if hit is not None and hit[0] != s and self._cache.get(("mass varies",)):
+            return None  # (a form per point of a mass continuation: eigendecompositions)
         if hit is None or hit[0] != s:
             lin = self.reordered().linear
             form = modal.ModalForm.of(lin, self.dofs.size, lin.mass(point))

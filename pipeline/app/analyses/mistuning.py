@@ -123,7 +123,11 @@ def _tuned_start(models: AssemblyModels, c: Case, point, solver) -> np.ndarray |
     r = solve_point(sector.hb, point, settings=solver)
     if not r.converged:
         return None
-    return travelling_wave(sector, models.assembly(c), r.x, point, disk_node_map(models.mesh))
+    try:  # (a guess only: where the sector's nodes do not all map, the cold start)
+        return travelling_wave(sector, models.assembly(c), r.x, point,
+                               disk_node_map(models.mesh))
+    except (KeyError, IndexError, ValueError):
+        return None
 
 
 def variants(case: Case, spec: MistuningStudy) -> tuple[Case, list[tuple[float, np.ndarray]],
