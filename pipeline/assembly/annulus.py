@@ -201,21 +201,7 @@ class Annulus:
         """(n, n) real orthogonal S_s: the coordinates of a motion turned back by s
         sectors (sector s's motion seen in sector 0): masters x'_t = R(-s phi) x_{t+s},
         modal eta'_h = exp(i h s phi) eta_h."""
-        N, nm, phi = self.sectors, self.n_master, self.phi
-        S = np.zeros((self.n, self.n))
-        back = self._turn(-s)
-        for t in range(N):
-            src = (t + s) % N
-            S[t * nm:(t + 1) * nm, src * nm:(src + 1) * nm] = back
-        for h, cols in self.modal_slices.items():
-            m = self.n_modes(h)
-            if self.standing(h):  # exp(i h s phi) = +-1
-                S[cols, cols] = np.cos(h * s * phi) * np.eye(m)
-            else:  # a + i b turned by h s phi
-                c, sn = np.cos(h * s * phi), np.sin(h * s * phi)
-                S[cols, cols] = np.block([[c * np.eye(m), -sn * np.eye(m)],
-                                          [sn * np.eye(m), c * np.eye(m)]])
-        return S
+        return self._shift_columns(np.eye(self.n), s)
 
     def region_motion(self, s: int = 0) -> np.ndarray:
         """(n_b, n) real: the mistuned region's displacement in sector s (its own frame)

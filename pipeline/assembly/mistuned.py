@@ -277,7 +277,6 @@ def blade_outputs(names: Sequence[str], sectors: int) -> list[str]:
     return [f"{n}#{s}" for n in names for s in range(sectors)]
 
 
-
 def travelling_wave(sector: Any, disk: Any, x: np.ndarray, point: Any,
                     node_map: np.ndarray) -> np.ndarray:
     """The whole disk's unknowns of the cyclic sector's solution ``x`` at ``point``:
@@ -290,8 +289,9 @@ def travelling_wave(sector: Any, disk: Any, x: np.ndarray, point: Any,
     N, eo = node_map.shape[0], sector.spec.engine_order
     hs, hd = sector.hb.harmonics, disk.hb.harmonics
     U = hs.to_complex(sector.hb.recover(x, point))  # every shared DOF of the sector
-    nodes, first = _first_dofs(sector.dof_nodes)
-    disk_first = dict(zip(*_first_dofs(disk.dof_nodes)))
+    # each node's first shared DOF (its x, y, z are consecutive)
+    nodes, first = np.unique(sector.dof_nodes, return_index=True)
+    disk_first = dict(zip(*np.unique(disk.dof_nodes, return_index=True)))
     triples = first[:, None] + np.arange(3)  # (nodes, 3) the sector's x, y, z DOFs
     X = {o: np.zeros(disk.hb.linear.n_dof, dtype=complex) for o in hd.orders}
     for s in range(N):
@@ -301,9 +301,3 @@ def travelling_wave(sector: Any, disk: Any, x: np.ndarray, point: Any,
             X[o][to] = np.exp(1j * o * eo * s * 2.0 * np.pi / N) * (U[o][triples] @ turn.T)
     return hd.from_complex({o: v[disk.hb.dofs] for o, v in X.items()},
                            (disk.hb.dofs.size,)).ravel()
-
-
-def _first_dofs(dof_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(nodes, the first of each one's three consecutive shared DOFs)."""
-    nodes, first = np.unique(dof_nodes, return_index=True)
-    return nodes, first

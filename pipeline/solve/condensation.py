@@ -51,7 +51,8 @@ class Condensed:
             if made is not None:  # one product
                 out[k] = made[k] @ x
             else:
-                out[k] = _product(D[:nc, :nc], x) - _product(D[:nc, nc:], _product(Y, x))
+                out[k] = real_product(D[:nc, :nc], x) \
+                    - real_product(D[:nc, nc:], real_product(Y, x))
         return out
 
     def recover(self, k: int, x: np.ndarray) -> np.ndarray:
@@ -230,7 +231,7 @@ def _schur_derivative(D, dD, nc, Y, z, lu, dFe) -> _SchurDerivative:
     return out
 
 
-def _product(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+def real_product(A: np.ndarray, x: np.ndarray) -> np.ndarray:
     """A x, a real A applied to a complex x as two real products (numpy would copy A to
     complex first: order 0's matrices, whose vectors are real)."""
     if np.iscomplexobj(A) or not np.iscomplexobj(x):

@@ -32,6 +32,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from .condensation import real_product
+
 #: The modal route is taken where its per-iterate cost (complex multiply-adds) is at least
 #: this many times below the Schur complement's: its set-up (an eigendecomposition per
 #: component, once per model) and its rounding (another route to the same numbers) pay only
@@ -213,15 +215,15 @@ class _OrderAtPoint:
 
     def modal(self, F: np.ndarray) -> np.ndarray:
         """(G, nb, m) Phi^H F of loads F (G, nb, m)."""
-        return _product(np.swapaxes(self.group.modes, 1, 2).conj(), F)
+        return real_product(np.swapaxes(self.group.modes, 1, 2).conj(), F)
 
     def at_contacts(self, w: np.ndarray) -> np.ndarray:
         """(G, ncb, m) Phi_c w of modal amplitudes w (G, nb, m)."""
-        return _product(self.group.at_contacts, w)
+        return real_product(self.group.at_contacts, w)
 
     def from_contacts(self, X: np.ndarray) -> np.ndarray:
         """(G, nb, m) Phi_c^H X of contact vectors X (G, ncb, m)."""
-        return _product(np.swapaxes(self.group.at_contacts, 1, 2).conj(), X)
+        return real_product(np.swapaxes(self.group.at_contacts, 1, 2).conj(), X)
 
     @property
     def nbytes(self) -> int:
@@ -311,7 +313,7 @@ class ModalCondensed:
             x = X[k].reshape(nc, -1)
             if at is None:
                 if static is not None:
-                    out[k] = _product(static, x).reshape(X[k].shape)
+                    out[k] = real_product(static, x).reshape(X[k].shape)
                 continue
             o = out[k].reshape(nc, -1)
             for a in at:
@@ -334,7 +336,7 @@ class ModalCondensed:
             if g.contact.shape[1]:
                 react = a.solve(x[g.contact][..., None]) - self.F[k][g.contact][..., None]
                 w = w + a.from_contacts(react)
-            q[g.dofs] = _product(g.modes, w * a.inv_d[..., None])[..., 0]
+            q[g.dofs] = real_product(g.modes, w * a.inv_d[..., None])[..., 0]
         return q[nc:]
 
     @property
@@ -416,13 +418,6 @@ def _receptance(Phic: np.ndarray, inv_d: np.ndarray) -> np.ndarray:
         return (Phic * inv_d[:, None, :]) @ right
     return (Phic * inv_d.real[:, None, :]) @ right \
         + 1j * ((Phic * inv_d.imag[:, None, :]) @ right)
-
-
-def _product(A: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """A x, a real A applied to a complex x as two real products (no complex copy of A)."""
-    if np.iscomplexobj(A) or not np.iscomplexobj(x):
-        return A @ x
-    return A @ x.real + 1j * (A @ x.imag)
 
 
 def _lu_solve(lu: tuple, b: np.ndarray) -> np.ndarray:
