@@ -8,9 +8,10 @@ own modes or Rayleigh's alpha M + beta K), the dynamic stiffness at w_n = n w is
 D = Phi^-H diag(d) Phi^-1 with d = lam - w_n^2 + i w_n c, its inverse the receptance
 H = Phi diag(1/d) Phi^H, and the Schur complement of the other DOFs is S = (H_cc)^-1.
 Per connected component of the matrices' pattern (a body; bodies the contacts alone couple
-are apart) an iterate costs nc_b^2 n_b to form H_cc and nc_b^3 / 3 to factor it, against
-the Schur complement's n_i^3 / 3 + n_i^2 nc + nc^2 n_i over every other DOF: the whole
-disk's thousands of modal coordinates, a handful of contact DOFs per body each.
+are apart) an iterate costs nc_b^2 n_b to form H_cc (real modes: two real products, half
+that) and nc_b^3 / 3 to factor it, against the Schur complement's n_i^3 / 3 + n_i^2 nc +
+nc^2 n_i over every other DOF: the whole disk's thousands of modal coordinates, a handful
+of contact DOFs per body each.
 
 Order 0 (w = 0: a free-free damper's rigid modes have d = 0) keeps the Schur complement of
 :mod:`condensation`, whose K_0 does not depend on the point: factored once.
@@ -137,7 +138,9 @@ class ModalForm:
                 _components(linear.K[k], masses[k], linear.C[k], nc)
         n_i = [linear.sizes[k] - nc for k in dynamic]
         schur = sum(ni**3 / 3 + ni**2 * nc + nc**2 * ni for ni in n_i)
-        modal = sum(c.size**2 * d.size + c.size**3 / 3 for k in dynamic
+        # real modes form the receptance by two real products: half a complex one
+        share = {k: 1.0 if _complex(linear, masses, k) else 0.5 for k in dynamic}
+        modal = sum(share[k] * c.size**2 * d.size + c.size**3 / 3 for k in dynamic
                     for c, d in parts[k])
         if not always and (schur < MODAL_FROM or modal * MODAL_GAIN > schur):
             return None
@@ -403,6 +406,12 @@ def diagonal_modes(K: np.ndarray, M: np.ndarray, C: np.ndarray
     if np.any(elastic & (c <= 0.0)):  # (its receptance is infinite at its frequency)
         raise ValueError("an undamped elastic mode")
     return lam, phi, c
+
+
+def _complex(linear, masses, k: int) -> bool:
+    """Whether order k's matrices hold an imaginary part (complex modes)."""
+    return any(np.iscomplexobj(A[k]) and np.any(A[k].imag) for A in (linear.K, masses,
+                                                                        linear.C))
 
 
 def _same(linear, masses, j: int, k: int) -> bool:
