@@ -214,3 +214,16 @@ def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
         reference.append(response_at(hb, r.x, at, [0], "peak")[0])
     # both solved to a residual of 1e-11 of the force scale: the amplitudes agree to ~1e-9
     np.testing.assert_allclose(amplitude, sorted(reference, reverse=True), rtol=1e-8)
+
+
+def test_a_peak_trial_starts_between_its_neighbours():
+    """The refined peak's trial start: linear between the nearest solutions either side,
+    the nearest one beyond them (an extrapolation could leave the branch)."""
+    from microslip.app.solutions import between
+
+    tried = {1.0: np.array([0.0, 2.0]), 3.0: np.array([4.0, 6.0]), 2.0: np.array([1.0, 1.0])}
+    assert np.allclose(between(tried, 2.5), [2.5, 3.5])  # between 2 and 3: halfway
+    assert np.allclose(between(tried, 1.25), [0.25, 1.75])  # a quarter from 1 to 2
+    assert np.array_equal(between(tried, 2.0), [1.0, 1.0])  # a tried value: itself
+    assert np.array_equal(between(tried, 0.5), [0.0, 2.0])  # below every one: the nearest
+    assert np.array_equal(between(tried, 9.0), [4.0, 6.0])

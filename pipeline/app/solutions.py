@@ -79,8 +79,8 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
                   ) -> tuple[float, np.ndarray]:
     """(parameter value, x) at the largest response of the first output (map_solutions):
     :func:`refine_peak` between the computed neighbours of the largest computed point,
-    each trial a Newton solve from the nearest solution so far; the computed point if no
-    trial does better."""
+    each trial a Newton solve from the solutions so far on either side of it, interpolated;
+    the computed point if no trial does better."""
     lam = r.values
     i = int(np.argmax(shown))
     if not (0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0):
@@ -88,9 +88,9 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
     tried = {float(lam[j]): r.branch.x[j] for j in (i - 1, i, i + 1)}
 
     def response(v: float) -> float:
-        near = tried[min(tried, key=lambda t: abs(t - v))]
         point = r.base.set(r.parameter, v)
-        sol = solve_point(r.model, point, settings=settings, x0=near, retry=False)
+        sol = solve_point(r.model, point, settings=settings, x0=between(tried, v),
+                          retry=False, explain=False)
         if not sol.converged:
             return 0.0
         tried[v] = sol.x
@@ -99,6 +99,22 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
     lo, hi = sorted((float(lam[i - 1]), float(lam[i + 1])))
     v, top = refine_peak(response, lo, hi, PEAK_XTOL * (hi - lo))
     return (v, tried[v]) if top > shown[i] else (float(lam[i]), r.branch.x[i])
+
+
+def between(tried: dict[float, np.ndarray], v: float) -> np.ndarray:
+    """A start at parameter ``v`` from the solutions ``tried`` (value -> x): linear between
+    the nearest on either side (the branch is smooth between its computed points; at a
+    whole disk's peak the nearest alone, a step away, often failed to converge), else the
+    nearest."""
+    below = [t for t in tried if t <= v]
+    above = [t for t in tried if t >= v]
+    if not (below and above):
+        return tried[min(tried, key=lambda t: abs(t - v))]
+    a, b = max(below), min(above)
+    if a == b:
+        return tried[a]
+    s = (v - a) / (b - a)
+    return (1.0 - s) * tried[a] + s * tried[b]
 
 
 def map_groups(cm, r: Response, solutions, rows, measure: str,

@@ -124,7 +124,8 @@ class _Peaks:
     def amplitude_at(self, point: OperatingPoint, w: float) -> float:
         """The response measure at frequency w (0 where Newton fails)."""
         x0 = min(self.memo, key=lambda m: abs(m[0] - w))[1] if self.memo else None
-        r = solve_point(self.model, point.set("frequency", w), settings=self.settings, x0=x0)
+        r = solve_point(self.model, point.set("frequency", w), settings=self.settings, x0=x0,
+                        explain=False)
         self.solves += 1
         if not r.converged:
             return 0.0  # no amplitude is smaller: Brent's method moves away
@@ -165,5 +166,5 @@ def stability_at(model: HarmonicBalance, point: OperatingPoint,
     if undefined(model):
         return None
     x0 = min(near, key=lambda m: abs(m[0] - point.omega))[1]
-    r = solve_point(model, point, settings=settings, x0=x0)
+    r = solve_point(model, point, settings=settings, x0=x0, explain=False)
     return hill_stability(model, r.x, point) if r.converged else None

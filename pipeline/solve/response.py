@@ -106,7 +106,7 @@ class Response:
         def amplitude_at(value: float) -> float:
             j = int(np.argmin(np.abs(lam - value)))
             r = solve_point(self.model, self.base.set(self.parameter, value),
-                            settings=settings, x0=self.branch.x[j])
+                            settings=settings, x0=self.branch.x[j], explain=False)
             if not r.converged:
                 return 0.0
             Q = self.model.recover(r.x, self.base.set(self.parameter, value))
@@ -510,11 +510,15 @@ def solve_point(
     settings: cont.Settings = cont.DEFAULT,
     x0: np.ndarray | None = None,
     retry: bool = True,
+    explain: bool = True,
 ) -> cont.NewtonResult:
     """One harmonic-balance solution at a fixed operating point.
 
     retry: where the cold start (no ``x0``) fails and the linear part is not singular
-    there, reach the point by :func:`excitation_ramp` (its ``reason`` then says so)."""
+    there, reach the point by :func:`excitation_ramp` (its ``reason`` then says so).
+    explain: a failure's ``reason`` says why (:func:`failure_hint`: a whole disk's order
+    block searched for its modes near the point, ~10 s); False where the caller only asks
+    whether it converged (a peak's trial, which moves on)."""
     xs, fs = scales(model, point)
     cold = x0 is None
     if cold:
@@ -524,7 +528,7 @@ def solve_point(
         return model.residual(x, point, None, jacobian=jac, structured=model.structured)
 
     r = cont.newton(fun, x0, 0.0, x_scale=xs, f_scale=fs, settings=settings)
-    if r.converged:
+    if r.converged or not (explain or cold and retry):
         return r
     structural = _structural_hint(model, r.x, point)
     retried = ""
