@@ -219,7 +219,7 @@ def test_every_solution_in_a_fold_is_found_from_a_coarse_branch(share):
 def test_a_peak_trial_starts_between_its_neighbours():
     """The refined peak's trial start: linear between the nearest solutions either side,
     the nearest one beyond them (an extrapolation could leave the branch)."""
-    from microslip.app.solutions import between
+    from microslip.solve.response import between
 
     tried = {1.0: np.array([0.0, 2.0]), 3.0: np.array([4.0, 6.0]), 2.0: np.array([1.0, 1.0])}
     assert np.allclose(between(tried, 2.5), [2.5, 3.5])  # between 2 and 3: halfway

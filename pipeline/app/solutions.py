@@ -15,6 +15,7 @@ from microslip.results.writer import ATTRS
 from microslip.solve.linear import OperatingPoint
 from microslip.solve.response import (
     Response,
+    between,
     output,
     refine_peak,
     response_measure,
@@ -99,22 +100,6 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
     lo, hi = sorted((float(lam[i - 1]), float(lam[i + 1])))
     v, top = refine_peak(response, lo, hi, PEAK_XTOL * (hi - lo))
     return (v, tried[v]) if top > shown[i] else (float(lam[i]), r.branch.x[i])
-
-
-def between(tried: dict[float, np.ndarray], v: float) -> np.ndarray:
-    """A start at parameter ``v`` from the solutions ``tried`` (value -> x): linear between
-    the nearest on either side (the branch is smooth between its computed points; at a
-    whole disk's peak the nearest alone, a step away, often failed to converge), else the
-    nearest."""
-    below = [t for t in tried if t <= v]
-    above = [t for t in tried if t >= v]
-    if not (below and above):
-        return tried[min(tried, key=lambda t: abs(t - v))]
-    a, b = max(below), min(above)
-    if a == b:
-        return tried[a]
-    s = (v - a) / (b - a)
-    return (1.0 - s) * tried[a] + s * tried[b]
 
 
 def map_groups(cm, r: Response, solutions, rows, measure: str,

@@ -619,17 +619,22 @@ def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
     p, a = g[schema.PATTERNS], g[schema.AMPLIFICATION]
     sigma = a["sigma"][()]
     series = []
+    x = np.concatenate([[0.0], 100 * sigma])  # each curve from the tuned disk: 1 at sigma 0
+
+    def tuned(y):
+        return np.concatenate([[1.0], y])
+
     for case, label, ls in (("friction", "with the dampers", "-"),
                             ("free", "without the dampers (linear)", "--")):
         if f"{case}_percentiles" not in a:
             continue
         pc = a[f"{case}_percentiles"][()]
         colour = "C0" if case == "friction" else "C1"
-        series += [{"x": 100 * sigma, "y": pc[:, 1], "label": f"{label}: median",
+        series += [{"x": x, "y": tuned(pc[:, 1]), "label": f"{label}: median",
                     "ls": ls, "color": colour, "marker": "o"},
-                   {"x": 100 * sigma, "y": pc[:, 2], "label": "95 %", "ls": ls,
+                   {"x": x, "y": tuned(pc[:, 2]), "label": "95 %", "ls": ls,
                     "color": colour, "alpha": 0.6},
-                   {"x": 100 * sigma, "y": a[f"{case}_largest"][()], "label": "largest",
+                   {"x": x, "y": tuned(a[f"{case}_largest"][()]), "label": "largest",
                     "ls": ls, "color": colour, "marker": "^", "alpha": 0.6}]
     levels = [{"y": float(a.attrs["whitehead"]), "label": "Whitehead (1 + sqrt N) / 2"},
               {"y": 1.0, "label": "tuned"}]

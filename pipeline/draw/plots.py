@@ -345,8 +345,22 @@ def amplification(path: Path, title: str, series: Sequence[dict], levels: Sequen
     for s in series:
         ax.plot(s["x"], s["y"], label=s["label"], ls=s.get("ls", "-"), color=s.get("color"),
                 marker=s.get("marker"), ms=4, alpha=s.get("alpha", 1.0))
+    # the axis spans the patterns, not a bound far above them (Whitehead's at 48 blades is
+    # ~4 where friction-damped patterns reach ~1.2): a level off the scale is named instead
+    ys = np.concatenate([np.asarray(s["y"], float) for s in series] or [np.ones(1)])
+    ys = ys[np.isfinite(ys)]
+    low, high = min(1.0, *ys.tolist()), max(1.0, *ys.tolist())
+    top = high + 0.15 * max(high - low, 0.05)
+    above = []
     for k, lv in enumerate(levels):
+        if lv["y"] > top:
+            above.append(f"{lv['label']} = {lv['y']:.3g}, above")
+            continue
         ax.axhline(lv["y"], color="0.4", ls=(":", "-.")[k % 2], lw=1.0, label=lv["label"])
+    ax.set_ylim(low - 0.05 * max(high - low, 0.05), top)
+    if above:
+        ax.text(0.01, 0.98, "; ".join(above), transform=ax.transAxes, fontsize=7,
+                va="top", color="0.3")
     ax.set_xlabel("mistuning: standard deviation of the blades' Young's modulus [%]")
     ax.set_ylabel("amplification: worst blade / tuned [-]")
     ax.set_title(title, fontsize=10)

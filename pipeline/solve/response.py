@@ -102,13 +102,14 @@ class Response:
             return float(lam[i]), float(amp[i])
         h = self.model.harmonics
         settings = cont.Settings(tol=1e-11)
+        tried = {float(lam[j]): self.branch.x[j] for j in (i - 1, i, i + 1)}
 
         def amplitude_at(value: float) -> float:
-            j = int(np.argmin(np.abs(lam - value)))
             r = solve_point(self.model, self.base.set(self.parameter, value),
-                            settings=settings, x0=self.branch.x[j], explain=False)
+                            settings=settings, x0=between(tried, value), explain=False)
             if not r.converged:
                 return 0.0
+            tried[value] = r.x
             Q = self.model.recover(r.x, self.base.set(self.parameter, value))
             return float(response_measure(h, output(Q, dof_rows(dof))[0], measure_of(vibration)))
 
@@ -198,6 +199,22 @@ def refine_peak(response: Callable[[float], float], low: float, high: float, xat
 
     minimize_scalar(minus, bounds=(low, high), method="bounded", options={"xatol": xatol})
     return float(best[1]), float(best[0])
+
+
+def between(tried: dict[float, np.ndarray], v: float) -> np.ndarray:
+    """A start at parameter ``v`` from the solutions ``tried`` (value -> x): linear between
+    the nearest on either side (the branch is smooth between its computed points; at a
+    whole disk's peak the nearest alone, a step away, often failed to converge), else the
+    nearest."""
+    below = [t for t in tried if t <= v]
+    above = [t for t in tried if t >= v]
+    if not (below and above):
+        return tried[min(tried, key=lambda t: abs(t - v))]
+    a, b = max(below), min(above)
+    if a == b:
+        return tried[a]
+    s = (v - a) / (b - a)
+    return (1.0 - s) * tried[a] + s * tried[b]
 
 
 def output(Q: np.ndarray, dofs: Sequence[int] | np.ndarray | None) -> np.ndarray:
