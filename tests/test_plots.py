@@ -192,3 +192,21 @@ def test_a_branch_line_puts_the_bifurcations_between_their_points(tmp_path):
     assert line["turning_points"].tolist() == [3]  # point 2 is now the fourth
     assert line["jumps"].tolist() == [[6, 7]]
     assert [k for k, _, _ in line["bifurcations"]] == ["fold", "fold"]
+
+
+def test_the_amplification_axis_spans_the_patterns_and_names_a_bound_above(tmp_path):
+    """Whitehead's bound (~4 at 48 blades) far above friction-damped patterns (~1.2): the
+    axis spans the patterns and the bound is named, not drawn; a level of NaN patterns
+    (none completed) still draws."""
+    x = np.array([0.0, 1.0, 5.0])
+    series = [{"x": x, "y": np.array([1.0, 1.12, 1.2]), "label": "median"},
+              {"x": x, "y": np.full(3, np.nan), "label": "largest"}]
+    levels = [{"y": 3.96, "label": "Whitehead"}, {"y": 1.0, "label": "tuned"}]
+    fig = plots.amplification(tmp_path / "a.png", "t", series, levels)
+    ax = fig.axes[0]
+    low, high = ax.get_ylim()
+    assert low < 1.0 and 1.2 < high < 1.5  # 15 % of the data's span above its top
+    assert [t.get_text() for t in ax.texts] == ["Whitehead = 3.96, above"]
+    assert "tuned" in legend_texts(ax) and "Whitehead" not in legend_texts(ax)
+    nan_only = plots.amplification(tmp_path / "b.png", "t", series[1:], levels)
+    assert nan_only.axes[0].get_ylim()[1] > 1.0

@@ -80,18 +80,22 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
                   ) -> tuple[float, np.ndarray]:
     """(parameter value, x) at the largest response of the first output (map_solutions):
     :func:`refine_peak` between the computed neighbours of the largest computed point,
-    each trial a Newton solve from the solutions so far on either side of it, interpolated;
-    the computed point if no trial does better."""
+    each trial a Newton solve from the solutions so far on either side of it, interpolated
+    (next to a natural sweep's jump: the nearest); the computed point if no trial does
+    better."""
     lam = r.values
     i = int(np.argmax(shown))
     if not (0 < i < len(r) - 1 and (lam[i] - lam[i - 1]) * (lam[i + 1] - lam[i]) > 0):
         return float(lam[i]), r.branch.x[i]  # at an end of the branch, or on a fold
     tried = {float(lam[j]): r.branch.x[j] for j in (i - 1, i, i + 1)}
+    # next to a natural sweep's jump the neighbours lie on two branches: no mix of them
+    across = any(i in jump for jump in r.branch.jumps)
 
     def response(v: float) -> float:
         point = r.base.set(r.parameter, v)
-        sol = solve_point(r.model, point, settings=settings, x0=between(tried, v),
-                          retry=False, explain=False)
+        x0 = tried[min(tried, key=lambda t: abs(t - v))] if across else between(tried, v)
+        sol = solve_point(r.model, point, settings=settings, x0=x0, retry=False,
+                          explain=False)
         if not sol.converged:
             return 0.0
         tried[v] = sol.x

@@ -349,7 +349,7 @@ def amplification(path: Path, title: str, series: Sequence[dict], levels: Sequen
     # ~4 where friction-damped patterns reach ~1.2): a level off the scale is named instead
     ys = np.concatenate([np.asarray(s["y"], float) for s in series] or [np.ones(1)])
     ys = ys[np.isfinite(ys)]
-    low, high = min(1.0, *ys.tolist()), max(1.0, *ys.tolist())
+    low, high = float(np.min(ys, initial=1.0)), float(np.max(ys, initial=1.0))
     top = high + 0.15 * max(high - low, 0.05)
     above = []
     for k, lv in enumerate(levels):

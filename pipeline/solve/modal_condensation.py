@@ -409,7 +409,9 @@ def diagonal_modes(K: np.ndarray, M: np.ndarray, C: np.ndarray
 
 
 def _complex(linear, masses, k: int) -> bool:
-    """Whether order k's matrices hold an imaginary part (complex modes)."""
+    """Whether order k's matrices hold an imaginary part (complex modes), over the whole
+    order: a real body beside complex ones is counted complex (the estimate errs towards
+    the Schur route; diagonal_modes decides per component)."""
     return any(np.iscomplexobj(A[k]) and np.any(A[k].imag) for A in (linear.K, masses,
                                                                         linear.C))
 

@@ -159,7 +159,8 @@ def forced_check(modal: ModalBalance, p: Peak) -> np.ndarray | None:
     theta = float(np.angle(p.excitation * p.modal_force
                            / (p.omega**2 - Om**2 + 1j * Om * p.xi)))
     guess = shifted(model.harmonics, p.x, model.dofs.size, theta)
-    r = solve_point(model, modal.forced(Om, p.excitation), x0=guess, retry=False)
+    r = solve_point(model, modal.forced(Om, p.excitation), x0=guess, retry=False,
+                    explain=False)
     return r.x if r.converged else None
 
 

@@ -90,10 +90,10 @@ class Response:
         of max|x(t) - x0|).
 
         The sampled maximum is refined between its neighbours (:func:`refine_peak`),
-        solving the balance afresh at each trial value (warm start from the nearest
-        point); ``xtol`` is relative to that bracket. Where the maximum sits on a fold
-        (the branch turns back around it) or next to a jump of a natural sweep the sampled
-        maximum is returned unrefined."""
+        solving the balance afresh at each trial value (its start between the solutions
+        either side, :func:`between`); ``xtol`` is relative to that bracket. Where the
+        maximum sits on a fold (the branch turns back around it) or next to a jump of a
+        natural sweep the sampled maximum is returned unrefined."""
         i, amp = self.top(dof, vibration=vibration)
         lam = self.values
         jumps = {k for jump in self.branch.jumps for k in jump}  # no bracket across a jump
@@ -533,9 +533,10 @@ def solve_point(
 
     retry: where the cold start (no ``x0``) fails and the linear part is not singular
     there, reach the point by :func:`excitation_ramp` (its ``reason`` then says so).
-    explain: a failure's ``reason`` says why (:func:`failure_hint`: a whole disk's order
-    block searched for its modes near the point, ~10 s); False where the caller only asks
-    whether it converged (a peak's trial, which moves on)."""
+    explain: a failure's ``reason`` says why (the hints of :func:`failure_hint`: a whole
+    disk's order block searched for its modes near the point, ~10 s); False where the
+    caller only asks whether it converged (a peak's trial, which moves on). A cold start
+    with ``retry`` still runs the structural check that decides the retry."""
     xs, fs = scales(model, point)
     cold = x0 is None
     if cold:
