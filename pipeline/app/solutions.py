@@ -93,8 +93,8 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
 
     def response(v: float) -> float:
         point = r.base.set(r.parameter, v)
-        x0 = tried[min(tried, key=lambda t: abs(t - v))] if across else between(tried, v)
-        sol = solve_point(r.model, point, settings=settings, x0=x0, retry=False,
+        sol = solve_point(r.model, point, settings=settings,
+                          x0=between(tried, v, interpolate=not across), retry=False,
                           explain=False)
         if not sol.converged:
             return 0.0

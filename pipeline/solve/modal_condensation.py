@@ -390,7 +390,7 @@ def diagonal_modes(K: np.ndarray, M: np.ndarray, C: np.ndarray
     """(lam (n,), Phi (n, n) mass-normalised, c (n,)) with Phi^H K Phi = diag(lam) and
     Phi^H C Phi = diag(c) to DIAGONAL_TOL. ValueError where C is not diagonal in the modes
     of (K, M); LinAlgError where M is not positive definite."""
-    if not any(np.iscomplexobj(A) and np.any(A.imag) for A in (K, M, C)):
+    if not _imaginary(K, M, C):
         K, M, C = K.real, M.real, C.real  # (held complex, real: a real eigenproblem, 4x less)
     lam, phi = sla.eigh(K, M, check_finite=False)
     cm = phi.conj().T @ C @ phi
@@ -412,8 +412,12 @@ def _complex(linear, masses, k: int) -> bool:
     """Whether order k's matrices hold an imaginary part (complex modes), over the whole
     order: a real body beside complex ones is counted complex (the estimate errs towards
     the Schur route; diagonal_modes decides per component)."""
-    return any(np.iscomplexobj(A[k]) and np.any(A[k].imag) for A in (linear.K, masses,
-                                                                        linear.C))
+    return _imaginary(linear.K[k], masses[k], linear.C[k])
+
+
+def _imaginary(*arrays: np.ndarray) -> bool:
+    """Whether any of ``arrays`` holds a nonzero imaginary part (complex-held real is real)."""
+    return any(np.iscomplexobj(A) and np.any(A.imag) for A in arrays)
 
 
 def _same(linear, masses, j: int, k: int) -> bool:

@@ -201,14 +201,15 @@ def refine_peak(response: Callable[[float], float], low: float, high: float, xat
     return float(best[1]), float(best[0])
 
 
-def between(tried: dict[float, np.ndarray], v: float) -> np.ndarray:
+def between(tried: dict[float, np.ndarray], v: float, interpolate: bool = True
+            ) -> np.ndarray:
     """A start at parameter ``v`` from the solutions ``tried`` (value -> x): linear between
     the nearest on either side (the branch is smooth between its computed points; at a
-    whole disk's peak the nearest alone, a step away, often failed to converge), else the
-    nearest."""
+    whole disk's peak the nearest alone, a step away, often failed to converge), else (or
+    without ``interpolate``: neighbours on two branches) the nearest."""
     below = [t for t in tried if t <= v]
     above = [t for t in tried if t >= v]
-    if not (below and above):
+    if not (below and above and interpolate):
         return tried[min(tried, key=lambda t: abs(t - v))]
     a, b = max(below), min(above)
     if a == b:
