@@ -341,3 +341,91 @@ def test_the_estimates_count_every_sectors_contacts_on_the_whole_disk():
     del data["assembly"]["mistuning"]
     assert sizes(data)[0].unknowns == 2 * 6 * 2 * 3 * 3
     assert whole == NS * 2 * 6 * 2 * 3 * 3
+
+
+MU = {"key": "assembly.contacts.0.mu", "values": [0.5, 0.2], "label": "mu"}
+
+
+@pytest.mark.slow
+def test_a_family_repeats_the_study_per_member(tmp_path):
+    """A family over the dampers' friction coefficient: each member its own tuned disk and
+    the same patterns (amplification 1 at 1e-6 against its own tuned disk); the disk without
+    the dampers does not see mu (the same numbers in both members); a member is the study
+    with its value set (the same store keys), and the members differ."""
+    lines = []
+    run_case(study_case(family=MU), tmp_path, progress=lines.append)
+    assert any("for each of 2 members of 6 blades: 0 from the cache, 10 to compute" in x
+               for x in lines), lines
+    with h5py.File(tmp_path / "results.h5") as f:
+        g = f["amplification"]
+        assert g.attrs["status"] == "complete" and schema.undescribed(f) == []
+        assert [g[k].attrs["label"] for k in ("curve_000", "curve_001")] == [
+            "mu = 0.5", "mu = 0.2"]
+        p = [{k: v[()] for k, v in g[f"curve_00{m}/patterns"].items()}
+             | dict(g[f"curve_00{m}/patterns"].attrs) for m in (0, 1)]
+    for m in p:  # 1e-4: as the study without a family (Brent's 1e-6 of the window)
+        np.testing.assert_allclose(m["amplification"][m["sigma"] == 1e-6], 1.0, atol=1e-4)
+    for k in ("free_peak", "free_omega", "tuned_free_peak"):  # one computation, twice
+        np.testing.assert_allclose(p[1][k], p[0][k], rtol=1e-12, err_msg=k)
+    # mu moves the tuned peak by 7.6e-4 (measured) on this lightly loaded damper: far above
+    # Newton's and Brent's tolerances, so a member that lost its value would fail here
+    assert abs(p[1]["tuned_peak"] / p[0]["tuned_peak"] - 1) > 1e-4
+    assert sorted(x.name for x in tmp_path.glob("amplification*.png")) == [
+        "amplification.png", "amplification_blades.png"]
+    lines.clear()
+    alone = study_case(set={MU["key"]: 0.2})  # the member mu = 0.2 as a study of its own
+    run_case(alone, tmp_path / "alone", progress=lines.append)
+    with h5py.File(tmp_path / "alone" / "results.h5") as f:
+        q = f["amplification/patterns"]
+        np.testing.assert_allclose(q["peak"][()], p[1]["peak"], rtol=1e-12)
+        assert float(q.attrs["tuned_peak"]) == pytest.approx(p[1]["tuned_peak"], rel=1e-12)
+
+
+def _synthetic_study(path, free_scales):
+    """A results file of a two-member study of 4 blades written by the study's own writer:
+    member m's patterns peak at 1 + (m + 1) (k + 1) sigma, without the dampers at
+    free_scales[m] (1 + sigma)."""
+    from microslip.app.analyses import mistuning as mt
+    from microslip.case.specs import Family
+    from microslip.results.writer import ResultsWriter
+
+    spec = mt.MistuningStudy(name="amp", window=(1.0, 2.0), output="tip", sigma=(0.01, 0.02),
+                             patterns=2, family=Family(values=(0.5, 0.2), key=MU["key"],
+                                                       label="mu"))
+    pairs = [(s, s * np.array([1.0, -1.0, 0.5, 0.0])) for s in spec.sigma for _ in range(2)]
+    with ResultsWriter(path, title="t", source="t.toml", case_hash="0", case={}) as w:
+        g = w.analysis("amp", spec.record())
+        for m, value in enumerate(spec.family.values):
+            rows = [{"peak": 1.0, "free_peak": 1.0, "status": "complete"}] + [
+                {"peak": 1 + (m + 1) * (k % 2 + 1) * s, "free_peak": free_scales[m] * (1 + s),
+                 "blade_peaks": np.full(4, 1.0), "status": "complete"}
+                for k, (s, _) in enumerate(pairs)]
+            w.write_group(g, schema.curve(m), {}, {"label": f"mu = {value}"})
+            mt._write(w, g[schema.curve(m)], spec, pairs, mt._table(rows, 4))
+        w.close("complete")
+
+
+@pytest.mark.parametrize("free_scales, free_labels", [
+    ((1.0, 1.0), ["without the dampers (linear): median"]),
+    ((1.0, 1.3), ["mu = 0.5, without the dampers (linear): median",
+                  "mu = 0.2, without the dampers (linear): median"])])
+def test_a_family_draws_each_member_and_the_free_disk_once_where_they_agree(
+        tmp_path, monkeypatch, free_scales, free_labels):
+    from microslip.draw import pictures, plots
+
+    _synthetic_study(tmp_path / "results.h5", free_scales)
+    drawn = []
+    monkeypatch.setattr(plots, "amplification", lambda path, title, series, levels:
+                        drawn.append(series))
+    with h5py.File(tmp_path / "results.h5") as f:
+        assert schema.undescribed(f) == []
+        files = pictures.mistuning(f["amp"], "amp", tmp_path)
+    assert [x.name for x in files] == ["amp.png", "amp_blades.png"]
+    labels = [s["label"] for s in drawn[0] if s["label"] != "largest"]
+    assert [x for x in labels if "with the" in x] == [
+        "mu = 0.5, with the dampers: median", "mu = 0.2, with the dampers: median"]
+    assert [x for x in labels if "without" in x] == free_labels
+    member = {s["label"]: s["y"] for s in drawn[0]}
+    # from the tuned disk (1 at sigma 0); medians of 1 + (m + 1) {1, 2} sigma
+    np.testing.assert_allclose(member["mu = 0.2, with the dampers: median"],
+                               [1.0, 1.03, 1.06])

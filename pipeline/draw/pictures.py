@@ -613,46 +613,97 @@ def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
               ) -> list[Path]:
     """A mistuning study: the worst blade's amplification against the mistuning level
     (median, 95 % and largest of the patterns, with the dampers and without them, and
-    Whitehead's bound); every blade's peak around the disk for the pattern of the largest
-    amplification at the highest level."""
+    Whitehead's bound; a family: each member's median and largest with the dampers, and
+    without them once where the members agree); every blade's peak around the disk for the
+    pattern of the largest amplification at the highest level."""
     spec = analysis_spec(g)
-    p, a = g[schema.PATTERNS], g[schema.AMPLIFICATION]
-    sigma = a["sigma"][()]
+    found = [(label, m) for label, m in schema.mistuning_members(g)
+             if schema.AMPLIFICATION in m]
+    if not found:
+        return []
     series = []
-    x = np.concatenate([[0.0], 100 * sigma])  # each curve from the tuned disk: 1 at sigma 0
-
-    def tuned(y):
-        return np.concatenate([[1.0], y])
-
-    for case, label, ls in (("friction", "with the dampers", "-"),
-                            ("free", "without the dampers (linear)", "--")):
-        if f"{case}_percentiles" not in a:
+    once = all(_same_free(found[0][1], m) for _, m in found[1:])
+    for k, (label, m) in enumerate(found):
+        if len(found) == 1:
+            series += _amplification_series(m, {"friction": ("with the dampers", "C0"),
+                                                "free": ("without the dampers (linear)",
+                                                         "C1")}, spread=True)
             continue
-        pc = a[f"{case}_percentiles"][()]
-        colour = "C0" if case == "friction" else "C1"
-        series += [{"x": x, "y": tuned(pc[:, 1]), "label": f"{label}: median",
-                    "ls": ls, "color": colour, "marker": "o"},
-                   {"x": x, "y": tuned(pc[:, 2]), "label": "95 %", "ls": ls,
-                    "color": colour, "alpha": 0.6},
-                   {"x": x, "y": tuned(a[f"{case}_largest"][()]), "label": "largest",
-                    "ls": ls, "color": colour, "marker": "^", "alpha": 0.6}]
+        free = ("without the dampers (linear)", "0.5") if once else (
+            f"{label}, without the dampers (linear)", f"C{k}")
+        series += _amplification_series(m, {"friction": (f"{label}, with the dampers",
+                                                         f"C{k}")}
+                                        | ({"free": free} if k == 0 or not once else {}),
+                                        spread=False)
+    a = found[0][1][schema.AMPLIFICATION]
     levels = [{"y": float(a.attrs["whitehead"]), "label": "Whitehead (1 + sqrt N) / 2"},
               {"y": 1.0, "label": "tuned"}]
     curve = out / f"{name}.png"
     plots.amplification(curve, f"{name}: the worst blade's {spec.output} peak against the "
                         "tuned one", series, levels)
-    amp = p["amplification"][()]
-    ok = (p["status"][()] == b"complete") & np.isfinite(amp)
-    top = p["sigma"][()] == sigma.max()
-    blades = out / f"{name}_blades.png"
-    if not (ok & top).any():
+    worst = _worst_pattern(found)
+    if worst is None:
         return [curve]
-    j = int(np.flatnonzero(ok & top)[np.argmax(amp[ok & top])])
-    tuned = float(p.attrs["tuned_peak"])
-    plots.around_the_disk(blades, f"{name}: every blade's peak, pattern {j + 1} (sigma "
-                          f"{100 * sigma.max():g} %, amplification {amp[j]:.3f})",
-                          p["blade_peaks"][j] / tuned, 100 * p["deviation"][j])
+    label, p, j = worst
+    sigma = p["sigma"][j]
+    blades = out / f"{name}_blades.png"
+    plots.around_the_disk(blades, f"{name}: every blade's peak, {label + ', ' if label else ''}"
+                          f"pattern {j + 1} (sigma {100 * sigma:g} %, amplification "
+                          f"{p['amplification'][j]:.3f})",
+                          p["blade_peaks"][j] / float(p.attrs["tuned_peak"]),
+                          100 * p["deviation"][j])
     return [curve, blades]
+
+
+def _amplification_series(m: h5py.Group, cases: dict[str, tuple[str, str]], spread: bool
+                          ) -> list[dict]:
+    """A member's curves from the tuned disk (1 at sigma 0), per case it has ("friction":
+    with the dampers, solid; "free": without them, dashed) of ``cases`` (its legend head and
+    colour): the median, the 95 % (``spread``) and the largest."""
+    a = m[schema.AMPLIFICATION]
+    x = np.concatenate([[0.0], 100 * a["sigma"][()]])
+
+    def tuned(y):
+        return np.concatenate([[1.0], y])
+
+    series = []
+    for case, ls in (("friction", "-"), ("free", "--")):
+        if f"{case}_percentiles" not in a or case not in cases:
+            continue
+        head, colour = cases[case]
+        pc = a[f"{case}_percentiles"][()]
+        series.append({"x": x, "y": tuned(pc[:, 1]), "label": f"{head}: median", "ls": ls,
+                       "color": colour, "marker": "o"})
+        if spread:
+            series.append({"x": x, "y": tuned(pc[:, 2]), "label": "95 %", "ls": ls,
+                           "color": colour, "alpha": 0.6})
+        series.append({"x": x, "y": tuned(a[f"{case}_largest"][()]), "label": "largest",
+                       "ls": ls, "color": colour, "marker": "^", "alpha": 0.6})
+    return series
+
+
+def _same_free(first: h5py.Group, other: h5py.Group) -> bool:
+    """Whether a member's disk without the dampers gives the first member's amplification
+    (a family of the dampers' mass or friction coefficient): drawn once then."""
+    a, b = first[schema.AMPLIFICATION], other[schema.AMPLIFICATION]
+    return all(x in a and x in b and np.allclose(a[x][()], b[x][()], rtol=1e-9, equal_nan=True)
+               for x in ("free_percentiles", "free_largest"))
+
+
+def _worst_pattern(found: list[tuple[str, h5py.Group]]) -> tuple[str, h5py.Group, int] | None:
+    """(member label, its patterns group, the pattern) of the largest complete amplification
+    at the study's highest level; None where no pattern there completed."""
+    best = None
+    for label, m in found:
+        p = m[schema.PATTERNS]
+        amp = p["amplification"][()]
+        sigma = p["sigma"][()]
+        ok = (p["status"][()] == b"complete") & np.isfinite(amp) & (sigma == sigma.max())
+        if ok.any():
+            j = int(np.flatnonzero(ok)[np.argmax(amp[ok])])
+            if best is None or amp[j] > best[1]["amplification"][best[2]]:
+                best = (label, p, j)
+    return best
 
 
 def render(results: Path, out: Path | None = None, options: Options = Options(),

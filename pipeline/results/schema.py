@@ -15,6 +15,7 @@ import re
 import textwrap
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 # ------------------------------------------------------------------ top level
 CASE = "case"
@@ -49,6 +50,16 @@ _STEP = "step_"
 def curve(index: int) -> str:
     """The group of an analysis' curve ``index`` (0-based): ``curve_000``, ..."""
     return f"{_CURVE}{index:03d}"
+
+
+def mistuning_members(g) -> list[tuple[str, Any]]:
+    """(label, the group holding patterns/ and amplification/) per member of a mistuning
+    study's group (an ``h5py.Group``): the group itself ("") without a family, each of its
+    curve_NNN with one; [] where nothing is written yet."""
+    if PATTERNS in g:
+        return [("", g)]
+    return [(str(g[k].attrs.get("label", k)), g[k]) for k in sorted(g)
+            if k.startswith(_CURVE) and PATTERNS in g[k]]
 
 
 def point(index: int) -> str:
@@ -101,13 +112,15 @@ class Entry:
 
     name: a name or a pattern (module docstring); doc: a dataset's shape, unit and meaning,
     or when a group is written; attrs: its attributes, each ``"name"`` or ``"name (what)"``
-    (``"..."``: further attributes the case gives, an analysis' keys)."""
+    (``"..."``: further attributes the case gives, an analysis' keys); repeated: its
+    children are entries listed elsewhere, not listed again in the README's text."""
 
     name: str
     doc: str = ""
     attrs: tuple[str, ...] = ()
     children: tuple[Entry, ...] = ()
     dataset: bool = False
+    repeated: bool = False
 
     def matches(self, name: str) -> bool:
         return re.fullmatch(_regex(self.name), name) is not None
@@ -143,6 +156,38 @@ _PATCH_STATE = (
     data("state", "(n, P) state per node pair (codes as contacts/<contact>/state)"),
     data("static", "(n, P, 3) N static forces [T0_1, T0_2, N0] per node pair"),
     data("slip_share", "(n,) share of the node pairs slipping"))
+
+MISTUNING_GROUPS = (
+    group(PATTERNS, "(mistuning) one row per pattern, level by level",
+          ("seed", "sectors", "tuned_status", "tuned_peak", "tuned_omega",
+           "tuned_free_peak", "tuned_free_omega (the cyclic sector's, m and rad/s)"),
+          data("sigma", "(n,) the pattern's standard deviation"),
+          data("deviation", "(n, N) each blade's Young's modulus x (1 + deviation)"),
+          data("blade_peaks", "(n, N) m, each blade's largest response over the "
+               "computed points (the worst blade's refined)"),
+          data("peak", "(n,) m, the worst blade's peak (NaN: none)"),
+          data("omega", "(n,) rad/s, where it is"),
+          data("blade", "(n,) the worst blade"),
+          data("free_peak", "(n,) m, the worst blade's peak without the dampers "
+               "(linear; NaN: free = false)"),
+          data("free_omega", "(n,) rad/s, where it is"),
+          data("amplification", "(n,) peak / tuned_peak"),
+          data("free_amplification", "(n,) free_peak / tuned_free_peak"),
+          data("points", "(n,) continuation points of the pattern's sweeps"),
+          data("samples", "(n,) time samples per period of its sweeps"),
+          data("seconds", "(n,) s, the pattern's task when it was computed"),
+          data("status", "(n,) complete | stopped | failed | not run")),
+    group(AMPLIFICATION, "(mistuning) the amplification per level, with the dampers "
+          "(friction_) and without (free_)", ("percent", "whitehead ((1 + sqrt N) / 2)",
+                                              "cases (JSON)"),
+          data("sigma", "(k,) the levels"),
+          data("friction_percentiles", "(k, 3) at percent (5, 50, 95)"),
+          data("friction_largest", "(k,) the largest"),
+          data("friction_mean", "(k,)"),
+          data("friction_count", "(k,) complete patterns"),
+          data("free_percentiles", "(k, 3) without the dampers (free = true)"),
+          data("free_largest", "(k,)"), data("free_mean", "(k,)"),
+          data("free_count", "(k,)")))
 
 FRF_CURVE = group(
     "curve_NNN", "(frf) one branch: a family value, a method",
@@ -302,36 +347,10 @@ LAYOUT = group(
                 data("percentiles", "(3,) m, at percent (5, 50, 95)"),
                 data("spearman", "(p,) rank correlation of the peak with each parameter"),
                 data("prcc", "(p,) partial rank correlation")),
-          group(PATTERNS, "(mistuning) one row per pattern, level by level",
-                ("seed", "sectors", "tuned_status", "tuned_peak", "tuned_omega",
-                 "tuned_free_peak", "tuned_free_omega (the cyclic sector's, m and rad/s)"),
-                data("sigma", "(n,) the pattern's standard deviation"),
-                data("deviation", "(n, N) each blade's Young's modulus x (1 + deviation)"),
-                data("blade_peaks", "(n, N) m, each blade's largest response over the "
-                     "computed points (the worst blade's refined)"),
-                data("peak", "(n,) m, the worst blade's peak (NaN: none)"),
-                data("omega", "(n,) rad/s, where it is"),
-                data("blade", "(n,) the worst blade"),
-                data("free_peak", "(n,) m, the worst blade's peak without the dampers "
-                     "(linear; NaN: free = false)"),
-                data("free_omega", "(n,) rad/s, where it is"),
-                data("amplification", "(n,) peak / tuned_peak"),
-                data("free_amplification", "(n,) free_peak / tuned_free_peak"),
-                data("points", "(n,) continuation points of the pattern's sweeps"),
-                data("samples", "(n,) time samples per period of its sweeps"),
-                data("seconds", "(n,) s, the pattern's task when it was computed"),
-                data("status", "(n,) complete | stopped | failed | not run")),
-          group(AMPLIFICATION, "(mistuning) the amplification per level, with the dampers "
-                "(friction_) and without (free_)", ("percent", "whitehead ((1 + sqrt N) / 2)",
-                                                    "cases (JSON)"),
-                data("sigma", "(k,) the levels"),
-                data("friction_percentiles", "(k, 3) at percent (5, 50, 95)"),
-                data("friction_largest", "(k,) the largest"),
-                data("friction_mean", "(k,)"),
-                data("friction_count", "(k,) complete patterns"),
-                data("free_percentiles", "(k, 3) without the dampers (free = true)"),
-                data("free_largest", "(k,)"), data("free_mean", "(k,)"),
-                data("free_count", "(k,)")),
+          *MISTUNING_GROUPS,
+          Entry("curve_NNN", "(mistuning, a family) a member's study: its patterns/ and "
+                "amplification/ as above", ("label", "family_key", "family_value"),
+                MISTUNING_GROUPS, repeated=True),
           group("curve_NNN", "(loops) one loop per amplitude",
                 ("label", *_RUN, "law", "contact", "dim", "mu", "motion (u | u_x | v)"),
                 data("amplitude", "(a,) the multipliers"),
@@ -465,5 +484,5 @@ def _lines(entry: Entry, depth: int) -> Iterator[str]:
     wrapped = textwrap.wrap(text, _WIDTH - _COLUMN) or [""]
     yield f"{head:<{_COLUMN}}{wrapped[0]}".rstrip()
     yield from (" " * _COLUMN + line for line in wrapped[1:])
-    for child in entry.children:
+    for child in () if entry.repeated else entry.children:
         yield from _lines(child, depth + 1)

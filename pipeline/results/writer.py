@@ -415,20 +415,23 @@ def _uncertainty_lines(g: h5py.Group) -> list[str]:
 
 
 def _mistuning_lines(g: h5py.Group) -> list[str]:
-    """A mistuning study: its patterns and, per level, the amplification's median and
-    largest with the dampers (and without)."""
-    if schema.PATTERNS not in g or schema.AMPLIFICATION not in g:
-        return []
-    p, a = g[schema.PATTERNS], g[schema.AMPLIFICATION]
-    status = p["status"][()]
-    lines = [f"  {status.size} patterns ({np.count_nonzero(status == b'complete')} "
-             f"complete); tuned peak {float(p.attrs['tuned_peak']):.6g} m; Whitehead "
-             f"{float(a.attrs['whitehead']):.3f}"]
-    for k, sigma in enumerate(a["sigma"][()]):
-        parts = [f"{case} median {a[f'{case}_percentiles'][k, 1]:.3f}, largest "
-                 f"{a[f'{case}_largest'][k]:.3f}" for case in ("friction", "free")
-                 if f"{case}_percentiles" in a]
-        lines.append(f"  sigma {sigma:g}: amplification " + "; ".join(parts))
+    """A mistuning study: per member (one without a family) its patterns and, per level,
+    the amplification's median and largest with the dampers (and without)."""
+    lines = []
+    for label, m in schema.mistuning_members(g):
+        if schema.AMPLIFICATION not in m:
+            continue
+        p, a = m[schema.PATTERNS], m[schema.AMPLIFICATION]
+        status = p["status"][()]
+        lines.append(f"  {label + ': ' if label else ''}{status.size} patterns "
+                     f"({np.count_nonzero(status == b'complete')} complete); tuned peak "
+                     f"{float(p.attrs['tuned_peak']):.6g} m; Whitehead "
+                     f"{float(a.attrs['whitehead']):.3f}")
+        for k, sigma in enumerate(a["sigma"][()]):
+            parts = [f"{case} median {a[f'{case}_percentiles'][k, 1]:.3f}, largest "
+                     f"{a[f'{case}_largest'][k]:.3f}" for case in ("friction", "free")
+                     if f"{case}_percentiles" in a]
+            lines.append(f"  sigma {sigma:g}: amplification " + "; ".join(parts))
     return lines
 
 

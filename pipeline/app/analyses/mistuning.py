@@ -14,6 +14,9 @@ uncertainty study's samples), each blade's largest response over the computed po
 worst blade's peak refined, and the amplification A = that peak / the tuned peak. With
 ``free``, the same for the disk without its dampers (linear, solved directly: the classic
 mistuned blisk, bounded by Whitehead's (1 + sqrt N) / 2).
+
+A ``family`` (the dampers' mass or friction coefficient, say) repeats the study per member:
+its own tuned disk and the same patterns, drawn in one picture.
 """
 
 from __future__ import annotations
@@ -27,13 +30,13 @@ from typing import Any, ClassVar
 import h5py
 import numpy as np
 
-from microslip.case import Case, operating_point, settings, task_seconds
+from microslip.case import Case, curve_variants, operating_point, settings, task_seconds
 from microslip.case import analysis_rules as rules
 from microslip.case.checks import is_int, is_number
 from microslip.case.estimate import balance_point_seconds
 from microslip.case.kinds import AnalysisKind, Checking
 from microslip.case.mistuning_table import MAX_SIGMA
-from microslip.case.specs import Analysis
+from microslip.case.specs import Analysis, Family
 from microslip.draw import pictures
 from microslip.results import schema
 
@@ -61,7 +64,7 @@ class MistuningStudy(Analysis):
     """The worst blade's peak of ``output`` over the frequency ``window`` (rad/s) for
     ``patterns`` random mistuning patterns at each standard deviation in ``sigma``
     (fractions of the blades' Young's modulus), ``seed``ed; ``free``: the disk without its
-    dampers too (linear)."""
+    dampers too (linear); ``family``: the study once per member."""
 
     type: ClassVar[str] = "mistuning"
     window: tuple[float, float]
@@ -71,6 +74,7 @@ class MistuningStudy(Analysis):
     seed: int = 0
     measure: str = "vibration"
     free: bool = True
+    family: Family | None = None
 
     def draws(self, sectors: int) -> np.ndarray:
         """(patterns, sectors) z: pattern j's standard-normal draw, from (seed, j) alone."""
@@ -82,15 +86,15 @@ class MistuningStudy(Analysis):
 ROW = ("peak", "omega", "blade", "free_peak", "free_omega", "points", "samples")
 
 
-def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy, index: int,
+def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy, disk: bool,
                  *, progress: Progress, live: bool = True) -> Outcome:
-    """One pattern's worst blade (the variant ``c``, a whole disk), or the tuned disk's
-    peak (``c`` the cyclic sector): a task."""
+    """One pattern's worst blade (``disk``: the variant ``c`` is a whole disk), or the
+    tuned disk's peak (``c`` the cyclic sector): a task."""
     names = models.expanded(c, [spec.output])
     rows = models.selection(c, names)
     base = operating_point(c, spec.window[0])
     solver = settings(c)
-    start = _tuned_start(models, c, base, solver) if index else None
+    start = _tuned_start(models, c, base, solver) if disk else None
     swept = swept_window(models.model(c), spec.window, base, solver, start)
     if swept.interrupted:
         return Outcome({}, {}, "interrupted", "interrupted by the user")
@@ -135,14 +139,34 @@ def _tuned_start(models: AssemblyModels, c: Case, point, solver) -> np.ndarray |
         return None
 
 
-def variants(case: Case, spec: MistuningStudy) -> tuple[Case, list[tuple[float, np.ndarray]],
-                                                         list[Case]]:
-    """(the tuned sector, (sigma, deviations) per pattern, level by level, their whole
-    disks): the case's blade region kept, its own pattern replaced."""
-    base = case.with_values(spec.set)
+@dataclass(frozen=True)
+class Member:
+    """The study of one family member (the whole study without a family): its ``label``
+    and family ``value``, the ``tuned`` sector, (sigma, deviations) per pattern level by
+    level (``pairs``) and their whole ``disks``."""
+
+    label: str
+    value: Any
+    tuned: Case
+    pairs: list[tuple[float, np.ndarray]]
+    disks: list[Case]
+
+    @property
+    def cases(self) -> list[Case]:
+        """The tuned sector, then the patterns' disks: a task each."""
+        return [self.tuned, *self.disks]
+
+
+def members(case: Case, spec: MistuningStudy) -> list[Member]:
+    """A Member per family value (one without a family): the case's ``set`` and member
+    keys applied, its blade region kept, its own pattern replaced by the study's."""
+    return [_member(variant, spec, label, value)
+            for variant, label, value in curve_variants(case, spec)]
+
+
+def _member(base: Case, spec: MistuningStudy, label: str, value: Any) -> Member:
     table = dict(base.data["assembly"]["mistuning"])
     region = {k: table[k] for k in ("body", "blade_radius", "region") if k in table}
-    tuned = _sector(base)
     sectors = _sectors(base)
     if sectors is None:
         raise ValueError("mistuning study: the sector count is unknown before meshing")
@@ -150,7 +174,7 @@ def variants(case: Case, spec: MistuningStudy) -> tuple[Case, list[tuple[float, 
     pairs = [(s, s * z[j]) for s in spec.sigma for j in range(spec.patterns)]
     disks = [base.with_values({"assembly.mistuning": region | {"deviation": d.tolist()}})
              for _, d in pairs]
-    return tuned, pairs, disks
+    return Member(label, value, _sector(base), pairs, disks)
 
 
 def _sector(case: Case) -> Case:
@@ -185,54 +209,81 @@ def pattern_key(store, variant: Case, spec: MistuningStudy) -> str:
 
 def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
                   ) -> tuple[str, str]:
-    """The tuned disk and every pattern (a task each, or from the store), their table, the
-    amplification's statistics per level and the pictures."""
+    """Every member's tuned disk and patterns (a task each, or from the store), their
+    table, the amplification's statistics per level and the pictures."""
     name, store = spec.name, run.store
     t0 = time.perf_counter()
-    tuned, pairs, disks = variants(case, spec)
-    cases = [tuned, *disks]
-    n = len(cases)
-    table: dict[str, np.ndarray] = {k: np.full(n, np.nan) for k in ROW} | {
-        "seconds": np.zeros(n)}
-    sectors = len(pairs[0][1])
-    blade_peaks = np.full((n, sectors), np.nan)
-    status = np.array(["not run"] * n, dtype=object)
-    messages = [""] * n
-    each = task_seconds(case.data, spec)
+    study = members(case, spec)
+    cases = [c for m in study for c in m.cases]
+    first = np.cumsum([0] + [len(m.cases) for m in study])  # each member's tuned disk
+    found: list[dict] = [{} for _ in cases]  # each task's row ({}: not run)
     keys = [pattern_key(store, v, spec) for v in cases]
+    each = task_seconds(case.data, spec)
+
+    def what(i: int) -> str:
+        m = int(np.searchsorted(first, i, side="right")) - 1
+        k = i - first[m]
+        which = "the tuned disk" if k == 0 else f"pattern {k} of {len(study[m].pairs)}"
+        return f"{study[m].label}: {which}" if study[m].label else which
 
     def fill(i: int, row: dict) -> None:
-        _fill(table, blade_peaks, status, messages, i, row)
+        found[i] = row
 
     def line(i: int, outcome: Outcome, count: str) -> str:
-        what = "tuned disk" if i == 0 else f"pattern {i} of {n - 1}"
-        return (f"[{name}] {what} ({count}): peak {table['peak'][i]:.4g} m at "
-                f"{table['omega'][i]:.6g} rad/s {outcome.status} {outcome.message}".rstrip())
+        r = found[i]
+        return (f"[{name}] {what(i)} ({count}): peak {r.get('peak', np.nan):.4g} m at "
+                f"{r.get('omega', np.nan):.6g} rad/s {outcome.status} "
+                f"{outcome.message}".rstrip())
 
+    patterns = len(study[0].pairs)
     rows = stored_rows(
         run, name, keys,
-        lambda i: Task(pattern_task, (cases[i], spec, i), f"[{name}] " + (
-            "tuned disk" if i == 0 else f"pattern {i}"), each),
-        fill, lambda cached, todo: (
-            f"[{name}] the tuned disk and {len(pairs)} patterns ({len(spec.sigma)} levels x "
-            f"{spec.patterns}, seed {spec.seed}) of {sectors} blades: {cached} from the "
-            f"cache, {todo} to compute"), line)
-    levels = _write(run.writer, group, spec, pairs, table, blade_peaks, status)
-    run.progress(_summary(spec, levels, table, sectors, n, time.perf_counter() - t0))
+        lambda i: Task(pattern_task, (cases[i], spec, i not in first), f"[{name}] {what(i)}",
+                       each), fill, lambda cached, todo: (
+            f"[{name}] the tuned disk and {patterns} patterns ({len(spec.sigma)} levels x "
+            f"{spec.patterns}, seed {spec.seed})"
+            + (f" for each of {len(study)} members" if spec.family else "")
+            + f" of {len(study[0].pairs[0][1])} blades: {cached} from the cache, {todo} to "
+            "compute"), line)
+    summary = []
+    for m, member in enumerate(study):
+        here = group
+        if spec.family:
+            run.writer.write_group(group, schema.curve(m), {}, member_identity(spec, member))
+            here = group[schema.curve(m)]
+        tables = _table(found[first[m]:first[m + 1]], len(member.pairs[0][1]))
+        levels = _write(run.writer, here, spec, member.pairs, tables)
+        summary += _summary(spec, member.label, levels, tables["peak"][0],
+                            tables["free_peak"][0])
+    run.progress(f"[{name}] {len(cases) - len(study)} patterns in "
+                 f"{time.perf_counter() - t0:.1f} s; Whitehead's bound "
+                 f"{whitehead(len(study[0].pairs[0][1])):.3f}")
+    run.progress("\n".join(summary))
     draw_analysis(pictures.mistuning, group, spec, run, keys, cached=not rows.to_compute)
-    return rows_status(rows, status, messages, "runs",
-                       lambda i: "the tuned disk" if i == 0 else f"pattern {i}")
+    status = np.array([r.get("status", "not run") for r in found], dtype=object)
+    return rows_status(rows, status, [str(r.get("message", "")) for r in found], "runs", what)
 
 
-def _fill(table: dict, blade_peaks: np.ndarray, status: np.ndarray, messages: list, i: int,
-          row: dict) -> None:
-    for k in (*ROW, "seconds"):
-        if k in row:
-            table[k][i] = row[k]
-    if "blade_peaks" in row:
-        blade_peaks[i] = row["blade_peaks"]
-    status[i] = str(row.get("status", "complete"))
-    messages[i] = str(row.get("message", ""))
+def member_identity(spec: MistuningStudy, member: Member) -> dict:
+    """The attributes of a family member's group: its label, family key and value."""
+    return {"label": member.label, "family_key": spec.family.key if spec.family else "",
+            "family_value": member.value if member.value is not None else ""}
+
+
+def whitehead(sectors: int) -> float:
+    """Whitehead's bound on the linear mistuned disk's amplification, (1 + sqrt N) / 2."""
+    return (1 + np.sqrt(sectors)) / 2
+
+
+def _table(found: list[dict], sectors: int) -> dict[str, np.ndarray]:
+    """One member's rows (its tuned disk first) as columns: ROW, seconds and status (NaN,
+    0 and "not run" where a task did not run), and the patterns' blade_peaks (n, N)."""
+    out = {k: np.array([r.get(k, np.nan) for r in found], dtype=float) for k in ROW}
+    out["seconds"] = np.array([r.get("seconds", 0.0) for r in found], dtype=float)
+    out["status"] = np.array([str(r.get("status", "not run")) for r in found], dtype=object)
+    out["blade_peaks"] = np.array([r.get("blade_peaks", np.full(sectors, np.nan))
+                                   for r in found[1:]], dtype=float).reshape(-1, sectors)
+    return out
 
 
 def amplification_levels(sigma: np.ndarray, amplification: np.ndarray, ok: np.ndarray,
@@ -251,19 +302,23 @@ def amplification_levels(sigma: np.ndarray, amplification: np.ndarray, ok: np.nd
     return out
 
 
-def _write(writer, group, spec: MistuningStudy, pairs, table, blade_peaks, status
+
+
+def _write(writer, group, spec: MistuningStudy, pairs, table: dict[str, np.ndarray]
            ) -> dict[str, dict[str, np.ndarray]]:
-    """The patterns' table and the amplification per level, with friction and free."""
+    """One member's patterns' table and its amplification per level, with friction and
+    free, into ``group`` (the analysis', or its member's)."""
     sigma = np.array([s for s, _ in pairs])
     deviation = np.array([d for _, d in pairs])
+    sectors = deviation.shape[1]
     tuned = {k: table[k][0] for k in ("peak", "omega", "free_peak", "free_omega")}
-    rows = {k: v[1:] for k, v in table.items()}
+    status = table["status"]
+    rows = {k: table[k][1:] for k in (*ROW, "seconds")}
     ok = status[1:] == "complete"
     amp = rows["peak"] / tuned["peak"]
     free_amp = rows["free_peak"] / tuned["free_peak"]
-    sectors = deviation.shape[1]
     writer.write_group(group, schema.PATTERNS, {
-        "sigma": sigma, "deviation": deviation, "blade_peaks": blade_peaks[1:], **rows,
+        "sigma": sigma, "deviation": deviation, "blade_peaks": table["blade_peaks"], **rows,
         "amplification": amp, "free_amplification": free_amp,
         "status": np.array(status[1:].tolist(), dtype="S")}, {
         "seed": spec.seed, "sectors": sectors, "tuned_status": str(status[0]),
@@ -274,25 +329,25 @@ def _write(writer, group, spec: MistuningStudy, pairs, table, blade_peaks, statu
     writer.write_group(group, schema.AMPLIFICATION, {
         "sigma": np.array(spec.sigma), **{f"{k}_{x}": v for k, d in levels.items()
                                           for x, v in d.items()}}, {
-        "percent": list(PERCENTS), "whitehead": (1 + np.sqrt(sectors)) / 2,
+        "percent": list(PERCENTS), "whitehead": whitehead(sectors),
         "cases": json.dumps(list(levels))})
     writer.flush()
     return levels
 
 
-def _summary(spec: MistuningStudy, levels: dict, table: dict, sectors: int, n: int,
-             elapsed: float) -> str:
-    lines = [f"[{spec.name}] tuned peak {table['peak'][0]:.4g} m at {table['omega'][0]:.6g} "
-             f"rad/s" + (f", free {table['free_peak'][0]:.4g} m" if spec.free else "")
-             + f"; {n - 1} patterns in {elapsed:.1f} s; Whitehead's bound "
-             f"{(1 + np.sqrt(sectors)) / 2:.3f}"]
+def _summary(spec: MistuningStudy, label: str, levels: dict, tuned: float, free: float
+             ) -> list[str]:
+    """The terminal's lines of one member: its tuned peak, then per level and case the
+    amplification's median, 95 % and largest."""
+    pre = f"[{spec.name}] " + (f"{label}: " if label else "")
+    lines = [pre + f"tuned peak {tuned:.4g} m" + (f", free {free:.4g} m" if spec.free else "")]
     for k, s in enumerate(spec.sigma):
-        for what, d in levels.items():
+        for case, d in levels.items():
             p5, p50, p95 = d["percentiles"][k]
-            lines.append(f"[{spec.name}]   sigma {s:g}, {what}: amplification median "
-                         f"{p50:.3f}, 95 % {p95:.3f}, largest {d['largest'][k]:.3f} "
-                         f"({d['count'][k]} patterns)")
-    return "\n".join(lines)
+            lines.append(f"{pre}  sigma {s:g}, {case}: amplification median {p50:.3f}, "
+                         f"95 % {p95:.3f}, largest {d['largest'][k]:.3f} ({d['count'][k]} "
+                         "patterns)")
+    return lines
 
 
 def check(c: Checking) -> None:
@@ -311,6 +366,7 @@ def check(c: Checking) -> None:
     if not (is_int(a["seed"]) and a["seed"] >= 0):
         c.fault(f".seed = {a['seed']!r}: expected an integer >= 0")
     rules.measure_faults(c, ("peak", "vibration"))
+    rules.family_faults(c)
     rules.flag(c, "free", " (the disk without its dampers too)")
     if not isinstance((c.data.get("assembly") or {}).get("mistuning"), dict):
         c.fault(": needs [assembly.mistuning] (its blade region: blade_radius or region; "
@@ -323,9 +379,10 @@ def seconds(data: dict, spec: MistuningStudy, variant: dict | None = None) -> fl
 
 
 def plan(case: Case, spec: MistuningStudy, context: PlanContext) -> list[Stage]:
-    """The tuned disk and the patterns as one stage: those the store does not have."""
-    tuned, _, disks = variants(case, spec)
-    keys = [pattern_key(context.store, v, spec) for v in (tuned, *disks)]
+    """Every member's tuned disk and patterns as one stage: those the store does not
+    have."""
+    keys = [pattern_key(context.store, v, spec) for m in members(case, spec)
+            for v in m.cases]
     return [samples_stage(case, spec, context, keys)]
 
 
