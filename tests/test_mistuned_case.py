@@ -241,7 +241,8 @@ def test_a_mistuning_study_measures_the_worst_blade_against_the_tuned_sector(tmp
     with h5py.File(tmp_path / "results.h5") as f:  # its groups are in the layout
         assert schema.undescribed(f) == []
     drawn = sorted(p.name for p in tmp_path.glob("amplification*.png"))
-    assert drawn == ["amplification.png", "amplification_blades.png"]
+    assert drawn == ["amplification.png", "amplification_blades.png",
+                     "amplification_exceedance.png"]
     again = tmp_path / "again"  # redrawn from results.h5 alone, the same pixels
     assert main(["render", str(tmp_path / "results.h5"), "--out", str(again)]) == 0
     for name in drawn:
@@ -265,6 +266,12 @@ def test_the_amplification_per_level_leaves_incomplete_patterns_out():
     np.testing.assert_allclose(out["percentiles"][0], [1.02, 1.2, 1.38])  # linear percentiles
     assert out["largest"][1] == 1.5 and out["mean"][1] == pytest.approx(1.3)
     assert np.all(np.isnan(out["percentiles"][2]))
+    assert np.all(np.isnan(out["exceedance"]))  # no limit asked
+    over = amplification_levels(sigma, amp, ok, (0.01, 0.02, 0.04), limit=1.1)
+    # level 0.01 keeps 1.0, 1.2, 1.4 (9.0 not complete): 2 of 3 above, binomial error
+    np.testing.assert_allclose(over["exceedance"][:2], [2 / 3, 2 / 3])
+    np.testing.assert_allclose(over["exceedance_error"][0], np.sqrt(2 / 9 / 3))
+    assert np.isnan(over["exceedance"][2])  # a level with no pattern
 
 
 def test_a_study_draws_each_pattern_from_its_seed_and_index_alone():
@@ -353,7 +360,7 @@ def test_a_family_repeats_the_study_per_member(tmp_path):
     the dampers does not see mu (the same numbers in both members); a member is the study
     with its value set (the same store keys), and the members differ."""
     lines = []
-    run_case(study_case(family=MU), tmp_path, progress=lines.append)
+    run_case(study_case(family=MU, limit=1.1), tmp_path, progress=lines.append)
     assert any("for each of 2 members of 6 blades: 0 from the cache, 10 to compute" in x
                for x in lines), lines
     with h5py.File(tmp_path / "results.h5") as f:
@@ -363,6 +370,9 @@ def test_a_family_repeats_the_study_per_member(tmp_path):
             "mu = 0.5", "mu = 0.2"]
         p = [{k: v[()] for k, v in g[f"curve_00{m}/patterns"].items()}
              | dict(g[f"curve_00{m}/patterns"].attrs) for m in (0, 1)]
+        over = g["curve_001/amplification/friction_exceedance"][()]
+    level = p[1]["sigma"] == 0.03  # P(A > limit), counted from the member's own rows
+    assert over[1] == np.mean(p[1]["amplification"][level] > 1.1) and over[0] == 0.0
     for m in p:  # 1e-4: as the study without a family (Brent's 1e-6 of the window)
         np.testing.assert_allclose(m["amplification"][m["sigma"] == 1e-6], 1.0, atol=1e-4)
     for k in ("free_peak", "free_omega", "tuned_free_peak"):  # one computation, twice
@@ -371,7 +381,7 @@ def test_a_family_repeats_the_study_per_member(tmp_path):
     # Newton's and Brent's tolerances, so a member that lost its value would fail here
     assert abs(p[1]["tuned_peak"] / p[0]["tuned_peak"] - 1) > 1e-4
     assert sorted(x.name for x in tmp_path.glob("amplification*.png")) == [
-        "amplification.png", "amplification_blades.png"]
+        "amplification.png", "amplification_blades.png", "amplification_exceedance.png"]
     lines.clear()
     alone = study_case(set={MU["key"]: 0.2})  # the member mu = 0.2 as a study of its own
     run_case(alone, tmp_path / "alone", progress=lines.append)
@@ -420,7 +430,7 @@ def test_a_family_draws_each_member_and_the_free_disk_once_where_they_agree(
     with h5py.File(tmp_path / "results.h5") as f:
         assert schema.undescribed(f) == []
         files = pictures.mistuning(f["amp"], "amp", tmp_path)
-    assert [x.name for x in files] == ["amp.png", "amp_blades.png"]
+    assert [x.name for x in files] == ["amp.png", "amp_exceedance.png", "amp_blades.png"]
     labels = [s["label"] for s in drawn[0] if s["label"] != "largest"]
     assert [x for x in labels if "with the" in x] == [
         "mu = 0.5, with the dampers: median", "mu = 0.2, with the dampers: median"]

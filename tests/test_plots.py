@@ -210,3 +210,18 @@ def test_the_amplification_axis_spans_the_patterns_and_names_a_bound_above(tmp_p
     assert "tuned" in legend_texts(ax) and "Whitehead" not in legend_texts(ax)
     nan_only = plots.amplification(tmp_path / "b.png", "t", series[1:], levels)
     assert nan_only.axes[0].get_ylim()[1] > 1.0
+
+
+def test_the_exceedance_curve_steps_down_by_one_nth_at_each_value(tmp_path):
+    """P(A > a) of three values: 1 below the smallest, then 2/3, 1/3 and 0 from each value
+    on (post steps); a curve with no value is left out; the limit is a vertical line."""
+    panels = [{"title": "p", "curves": [{"values": [1.2, 1.0, 1.4], "label": "s", "color": "C0"},
+                                        {"values": [], "color": "C1", "ls": "--"}]}]
+    fig = plots.exceedance(tmp_path / "e.png", "t", panels, limit=1.3)
+    ax = fig.axes[0]
+    step, limit = ax.lines
+    np.testing.assert_allclose(step.get_xdata(), [1.0, 1.0, 1.2, 1.4])
+    np.testing.assert_allclose(step.get_ydata(), [1.0, 2 / 3, 1 / 3, 0.0])
+    assert step.get_drawstyle() == "steps-post"
+    np.testing.assert_allclose(limit.get_xdata(), [1.3, 1.3])
+    assert "limit 1.3" in legend_texts(ax)

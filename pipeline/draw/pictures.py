@@ -641,9 +641,12 @@ def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
     curve = out / f"{name}.png"
     plots.amplification(curve, f"{name}: the worst blade's {spec.output} peak against the "
                         "tuned one", series, levels)
+    spread = out / f"{name}_exceedance.png"
+    plots.exceedance(spread, f"{name}: the distribution of the amplification per level",
+                     [_exceedance_panel(m, label) for label, m in found], spec.limit)
     worst = _worst_pattern(found)
     if worst is None:
-        return [curve]
+        return [curve, spread]
     label, p, j = worst
     sigma = p["sigma"][j]
     blades = out / f"{name}_blades.png"
@@ -652,7 +655,23 @@ def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
                           f"{p['amplification'][j]:.3f})",
                           p["blade_peaks"][j] / float(p.attrs["tuned_peak"]),
                           100 * p["deviation"][j])
-    return [curve, blades]
+    return [curve, spread, blades]
+
+
+def _exceedance_panel(m: h5py.Group, label: str) -> dict:
+    """A member's exceedance curves: per level its complete patterns' amplification with
+    the dampers (solid, the level's colour) and without them (dashed)."""
+    p = m[schema.PATTERNS]
+    sigma, ok = p["sigma"][()], p["status"][()] == b"complete"
+    curves = []
+    for k, s in enumerate(m[schema.AMPLIFICATION]["sigma"][()]):
+        here = ok & (sigma == s)
+        for case, ls in (("amplification", "-"), ("free_amplification", "--")):
+            values = p[case][()][here]
+            curves.append({"values": values[np.isfinite(values)], "color": f"C{k}", "ls": ls,
+                           "label": f"sigma {100 * s:g} %" if ls == "-" else "_nolegend_"})
+    head = f"{label}: " if label else ""
+    return {"title": f"{head}with the dampers solid, without them dashed", "curves": curves}
 
 
 def _amplification_series(m: h5py.Group, cases: dict[str, tuple[str, str]], spread: bool

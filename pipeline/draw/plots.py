@@ -369,6 +369,33 @@ def amplification(path: Path, title: str, series: Sequence[dict], levels: Sequen
     return _save(fig, path)
 
 
+def exceedance(path: Path, title: str, panels: Sequence[dict], limit: float | None = None
+               ) -> Figure:
+    """The empirical exceedance probability P(A > a) of the amplification, a panel per
+    study (a family member): ``panels`` ``{title, curves: [{values, label, color, ls}]}``,
+    each curve a step down by 1 / n at each of its n values; ``limit`` a vertical line."""
+    fig = _figure((7, 1.0 + 3.2 * len(panels)))
+    axes = fig.subplots(len(panels), 1, squeeze=False, sharex=True)[:, 0]
+    for ax, panel in zip(axes, panels):
+        for c in panel["curves"]:
+            v = np.sort(np.asarray(c["values"], float))
+            if not v.size:
+                continue
+            p = 1.0 - np.arange(1, v.size + 1) / v.size
+            ax.step(np.r_[v[0], v], np.r_[1.0, p], where="post", color=c.get("color"),
+                    ls=c.get("ls", "-"), lw=1.2, label=c.get("label", "_nolegend_"))
+        if limit is not None:
+            ax.axvline(limit, color="C3", lw=1.0, ls=":", label=f"limit {limit:g}")
+        ax.set_ylim(0.0, 1.02)
+        ax.set_ylabel("P(amplification > a) [-]")
+        ax.set_title(panel["title"], fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+    axes[-1].set_xlabel("a: amplification, worst blade / tuned [-]")
+    fig.suptitle(title, fontsize=10)
+    return _save(fig, path)
+
+
 def around_the_disk(path: Path, title: str, peaks: np.ndarray, deviation: np.ndarray
                     ) -> Figure:
     """Every blade's peak over the tuned one (bars, blade by blade around the disk) over its

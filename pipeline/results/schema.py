@@ -179,15 +179,18 @@ MISTUNING_GROUPS = (
           data("status", "(n,) complete | stopped | failed | not run")),
     group(AMPLIFICATION, "(mistuning) the amplification per level, with the dampers "
           "(friction_) and without (free_)", ("percent", "whitehead ((1 + sqrt N) / 2)",
-                                              "cases (JSON)"),
+                                              "limit (NaN: none)", "cases (JSON)"),
           data("sigma", "(k,) the levels"),
           data("friction_percentiles", "(k, 3) at percent (5, 50, 95)"),
           data("friction_largest", "(k,) the largest"),
           data("friction_mean", "(k,)"),
           data("friction_count", "(k,) complete patterns"),
+          data("friction_exceedance", "(k,) P(amplification > limit) (NaN: no limit)"),
+          data("friction_exceedance_error", "(k,) its binomial standard error"),
           data("free_percentiles", "(k, 3) without the dampers (free = true)"),
           data("free_largest", "(k,)"), data("free_mean", "(k,)"),
-          data("free_count", "(k,)")))
+          data("free_count", "(k,)"), data("free_exceedance", "(k,)"),
+          data("free_exceedance_error", "(k,)")))
 
 FRF_CURVE = group(
     "curve_NNN", "(frf) one branch: a family value, a method",

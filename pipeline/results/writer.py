@@ -428,9 +428,12 @@ def _mistuning_lines(g: h5py.Group) -> list[str]:
                      f"{float(p.attrs['tuned_peak']):.6g} m; Whitehead "
                      f"{float(a.attrs['whitehead']):.3f}")
         for k, sigma in enumerate(a["sigma"][()]):
+            limit = float(a.attrs.get("limit", np.nan))
             parts = [f"{case} median {a[f'{case}_percentiles'][k, 1]:.3f}, largest "
-                     f"{a[f'{case}_largest'][k]:.3f}" for case in ("friction", "free")
-                     if f"{case}_percentiles" in a]
+                     f"{a[f'{case}_largest'][k]:.3f}" + (
+                         f", P(A > {limit:g}) {a[f'{case}_exceedance'][k]:.3f}"
+                         if np.isfinite(limit) else "")
+                     for case in ("friction", "free") if f"{case}_percentiles" in a]
             lines.append(f"  sigma {sigma:g}: amplification " + "; ".join(parts))
     return lines
 

@@ -93,11 +93,19 @@ def statistics(x: np.ndarray, y: np.ndarray, limit: float | None = None) -> Stat
         nan = np.full(x.shape[1], np.nan)
         return Statistics(np.full(len(PERCENTILES), np.nan), np.nan, np.nan, np.nan, np.nan,
                           nan, nan, 0)
-    p = float(np.mean(y > limit)) if limit is not None else np.nan
-    error = float(np.sqrt(p * (1 - p) / n)) if limit is not None else np.nan
+    p, error = exceedance(y, limit)
     return Statistics(np.percentile(y, PERCENTILES), float(np.mean(y)),
                       float(np.std(y, ddof=1)) if n > 1 else 0.0, p, error,
                       rank_correlation(x, y), partial_rank_correlation(x, y), n)
+
+
+def exceedance(y: np.ndarray, limit: float | None) -> tuple[float, float]:
+    """(P(y > limit), its binomial standard error sqrt(p (1 - p) / n)) over the n values of
+    ``y`` (NaN, NaN without a limit or a value)."""
+    if limit is None or not y.size:
+        return np.nan, np.nan
+    p = float(np.mean(y > limit))
+    return p, float(np.sqrt(p * (1 - p) / y.size))
 
 
 def _ranks(a: np.ndarray) -> np.ndarray:

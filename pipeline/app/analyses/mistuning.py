@@ -32,13 +32,14 @@ import numpy as np
 
 from microslip.case import Case, curve_variants, operating_point, settings, task_seconds
 from microslip.case import analysis_rules as rules
-from microslip.case.checks import is_int, is_number
+from microslip.case.checks import is_int, is_number, number
 from microslip.case.estimate import balance_point_seconds
 from microslip.case.kinds import AnalysisKind, Checking
 from microslip.case.mistuning_table import MAX_SIGMA
 from microslip.case.specs import Analysis, Family
 from microslip.draw import pictures
 from microslip.results import schema
+from microslip.solve.sampling import exceedance
 
 from ..limits import linear_peak
 from ..models import AssemblyModels
@@ -64,7 +65,8 @@ class MistuningStudy(Analysis):
     """The worst blade's peak of ``output`` over the frequency ``window`` (rad/s) for
     ``patterns`` random mistuning patterns at each standard deviation in ``sigma``
     (fractions of the blades' Young's modulus), ``seed``ed; ``free``: the disk without its
-    dampers too (linear); ``family``: the study once per member."""
+    dampers too (linear); ``limit``: the amplification whose exceedance probability is
+    reported per level; ``family``: the study once per member."""
 
     type: ClassVar[str] = "mistuning"
     window: tuple[float, float]
@@ -74,6 +76,7 @@ class MistuningStudy(Analysis):
     seed: int = 0
     measure: str = "vibration"
     free: bool = True
+    limit: float | None = None
     family: Family | None = None
 
     def draws(self, sectors: int) -> np.ndarray:
@@ -287,15 +290,20 @@ def _table(found: list[dict], sectors: int) -> dict[str, np.ndarray]:
 
 
 def amplification_levels(sigma: np.ndarray, amplification: np.ndarray, ok: np.ndarray,
-                         levels: tuple[float, ...]) -> dict[str, np.ndarray]:
-    """Per level: the percentiles (PERCENTS), the largest, the mean and the count of the
-    amplifications of its complete patterns (NaN where it has none)."""
+                         levels: tuple[float, ...], limit: float | None = None
+                         ) -> dict[str, np.ndarray]:
+    """Per level: the percentiles (PERCENTS), the largest, the mean, the count and
+    P(amplification > limit) with its standard error, of its complete patterns (NaN where
+    it has none, or without a limit)."""
+    nan = np.full(len(levels), np.nan)
     out = {"percentiles": np.full((len(levels), len(PERCENTS)), np.nan),
-           "largest": np.full(len(levels), np.nan), "mean": np.full(len(levels), np.nan),
-           "count": np.zeros(len(levels), dtype=np.int64)}
+           "largest": nan.copy(), "mean": nan.copy(),
+           "count": np.zeros(len(levels), dtype=np.int64), "exceedance": nan.copy(),
+           "exceedance_error": nan.copy()}
     for k, s in enumerate(levels):
         a = amplification[(sigma == s) & ok & np.isfinite(amplification)]
         out["count"][k] = a.size
+        out["exceedance"][k], out["exceedance_error"][k] = exceedance(a, limit)
         if a.size:
             out["percentiles"][k] = np.percentile(a, PERCENTS)
             out["largest"][k], out["mean"][k] = a.max(), a.mean()
@@ -323,13 +331,14 @@ def _write(writer, group, spec: MistuningStudy, pairs, table: dict[str, np.ndarr
         "status": np.array(status[1:].tolist(), dtype="S")}, {
         "seed": spec.seed, "sectors": sectors, "tuned_status": str(status[0]),
         **{f"tuned_{k}": float(v) for k, v in tuned.items()}})
-    levels = {"friction": amplification_levels(sigma, amp, ok, spec.sigma)}
+    levels = {"friction": amplification_levels(sigma, amp, ok, spec.sigma, spec.limit)}
     if spec.free:
-        levels["free"] = amplification_levels(sigma, free_amp, ok, spec.sigma)
+        levels["free"] = amplification_levels(sigma, free_amp, ok, spec.sigma, spec.limit)
     writer.write_group(group, schema.AMPLIFICATION, {
         "sigma": np.array(spec.sigma), **{f"{k}_{x}": v for k, d in levels.items()
                                           for x, v in d.items()}}, {
         "percent": list(PERCENTS), "whitehead": whitehead(sectors),
+        "limit": spec.limit if spec.limit is not None else np.nan,
         "cases": json.dumps(list(levels))})
     writer.flush()
     return levels
@@ -344,9 +353,11 @@ def _summary(spec: MistuningStudy, label: str, levels: dict, tuned: float, free:
     for k, s in enumerate(spec.sigma):
         for case, d in levels.items():
             p5, p50, p95 = d["percentiles"][k]
+            over = (f", P(A > {spec.limit:g}) = {d['exceedance'][k]:.3f} +- "
+                    f"{d['exceedance_error'][k]:.3f}" if spec.limit is not None else "")
             lines.append(f"{pre}  sigma {s:g}, {case}: amplification median {p50:.3f}, "
-                         f"95 % {p95:.3f}, largest {d['largest'][k]:.3f} ({d['count'][k]} "
-                         "patterns)")
+                         f"95 % {p95:.3f}, largest {d['largest'][k]:.3f}{over} "
+                         f"({d['count'][k]} patterns)")
     return lines
 
 
@@ -367,6 +378,8 @@ def check(c: Checking) -> None:
         c.fault(f".seed = {a['seed']!r}: expected an integer >= 0")
     rules.measure_faults(c, ("peak", "vibration"))
     rules.family_faults(c)
+    if a.get("limit") is not None:
+        number(f"{c.pre}.limit", a["limit"], c.out, positive=True)
     rules.flag(c, "free", " (the disk without its dampers too)")
     if not isinstance((c.data.get("assembly") or {}).get("mistuning"), dict):
         c.fault(": needs [assembly.mistuning] (its blade region: blade_radius or region; "
