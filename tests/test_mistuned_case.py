@@ -361,7 +361,7 @@ def test_a_family_repeats_the_study_per_member(tmp_path):
     with its value set (the same store keys), and the members differ."""
     lines = []
     run_case(study_case(family=MU, limit=1.1), tmp_path, progress=lines.append)
-    assert any("for each of 2 members of 6 blades: 0 from the cache, 10 to compute" in x
+    assert any("of 6 blades, for each of 2 members: 0 from the cache, 10 to compute" in x
                for x in lines), lines
     with h5py.File(tmp_path / "results.h5") as f:
         g = f["amplification"]
@@ -399,9 +399,10 @@ def _synthetic_study(path, free_scales):
     from microslip.case.specs import Family
     from microslip.results.writer import ResultsWriter
 
+    family = {"key": MU["key"], "values": [0.5, 0.2], "label": "mu"}
     spec = mt.MistuningStudy(name="amp", window=(1.0, 2.0), output="tip", sigma=(0.01, 0.02),
-                             patterns=2, family=Family(values=(0.5, 0.2), key=MU["key"],
-                                                       label="mu"))
+                             patterns=2, limit=1.05, given={"family": family},
+                             family=Family(values=(0.5, 0.2), key=MU["key"], label="mu"))
     pairs = [(s, s * np.array([1.0, -1.0, 0.5, 0.0])) for s in spec.sigma for _ in range(2)]
     with ResultsWriter(path, title="t", source="t.toml", case_hash="0", case={}) as w:
         g = w.analysis("amp", spec.record())
@@ -431,11 +432,61 @@ def test_a_family_draws_each_member_and_the_free_disk_once_where_they_agree(
         assert schema.undescribed(f) == []
         files = pictures.mistuning(f["amp"], "amp", tmp_path)
     assert [x.name for x in files] == ["amp.png", "amp_exceedance.png", "amp_blades.png"]
-    labels = [s["label"] for s in drawn[0] if s["label"] != "largest"]
+    labels = [s["label"] for s in drawn[0]]
     assert [x for x in labels if "with the" in x] == [
-        "mu = 0.5, with the dampers: median", "mu = 0.2, with the dampers: median"]
-    assert [x for x in labels if "without" in x] == free_labels
+        "mu = 0.5, with the dampers: median", "mu = 0.5, with the dampers: largest",
+        "mu = 0.2, with the dampers: median", "mu = 0.2, with the dampers: largest"]
+    assert [x for x in labels if "without" in x and "median" in x] == free_labels
     member = {s["label"]: s["y"] for s in drawn[0]}
     # from the tuned disk (1 at sigma 0); medians of 1 + (m + 1) {1, 2} sigma
     np.testing.assert_allclose(member["mu = 0.2, with the dampers: median"],
                                [1.0, 1.03, 1.06])
+
+
+def test_a_study_task_is_located_in_its_member():
+    """Two members of 1 + 4 tasks: task 5 is the second member's tuned disk, 9 its last
+    pattern."""
+    from microslip.app.analyses.mistuning import locate
+
+    first = np.array([0, 5, 10])
+    assert [locate(first, i) for i in (0, 1, 4, 5, 6, 9)] == [
+        (0, 0), (0, 1), (0, 4), (1, 0), (1, 1), (1, 4)]
+
+
+def test_the_exceedance_leaves_nan_out_and_bounds_a_count_of_none():
+    """P(y > limit) over the finite values only; where none (or all) exceed, the standard
+    error is 0 and says nothing: the text gives the count and the rule of three's 3 / n."""
+    from microslip.solve.sampling import exceedance, exceedance_text
+
+    p, e = exceedance(np.array([1.0, 1.3, np.nan, 1.5]), 1.2)
+    assert p == pytest.approx(2 / 3) and e == pytest.approx(np.sqrt(2 / 9 / 3))
+    assert np.isnan(exceedance(np.array([1.0]), None)[0])
+    assert exceedance_text(0.0, 0.0, 40) == "= 0 (0 of 40; < 0.075 at 95 %)"
+    assert exceedance_text(1.0, 0.0, 40) == "= 1 (40 of 40; > 0.925 at 95 %)"
+    assert exceedance_text(0.25, 0.0684, 40) == "= 0.250 +- 0.068"
+
+
+def test_a_family_may_not_vary_what_the_study_draws():
+    data = copy.deepcopy(CASE)
+    data["analysis"] = [STUDY | {"family": {"key": "assembly.mistuning.blade_radius",
+                                            "values": [0.2, 0.21]}}]
+    with pytest.raises(cases.CaseError) as err:
+        cases.check(data)
+    assert any(".family: varies [assembly.mistuning]" in f for f in err.value.faults)
+
+
+def test_the_exceedance_picture_draws_a_member_with_no_pattern(tmp_path):
+    """A member whose patterns all failed has no curve and no legend (no warning), beside
+    one that has; many panels lay out in a grid."""
+    from microslip.draw import plots
+
+    full = {"title": "a", "curves": [{"values": [1.1, 1.2], "label": "s", "color": "C0"}]}
+    empty = {"title": "b", "curves": [{"values": [], "color": "C0"}]}
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = plots.exceedance(tmp_path / "e.png", "t", [full, empty] + [full] * 3)
+    visible = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(visible) == 5 and len(fig.axes) == 6  # a 3 x 2 grid, one cell hidden
+    assert visible[1].get_legend() is None and visible[0].get_legend() is not None

@@ -207,6 +207,14 @@ def cached_curve(store: CurveStore, key: str, group, curve: str, what: str,
     return status, message
 
 
+def member_identity(spec: Analysis, label: str, value) -> dict:
+    """The attributes that say which member of an analysis a curve is (not what it
+    computes): its label, family key and value ("" without a family)."""
+    family = getattr(spec, "family", None)
+    return {"label": label, "family_key": family.key if family else "",
+            "family_value": value if value is not None else ""}
+
+
 def draw_analysis(draw, group: h5py.Group, spec: Analysis, run: Run, keys: list[str] = (),
           cached: bool = False) -> None:
     draw_once(draw, group, spec, run.out, run.progress, keys, cached)

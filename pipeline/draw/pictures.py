@@ -614,8 +614,9 @@ def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
     """A mistuning study: the worst blade's amplification against the mistuning level
     (median, 95 % and largest of the patterns, with the dampers and without them, and
     Whitehead's bound; a family: each member's median and largest with the dampers, and
-    without them once where the members agree); every blade's peak around the disk for the
-    pattern of the largest amplification at the highest level."""
+    without them once where the members agree, else each member's), its distribution per
+    level (P(A > a), a panel per member, the limit marked) and every blade's peak around the
+    disk for the pattern of the largest amplification at the highest level."""
     spec = analysis_spec(g)
     found = [(label, m) for label, m in schema.mistuning_members(g)
              if schema.AMPLIFICATION in m]
@@ -623,16 +624,17 @@ def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
         return []
     series = []
     once = all(_same_free(found[0][1], m) for _, m in found[1:])
+    colours = _colours(len(found))
     for k, (label, m) in enumerate(found):
-        if len(found) == 1:
+        if spec.family is None:
             series += _amplification_series(m, {"friction": ("with the dampers", "C0"),
                                                 "free": ("without the dampers (linear)",
                                                          "C1")}, spread=True)
             continue
         free = ("without the dampers (linear)", "0.5") if once else (
-            f"{label}, without the dampers (linear)", f"C{k}")
+            f"{label}, without the dampers (linear)", colours[k])
         series += _amplification_series(m, {"friction": (f"{label}, with the dampers",
-                                                         f"C{k}")}
+                                                         colours[k])}
                                         | ({"free": free} if k == 0 or not once else {}),
                                         spread=False)
     a = found[0][1][schema.AMPLIFICATION]
@@ -661,24 +663,29 @@ def mistuning(g: h5py.Group, name: str, out: Path, options: Options = Options()
 def _exceedance_panel(m: h5py.Group, label: str) -> dict:
     """A member's exceedance curves: per level its complete patterns' amplification with
     the dampers (solid, the level's colour) and without them (dashed)."""
-    p = m[schema.PATTERNS]
+    p, a = m[schema.PATTERNS], m[schema.AMPLIFICATION]
     sigma, ok = p["sigma"][()], p["status"][()] == b"complete"
+    levels = a["sigma"][()]
+    colours = _colours(len(levels))
     curves = []
-    for k, s in enumerate(m[schema.AMPLIFICATION]["sigma"][()]):
+    for k, s in enumerate(levels):
         here = ok & (sigma == s)
         for case, ls in (("amplification", "-"), ("free_amplification", "--")):
             values = p[case][()][here]
-            curves.append({"values": values[np.isfinite(values)], "color": f"C{k}", "ls": ls,
+            curves.append({"values": values[np.isfinite(values)], "color": colours[k],
+                           "ls": ls,
                            "label": f"sigma {100 * s:g} %" if ls == "-" else "_nolegend_"})
     head = f"{label}: " if label else ""
-    return {"title": f"{head}with the dampers solid, without them dashed", "curves": curves}
+    free = ", without them dashed" if "free_percentiles" in a else ""
+    return {"title": f"{head}with the dampers solid{free}", "curves": curves}
 
 
 def _amplification_series(m: h5py.Group, cases: dict[str, tuple[str, str]], spread: bool
                           ) -> list[dict]:
     """A member's curves from the tuned disk (1 at sigma 0), per case it has ("friction":
     with the dampers, solid; "free": without them, dashed) of ``cases`` (its legend head and
-    colour): the median, the 95 % (``spread``) and the largest."""
+    colour): the median, the 95 % and the largest (``spread``: the study alone, its legend
+    heads said once), or the median and the largest, each named."""
     a = m[schema.AMPLIFICATION]
     x = np.concatenate([[0.0], 100 * a["sigma"][()]])
 
@@ -696,14 +703,25 @@ def _amplification_series(m: h5py.Group, cases: dict[str, tuple[str, str]], spre
         if spread:
             series.append({"x": x, "y": tuned(pc[:, 2]), "label": "95 %", "ls": ls,
                            "color": colour, "alpha": 0.6})
-        series.append({"x": x, "y": tuned(a[f"{case}_largest"][()]), "label": "largest",
-                       "ls": ls, "color": colour, "marker": "^", "alpha": 0.6})
+        series.append({"x": x, "y": tuned(a[f"{case}_largest"][()]),
+                       "label": "largest" if spread else f"{head}: largest", "ls": ls,
+                       "color": colour, "marker": "^", "alpha": 0.6})
     return series
+
+
+def _colours(n: int) -> list:
+    """n distinct line colours: matplotlib's cycle up to 10, a colormap's beyond."""
+    if n <= 10:
+        return [f"C{k}" for k in range(n)]
+    import matplotlib
+
+    return [matplotlib.colormaps["viridis"](k / (n - 1)) for k in range(n)]
 
 
 def _same_free(first: h5py.Group, other: h5py.Group) -> bool:
     """Whether a member's disk without the dampers gives the first member's amplification
-    (a family of the dampers' mass or friction coefficient): drawn once then."""
+    statistics (its percentiles and largest per level; a family of the dampers' mass or
+    friction coefficient): drawn once then."""
     a, b = first[schema.AMPLIFICATION], other[schema.AMPLIFICATION]
     return all(x in a and x in b and np.allclose(a[x][()], b[x][()], rtol=1e-9, equal_nan=True)
                for x in ("free_percentiles", "free_largest"))

@@ -374,8 +374,13 @@ def exceedance(path: Path, title: str, panels: Sequence[dict], limit: float | No
     """The empirical exceedance probability P(A > a) of the amplification, a panel per
     study (a family member): ``panels`` ``{title, curves: [{values, label, color, ls}]}``,
     each curve a step down by 1 / n at each of its n values; ``limit`` a vertical line."""
-    fig = _figure((7, 1.0 + 3.2 * len(panels)))
-    axes = fig.subplots(len(panels), 1, squeeze=False, sharex=True)[:, 0]
+    cols = 1 if len(panels) <= 3 else 2 if len(panels) <= 8 else 3
+    rows = -(-len(panels) // cols)
+    fig = _figure((7 if cols == 1 else 5.5 * cols, 1.0 + 3.0 * rows))
+    grid = fig.subplots(rows, cols, squeeze=False, sharex=True)
+    axes = grid.ravel()
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
     for ax, panel in zip(axes, panels):
         for c in panel["curves"]:
             v = np.sort(np.asarray(c["values"], float))
@@ -385,13 +390,15 @@ def exceedance(path: Path, title: str, panels: Sequence[dict], limit: float | No
             ax.step(np.r_[v[0], v], np.r_[1.0, p], where="post", color=c.get("color"),
                     ls=c.get("ls", "-"), lw=1.2, label=c.get("label", "_nolegend_"))
         if limit is not None:
-            ax.axvline(limit, color="C3", lw=1.0, ls=":", label=f"limit {limit:g}")
+            ax.axvline(limit, color="0.15", lw=1.0, ls=":", label=f"limit {limit:g}")
         ax.set_ylim(0.0, 1.02)
         ax.set_ylabel("P(amplification > a) [-]")
         ax.set_title(panel["title"], fontsize=9)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
-    axes[-1].set_xlabel("a: amplification, worst blade / tuned [-]")
+        if ax.get_legend_handles_labels()[0]:  # (a member with no complete pattern: none)
+            ax.legend(fontsize=7, ncol=2)
+    for ax in grid[-1]:
+        ax.set_xlabel("a: amplification, worst blade / tuned [-]")
     fig.suptitle(title, fontsize=10)
     return _save(fig, path)
 

@@ -416,25 +416,26 @@ def _uncertainty_lines(g: h5py.Group) -> list[str]:
 
 def _mistuning_lines(g: h5py.Group) -> list[str]:
     """A mistuning study: per member (one without a family) its patterns and, per level,
-    the amplification's median and largest with the dampers (and without)."""
+    the amplification's median and largest with the dampers (and without), and with a
+    limit P(A > limit) and the count it is of."""
     lines = []
     for label, m in schema.mistuning_members(g):
         if schema.AMPLIFICATION not in m:
             continue
         p, a = m[schema.PATTERNS], m[schema.AMPLIFICATION]
         status = p["status"][()]
-        lines.append(f"  {label + ': ' if label else ''}{status.size} patterns "
-                     f"({np.count_nonzero(status == b'complete')} complete); tuned peak "
-                     f"{float(p.attrs['tuned_peak']):.6g} m; Whitehead "
+        pre = f"  {label}: " if label else "  "
+        lines.append(f"{pre}{status.size} patterns ({np.count_nonzero(status == b'complete')} "
+                     f"complete); tuned peak {float(p.attrs['tuned_peak']):.6g} m; Whitehead "
                      f"{float(a.attrs['whitehead']):.3f}")
+        limit = float(a.attrs.get("limit", np.nan))
         for k, sigma in enumerate(a["sigma"][()]):
-            limit = float(a.attrs.get("limit", np.nan))
             parts = [f"{case} median {a[f'{case}_percentiles'][k, 1]:.3f}, largest "
                      f"{a[f'{case}_largest'][k]:.3f}" + (
-                         f", P(A > {limit:g}) {a[f'{case}_exceedance'][k]:.3f}"
-                         if np.isfinite(limit) else "")
+                         f", P(A > {limit:g}) {a[f'{case}_exceedance'][k]:.3f} of "
+                         f"{a[f'{case}_count'][k]}" if np.isfinite(limit) else "")
                      for case in ("friction", "free") if f"{case}_percentiles" in a]
-            lines.append(f"  sigma {sigma:g}: amplification " + "; ".join(parts))
+            lines.append(f"{pre}sigma {sigma:g}: amplification " + "; ".join(parts))
     return lines
 
 

@@ -100,12 +100,25 @@ def statistics(x: np.ndarray, y: np.ndarray, limit: float | None = None) -> Stat
 
 
 def exceedance(y: np.ndarray, limit: float | None) -> tuple[float, float]:
-    """(P(y > limit), its binomial standard error sqrt(p (1 - p) / n)) over the n values of
-    ``y`` (NaN, NaN without a limit or a value)."""
+    """(P(y > limit), its binomial standard error sqrt(p (1 - p) / n)) over the n finite
+    values of ``y`` (NaN, NaN without a limit or a value)."""
+    y = y[np.isfinite(y)]
     if limit is None or not y.size:
         return np.nan, np.nan
     p = float(np.mean(y > limit))
     return p, float(np.sqrt(p * (1 - p) / y.size))
+
+
+def exceedance_text(p: float, error: float, n: int) -> str:
+    """An exceedance probability for the terminal: "= p +- error", or where none (or
+    every one) of the n values exceeded, where the standard error says nothing, the
+    count and the 95 % bound 3 / n (the rule of three)."""
+    if not n or not np.isfinite(p):
+        return "= n/a (no value)"
+    if p in (0.0, 1.0):
+        side = f"< {3 / n:.3g}" if p == 0 else f"> {1 - 3 / n:.3g}"
+        return f"= {p:g} ({int(p * n)} of {n}; {side} at 95 %)"
+    return f"= {p:.3f} +- {error:.3f}"
 
 
 def _ranks(a: np.ndarray) -> np.ndarray:

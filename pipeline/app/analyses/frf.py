@@ -43,6 +43,7 @@ from ..running import (
     draw_analysis,
     floquet,
     interrupted,
+    member_identity,
     outputs,
     ticker,
     worst,
@@ -204,7 +205,7 @@ def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, st
             keys.append(key)
             curve = schema.curve(j)
             kept = cached_curve(store, key, group, curve, f"{which}: {{}} points", progress,
-                                 frf_identity(spec, tag, value))
+                                 member_identity(spec, tag, value))
             if kept:
                 statuses[j] = kept
             else:
@@ -225,13 +226,6 @@ def run_frf(case: Case, spec: Frf, group: h5py.Group, run: Run) -> tuple[str, st
     every = len(keys) + sum(schema.is_linear(k) for k in group)
     draw_analysis(pictures.frf, group, spec, run, keys, store.hits - hits == every)
     return worst(done)
-
-
-def frf_identity(spec: Frf, tag: str, value) -> dict:
-    """The attributes of an FRF curve that say which analysis and member it is (not what it
-    computes): its label, family key and value."""
-    return {"label": tag, "family_key": spec.family.key if spec.family else "",
-            "family_value": value if value is not None else ""}
 
 
 def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: str, tag: str,
@@ -301,7 +295,7 @@ def frf_task(models: LumpedModels | AssemblyModels, c: Case, spec: Frf, method: 
             if missing:
                 progress(f"warning: {which}: no solution found at {par} = "
                          f"{', '.join(f'{x:g}' for x in missing)} for its maps")
-    attrs = frf_identity(spec, tag, value) | {
+    attrs = member_identity(spec, tag, value) | {
         "method": method, "measure": measure, "status": b.status, "message": b.message,
         "turning_points": b.turning_points, "elapsed_s": elapsed, "outputs": names,
         "harmonic_orders": list(hb.harmonics.orders), "samples": hb.harmonics.n_samples,

@@ -39,12 +39,12 @@ from microslip.case.mistuning_table import MAX_SIGMA
 from microslip.case.specs import Analysis, Family
 from microslip.draw import pictures
 from microslip.results import schema
-from microslip.solve.sampling import exceedance
+from microslip.solve.sampling import exceedance, exceedance_text
 
 from ..limits import linear_peak
 from ..models import AssemblyModels
 from ..plan import PlanContext, Stage, samples_stage
-from ..running import Run, draw_analysis, rows_status, stored_rows
+from ..running import Run, draw_analysis, member_identity, rows_status, stored_rows
 from ..solutions import refined_peak, response_at
 from ..tasks import Outcome, Progress, Task
 from .uncertainty import swept_window
@@ -89,14 +89,15 @@ class MistuningStudy(Analysis):
 ROW = ("peak", "omega", "blade", "free_peak", "free_omega", "points", "samples")
 
 
-def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy, disk: bool,
+def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy,
                  *, progress: Progress, live: bool = True) -> Outcome:
-    """One pattern's worst blade (``disk``: the variant ``c`` is a whole disk), or the
-    tuned disk's peak (``c`` the cyclic sector): a task."""
+    """One pattern's worst blade (the variant ``c``, a whole disk), or the tuned disk's
+    peak (``c`` the cyclic sector): a task."""
     names = models.expanded(c, [spec.output])
     rows = models.selection(c, names)
     base = operating_point(c, spec.window[0])
     solver = settings(c)
+    disk = isinstance(c.data["assembly"].get("mistuning"), dict)
     start = _tuned_start(models, c, base, solver) if disk else None
     swept = swept_window(models.model(c), spec.window, base, solver, start)
     if swept.interrupted:
@@ -163,14 +164,21 @@ class Member:
 def members(case: Case, spec: MistuningStudy) -> list[Member]:
     """A Member per family value (one without a family): the case's ``set`` and member
     keys applied, its blade region kept, its own pattern replaced by the study's."""
-    return [_member(variant, spec, label, value)
-            for variant, label, value in curve_variants(case, spec)]
+    variants = curve_variants(case, spec)
+    counts = {}  # blades per geometry (an imported mesh is read once)
+    for variant, _, _ in variants:
+        geometry = json.dumps(variant.data.get("geometry"), sort_keys=True, default=str)
+        if geometry not in counts:
+            counts[geometry] = _sectors(variant)
+    return [_member(variant, spec, label, value, counts[json.dumps(
+        variant.data.get("geometry"), sort_keys=True, default=str)])
+            for variant, label, value in variants]
 
 
-def _member(base: Case, spec: MistuningStudy, label: str, value: Any) -> Member:
+def _member(base: Case, spec: MistuningStudy, label: str, value: Any, sectors: int | None
+            ) -> Member:
     table = dict(base.data["assembly"]["mistuning"])
     region = {k: table[k] for k in ("body", "blade_radius", "region") if k in table}
-    sectors = _sectors(base)
     if sectors is None:
         raise ValueError("mistuning study: the sector count is unknown before meshing")
     z = spec.draws(sectors)
@@ -224,8 +232,7 @@ def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
     each = task_seconds(case.data, spec)
 
     def what(i: int) -> str:
-        m = int(np.searchsorted(first, i, side="right")) - 1
-        k = i - first[m]
+        m, k = locate(first, i)
         which = "the tuned disk" if k == 0 else f"pattern {k} of {len(study[m].pairs)}"
         return f"{study[m].label}: {which}" if study[m].label else which
 
@@ -241,36 +248,34 @@ def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
     patterns = len(study[0].pairs)
     rows = stored_rows(
         run, name, keys,
-        lambda i: Task(pattern_task, (cases[i], spec, i not in first), f"[{name}] {what(i)}",
-                       each), fill, lambda cached, todo: (
+        lambda i: Task(pattern_task, (cases[i], spec), f"[{name}] {what(i)}", each), fill,
+        lambda cached, todo: (
             f"[{name}] the tuned disk and {patterns} patterns ({len(spec.sigma)} levels x "
-            f"{spec.patterns}, seed {spec.seed})"
-            + (f" for each of {len(study)} members" if spec.family else "")
-            + f" of {len(study[0].pairs[0][1])} blades: {cached} from the cache, {todo} to "
-            "compute"), line)
+            f"{spec.patterns}, seed {spec.seed}) of {len(study[0].pairs[0][1])} blades"
+            + (f", for each of {len(study)} members" if spec.family else "")
+            + f": {cached} from the cache, {todo} to compute"), line)
     summary = []
     for m, member in enumerate(study):
         here = group
         if spec.family:
-            run.writer.write_group(group, schema.curve(m), {}, member_identity(spec, member))
+            run.writer.write_group(group, schema.curve(m), {},
+                                   member_identity(spec, member.label, member.value))
             here = group[schema.curve(m)]
         tables = _table(found[first[m]:first[m + 1]], len(member.pairs[0][1]))
         levels = _write(run.writer, here, spec, member.pairs, tables)
-        summary += _summary(spec, member.label, levels, tables["peak"][0],
-                            tables["free_peak"][0])
-    run.progress(f"[{name}] {len(cases) - len(study)} patterns in "
-                 f"{time.perf_counter() - t0:.1f} s; Whitehead's bound "
-                 f"{whitehead(len(study[0].pairs[0][1])):.3f}")
-    run.progress("\n".join(summary))
+        summary += _summary(spec, member.label, levels, tables, len(member.pairs[0][1]))
+    run.progress("\n".join([f"[{name}] {len(cases) - len(study)} patterns in "
+                            f"{time.perf_counter() - t0:.1f} s", *summary]))
     draw_analysis(pictures.mistuning, group, spec, run, keys, cached=not rows.to_compute)
     status = np.array([r.get("status", "not run") for r in found], dtype=object)
     return rows_status(rows, status, [str(r.get("message", "")) for r in found], "runs", what)
 
 
-def member_identity(spec: MistuningStudy, member: Member) -> dict:
-    """The attributes of a family member's group: its label, family key and value."""
-    return {"label": member.label, "family_key": spec.family.key if spec.family else "",
-            "family_value": member.value if member.value is not None else ""}
+def locate(first: np.ndarray, i: int) -> tuple[int, int]:
+    """(member, k) of the study's task ``i``, the members' tasks one after another from
+    ``first`` (each member's first, then the end): k 0 its tuned disk, k its pattern k."""
+    m = int(np.searchsorted(first, i, side="right")) - 1
+    return m, i - int(first[m])
 
 
 def whitehead(sectors: int) -> float:
@@ -310,8 +315,6 @@ def amplification_levels(sigma: np.ndarray, amplification: np.ndarray, ok: np.nd
     return out
 
 
-
-
 def _write(writer, group, spec: MistuningStudy, pairs, table: dict[str, np.ndarray]
            ) -> dict[str, dict[str, np.ndarray]]:
     """One member's patterns' table and its amplification per level, with friction and
@@ -344,17 +347,21 @@ def _write(writer, group, spec: MistuningStudy, pairs, table: dict[str, np.ndarr
     return levels
 
 
-def _summary(spec: MistuningStudy, label: str, levels: dict, tuned: float, free: float
+def _summary(spec: MistuningStudy, label: str, levels: dict, table: dict, sectors: int
              ) -> list[str]:
-    """The terminal's lines of one member: its tuned peak, then per level and case the
-    amplification's median, 95 % and largest."""
+    """The terminal's lines of one member: its tuned peak (and without the dampers) and
+    Whitehead's bound, then per level and case the amplification's median, 95 %, largest
+    and P(A > limit)."""
     pre = f"[{spec.name}] " + (f"{label}: " if label else "")
-    lines = [pre + f"tuned peak {tuned:.4g} m" + (f", free {free:.4g} m" if spec.free else "")]
+    lines = [pre + f"tuned peak {table['peak'][0]:.4g} m at {table['omega'][0]:.6g} rad/s"
+             + (f", free {table['free_peak'][0]:.4g} m" if spec.free else "")
+             + f"; Whitehead's bound {whitehead(sectors):.3f}"]
     for k, s in enumerate(spec.sigma):
         for case, d in levels.items():
             p5, p50, p95 = d["percentiles"][k]
-            over = (f", P(A > {spec.limit:g}) = {d['exceedance'][k]:.3f} +- "
-                    f"{d['exceedance_error'][k]:.3f}" if spec.limit is not None else "")
+            over = (f", P(A > {spec.limit:g}) " + exceedance_text(
+                d["exceedance"][k], d["exceedance_error"][k], d["count"][k])
+                if spec.limit is not None else "")
             lines.append(f"{pre}  sigma {s:g}, {case}: amplification median {p50:.3f}, "
                          f"95 % {p95:.3f}, largest {d['largest'][k]:.3f}{over} "
                          f"({d['count'][k]} patterns)")
@@ -378,6 +385,12 @@ def check(c: Checking) -> None:
         c.fault(f".seed = {a['seed']!r}: expected an integer >= 0")
     rules.measure_faults(c, ("peak", "vibration"))
     rules.family_faults(c)
+    family = a.get("family") if isinstance(a.get("family"), dict) else {}
+    touched = [str(family.get("key", ""))] + [k for t in family.get("sets") or ()
+                                              if isinstance(t, dict) for k in t]
+    if any(k.startswith("assembly.mistuning") for k in touched):
+        c.fault(".family: varies [assembly.mistuning], which the study draws itself (vary "
+                "sigma, or the dampers' keys)")
     if a.get("limit") is not None:
         number(f"{c.pre}.limit", a["limit"], c.out, positive=True)
     rules.flag(c, "free", " (the disk without its dampers too)")

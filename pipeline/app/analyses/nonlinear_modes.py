@@ -33,6 +33,7 @@ from ..running import (
     cached_curve,
     computed_curves,
     draw_analysis,
+    member_identity,
     outputs,
     ticker,
     worst,
@@ -125,12 +126,6 @@ def plan(case: Case, spec: NonlinearModes, context: PlanContext) -> list[Stage]:
                                                             curve="backbone"))
 
 
-def identity(spec: NonlinearModes, label: str, value) -> dict:
-    """The attributes that say which member a backbone is."""
-    return {"label": label, "family_key": spec.family.key if spec.family else "",
-            "family_value": value if value is not None else ""}
-
-
 def run_modes(case: Case, spec: NonlinearModes, group: h5py.Group, run: Run
               ) -> tuple[str, str]:
     """A backbone per family member (a task each), then the pictures; (status, message)
@@ -146,7 +141,7 @@ def run_modes(case: Case, spec: NonlinearModes, group: h5py.Group, run: Run
         key = store.key(variant.data, spec.table(), curve="backbone")
         keys.append(key)
         kept = cached_curve(store, key, group, schema.curve(j), f"{which}: {{}} levels",
-                            run.progress, identity(spec, label, value))
+                            run.progress, member_identity(spec, label, value))
         if kept:
             statuses[j] = kept
             continue
@@ -185,7 +180,7 @@ def mode_task(models: LumpedModels | AssemblyModels, c: Case, spec: NonlinearMod
         b.status = "failed"
     data = _levels(modal, mode, idx, models, c, spec) | _synthesized(modal, mode, spec, idx)
     warnings = tuple(_dominance_warnings(data, spec, which))
-    attrs = identity(spec, label, value) | {
+    attrs = member_identity(spec, label, value) | {
         "status": b.status, "message": b.message, "elapsed_s": elapsed, "outputs": names,
         "harmonic_orders": list(hb.harmonics.orders), "samples": hb.harmonics.n_samples,
         "linear_omega": start.omega, "linear_xi": start.xi, "start": spec.start,

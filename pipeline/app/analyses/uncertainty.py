@@ -30,7 +30,13 @@ from microslip.draw import pictures
 from microslip.laws.coulomb import slip_share
 from microslip.results import schema
 from microslip.solve.response import sweep, undersampled_points
-from microslip.solve.sampling import PERCENTILES, Distribution, design, statistics
+from microslip.solve.sampling import (
+    PERCENTILES,
+    Distribution,
+    design,
+    exceedance_text,
+    statistics,
+)
 
 from ..limits import linear_peak
 from ..models import AssemblyModels, LumpedModels
@@ -337,8 +343,8 @@ def _summary(spec: Uncertainty, names, st, levels: dict, n: int, elapsed: float)
         lines.append(f"[{spec.name}]   free {levels['free_peak']:.4g} m, fully stuck "
                      f"{levels['stuck_peak']:.4g} m")
     if spec.limit is not None:
-        lines.append(f"[{spec.name}]   P(peak > {spec.limit:g} m) = {st.exceedance:.3f} "
-                     f"+- {st.exceedance_error:.3f}")
+        lines.append(f"[{spec.name}]   P(peak > {spec.limit:g} m) " + exceedance_text(
+            st.exceedance, st.exceedance_error, st.count))
     for k, rs, pr in zip(names, st.spearman, st.prcc):
         lines.append(f"[{spec.name}]   {k}: rank correlation {rs:+.2f}, partial {pr:+.2f}")
     return "\n".join(lines)
