@@ -350,6 +350,26 @@ def test_the_estimates_count_every_sectors_contacts_on_the_whole_disk():
     assert whole == NS * 2 * 6 * 2 * 3 * 3
 
 
+def test_the_memory_estimate_counts_every_sectors_modes_on_the_whole_disk():
+    """The linear part's size: every given mode of each body (the blisk's at every ND, the
+    dampers' N copies) on the whole disk, one set on the sector; "auto" is counted after
+    the eigen solves only (0 here: the estimate stays a lower bound)."""
+    from microslip.case.estimate import _modal_dofs, balance_size
+
+    data = copy.deepcopy(CASE)
+    data["reduction"]["modes"] = 10
+    assert _modal_dofs(data) == NS * 10 * 2  # two bodies, N sectors each
+    more = balance_size("a", data).nbytes
+    data["reduction"]["bodies"] = {"damper": {"modes": "auto"}}
+    assert _modal_dofs(data) == NS * 10
+    del data["assembly"]["mistuning"]
+    assert _modal_dofs(data) == 10
+    data["reduction"]["modes"] = "auto"
+    assert _modal_dofs(data) == 0
+    data["assembly"]["mistuning"] = copy.deepcopy(CASE["assembly"]["mistuning"])
+    assert balance_size("a", data).nbytes < more
+
+
 MU = {"key": "assembly.contacts.0.mu", "values": [0.5, 0.2], "label": "mu"}
 
 

@@ -209,12 +209,13 @@ def modes_stage(spec, context: PlanContext, pictures: float) -> Stage:
         s.work for s in context.reductions), 0, "the unreduced bodies, every run")
 
 
-def samples_stage(case: Case, spec, context: PlanContext, keys: list[str]) -> Stage:
-    """An uncertainty study's samples (``keys``: each one's store key) as one stage: those
-    to compute, in one process."""
+def samples_stage(case: Case, spec, context: PlanContext, keys: list[str],
+                  noun: str = "samples") -> Stage:
+    """A study's tasks (an uncertainty study's samples; ``keys``: each one's store key) as
+    one stage, named by ``noun``: those to compute, in one process."""
     todo = sum(not context.store.has(k) for k in keys)
     each = task_seconds(case.data, spec, kinds=case.known_kinds)
-    return Stage(f"{spec.name}: {len(keys)} samples", todo == 0, todo * each, context.nbytes,
+    return Stage(f"{spec.name}: {len(keys)} {noun}", todo == 0, todo * each, context.nbytes,
                  f"{todo} to compute (~{each:.2g} s each in one process; a cluster of n "
                  f"workers ~n x faster), {context.unknowns:,} unknowns")
 

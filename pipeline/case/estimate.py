@@ -207,7 +207,8 @@ def balance_size(name: str, data: dict) -> Size:
     unknowns and peak memory, from the contacts and harmonics alone."""
     if "assembly" in data:
         contact_dofs, shapes = _patch_contacts(data)
-        linear_dofs = contact_dofs  # a lower bound: the modes and other masters come later
+        # a lower bound: the masters off the contacts (and "auto" modes) come later
+        linear_dofs = contact_dofs + _modal_dofs(data)
     else:
         contact_dofs, shapes = _lumped_contacts(data)
         linear_dofs = len(data["model"]["dofs"])
@@ -234,6 +235,33 @@ def _lumped_contacts(data: dict) -> tuple[int, list[ContactShape]]:
         shapes.append(ContactShape(1, len(keys), dim, len(mine)))
         touched |= mine
     return len(touched), shapes
+
+
+def _modal_dofs(data: dict) -> int:
+    """The modal coordinates of an assembly case's bodies where their count is given
+    (``modes`` an integer, per body or for all; "auto" is known only after the eigen
+    solves: 0). The whole disk ([assembly.mistuning]) holds every sector's: a cyclic body
+    its modes at every ND, cos and sin, about N x modes; another body N copies."""
+    from microslip import geometry
+    from microslip.geometry.full_disk import sector_count
+
+    from .geometry_table import IMPORT, GeometryTable
+
+    geo, red = data["geometry"], data.get("reduction", {})
+    if geo["model"] == IMPORT:
+        mesh = GeometryTable.of(geo).build()
+        names, sectors = list(mesh.bodies), sector_count(mesh) if mesh.cyclic else 1
+    else:
+        names = list(geometry.NAMES.get(geo["model"], {}).get("bodies", ()))
+        given = geo.get("parameters", {}).get("sectors")
+        sectors = given if is_int(given) and given > 0 else getattr(
+            geometry.PARAMETERS[geo["model"]](), "sectors", 1)
+    copies = sectors if isinstance(data["assembly"].get("mistuning"), dict) else 1
+    total = 0
+    for name in names:
+        modes = (red.get("bodies", {}).get(name) or {}).get("modes", red.get("modes"))
+        total += copies * modes if is_int(modes) and modes > 0 else 0
+    return total
 
 
 def _patch_contacts(data: dict) -> tuple[int, list[ContactShape]]:

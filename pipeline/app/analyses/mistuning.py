@@ -409,7 +409,7 @@ def plan(case: Case, spec: MistuningStudy, context: PlanContext) -> list[Stage]:
     have."""
     keys = [pattern_key(context.store, v, spec) for m in members(case, spec)
             for v in m.cases]
-    return [samples_stage(case, spec, context, keys)]
+    return [samples_stage(case, spec, context, keys, "tasks (tuned disks and patterns)")]
 
 
 KIND = AnalysisKind("mistuning", MistuningStudy, check, seconds, run_mistuning,
