@@ -297,3 +297,23 @@ def test_show_into_a_closed_pipe(tmp_path):
     err = p.communicate(timeout=60)[1].decode()
     assert p.returncode == 141
     assert err == "", err  # no traceback, no "Exception ignored"
+
+
+@pytest.mark.parametrize("command", [["run"], ["run", "--dry-run"], ["mesh"]])
+def test_a_geometry_gmsh_cannot_build_is_one_line(tmp_path, monkeypatch, capsys, command):
+    """Parameters that give no valid solid (a shroud that misses its neighbour at too few
+    sectors, say) fail in Gmsh, found only by meshing: one line naming the table, exit 2."""
+    from pathlib import Path
+
+    from microslip import geometry
+
+    def no_solid(**parameters):
+        raise geometry.GeometryBuildError("the blisk is not one solid: [(3, 1), (3, 2)]")
+
+    monkeypatch.setitem(geometry.MODELS, "blisk_sector", no_solid)
+    monkeypatch.setenv("MICROSLIP_CACHE", str(tmp_path / "cache"))  # nothing meshed before
+    case = Path(__file__).parents[1] / "cases" / "11_blisk_quick.toml"
+    args = [command[0], str(case), "--out", str(tmp_path / "o"), *command[1:]]
+    assert main(args) == 2
+    assert one_line(capsys.readouterr().err).endswith(
+        "[geometry.parameters]: the blisk is not one solid: [(3, 1), (3, 2)]")

@@ -59,6 +59,7 @@ def check(argv: list[str]) -> int:
 def mesh(argv: list[str]) -> int:
     """Mesh the [geometry] of a case file; write .msh, .vtu and PNG previews."""
     from microslip.app.stages import mesh_geometry, say_units
+    from microslip.geometry import GeometryBuildError
 
     parser = argparse.ArgumentParser(prog="microslip mesh", description=mesh.__doc__)
     parser.add_argument("case", type=Path, help="case file (TOML) with a [geometry] table")
@@ -80,7 +81,7 @@ def mesh(argv: list[str]) -> int:
         mesh_geometry(c.geometry_table, out, progress=print, pictures=not args.no_pictures,
                       cache=shared)
         say_units(c.data, print)
-    except (TypeError, ValueError) as err:
+    except (TypeError, ValueError, GeometryBuildError) as err:  # values Gmsh cannot build
         print(f"microslip mesh: [geometry.parameters]: {err}", file=sys.stderr)
         return 2
     return 0

@@ -26,6 +26,7 @@ def run(argv: list[str]) -> int:
     from microslip.app.folder import FolderBusy, NoSpace
     from microslip.app.run import run_case
     from microslip.case import InputError
+    from microslip.geometry import GeometryBuildError
 
     args = _run_parser().parse_args(argv)
     if not 1 <= args.threads <= MAX_THREADS:
@@ -46,7 +47,11 @@ def run(argv: list[str]) -> int:
         if shared is None:
             return 2
     if args.dry_run:
-        return _dry_run(c, args, out, shared)
+        try:
+            return _dry_run(c, args, out, shared)
+        except (InputError, GeometryBuildError) as err:  # found meshing: nothing computed
+            print(f"microslip run: {args.case}: {_input_fault(err)}", file=sys.stderr)
+            return 2
     if not output_folder("run", out, args.out is not None):
         return 2
     executor, fault = _executor(args.workers, args.scheduler)
@@ -62,8 +67,8 @@ def run(argv: list[str]) -> int:
             status, message = _report_run(path, out, t)
             if not args.no_report and not _write_page(path, status, received):
                 return TERMINATED if received else INTERRUPTED
-        except InputError as err:  # found once the mesh exists: before any heavy work
-            print(f"microslip run: {args.case}: {err}", file=sys.stderr)
+        except (InputError, GeometryBuildError) as err:  # found meshing: before heavy work
+            print(f"microslip run: {args.case}: {_input_fault(err)}", file=sys.stderr)
             return 2
         except FolderBusy as err:  # before any work: nothing of the other run is touched
             print(f"microslip run: {err}", file=sys.stderr)
@@ -83,6 +88,14 @@ def run(argv: list[str]) -> int:
     if message.startswith("interrupted"):  # a curve caught the interrupt and saved itself
         return TERMINATED if received else INTERRUPTED
     return 1
+
+
+def _input_fault(err: Exception) -> str:
+    """The line of a fault found only by meshing: the case's own words, or the parameters
+    of a model that Gmsh could not build (its parts overlap or do not join)."""
+    from microslip.geometry import GeometryBuildError
+
+    return f"[geometry.parameters]: {err}" if isinstance(err, GeometryBuildError) else str(err)
 
 
 def _write_page(results: Path, status: str, terminated: list | None = None) -> bool:
