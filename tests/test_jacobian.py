@@ -246,3 +246,31 @@ def test_the_sign_on_old_factors_is_the_dense_one():
             row, corner = rng.normal(size=R.size), rng.normal()
             A = np.block([[J, dR[:, None]], [np.append(row, corner)[None, :]]])
             assert Js.bordered_sign(dR, row, corner) == np.linalg.slogdet(A)[0]
+
+
+def test_where_gmres_fails_a_small_system_is_solved_densely(state, monkeypatch):
+    """GMRES made to fail at every stage (the order-diagonal preconditioner blind to a
+    strong coupling of the orders, as on a whole shrouded disk): the solve, the bordered
+    solve and the determinant's sign are the dense ones, each counted; above
+    DENSE_FALLBACK the failure is raised as before."""
+    hb, J, Js, R, dR = state
+
+    def fails(*args, **kwargs):
+        raise np.linalg.LinAlgError("GMRES: no convergence (made to fail)")
+
+    monkeypatch.setattr(jacobian, "gmres", fails)
+    hb.preconditioner.__init__()
+    # a direct LU of the same matrix: rounding only (cond(J) x machine precision)
+    tol = 1e3 * np.finfo(float).eps * np.linalg.cond(J)
+    x = Js.solve(R)
+    assert np.linalg.norm(x - np.linalg.solve(J, R)) <= tol * np.linalg.norm(x)
+    row, corner = np.random.default_rng(4).normal(size=R.size), 0.3
+    A = np.block([[J, dR[:, None]], [np.append(row, corner)[None, :]]])
+    rhs = np.ones(R.size + 1)
+    z = Js.bordered_solve(dR, row, corner, rhs)
+    assert np.linalg.norm(z - np.linalg.solve(A, rhs)) <= tol * np.linalg.norm(z)
+    assert Js.bordered_sign(dR, row, corner) == np.linalg.slogdet(A)[0]
+    assert hb.preconditioner.dense == 3
+    monkeypatch.setattr(jacobian, "DENSE_FALLBACK", R.size - 1)
+    with pytest.raises(np.linalg.LinAlgError):
+        Js.solve(R)

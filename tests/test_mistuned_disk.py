@@ -281,3 +281,38 @@ def test_the_free_disks_response_through_its_modes_is_the_direct_solve(sector, w
     assert any(v is not None for v in cm._free_modes.values())
     for a, b in zip(modal, direct):
         assert np.abs(a - b).max() <= 1e-8 * np.abs(b).max()
+
+
+@pytest.mark.slow
+def test_the_tuned_whole_shrouded_disk_is_the_cyclic_sector_on_every_blade():
+    """A shrouded blisk (24 blades, each interlock preloaded by 20 um and slipping at 30 N):
+    there the contacts join neighbouring sectors of the same cyclic body, so the whole disk
+    couples blade s to s + 1 through its own copies. Every blade's tip against the cyclic
+    sector's at three frequencies through the stuck first family, Newton to 1e-12. Its
+    stiff interlocks defeat the order-diagonal preconditioner at some iterates (GMRES then
+    falls back to a dense LU: without it the sweep stopped 'singular' at 7477 rad/s)."""
+    n = 24
+    mesh = geometry.shrouded_blisk(sectors=n, size=0.02, blade_size=0.008,
+                                   contact_n_radial=2, contact_n_along=2)
+    red = structure.reduce_structure(mesh, {"modes": 6, "order": 1, "engine_order": 3,
+                                            "damping": {"modal_ratios": 0.002},
+                                            "nodal_diameters": list(range(n // 2 + 1))},
+                                     None, progress=lambda s: None)
+    full, bodies = geometry.full_disk(mesh), annulus_bodies(mesh, red.models)
+    stiffness = {f"{p}#{s}": ps for p, ps in red.patch_stiffness.items() for s in range(n)}
+    shroud = AssemblySpec(contacts=(PatchFriction("shroud", 0.5, interference=2e-5),),
+                          engine_order=3,
+                          loads=(NodalLoad("blisk/excitation", "tangential", 30.0),),
+                          outputs=(Output("tip", "blisk/response", "tangential"),))
+    h = Harmonics.up_to(1, 64)
+    cyc = join(mesh, red.models, red.patch_stiffness, shroud, h)
+    disk = join(full, bodies, stiffness, annulus_spec(shroud, n, ("blisk",)), h)
+    phi = 2 * np.pi / n
+    for w in (7480.0, 7640.0, 7760.0):  # rad/s: the family stuck at 7637 (1215.5 Hz)
+        a = solved(cyc, w)[0]
+        out = solved(disk, w)
+        for s in range(n):
+            want = np.exp(-1j * 3 * s * phi) * complex(a[1], a[2])
+            # 1e-8: as the blisk's (the same solution, Newton to 1e-12 of the force scale)
+            assert abs(complex(out[s][1], out[s][2]) - want) <= 1e-8 * abs(want), (w, s)
+            assert abs(out[s][0] - a[0]) <= 1e-8 * abs(want), (w, s)

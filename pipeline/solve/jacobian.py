@@ -32,6 +32,7 @@ convergence from a fixed random start (its Ritz values include every eigenvalue 
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -54,8 +55,17 @@ MAX_KRYLOV = 80
 #: old the same: what it lacks is the coupling of the orders, not the newest state).
 REFRESH_ITERATIONS = 30
 REFRESH_GROWTH = 1.5
-#: Relative tolerance of the Arnoldi run that gives the determinant's sign.
+#: Relative tolerance of the Arnoldi run that gives the determinant's sign, and its
+#: Krylov budget: a sign needs its run converged (the Ritz values the eigenvalues), which
+#: on a stiff whole disk can take past the solves' MAX_KRYLOV (the tuned shrouded disk of
+#: 24 blades: 1.2e-8 after 80 iterations, where the branch stopped "singular")
 SIGN_RTOL = 1e-8
+SIGN_KRYLOV = 4 * MAX_KRYLOV
+#: Where GMRES fails even on fresh double-precision factors (the order-diagonal
+#: preconditioner misses a strong coupling of the orders: a stiff interlock of every sector
+#: of a whole shrouded disk), a system of at most this size is solved by a dense LU (8,192:
+#: 0.5 GB, ~0.4 TFLOP, seconds) rather than the branch stopped
+DENSE_FALLBACK = 8192
 
 
 @dataclass(frozen=True)
@@ -339,6 +349,15 @@ class _Bordered:
 
         return inverse
 
+    def dense(self) -> np.ndarray:
+        """The (size, size) real matrix (the dense fallback)."""
+        A = self.J.dense()
+        if self.r is not None:
+            A *= self.r[:, None]
+        if self.c is not None:
+            A *= self.c[None, :]
+        return np.block([[A, self.C], [self.R, self.D]]) if self.D.size else A
+
     def sign(self, factors: _Factors) -> float:
         s = factors.sign
         for d in (self.r, self.c):
@@ -405,12 +424,12 @@ class Preconditioner:
     """The per-order factors a model's Newton solves share, with how they fared: reused
     while GMRES converges in at most REFRESH_ITERATIONS, made again from the Jacobian at
     hand otherwise. Counters for benchmarks: ``solves``, ``iterations`` (GMRES, summed),
-    ``refreshes``."""
+    ``refreshes``, ``dense`` (solves by the dense fallback)."""
 
     def __init__(self):
         self._factors: _Factors | None = None
         self._first = 0  # GMRES iterations of the first solve on the current factors
-        self.solves = self.iterations = self.refreshes = 0
+        self.solves = self.iterations = self.refreshes = self.dense = 0
 
     def __getstate__(self) -> dict:
         """Pickled without its factors (N_dof^2 per order: a model sent to a worker makes
@@ -422,19 +441,20 @@ class Preconditioner:
         self.refreshes += 1
         return self._factors
 
-    def _run(self, J: BalanceJacobian, system: _Bordered, rhs: np.ndarray, rtol: float):
-        """GMRES on the current factors; where it fails, on fresh ones, then on fresh ones
-        in double precision: (x, Arnoldi matrix, the factors it ran on); LinAlgError where
-        even the last fails."""
+    def _run(self, J: BalanceJacobian, system: _Bordered, rhs: np.ndarray, rtol: float,
+             budget: int = MAX_KRYLOV):
+        """GMRES (at most ``budget`` iterations) on the current factors; where it fails, on
+        fresh ones, then on fresh ones in double precision: (x, Arnoldi matrix, the factors
+        it ran on); LinAlgError where even the last fails."""
         stages = ([] if self._factors is None else [None]) + [True, False]
         failure: Exception | None = None
         for single in stages:
             try:  # a singular single-precision block: double precision next
                 factors = self._factors if single is None else self._fresh(J, single)
-                x, its, H = gmres(system.apply, system.inverse(factors), rhs, rtol)
+                x, its, H = gmres(system.apply, system.inverse(factors), rhs, rtol, budget)
             except np.linalg.LinAlgError as err:
                 self.solves += 1
-                self.iterations += MAX_KRYLOV
+                self.iterations += budget
                 failure = err
                 continue
             self.solves += 1
@@ -448,7 +468,7 @@ class Preconditioner:
                 self._slow(its)  # the first solve on the new factors
             return x, H, factors
         raise np.linalg.LinAlgError(
-            f"GMRES did not converge in {MAX_KRYLOV} iterations even with a fresh "
+            f"GMRES did not converge in {budget} iterations even with a fresh "
             f"preconditioner in double precision (Jacobian singular or nearly: {failure})")
 
     def _slow(self, its: int) -> bool:
@@ -462,7 +482,15 @@ class Preconditioner:
               rtol: float = RTOL) -> np.ndarray:
         if not np.all(np.isfinite(rhs)):
             raise ValueError("right-hand side has NaN or Inf")
-        return self._run(J, system, rhs, rtol)[0]
+        try:
+            return self._run(J, system, rhs, rtol)[0]
+        except np.linalg.LinAlgError:
+            if system.size > DENSE_FALLBACK:
+                raise
+        self.dense += 1
+        with warnings.catch_warnings():  # an ill-conditioned J: Newton's residual judges
+            warnings.simplefilter("ignore", sla.LinAlgWarning)
+            return sla.solve(system.dense(), rhs, check_finite=False)
 
     def sign(self, J: BalanceJacobian, system: _Bordered) -> float:
         """sign det of the system: the factors' sign times that of the Arnoldi matrix of
@@ -472,7 +500,13 @@ class Preconditioner:
         # converged, or the Ritz values are not yet the eigenvalues and the sign is a
         # guess: then on fresh factors (old ones: the slow run makes them new), then in
         # double precision, else LinAlgError
-        _, H, factors = self._run(J, system, start, SIGN_RTOL)
+        try:
+            _, H, factors = self._run(J, system, start, SIGN_RTOL, SIGN_KRYLOV)
+        except np.linalg.LinAlgError:
+            if system.size > DENSE_FALLBACK:
+                raise
+            self.dense += 1
+            return float(np.linalg.slogdet(system.dense())[0])
         s, _ = np.linalg.slogdet(H)
         return system.sign(factors) * float(s)
 

@@ -52,7 +52,7 @@ def balance_bytes(contact_dofs: int, linear_dofs: int, orders: int, coeffs: int,
     map B between them, the time histories, and per thread the time derivative matrix
     (samples x d c coeffs)."""
     from .hbm import structured_by_default
-    from .jacobian import MAX_KRYLOV
+    from .jacobian import SIGN_KRYLOV
 
     n = contact_dofs * coeffs
     blocks = COMPLEX * orders * contact_dofs**2  # one complex N_dof^2 matrix per order
@@ -62,7 +62,7 @@ def balance_bytes(contact_dofs: int, linear_dofs: int, orders: int, coeffs: int,
         entry += 2 * dense + blocks
         working = WORKING_COPIES * dense
     else:  # S, the order blocks being inverted, the inverses (complex64), Krylov vectors
-        working = 2 * blocks + blocks // 2 + 2 * REAL * MAX_KRYLOV * (n + 1)
+        working = 2 * blocks + blocks // 2 + 2 * REAL * SIGN_KRYLOV * (n + 1)
         working += sum(12 * c.points * (c.dofs * coeffs) ** 2 for c in contacts)
     evaluations = min(points, TYPICAL_POINTS) * EVALUATIONS_PER_POINT
     held = max(1, min(cache_limit // max(entry, 1), evaluations))
