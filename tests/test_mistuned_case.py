@@ -163,8 +163,8 @@ def test_the_reduction_keeps_the_blades_rows_and_stiffness(tmp_path):
 def test_the_mistuned_body_is_a_cyclic_one():
     t = MistuningTable(blade_radius=0.2, deviation=(0.0,))
     assert t.body_of(("blisk",)) == "blisk"
-    with pytest.raises(ValueError, match="body = 'damper': not a cyclic body"):
-        MistuningTable(body="damper", blade_radius=0.2).body_of(("blisk",))
+    with pytest.raises(ValueError, match="body = 'damper': a body of separate blades"):
+        MistuningTable(body="damper", blade_radius=0.2).body_of(("blisk",), ("damper",))
     with pytest.raises(ValueError, match="name one"):
         t.body_of(("disk", "shroud"))
 
@@ -182,7 +182,7 @@ def test_a_drawn_pattern_is_seeded_and_has_the_spread_asked():
 
 
 @pytest.mark.parametrize("mutate, expected", [
-    (lambda m: m.pop("blade_radius"), "give one of blade_radius"),
+    (lambda m: m.pop("blade_radius"), "give the blade"),
     (lambda m: m.update(region="blisk/nowhere"), "give one of blade_radius"),
     (lambda m: m.update(blade_radius=-1.0), "blade_radius = -1.0"),
     (lambda m: m.update(deviation=[0.0] * 5), "5 values for 6 blades"),
@@ -510,3 +510,26 @@ def test_the_exceedance_picture_draws_a_member_with_no_pattern(tmp_path):
     visible = [ax for ax in fig.axes if ax.get_visible()]
     assert len(visible) == 5 and len(fig.axes) == 6  # a 3 x 2 grid, one cell hidden
     assert visible[1].get_legend() is None and visible[0].get_legend() is not None
+
+
+def test_the_mistuned_body_is_a_cyclic_one_with_its_blade_or_one_of_separate_blades():
+    """A cyclic body takes its blade region; a body copied per sector (the root joint's
+    blades) deviates whole and takes none; each fault one line naming the key."""
+    cyclic, bodies = ("disk",), ("disk", "blade")
+    assert MistuningTable(body="blade").body_of(cyclic, bodies) == "blade"
+    assert MistuningTable(blade_radius=0.2).body_of(cyclic, bodies) == "disk"
+    for table, words in [
+            (MistuningTable(body="blade", blade_radius=0.2), "deviates whole"),
+            (MistuningTable(body="disk"), "give its blade"),
+            (MistuningTable(), "give the blade"),
+            (MistuningTable(body="hub"), "not a body")]:
+        with pytest.raises(ValueError, match=words) as err:
+            table.body_of(cyclic, bodies)
+        assert "\n" not in str(err.value) and "assembly.mistuning" in str(err.value)
+    out = []
+    from microslip.case import mistuning_table
+
+    mistuning_table.check({"body": "blade", "deviation": [0.0] * 3}, out)
+    assert out == []
+    mistuning_table.check({"deviation": [0.0] * 3}, out)
+    assert len(out) == 1 and "give the blade" in out[0]

@@ -316,3 +316,50 @@ def test_the_tuned_whole_shrouded_disk_is_the_cyclic_sector_on_every_blade():
             # 1e-8: as the blisk's (the same solution, Newton to 1e-12 of the force scale)
             assert abs(complex(out[s][1], out[s][2]) - want) <= 1e-8 * abs(want), (w, s)
             assert abs(out[s][0] - a[0]) <= 1e-8 * abs(want), (w, s)
+
+
+@pytest.mark.slow  # (two reductions of a 12-blade root joint at 7 NDs: ~1 min)
+def test_a_body_of_separate_blades_deviates_whole_as_a_reduction_of_the_scaled_blade():
+    """The root joint's blades are a body of their own, copied per sector: blade s's
+    Young's modulus x (1 + d_s) is its copy's reduced stiffness x (1 + d_s), exactly what a
+    reduction of the blade with that modulus gives (Craig-Bampton's constraint modes and
+    fixed-interface shapes do not change when K scales: only their eigenvalues). Checked
+    against that reduction, by its frequencies (the copy is turned, the spectrum is not)
+    and its modal damping's."""
+    from scipy.linalg import eigh
+
+    from microslip.assembly.mistuned import Mistuning, TunedDisk
+
+    mesh = geometry.root_joint(contact_n_axial=2, contact_n_flank=2, size=0.02,
+                               blade_size=0.01)
+    n = 12
+    red = {"modes": 4, "order": 1, "engine_order": 1,
+           "damping": {"modal_ratios": 0.005}, "nodal_diameters": list(range(n // 2 + 1))}
+    tuned = structure.reduce_structure(mesh, red, None, progress=lambda s: None)
+    soft = structure.reduce_structure(
+        mesh, red | {"bodies": {"blade": {"material": {
+            "youngs_modulus": 2.0e11 * 0.97, "poisson_ratio": 0.3, "density": 7850.0}}}},
+        None, progress=lambda s: None)
+    d = [0.0] * n
+    d[5] = -0.03
+    bodies = TunedDisk.of(mesh, tuned.models).bodies_with(Mistuning("blade", tuple(d)))
+    blade = soft.models["blade"][min(soft.models["blade"])]
+
+    def spectrum(m):
+        K = m.stiffness.toarray() if hasattr(m.stiffness, "toarray") else m.stiffness
+        M = m.mass.toarray() if hasattr(m.mass, "toarray") else m.mass
+        return eigh(K, M, eigvals_only=True)
+
+    want = spectrum(blade)
+    got = spectrum(bodies["blade#5"][0])
+    # two reductions of the same model: rounding of the solves (the spectrum spans 1e7),
+    # far below a 3 % modulus (1.5 % in frequency)
+    np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-8 * want.max())
+    np.testing.assert_allclose(np.linalg.eigvals(bodies["blade#5"][0].damping).real.sum(),
+                               np.linalg.eigvals(blade.damping).real.sum(), rtol=1e-6)
+    same = TunedDisk.of(mesh, tuned.models).bodies
+    assert bodies["blade#4"][0] is same["blade#4"][0] or np.array_equal(
+        bodies["blade#4"][0].stiffness, same["blade#4"][0].stiffness)
+    assert bodies["blade#5"][0].key != same["blade#5"][0].key  # the cache tells them apart
+    with pytest.raises(ValueError, match="neither a cyclic body nor one copy per blade"):
+        TunedDisk.of(mesh, tuned.models).bodies_with(Mistuning("blade", (0.0,) * (n - 1)))

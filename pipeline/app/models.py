@@ -98,7 +98,7 @@ class AssemblyModels:
         from microslip.assembly.mistuned import Mistuning
         from microslip.geometry.full_disk import sector_count
 
-        return Mistuning(table.body_of(tuple(self.mesh.cyclic)),
+        return Mistuning(table.body_of(tuple(self.mesh.cyclic), tuple(self.mesh.bodies)),
                          table.deviations(sector_count(self.mesh)))
 
     def _whole_disk(self, spec: Any, mistuning: Any) -> Any:

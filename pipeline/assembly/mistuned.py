@@ -28,6 +28,8 @@ from .spec import AssemblySpec, NodalLoad, Output
 class Mistuning:
     """Blade-to-blade mistuning of a cyclic body: sector s's region (``ReducedModel.region_dofs``
     of every ND's reduction) stiffer by ``deviation[s]`` (a fraction: -0.03 is 3 % softer);
+    of a body of separate blades (copied per sector): copy s's whole stiffness, exactly
+    (a reduction of K (1 + d) is that of K, its stiffness times 1 + d);
     ``region_stiffness``: (n_b, n_b) [N/m] the region's stiffness on those DOFs (its
     Young's modulus' share: K(2E) - K(E) over the region's elements); None: the one the
     reduction kept (``ReducedModel.region_stiffness``)."""
@@ -84,8 +86,7 @@ class TunedDisk:
             return self.bodies
         body = mistuning.body
         if body not in self.annuli:
-            raise ValueError(f"mistuning.body = {body!r}: not a cyclic body of the mesh; it "
-                             f"has {sorted(self.sector.cyclic)}")
+            return self._copies_with(mistuning)
         a, per_nd = self.annuli[body], self.per_nd[body]
         _check_regions(body, per_nd, a.sectors, mistuning)
         if len(mistuning.deviation) != a.sectors:
@@ -95,6 +96,22 @@ class TunedDisk:
         tuned = self.bodies[body][0]
         return {**self.bodies, body: {0: replace(tuned, stiffness=K,
                                                  key=_key([tuned.key], mistuning))}}
+
+    def _copies_with(self, mistuning: Mistuning) -> dict[str, dict[int, ReducedModel]]:
+        """The bodies with each copy s of a body of separate blades stiffer by
+        ``deviation[s]`` (its damping follows from the scaled stiffness)."""
+        body, d = mistuning.body, mistuning.deviation
+        copies = [f"{body}#{s}" for s in range(len(d))]
+        if any(c not in self.bodies for c in copies) or f"{body}#{len(d)}" in self.bodies:
+            raise ValueError(f"mistuning.body = {body!r}: neither a cyclic body nor one copy "
+                             f"per blade of {len(d)}; cyclic bodies: "
+                             f"{sorted(self.sector.cyclic)}")
+        out = dict(self.bodies)
+        for c, ds in zip(copies, d):
+            m = self.bodies[c][0]
+            out[c] = {0: replace(m, stiffness=m.stiffness * (1.0 + ds),
+                                 key=_key([m.key], Mistuning(body, (ds,))))}
+        return out
 
     def _region_energy(self, body: str, mistuning: Mistuning) -> np.ndarray:
         """E_0 of the reduction's region stiffness, formed once per body; of a given one,

@@ -3,9 +3,11 @@ deviating from the design (issue 43).
 
 ```toml
 [assembly.mistuning]
-body = "blisk"            # the cyclic body whose blades deviate (default: the only one)
-blade_radius = 0.205      # [m] the region: the body's elements whose centroid lies farther
-                          #   from the axis, or
+body = "blisk"            # the cyclic body whose blades deviate (default: the only one), or
+                          #   a body of separate blades (the root joint's "blade": each of
+                          #   its N copies stiffer by its deviation, whole)
+blade_radius = 0.205      # [m] a cyclic body's region: its elements whose centroid lies
+                          #   farther from the axis, or
 # region = "blisk/blade"  #   a node set: the body's elements whose corners all lie in it
 deviation = [0.0, 0.02, -0.01, ...]  # the region's Young's modulus x (1 + d), per blade, or
 # sigma = 0.02            #   drawn: d ~ normal(0, sigma), independent per blade,
@@ -60,16 +62,29 @@ class MistuningTable:
             sigma=None if "sigma" not in table else float(table["sigma"]),
             seed=int(table.get("seed", 0)))
 
-    def body_of(self, cyclic_bodies: Sequence[str]) -> str:
-        """The mistuned body: the table's, else the mesh's only cyclic body."""
+    def body_of(self, cyclic_bodies: Sequence[str], bodies: Sequence[str] = ()) -> str:
+        """The mistuned body: the table's (a cyclic body, which takes a region, or one of
+        ``bodies`` copied per sector, which does not), else the mesh's only cyclic body."""
         if self.body is not None:
-            if self.body not in cyclic_bodies:
-                raise ValueError(f"assembly.mistuning.body = {self.body!r}: not a cyclic body; "
-                                 f"cyclic bodies: {sorted(cyclic_bodies)}")
+            copied = self.body not in cyclic_bodies
+            if copied and self.body not in bodies:
+                raise ValueError(f"assembly.mistuning.body = {self.body!r}: not a body; "
+                                 f"bodies: {sorted({*cyclic_bodies, *bodies})}")
+            if copied and (self.blade_radius is not None or self.region is not None):
+                raise ValueError(f"assembly.mistuning.body = {self.body!r}: a body of "
+                                 "separate blades deviates whole: blade_radius and region "
+                                 "are a cyclic body's")
+            if not copied and self.blade_radius is None and self.region is None:
+                raise ValueError(f"assembly.mistuning.body = {self.body!r}: a cyclic body; "
+                                 "give its blade: blade_radius (m) or region (a node set)")
             return self.body
         if len(cyclic_bodies) != 1:
             raise ValueError(f"assembly.mistuning.body: missing; the mesh has cyclic bodies "
                              f"{sorted(cyclic_bodies)}: name one")
+        if self.blade_radius is None and self.region is None:
+            raise ValueError("assembly.mistuning: give the blade of the cyclic body "
+                             f"{next(iter(cyclic_bodies))!r}: blade_radius (m) or region (a "
+                             "node set), or name a body of separate blades")
         return next(iter(cyclic_bodies))
 
     def deviations(self, sectors: int) -> tuple[float, ...]:
@@ -120,8 +135,11 @@ def check(table: Any, out: list[str], names: Mapping[str, Any] | None = None,
         out.append(f"{pre}.body = {body!r}: expected a body name")
     elif body is not None and names is not None and body not in names["bodies"]:
         out.append(f"{pre}.body = {body!r}: not a body; bodies: {list(names['bodies'])}")
-    if ("blade_radius" in table) == ("region" in table):
+    if "blade_radius" in table and "region" in table:
         out.append(f"{pre}: give one of blade_radius (m) or region (a node set): the blade")
+    elif "blade_radius" not in table and "region" not in table and body is None:
+        out.append(f"{pre}: give the blade: blade_radius (m) or region (a node set) of the "
+                   "cyclic body, or body = a body of separate blades")
     if "blade_radius" in table and not (is_number(table["blade_radius"])
                                         and table["blade_radius"] > 0):
         out.append(f"{pre}.blade_radius = {table['blade_radius']!r}: expected a radius > 0 [m]")

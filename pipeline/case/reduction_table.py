@@ -439,7 +439,8 @@ def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: boo
 
 def _region(mesh: Any, mistuning: MistuningTable | None, body: str) -> tuple[int, ...]:
     """The mistuned region's elements if ``body`` is the mistuned one, else ()."""
-    if mistuning is None or mistuning.body_of(tuple(mesh.cyclic)) != body:
+    if mistuning is None or body not in mesh.cyclic \
+            or mistuning.body_of(tuple(mesh.cyclic), tuple(mesh.bodies)) != body:
         return ()
     return tuple(int(e) for e in mistuning.elements(mesh, body))
 
