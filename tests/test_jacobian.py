@@ -270,7 +270,12 @@ def test_where_gmres_fails_a_small_system_is_solved_densely(state, monkeypatch):
     z = Js.bordered_solve(dR, row, corner, rhs)
     assert np.linalg.norm(z - np.linalg.solve(A, rhs)) <= tol * np.linalg.norm(z)
     assert Js.bordered_sign(dR, row, corner) == np.linalg.slogdet(A)[0]
-    assert hb.preconditioner.dense == 3
+    assert hb.preconditioner.dense_solves == 2  # the bordered solve and sign share one LU
+    for bad in (np.zeros_like(J), np.full_like(J, np.nan)):  # singular, not finite
+        monkeypatch.setattr(type(Js), "dense", lambda self, bad=bad: bad.copy())
+        with pytest.raises(np.linalg.LinAlgError):
+            Js.solve(R + 1.0)  # (another right side: no kept LU is of this matrix)
+        hb.preconditioner.__init__()
     monkeypatch.setattr(jacobian, "DENSE_FALLBACK", R.size - 1)
     with pytest.raises(np.linalg.LinAlgError):
         Js.solve(R)

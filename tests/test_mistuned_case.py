@@ -533,3 +533,31 @@ def test_the_mistuned_body_is_a_cyclic_one_with_its_blade_or_one_of_separate_bla
     assert out == []
     mistuning_table.check({"deviation": [0.0] * 3}, out)
     assert len(out) == 1 and "give the blade" in out[0]
+
+
+def test_a_study_of_separate_blades_refuses_the_disk_without_contacts():
+    """The root joint's blades (a body copied per sector) mistuned: the disk without its
+    contacts is the cyclic disk alone, so `free` is refused in one line; the check knows a
+    parametric geometry's cyclic bodies before meshing."""
+    from types import SimpleNamespace
+
+    from microslip import geometry
+    from microslip.app.analyses.mistuning import _free_faults
+    from microslip.case import InputError, mistuning_table
+
+    c = study_case()
+    c.data["assembly"]["mistuning"] = {"body": "damper"}
+    models = SimpleNamespace(mesh=SimpleNamespace(cyclic={"blisk": None},
+                                                  bodies={"blisk": None, "damper": None}))
+    with pytest.raises(InputError, match=r"amplification\.free = true") as err:
+        _free_faults(c, c.analysis_specs[0], models)
+    assert "\n" not in str(err.value)
+    quiet = study_case(free=False)
+    quiet.data["assembly"]["mistuning"] = {"body": "damper"}
+    _free_faults(quiet, quiet.analysis_specs[0], models)
+    out = []
+    mistuning_table.check({"body": "disk"}, out, geometry.NAMES["root_joint"])
+    mistuning_table.check({"body": "blade", "region": "blade/tip"}, out,
+                          geometry.NAMES["root_joint"])
+    assert [("give its blade" in x, "deviates whole" in x) for x in out] == [
+        (True, False), (False, True)]

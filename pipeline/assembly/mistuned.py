@@ -106,11 +106,15 @@ class TunedDisk:
             raise ValueError(f"mistuning.body = {body!r}: neither a cyclic body nor one copy "
                              f"per blade of {len(d)}; cyclic bodies: "
                              f"{sorted(self.sector.cyclic)}")
+        if mistuning.region_stiffness is not None:
+            raise ValueError(f"mistuning.body = {body!r}: separate blades deviate whole; a "
+                             "region stiffness is a cyclic body's")
         out = dict(self.bodies)
         for c, ds in zip(copies, d):
             m = self.bodies[c][0]
-            out[c] = {0: replace(m, stiffness=m.stiffness * (1.0 + ds),
-                                 key=_key([m.key], Mistuning(body, (ds,))))}
+            if ds:  # (a tuned copy keeps its model, its damping and modes formed)
+                out[c] = {0: replace(m, stiffness=m.stiffness * (1.0 + ds),
+                                     key=_key([m.key], Mistuning(body, (ds,))))}
         return out
 
     def _region_energy(self, body: str, mistuning: Mistuning) -> np.ndarray:

@@ -121,6 +121,14 @@ class MistuningTable:
         return index[inside]
 
 
+def _cyclic_bodies(names: Mapping[str, Any] | None) -> tuple[str, ...]:
+    """The cyclic bodies a geometry's names show (its "cyclic/<body>/left" sets), or ()."""
+    if names is None:
+        return ()
+    return tuple(sorted({n.split("/")[1] for n in names.get("node_sets", ())
+                         if n.startswith("cyclic/") and n.count("/") == 2}))
+
+
 def check(table: Any, out: list[str], names: Mapping[str, Any] | None = None,
           sectors: int | None = None) -> None:
     """Append one line per fault of an [assembly.mistuning] table to ``out`` (``names``:
@@ -131,12 +139,20 @@ def check(table: Any, out: list[str], names: Mapping[str, Any] | None = None,
         return
     unknown_keys(f"{pre}.", table, KEYS, out)
     body = table.get("body")
+    cyclic = _cyclic_bodies(names)
     if body is not None and not isinstance(body, str):
         out.append(f"{pre}.body = {body!r}: expected a body name")
+    elif "blade_radius" in table and "region" in table:
+        out.append(f"{pre}: give one of blade_radius (m) or region (a node set): the blade")
+    elif cyclic:  # the geometry's cyclic bodies known: the run's own rule, before meshing
+        given = MistuningTable(body=body, blade_radius=1.0 if "blade_radius" in table else None,
+                               region="" if "region" in table else None)
+        try:
+            given.body_of(cyclic, tuple(names["bodies"]))
+        except ValueError as err:
+            out.append(str(err))
     elif body is not None and names is not None and body not in names["bodies"]:
         out.append(f"{pre}.body = {body!r}: not a body; bodies: {list(names['bodies'])}")
-    if "blade_radius" in table and "region" in table:
-        out.append(f"{pre}: give one of blade_radius (m) or region (a node set): the blade")
     elif "blade_radius" not in table and "region" not in table and body is None:
         out.append(f"{pre}: give the blade: blade_radius (m) or region (a node set) of the "
                    "cyclic body, or body = a body of separate blades")

@@ -64,8 +64,11 @@ SIGN_KRYLOV = 4 * MAX_KRYLOV
 #: Where GMRES fails even on fresh double-precision factors (the order-diagonal
 #: preconditioner misses a strong coupling of the orders: a stiff interlock of every sector
 #: of a whole shrouded disk), a system of at most this size is solved by a dense LU (8,192:
-#: 0.5 GB, ~0.4 TFLOP, seconds) rather than the branch stopped
+#: one 0.5 GB matrix factored in place, ~0.4 TFLOP, seconds) rather than the branch stopped;
+#: the same Jacobian's later solves go to it directly. A pivot below DENSE_SINGULAR x the
+#: largest is singular to working precision: the solve fails, as GMRES's did.
 DENSE_FALLBACK = 8192
+DENSE_SINGULAR = 1e-13
 
 
 @dataclass(frozen=True)
@@ -350,13 +353,24 @@ class _Bordered:
         return inverse
 
     def dense(self) -> np.ndarray:
-        """The (size, size) real matrix (the dense fallback)."""
-        A = self.J.dense()
+        """The (size, size) real matrix (the dense fallback), written in one array."""
+        n = self.n
+        A = np.empty((self.size, self.size))
+        A[:n, :n] = self.J.dense()
         if self.r is not None:
-            A *= self.r[:, None]
+            A[:n, :n] *= self.r[:, None]
         if self.c is not None:
-            A *= self.c[None, :]
-        return np.block([[A, self.C], [self.R, self.D]]) if self.D.size else A
+            A[:n, :n] *= self.c[None, :]
+        A[:n, n:], A[n:, :n], A[n:, n:] = self.C, self.R, self.D
+        return A
+
+    def same(self, other: _Bordered | None) -> bool:
+        """Whether ``other`` is this system (the same Jacobian, borders and scalings)."""
+        return other is not None and other.J is self.J and all(
+            (a is None and b is None) or (a is not None and b is not None
+                                          and np.array_equal(a, b))
+            for a, b in ((self.C, other.C), (self.R, other.R), (self.D, other.D),
+                         (self.r, other.r), (self.c, other.c)))
 
     def sign(self, factors: _Factors) -> float:
         s = factors.sign
@@ -424,17 +438,18 @@ class Preconditioner:
     """The per-order factors a model's Newton solves share, with how they fared: reused
     while GMRES converges in at most REFRESH_ITERATIONS, made again from the Jacobian at
     hand otherwise. Counters for benchmarks: ``solves``, ``iterations`` (GMRES, summed),
-    ``refreshes``, ``dense`` (solves by the dense fallback)."""
+    ``refreshes``, ``dense_solves`` (dense LUs of the fallback)."""
 
     def __init__(self):
         self._factors: _Factors | None = None
         self._first = 0  # GMRES iterations of the first solve on the current factors
-        self.solves = self.iterations = self.refreshes = self.dense = 0
+        self.solves = self.iterations = self.refreshes = self.dense_solves = 0
+        self._dense: tuple[_Bordered, tuple[np.ndarray, np.ndarray]] | None = None
 
     def __getstate__(self) -> dict:
         """Pickled without its factors (N_dof^2 per order: a model sent to a worker makes
         its own at its first solve)."""
-        return {**self.__dict__, "_factors": None, "_first": 0}
+        return {**self.__dict__, "_factors": None, "_first": 0, "_dense": None}
 
     def _fresh(self, J: BalanceJacobian, single: bool = True) -> _Factors:
         self._factors, self._first = _Factors.of(J, single), 0
@@ -482,15 +497,15 @@ class Preconditioner:
               rtol: float = RTOL) -> np.ndarray:
         if not np.all(np.isfinite(rhs)):
             raise ValueError("right-hand side has NaN or Inf")
-        try:
-            return self._run(J, system, rhs, rtol)[0]
-        except np.linalg.LinAlgError:
-            if system.size > DENSE_FALLBACK:
-                raise
-        self.dense += 1
-        with warnings.catch_warnings():  # an ill-conditioned J: Newton's residual judges
-            warnings.simplefilter("ignore", sla.LinAlgWarning)
-            return sla.solve(system.dense(), rhs, check_finite=False)
+        if not self._fell_back(system):
+            try:
+                x = self._run(J, system, rhs, rtol)[0]
+                self._dense = None  # (a kept LU is of an older Jacobian)
+                return x
+            except np.linalg.LinAlgError:
+                if system.size > DENSE_FALLBACK:
+                    raise
+        return sla.lu_solve(self._dense_factors(system), rhs, check_finite=False)
 
     def sign(self, J: BalanceJacobian, system: _Bordered) -> float:
         """sign det of the system: the factors' sign times that of the Arnoldi matrix of
@@ -500,15 +515,48 @@ class Preconditioner:
         # converged, or the Ritz values are not yet the eigenvalues and the sign is a
         # guess: then on fresh factors (old ones: the slow run makes them new), then in
         # double precision, else LinAlgError
-        try:
-            _, H, factors = self._run(J, system, start, SIGN_RTOL, SIGN_KRYLOV)
-        except np.linalg.LinAlgError:
-            if system.size > DENSE_FALLBACK:
-                raise
-            self.dense += 1
-            return float(np.linalg.slogdet(system.dense())[0])
-        s, _ = np.linalg.slogdet(H)
-        return system.sign(factors) * float(s)
+        if not self._fell_back(system):
+            try:
+                _, H, factors = self._run(J, system, start, SIGN_RTOL, SIGN_KRYLOV)
+                s, _ = np.linalg.slogdet(H)
+                return system.sign(factors) * float(s)
+            except np.linalg.LinAlgError:
+                if system.size > DENSE_FALLBACK:
+                    raise
+        return lu_sign(*self._dense_factors(system))
+
+    def _fell_back(self, system: _Bordered) -> bool:
+        """Whether the system's Jacobian already needed the dense fallback (its GMRES
+        failed): then its other solves go there directly."""
+        return self._dense is not None and self._dense[0].J is system.J \
+            and system.size <= DENSE_FALLBACK
+
+    def _dense_factors(self, system: _Bordered) -> tuple[np.ndarray, np.ndarray]:
+        """LU factors of the system's dense matrix, kept for the same system (a tangent's
+        solve, then its sign); LinAlgError where it holds NaN or Inf or is singular to
+        working precision (DENSE_SINGULAR)."""
+        if self._dense is not None and system.same(self._dense[0]):
+            return self._dense[1]
+        self._dense = None  # its memory before the new matrix's
+        A = system.dense()
+        if not np.all(np.isfinite(A)):
+            raise np.linalg.LinAlgError("the Jacobian holds NaN or Inf")
+        with warnings.catch_warnings():  # an exactly zero pivot is judged below
+            warnings.simplefilter("ignore", sla.LinAlgWarning)
+            lu, piv = sla.lu_factor(A, overwrite_a=True, check_finite=False)
+        pivots = np.abs(np.diag(lu))
+        if not pivots.min() > DENSE_SINGULAR * pivots.max():
+            raise np.linalg.LinAlgError("the Jacobian is singular to working precision (its "
+                                        "dense LU's pivots)")
+        self.dense_solves += 1
+        self._dense = (system, (lu, piv))
+        return lu, piv
+
+
+def lu_sign(lu: np.ndarray, piv: np.ndarray) -> float:
+    """Sign of the determinant of the matrix that LAPACK factored into (lu, piv)."""
+    swaps = np.count_nonzero(piv != np.arange(piv.size))
+    return float(np.prod(np.sign(np.diag(lu)))) * (-1.0) ** swaps
 
 
 def gmres(apply, precondition, b: np.ndarray, rtol: float = RTOL,

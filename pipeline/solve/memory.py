@@ -45,14 +45,16 @@ def balance_bytes(contact_dofs: int, linear_dofs: int, orders: int, coeffs: int,
     ``hbm.structured_by_default`` says dense, each entry also holds the condensed blocks
     S and two real n x n matrices, and a step WORKING_COPIES more; where structured
     (``solve.jacobian``): the blocks S once, the preconditioner's
-    single-precision inverses, the contact part's sparse matrix and the Krylov vectors,
-    nothing n x n. Linear part: K, M, C, M_part per order (complex, ``linear_dofs``
-    square). Contact kernel: the synthesis and analysis matrices (samples x coeffs each),
-    per point its Jacobian block (c coeffs)^2, the product B^T J B (dofs coeffs)^2 and the
-    map B between them, the time histories, and per thread the time derivative matrix
+    single-precision inverses, the contact part's sparse matrix and the Krylov vectors
+    (the sign's budget), nothing n x n but, at most ``jacobian.DENSE_FALLBACK`` unknowns,
+    the dense fallback's matrix and its LU. Linear part: K, M, C, M_part per order
+    (complex, ``linear_dofs`` square). Contact kernel: the synthesis and analysis matrices
+    (samples x coeffs each), per point its Jacobian block (c coeffs)^2, the product
+    B^T J B (dofs coeffs)^2 and the map B between them, the time histories, and per thread
+    the time derivative matrix
     (samples x d c coeffs)."""
     from .hbm import structured_by_default
-    from .jacobian import SIGN_KRYLOV
+    from .jacobian import DENSE_FALLBACK, SIGN_KRYLOV
 
     n = contact_dofs * coeffs
     blocks = COMPLEX * orders * contact_dofs**2  # one complex N_dof^2 matrix per order
@@ -63,6 +65,8 @@ def balance_bytes(contact_dofs: int, linear_dofs: int, orders: int, coeffs: int,
         working = WORKING_COPIES * dense
     else:  # S, the order blocks being inverted, the inverses (complex64), Krylov vectors
         working = 2 * blocks + blocks // 2 + 2 * REAL * SIGN_KRYLOV * (n + 1)
+        if n + 1 <= DENSE_FALLBACK:  # GMRES failed: the dense matrix, built, then its LU
+            working += 2 * REAL * (n + 1) ** 2
         working += sum(12 * c.points * (c.dofs * coeffs) ** 2 for c in contacts)
     evaluations = min(points, TYPICAL_POINTS) * EVALUATIONS_PER_POINT
     held = max(1, min(cache_limit // max(entry, 1), evaluations))

@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .branch import NewtonResult
-from .jacobian import STRUCTURED, BalanceJacobian, BorderedJacobian
+from .jacobian import STRUCTURED, BalanceJacobian, BorderedJacobian, lu_sign
 
 Problem = Callable[[np.ndarray, float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]]
 
@@ -186,12 +186,6 @@ def adapted_step(h: float, t_new: np.ndarray, tangent: np.ndarray, its: int,
 REUSE_FACTORS = 500
 
 
-def _lu_sign(lu: np.ndarray, piv: np.ndarray) -> float:
-    """Sign of the determinant of the matrix that LAPACK factored into (lu, piv)."""
-    swaps = np.count_nonzero(piv != np.arange(piv.size))
-    return float(np.prod(np.sign(np.diag(lu)))) * (-1.0) ** swaps
-
-
 def branch_tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac=None):
     """(t, s): the unit tangent of the scaled branch and s = sign det [J dR; t] for it.
 
@@ -212,7 +206,7 @@ def branch_tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac
         lu, piv = factors[0][0]
         t = sla.lu_solve((lu, piv), rhs, check_finite=False)
         if np.all(np.isfinite(t)) and np.linalg.norm(t) > 0:
-            return t / np.linalg.norm(t), _lu_sign(lu, piv)  # previous . t = 1 > 0
+            return t / np.linalg.norm(t), lu_sign(lu, piv)  # previous . t = 1 > 0
     Js = J * xs[None, :] / f_scale
     dRs = dR * lam_scale / f_scale
     A = np.zeros((n + 1, n + 1))
@@ -233,11 +227,11 @@ def branch_tangent(fun, x, lam, xs, lam_scale, f_scale, previous, direction, jac
             t = _solve(A, rhs, keep)
         except (np.linalg.LinAlgError, ValueError):
             return None
-        return t / np.linalg.norm(t), _lu_sign(*keep[0])  # previous . t = 1 > 0
+        return t / np.linalg.norm(t), lu_sign(*keep[0])  # previous . t = 1 > 0
     with warnings.catch_warnings():  # J is regular here (z was solved from it)
         warnings.simplefilter("ignore", sla.LinAlgWarning)
         lu, piv = sla.lu_factor(A, check_finite=False)
-    return t / np.linalg.norm(t), _lu_sign(lu, piv)
+    return t / np.linalg.norm(t), lu_sign(lu, piv)
 
 
 def _structured_tangent(J, dR, xs, lam_scale, f_scale, previous, direction):

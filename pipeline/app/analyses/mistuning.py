@@ -224,6 +224,7 @@ def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
     table, the amplification's statistics per level and the pictures."""
     name, store = spec.name, run.store
     t0 = time.perf_counter()
+    _free_faults(case, spec, run.models)
     study = members(case, spec)
     cases = [c for m in study for c in m.cases]
     first = np.cumsum([0] + [len(m.cases) for m in study])  # each member's tuned disk
@@ -269,6 +270,22 @@ def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
     draw_analysis(pictures.mistuning, group, spec, run, keys, cached=not rows.to_compute)
     status = np.array([r.get("status", "not run") for r in found], dtype=object)
     return rows_status(rows, status, [str(r.get("message", "")) for r in found], "runs", what)
+
+
+def _free_faults(case: Case, spec: MistuningStudy, models: AssemblyModels) -> None:
+    """InputError where ``free`` asks the disk without its contacts of a study whose
+    mistuned body is separate blades (the root joint's): that disk is the cyclic bodies
+    alone, without those blades, so its peak says nothing of theirs."""
+    from microslip.case import InputError
+    from microslip.case.mistuning_table import MistuningTable
+
+    mesh = models.mesh
+    table = MistuningTable.of(case.with_values(spec.set).data["assembly"]["mistuning"])
+    body = table.body_of(tuple(mesh.cyclic), tuple(mesh.bodies))
+    if spec.free and body not in mesh.cyclic:
+        raise InputError(f"analysis.{spec.name}.free = true: the disk without its contacts "
+                         f"is its cyclic bodies alone, without the separate blades {body!r} "
+                         "the study mistunes: set free = false")
 
 
 def locate(first: np.ndarray, i: int) -> tuple[int, int]:
@@ -395,8 +412,8 @@ def check(c: Checking) -> None:
         number(f"{c.pre}.limit", a["limit"], c.out, positive=True)
     rules.flag(c, "free", " (the disk without its dampers too)")
     if not isinstance((c.data.get("assembly") or {}).get("mistuning"), dict):
-        c.fault(": needs [assembly.mistuning] (its blade region: blade_radius or region; "
-                "the study draws the deviations)")
+        c.fault(": needs [assembly.mistuning] (its blades: a cyclic body's blade_radius or "
+                "region, or a body of separate blades; the study draws the deviations)")
 
 
 def seconds(data: dict, spec: MistuningStudy, variant: dict | None = None) -> float:
