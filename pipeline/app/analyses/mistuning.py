@@ -164,15 +164,14 @@ class Member:
 def members(case: Case, spec: MistuningStudy) -> list[Member]:
     """A Member per family value (one without a family): the case's ``set`` and member
     keys applied, its blade region kept, its own pattern replaced by the study's."""
-    variants = curve_variants(case, spec)
-    counts = {}  # blades per geometry (an imported mesh is read once)
-    for variant, _, _ in variants:
+    counts: dict[str, int | None] = {}  # blades per geometry (an import read once)
+    out = []
+    for variant, label, value in curve_variants(case, spec):
         geometry = json.dumps(variant.data.get("geometry"), sort_keys=True, default=str)
         if geometry not in counts:
             counts[geometry] = _sectors(variant)
-    return [_member(variant, spec, label, value, counts[json.dumps(
-        variant.data.get("geometry"), sort_keys=True, default=str)])
-            for variant, label, value in variants]
+        out.append(_member(variant, spec, label, value, counts[geometry]))
+    return out
 
 
 def _member(base: Case, spec: MistuningStudy, label: str, value: Any, sectors: int | None
