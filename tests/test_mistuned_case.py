@@ -274,6 +274,28 @@ def test_the_amplification_per_level_leaves_incomplete_patterns_out():
     assert np.isnan(over["exceedance"][2])  # a level with no pattern
 
 
+def test_the_study_names_its_patterns_peaking_at_an_end_of_the_window():
+    """The terminal's summary names each pattern (level by level, as drawn) whose peak is
+    the window's end, with the dampers and without, and says nothing where none is."""
+    from microslip.app.analyses.mistuning import MistuningStudy, _summary, _table
+
+    spec = MistuningStudy(name="amp", window=(3000.0, 3300.0), output="tip",
+                          sigma=(0.01, 0.05), patterns=2, limit=1.2)
+    rows = [{"peak": 1.0, "omega": 3150.0, "free_peak": 1.0, "free_omega": 3140.0}] + [
+        {"peak": 1.1, "omega": w, "free_peak": 1.1, "free_omega": f, "status": "complete"}
+        for w, f in ((3150.0, 3140.0), (3160.0, 3140.0), (3000.0, 3140.0), (3200.0, 3300.0))]
+    level = {"percentiles": np.ones((2, 3)), "largest": np.ones(2), "count": np.full(2, 2),
+             "exceedance": np.zeros(2), "exceedance_error": np.zeros(2)}
+    levels = {"friction": level, "free": level}
+    lines = _summary(spec, "", levels, _table(rows, 4), 4)
+    assert lines[-2].startswith("[amp]   friction: 1 of 5 peak at an end of the window "
+                                "[3000, 3300] rad/s: sigma 0.05 pattern 1 (3000 rad/s);")
+    assert lines[-1].startswith("[amp]   free: 1 of 5 peak at an end of the window "
+                                "[3000, 3300] rad/s: sigma 0.05 pattern 2 (3300 rad/s);")
+    rows[3]["omega"], rows[4]["free_omega"] = 3100.0, 3200.0
+    assert not any("window" in x for x in _summary(spec, "", levels, _table(rows, 4), 4))
+
+
 def test_a_study_draws_each_pattern_from_its_seed_and_index_alone():
     from microslip.app.analyses.mistuning import MistuningStudy
 
@@ -475,15 +497,39 @@ def test_a_study_task_is_located_in_its_member():
 
 def test_the_exceedance_leaves_nan_out_and_bounds_a_count_of_none():
     """P(y > limit) over the finite values only; where none (or all) exceed, the standard
-    error is 0 and says nothing: the text gives the count and the rule of three's 3 / n."""
+    error is 0 and says nothing: the text gives the count and the exact one-sided 95 %
+    bound, Clopper-Pearson's upper quantile of Beta(1, n) (scipy's, independent)."""
+    from scipy import stats
+
     from microslip.solve.sampling import exceedance, exceedance_text
 
     p, e = exceedance(np.array([1.0, 1.3, np.nan, 1.5]), 1.2)
     assert p == pytest.approx(2 / 3) and e == pytest.approx(np.sqrt(2 / 9 / 3))
     assert np.isnan(exceedance(np.array([1.0]), None)[0])
-    assert exceedance_text(0.0, 0.0, 40) == "= 0 (0 of 40; < 0.075 at 95 %)"
-    assert exceedance_text(1.0, 0.0, 40) == "= 1 (40 of 40; > 0.925 at 95 %)"
+    for n in (3, 40, 1000):  # 3: the rule of three's 3 / n would say < 1
+        bound = stats.beta.ppf(0.95, 1, n)
+        assert exceedance_text(0.0, 0.0, n) == f"= 0 (0 of {n}; < {bound:.3g} at 95 %)"
+        assert exceedance_text(1.0, 0.0, n) == f"= 1 ({n} of {n}; > {1 - bound:.3g} at 95 %)"
+    assert exceedance_text(0.0, 0.0, 40) == "= 0 (0 of 40; < 0.0722 at 95 %)"
     assert exceedance_text(0.25, 0.0684, 40) == "= 0.250 +- 0.068"
+
+
+def test_a_peak_at_an_end_of_the_window_is_named_as_a_lower_bound():
+    """A study's peak within EDGE_SHARE of the window's span of either end is where the
+    sweep stopped, not a resonance: counted and named; NaN (a pattern not run) is not."""
+    from microslip.solve.sampling import at_window_edge, window_edge_text
+
+    omega = np.array([3000.0, 3000.2, 3150.0, np.nan, 3299.9, 3100.0])
+    assert at_window_edge(omega, (3000.0, 3300.0)).tolist() == [
+        True, True, False, False, True, False]  # 0.3 rad/s of 300
+    names = [f"p{i}" for i in range(6)]
+    text = window_edge_text(omega, (3000.0, 3300.0), names)
+    assert text.startswith("3 of 6 peak at an end of the window [3000, 3300] rad/s: p0 "
+                           "(3000 rad/s), p1 (3000.2 rad/s), p4 (3299.9 rad/s);")
+    assert text.endswith("widen window")
+    assert window_edge_text(omega[2:4], (3000.0, 3300.0), names[2:4]) == ""
+    many = window_edge_text(np.full(5, 3000.0), (3000.0, 3300.0), names)
+    assert "p2 (3000 rad/s) and 2 more;" in many
 
 
 def test_a_family_may_not_vary_what_the_study_draws():

@@ -96,15 +96,15 @@ def _run_one(n_axial: int, n_flank: int, H: int, points: int, cache: str) -> dic
 
     t2 = time.perf_counter()
     pc = hb.preconditioner
-    before = (pc.solves, pc.iterations, pc.refreshes)
+    counters = ("solves", "iterations", "refreshes", "dense_solves")
+    before = [getattr(pc, c) for c in counters]
     r = sweep(hb, "frequency", w0, 1.1 * w0, base, x0=first.x,
               settings=cont.Settings(max_points=points + 1), progress=tick)
     steps = np.diff([t2, *times])[1:]  # the first is the start point again
-    solves, krylov, refreshes = (a - b for a, b in zip((pc.solves, pc.iterations,
-                                                          pc.refreshes), before))
+    solves, krylov, refreshes, dense = (getattr(pc, c) - b for c, b in zip(counters, before))
     return {"unknowns": hb.n_unknowns, "setup": setup, "first": t_first,
             "structured": hb.structured, "krylov": krylov / solves if solves else float("nan"),
-            "refreshes": refreshes,
+            "refreshes": refreshes, "dense": dense,
             "per_point": float(np.median(steps)) if len(steps) else float("nan"),
             "iterations": float(np.mean(its[1:])) if len(its) > 1 else float("nan"),
             "points": len(r) - 1, "status": r.branch.status,
@@ -142,10 +142,11 @@ def main(argv: list[str] | None = None) -> int:
     rate = LU_400_FLOP / unit
     print(f"reference: 400 x 400 LU {unit * 1e3:.2f} ms ({rate / 1e9:.1f} GFLOP/s); "
           f"{args.threads} BLAS thread(s) per configuration; 'gmres': Krylov iterations per "
-          "Newton solve (LU: dense), 'new P': preconditioners made over the points")
+          "Newton solve (LU: dense), 'new P': preconditioners made over the points, 'dense': "
+          "the structured solves' dense fallbacks (GMRES failed) over the points")
     header = (f"{'grid':>9} {'H':>2} {'unknowns':>8} {'setup s':>8} {'first s':>8} "
-              f"{'s/point':>8} {'its/pt':>6} {'gmres':>5} {'new P':>5} {'LU s':>7} "
-              f"{'x LU':>5} {'peak MB':>8}  status")
+              f"{'s/point':>8} {'its/pt':>6} {'gmres':>5} {'new P':>5} {'dense':>5} "
+              f"{'LU s':>7} {'x LU':>5} {'peak MB':>8}  status")
     print(header)
     rows: dict[int, list[tuple[int, float]]] = {}
     ctx = multiprocessing.get_context("spawn")
@@ -165,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
             gm = f"{res['krylov']:5.1f}" if res["structured"] else f"{'LU':>5}"
             print(f"{grid:>9} {H:>2} {res['unknowns']:>8} {res['setup']:8.1f} "
                   f"{res['first']:8.2f} {res['per_point']:8.3f} {res['iterations']:6.1f} "
-                  f"{gm} {res['refreshes']:5d} "
+                  f"{gm} {res['refreshes']:5d} {res['dense']:5d} "
                   f"{lu:7.3f} {res['per_point'] / lu:5.2f} {res['memory_mb']:8.0f}  "
                   f"{res['status']} ({res['points']} points)", flush=True)
             rows.setdefault(H, []).append((res["unknowns"], res["per_point"]))

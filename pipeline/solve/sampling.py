@@ -112,13 +112,44 @@ def exceedance(y: np.ndarray, limit: float | None) -> tuple[float, float]:
 def exceedance_text(p: float, error: float, n: int) -> str:
     """An exceedance probability for the terminal: "= p +- error", or where none (or
     every one) of the n values exceeded, where the standard error says nothing, the
-    count and the 95 % bound 3 / n (the rule of three)."""
+    count and the exact one-sided 95 % bound 1 - 0.05^(1/n) (Clopper-Pearson; the rule of
+    three's 3 / n for large n, which exceeds 1 below n = 4)."""
     if not n or not np.isfinite(p):
         return "= n/a (no value)"
     if p in (0.0, 1.0):
-        side = f"< {3 / n:.3g}" if p == 0 else f"> {1 - 3 / n:.3g}"
+        bound = 1.0 - 0.05 ** (1.0 / n)
+        side = f"< {bound:.3g}" if p == 0 else f"> {1 - bound:.3g}"
         return f"= {p:g} ({int(p * n)} of {n}; {side} at 95 %)"
     return f"= {p:.3f} +- {error:.3f}"
+
+
+#: a peak within this share of the window's span of either end is the window's end: the
+#: sweep's largest point there is where the range stops, not a resonance
+EDGE_SHARE = 1e-3
+
+
+def at_window_edge(omega: np.ndarray, window: tuple[float, float]) -> np.ndarray:
+    """(n,) bool: the peak frequencies ``omega`` (NaN: False) at an end of ``window``."""
+    lo, hi = window
+    tol = EDGE_SHARE * (hi - lo)
+    omega = np.asarray(omega, dtype=float)
+    with np.errstate(invalid="ignore"):
+        return (np.abs(omega - lo) <= tol) | (np.abs(omega - hi) <= tol)
+
+
+def window_edge_text(omega: np.ndarray, window: tuple[float, float], what: list[str]
+                     ) -> str:
+    """"" where no peak of ``omega`` sits at an end of ``window``; else a line naming the
+    count, the first few of ``what`` (each peak's name) and what to do: such a peak is the
+    window's end, a lower bound of the resonance's."""
+    edge = np.flatnonzero(at_window_edge(omega, window))
+    if not edge.size:
+        return ""
+    named = ", ".join(f"{what[i]} ({omega[i]:.6g} rad/s)" for i in edge[:3])
+    more = f" and {edge.size - 3} more" if edge.size > 3 else ""
+    return (f"{edge.size} of {len(omega)} peak at an end of the window "
+            f"[{window[0]:g}, {window[1]:g}] rad/s: {named}{more}; each is a lower bound "
+            "of its resonance's: widen window")
 
 
 def _ranks(a: np.ndarray) -> np.ndarray:

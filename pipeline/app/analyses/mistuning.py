@@ -39,7 +39,7 @@ from microslip.case.mistuning_table import MAX_SIGMA
 from microslip.case.specs import Analysis, Family
 from microslip.draw import pictures
 from microslip.results import schema
-from microslip.solve.sampling import exceedance, exceedance_text
+from microslip.solve.sampling import exceedance, exceedance_text, window_edge_text
 
 from ..limits import linear_peak
 from ..models import AssemblyModels
@@ -367,7 +367,7 @@ def _summary(spec: MistuningStudy, label: str, levels: dict, table: dict, sector
              ) -> list[str]:
     """The terminal's lines of one member: its tuned peak (and without the dampers) and
     Whitehead's bound, then per level and case the amplification's median, 95 %, largest
-    and P(A > limit)."""
+    and P(A > limit), and the peaks at an end of the window (lower bounds) where any."""
     pre = f"[{spec.name}] " + (f"{label}: " if label else "")
     lines = [pre + f"tuned peak {table['peak'][0]:.4g} m at {table['omega'][0]:.6g} rad/s"
              + (f", free {table['free_peak'][0]:.4g} m" if spec.free else "")
@@ -381,6 +381,11 @@ def _summary(spec: MistuningStudy, label: str, levels: dict, table: dict, sector
             lines.append(f"{pre}  sigma {s:g}, {case}: amplification median {p50:.3f}, "
                          f"95 % {p95:.3f}, largest {d['largest'][k]:.3f}{over} "
                          f"({d['count'][k]} patterns)")
+    names = ["the tuned disk"] + [f"sigma {s:g} pattern {j + 1}" for s in spec.sigma
+                                  for j in range(spec.patterns)]
+    for case, key in (("friction", "omega"), ("free", "free_omega")):
+        edge = window_edge_text(table[key], spec.window, names) if case in levels else ""
+        lines += [f"{pre}  {case}: {edge}"] if edge else []
     return lines
 
 

@@ -36,6 +36,7 @@ from microslip.solve.sampling import (
     design,
     exceedance_text,
     statistics,
+    window_edge_text,
 )
 
 from ..limits import linear_peak
@@ -281,7 +282,8 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run: Run
     levels = _levels(case, spec, run) if spec.levels and isinstance(
         run.models, AssemblyModels) and not stopped else {}
     _write_statistics(run.writer, group, spec, st, levels)
-    run.progress(_summary(spec, names, st, levels, n, time.perf_counter() - t0))
+    edge = window_edge_text(table["omega"], spec.window, [f"sample {i + 1}" for i in range(n)])
+    run.progress(_summary(spec, names, st, levels, n, time.perf_counter() - t0, edge))
     draw_analysis(pictures.uncertainty, group, spec, run, keys, cached=not rows.to_compute)
     return rows_status(rows, status, messages, "samples", lambda i: f"sample {i + 1}")
 
@@ -334,8 +336,10 @@ def _levels(case: Case, spec: Uncertainty, run: Run) -> dict[str, float]:
     return out
 
 
-def _summary(spec: Uncertainty, names, st, levels: dict, n: int, elapsed: float) -> str:
-    """The study's lines for the terminal: percentiles, exceedance, sensitivities."""
+def _summary(spec: Uncertainty, names, st, levels: dict, n: int, elapsed: float,
+             edge: str = "") -> str:
+    """The study's lines for the terminal: percentiles, exceedance, sensitivities, and
+    ``edge``: the samples whose peak sits at an end of the window, where any."""
     p5, p50, p95 = st.percentiles
     lines = [f"[{spec.name}] peak of {spec.output} over {st.count} of {n} samples "
              f"({elapsed:.1f} s): 5 % {p5:.4g}, median {p50:.4g}, 95 % {p95:.4g} m"]
@@ -347,6 +351,7 @@ def _summary(spec: Uncertainty, names, st, levels: dict, n: int, elapsed: float)
             st.exceedance, st.exceedance_error, st.count))
     for k, rs, pr in zip(names, st.spearman, st.prcc):
         lines.append(f"[{spec.name}]   {k}: rank correlation {rs:+.2f}, partial {pr:+.2f}")
+    lines += [f"[{spec.name}]   {edge}"] if edge else []
     return "\n".join(lines)
 
 
