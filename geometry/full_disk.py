@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import elements
-from .boundaries import ContactPatch
+from .boundaries import AveragedContact, ContactPatch, SurfaceContact
 from .mesh import Mesh, rotation_z
+from .pairing import PairedContact, keep_pairs, paired_contact, turned_copy
 
 
 def sector_count(sector: Mesh) -> int:
@@ -50,10 +51,11 @@ def full_disk(sector: Mesh) -> Mesh:
     one body of the same name, its copies joined node for node at the cyclic faces (copy
     k's right face is copy k+1's left face). Every other body (blade, damper) becomes Ns
     bodies "<body>#k" with their own nodes. Node sets become "<set>#k" (one per copy; the
-    cyclic face sets are dropped: they are interior now). Contact patches become
-    "<patch>#k"; a patch whose body_b is in the neighbouring sector (b_sector_offset = s)
-    pairs copy k of body_a with copy k+s of body_b, so every full-disk patch is a plain
-    coincident pair (b_sector_offset = 0).
+    cyclic face sets are dropped: they are interior now). Contacts become "<name>#k"; one
+    whose body_b is in the neighbouring sector (b_sector_offset = s) pairs copy k of body_a
+    with copy k+s of body_b, so every full-disk contact is in place (b_sector_offset = 0).
+    A contact between named surfaces (an imported model's) keeps the sector's pairs on
+    every copy, turned (``geometry.pairing.turned_copy``).
 
     Shapes: points (Ns * n_unique, 3), each element shape Ns times the sector's. Needs one
     common Ns.
@@ -75,10 +77,10 @@ def full_disk(sector: Mesh) -> Mesh:
         if not name.startswith("cyclic/")
         for k in range(ns)
     }
-    contacts = _copied_contacts(sector, node_map, phi)
+    contacts, pairs = _copied_contacts(sector, node_map, phi)
     curved_edges, edge_nodes = _copied_curved_edges(sector, node_map, phi)
     averages = np.vstack([node_map[k][sector.averages] for k in range(ns)])
-    return Mesh(
+    disk = Mesh(
         averages=averages.reshape(-1, 2),
         average_weights=np.tile(sector.average_weights, ns),
         model=f"{sector.model}_full",
@@ -93,6 +95,9 @@ def full_disk(sector: Mesh) -> Mesh:
         hexahedra=_stacked(cells["hexahedron"], "hexahedron"),
         wedges=_stacked(cells["wedge"], "wedge"),
     )
+    for name, p in pairs.items():
+        keep_pairs(disk, name, p)
+    return disk
 
 
 def _copied_bodies(sector: Mesh, node_map: np.ndarray
@@ -125,26 +130,52 @@ def _copied_bodies(sector: Mesh, node_map: np.ndarray
 
 
 def _copied_contacts(sector: Mesh, node_map: np.ndarray, phi: float
-                     ) -> dict[str, ContactPatch]:
-    """Every contact patch in every copy, "<patch>#k": copy k of body_a against copy
-    k + b_sector_offset of body_b (so each is a coincident pair)."""
+                     ) -> tuple[dict[str, ContactPatch | SurfaceContact | AveragedContact],
+                                dict[str, PairedContact]]:
+    """Every contact in every copy, "<name>#k": copy k of body_a against copy
+    k + b_sector_offset of body_b (so each is in place, no offset), and the pairs of the
+    copies of contacts between named surfaces: the sector's pairs turned, in their order
+    (the sector's per-pair stiffness follows it; pairing the copy afresh could order its
+    pairs otherwise, and its default frames do not turn with a near-axial normal)."""
     ns = len(node_map)
 
-    def body_copy(body: str, k: int) -> str:
-        return body if body in sector.cyclic else f"{body}#{k % ns}"
+    def body_copy(body: str | None, k: int) -> str | None:
+        return body if body is None or body in sector.cyclic else f"{body}#{k % ns}"
 
-    contacts = {}
+    contacts: dict[str, ContactPatch | SurfaceContact | AveragedContact] = {}
+    pairs = {}
     for name, p in sector.contacts.items():
-        if not isinstance(p, ContactPatch):
-            raise ValueError(f"full_disk: contact {name!r} is between named surfaces; only "
-                             "structured patches are copied round the disk")
+        sector_pairs = None if isinstance(p, ContactPatch) else paired_contact(sector, name)
         for k in range(ns):
-            kb = k + p.b_sector_offset
-            contacts[f"{name}#{k}"] = ContactPatch(
-                f"{name}#{k}", body_copy(p.body_a, k), body_copy(p.body_b, kb),
-                node_map[k][p.nodes_a], node_map[kb % ns][p.nodes_b],
-                rotation_z(k * phi) @ p.normal, p.area)
-    return contacts
+            kb = (k + p.b_sector_offset) % ns
+            copy, a, b = f"{name}#{k}", body_copy(p.body_a, k), body_copy(p.body_b, kb)
+            if isinstance(p, ContactPatch):
+                contacts[copy] = ContactPatch(
+                    copy, a, b, node_map[k][p.nodes_a], node_map[kb][p.nodes_b],
+                    rotation_z(k * phi) @ p.normal, p.area)
+                continue
+            contacts[copy] = _named_copy(p, copy, a, b, node_map[k], node_map[kb], k, kb,
+                                         k * phi)
+            pairs[copy] = turned_copy(sector_pairs, copy, a, b, node_map[k], node_map[kb],
+                                      k * phi)
+    return contacts, pairs
+
+
+def _named_copy(c: SurfaceContact | AveragedContact, name: str, a: str, b: str | None,
+                map_a: np.ndarray, map_b: np.ndarray, k: int, kb: int, angle: float
+                ) -> SurfaceContact | AveragedContact:
+    """The definition of a contact between named surfaces on copy k (side b on copy kb):
+    its node sets' copies "<set>#k", or an averaged contact's points and facets through the
+    copies' node maps, turned by ``angle``."""
+    set_b = f"{c.set_b}#{kb}" if c.set_b else c.set_b  # (None or "": the ground)
+    if isinstance(c, SurfaceContact):
+        return SurfaceContact(name, a, f"{c.set_a}#{k}", b, set_b, 0, c.tolerance, c.spread)
+    faces = np.where(c.faces < 0, -1, map_a[np.maximum(c.faces, 0)])
+    nodes = np.unique(c.faces[c.faces >= 0])
+    return AveragedContact(
+        name, a, b, map_a[c.nodes_a], map_b[c.nodes_b], c.normals @ rotation_z(angle).T,
+        c.areas, c.gaps, faces, c.owner[np.argsort(map_a[nodes])], 0, c.spread, c.spacing,
+        f"{c.set_a}#{k}", set_b, c.dropped, c.reach)
 
 
 def _copied_curved_edges(sector: Mesh, node_map: np.ndarray, phi: float

@@ -442,6 +442,30 @@ def paired_contact(mesh: Mesh, name: str) -> PairedContact:
     return mesh.derived[key]
 
 
+def keep_pairs(mesh: Mesh, name: str, pairs: PairedContact) -> None:
+    """Give contact ``name`` of ``mesh`` the pairs ``pairs`` (what :func:`paired_contact`
+    then returns): a whole disk's copy of a sector's contact keeps the sector's pairs, in
+    their order, which its copied per-pair stiffness follows."""
+    mesh.derived[("paired", name)] = pairs
+
+
+def turned_copy(p: PairedContact, name: str, body_a: str, body_b: str | None,
+                map_a: np.ndarray, map_b: np.ndarray, angle: float) -> PairedContact:
+    """A sector's contact ``p`` on a copy of the sector turned by ``angle`` [rad] about +z
+    (a whole disk's): its nodes through ``map_a`` (sector node -> copy node, side a's
+    sector) and ``map_b`` (side b's, the sector it touches), its normals and frames turned
+    with it, its pairs in ``p``'s order, side b in place (no sector offset)."""
+    R = rotation_z(angle)
+    q = p.pairing
+    pairing = SurfacePairing(map_a[q.nodes_a], map_b[q.nodes_b], q.weights, q.normals @ R.T,
+                             q.areas, q.gaps, q.outside, q.matching)
+    facets = Surface(map_a[p.facets.triangles], map_a[p.facets.quads])
+    # an averaged contact's owner follows its facets' nodes sorted: sorted again here
+    owner = None if p.owner is None else p.owner[np.argsort(map_a[p.facets.nodes])]
+    return PairedContact(name, body_a, body_b, 0, pairing, facets, p.grid,
+                         p.frames[:, 0] @ R.T, p.dropped, owner)
+
+
 def _patch_pairs(mesh: Mesh, name: str, patch: ContactPatch) -> PairedContact:
     """A structured patch: its grid's pairs node for node, equal areas, one normal, the
     first tangent along the grid's first direction."""

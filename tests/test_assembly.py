@@ -284,6 +284,92 @@ def test_averaged_contact_points_cyclic_sector_equals_the_full_disk(averaged, mu
     assert err <= rtol, err
 
 
+@pytest.fixture(scope="module")
+def named():
+    """The sector with its flanks declared between named surfaces (an imported model's
+    contacts: the left one node to node, the right one, on the neighbour's platform,
+    points averaging patches of it), and its full disk (the sector's pairs turned onto
+    every copy)."""
+    import dataclasses
+
+    from microslip.geometry.averaging import averaged_surfaces
+    from microslip.geometry.pairing import declare_contact
+
+    mesh = geometry.blisk_sector(**GEOMETRY)
+    contacts = {name: declare_contact(mesh, name, (f"contact/{name}/damper",
+                                                   f"contact/{name}/blisk"),
+                                      neighbour=name == "damper_right", spread="nodes")
+                for name in ("damper_left", "damper_right")}
+    # 4 points over the flank's 6 nodes (2 of them patches of 2: an owner to re-sort)
+    mesh = averaged_surfaces(dataclasses.replace(mesh, contacts=contacts), "damper_right",
+                             0.006)
+    assert len(mesh.contacts["damper_right"].nodes_a) == 4
+    sector = mesh, structure.reduce_structure(mesh, {**REDUCTION, "nodal_diameters": [0, 1]},
+                                              None, progress=lambda s: None)
+    return sector, _full_disk(sector)
+
+
+@pytest.mark.parametrize("mu, amplitude, rtol", [(1e4, 1.0, 1e-7), (0.5, 15.0, 1e-4)])
+def test_named_surface_contacts_cyclic_sector_equals_the_full_disk(named, mu, amplitude, rtol):
+    """As test_cyclic_sector_equals_the_full_disk (same tolerances, same reasons), with the
+    contacts between named surfaces: each copy keeps the sector's pairs, their order (the
+    per-pair stiffness follows it), weights and areas, its nodes and frames turned."""
+    from microslip.geometry.mesh import rotation_z
+    from microslip.geometry.pairing import paired_contact
+
+    (mesh, _), (full, _) = named
+    phi = 2 * np.pi / NS
+    for name in mesh.contacts:
+        p = paired_contact(mesh, name)
+        for k in range(NS):
+            q = paired_contact(full, f"{name}#{k}")
+            R = rotation_z(k * phi)
+            np.testing.assert_allclose(full.points[q.pairing.nodes_a],
+                                       mesh.points[p.pairing.nodes_a] @ R.T, atol=1e-12)
+            assert (q.pairing.weights != p.pairing.weights).nnz == 0
+            np.testing.assert_array_equal(q.pairing.areas, p.pairing.areas)
+            np.testing.assert_allclose(q.frames, p.frames @ R.T, atol=1e-14)
+            # the map's cells: each copied node stands in its sector node's point
+            (nodes, owner, _), (own, owner_s, _) = q.map_cells(), p.map_cells()
+            if owner is not None:
+                mapped = geometry.disk_node_map(mesh)[k][own]
+                assert dict(zip(nodes.tolist(), owner.tolist())) == dict(
+                    zip(mapped.tolist(), owner_s.tolist()))
+    h = Harmonics.up_to(1, 64)
+    cyc = model(named[0], mu, h=h, amplitude=amplitude)
+    ref = full_disk_model(named[1], mu, 1, h, amplitude)
+    w0 = first_bending(named[0])
+    amp = lambda c: np.hypot(c[0, 1], c[0, 2])  # noqa: E731  first-harmonic amplitude
+    err = max(abs(amp(cyc.output_coefficients(*solved(cyc, w)))
+                  / amp(ref.output_coefficients(*solved(ref, w))) - 1)
+              for w in (0.98 * w0, w0, 1.02 * w0))
+    assert err <= rtol, err
+
+
+def test_a_turned_copy_turns_the_frames_of_near_axial_normals(named):
+    """A copy's frames are the sector's turned, also where the default frame of a normal
+    within 25 deg of the axis takes +x as its first direction, which does not turn: the
+    copy's own default frames differ there (the test can fail)."""
+    import dataclasses
+
+    from microslip.geometry.mesh import rotation_z
+    from microslip.geometry.pairing import paired_contact, turned_copy
+
+    (mesh, _), _ = named
+    p = paired_contact(mesh, "damper_left")
+    k = len(p.pairing.nodes_a)
+    axial = np.tile([0.2, 0.1, 1.0] / np.linalg.norm([0.2, 0.1, 1.0]), (k, 1))
+    p = dataclasses.replace(p, pairing=dataclasses.replace(p.pairing, normals=axial))
+    identity = np.arange(len(mesh.points))
+    angle = 2 * np.pi / NS
+    q = turned_copy(p, "copy", p.body_a, p.body_b, identity, identity, angle)
+    R = rotation_z(angle)
+    np.testing.assert_allclose(q.pairing.normals, axial @ R.T, atol=1e-15)
+    np.testing.assert_allclose(q.frames, p.frames @ R.T, atol=1e-14)
+    untouched = dataclasses.replace(q, reference=None)
+    assert np.abs(untouched.frames - q.frames).max() > 0.5
+
+
 def test_a_damper_nothing_holds_is_reported_not_solved(sector):
     """No centrifugal load and zero interference: nothing presses the damper on the flanks,
     its static position is undetermined (the order-0 block singular). The solve must stop
