@@ -669,3 +669,21 @@ def test_an_imported_sectors_mistuned_whole_disk_is_the_native_ones(tmp_path):
     one = sector[:, :, 1] + 1j * sector[:, :, 2]
     assert np.abs(turned - one).max() < 1e-8 * np.abs(one).max()
     assert np.abs(tuned[:, :, 0] - sector[:, :, :1][..., 0]).max() < 1e-8 * np.abs(one).max()
+
+
+def test_a_whole_disk_of_sectors_meshed_apart_is_refused_in_one_line():
+    """The whole disk joins its sectors node for node: cyclic faces tied by interpolation (a
+    free mesh's) are refused before any reduction, naming the body (the run's InputError)."""
+    import dataclasses
+
+    from microslip.case.reduction_table import ReductionTable, body_specs
+
+    mesh = geometry.blisk_sector(**PARAMS)
+    red = ReductionTable.of(CASE["reduction"], MistuningTable.of({"blade_radius": 0.205}))
+    assert len(body_specs(mesh, red)) == 2
+    apart = dataclasses.replace(mesh, cyclic={"blisk": dataclasses.replace(
+        mesh.cyclic["blisk"], matching=False)})
+    with pytest.raises(ValueError, match=r"cyclic faces of \['blisk'\] are tied by "
+                                         "interpolation"):
+        body_specs(apart, red)
+    assert len(body_specs(apart, ReductionTable.of(CASE["reduction"]))) == 2  # the sector

@@ -409,6 +409,8 @@ def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: boo
     """One BodySpec per body of the mesh, by the naming conventions and the case's overrides;
     ``surfaces``: every body also recovered on its outer surface (deformed-shape pictures)."""
     red = ReductionTable.of(red)
+    if red.mistuning is not None:
+        _whole_disk_faults(mesh)
     specs = []
     for body in sorted(mesh.bodies):
         b = red.bodies.get(body, BodyTable())
@@ -435,6 +437,20 @@ def body_specs(mesh: Any, red: Mapping[str, Any] | ReductionTable, surfaces: boo
         raise ValueError(f"reduction.bodies: {unknown} are not bodies of this mesh; it has "
                          f"{sorted(mesh.bodies)}")
     return specs
+
+
+def _whole_disk_faults(mesh: Any) -> None:
+    """ValueError where a mistuned case's mesh cannot make its whole disk: the sectors are
+    joined node for node at the cyclic faces, of one sector count."""
+    apart = sorted(b for b, c in mesh.cyclic.items() if not c.matching)
+    if apart:
+        raise ValueError(f"assembly.mistuning: the whole disk joins its sectors node for node, "
+                         f"but the cyclic faces of {apart} are tied by interpolation (meshed "
+                         "apart): mesh them matching")
+    counts = sorted({c.sectors for c in mesh.cyclic.values()})
+    if len(counts) > 1:
+        raise ValueError(f"assembly.mistuning: the whole disk needs one sector count; the "
+                         f"cyclic bodies have {counts}")
 
 
 def _region(mesh: Any, mistuning: MistuningTable | None, body: str) -> tuple[int, ...]:
