@@ -357,11 +357,11 @@ class PairedContact:
     name; body_a; body_b (None: the ground); b_sector_offset: k, side b is turned by
     ``k phi`` of body b's sectors; pairing: side a's pairs (:class:`SurfacePairing`), the
     nodes touching something; facets: side a's faces, mesh nodes (a map's cells); grid:
-    (n1, n2) of a structured patch (pairs row-major), else None; reference: (3,) direction
-    the first tangent follows (None: ``normal_frames``' default); dropped: side a's nodes
-    left out, touching nothing (their count), and how far beyond side b the farthest one
-    projects [m]; owner: averaged points only, (m,) the pair each of the facets' nodes
-    (sorted) stands in (None: the facets' nodes are the pairs' own).
+    (n1, n2) of a structured patch (pairs row-major), else None; reference: (3,) or (k, 3)
+    per pair, the direction the first tangent follows (None: ``normal_frames``' default);
+    dropped: side a's nodes left out, touching nothing (their count), and how far beyond
+    side b the farthest one projects [m]; owner: averaged points only, (m,) the pair each
+    of the facets' nodes (sorted) stands in (None: the facets' nodes are the pairs' own).
     """
 
     name: str

@@ -300,7 +300,7 @@ def named():
                                                    f"contact/{name}/blisk"),
                                       neighbour=name == "damper_right", spread="nodes")
                 for name in ("damper_left", "damper_right")}
-    # 4 points over the flank's 6 nodes (2 of them patches of 2: an owner to re-sort)
+    # 4 points over the flank's 6 nodes (2 of them patches of 2 nodes)
     mesh = averaged_surfaces(dataclasses.replace(mesh, contacts=contacts), "damper_right",
                              0.006)
     assert len(mesh.contacts["damper_right"].nodes_a) == 4
@@ -368,6 +368,35 @@ def test_a_turned_copy_turns_the_frames_of_near_axial_normals(named):
     np.testing.assert_allclose(q.frames, p.frames @ R.T, atol=1e-14)
     untouched = dataclasses.replace(q, reference=None)
     assert np.abs(untouched.frames - q.frames).max() > 0.5
+
+
+def test_a_turned_copy_keeps_each_pair_and_map_cell_through_any_node_numbering(named):
+    """A copy's node numbers need not follow the sector's order (a copy's left cyclic face
+    takes the previous copy's numbers): through reversed and rolled numberings, every pair
+    keeps its place (the per-pair stiffness follows it) and every facet node its averaged
+    point, in the pairs and in the copied definition (the owner re-sorted with its nodes)."""
+    from microslip.geometry.full_disk import _named_copy
+    from microslip.geometry.pairing import _averaged_pairs, paired_contact, turned_copy
+
+    (mesh, _), _ = named
+    n = len(mesh.points)
+    map_a, map_b = np.arange(n)[::-1].copy(), np.roll(np.arange(n), 7)
+    c = mesh.contacts["damper_right"]
+    p = paired_contact(mesh, "damper_right")
+    q = turned_copy(p, "copy", c.body_a, c.body_b, map_a, map_b, 0.3)
+    np.testing.assert_array_equal(q.pairing.nodes_a, map_a[p.pairing.nodes_a])
+    np.testing.assert_array_equal(q.pairing.nodes_b, map_b[p.pairing.nodes_b])
+    nodes, owner, faces = p.map_cells()
+    defined = _averaged_pairs(_named_copy(c, "copy", c.body_a, c.body_b, map_a, map_b, 0, 1,
+                                          0.3))
+    for copy in (q, defined):
+        got_nodes, got_owner, got_faces = copy.map_cells()
+        assert np.all(np.diff(got_nodes) > 0)  # sorted, as map_cells' indices assume
+        assert dict(zip(got_nodes.tolist(), got_owner.tolist())) == dict(
+            zip(map_a[nodes].tolist(), owner.tolist()))
+        np.testing.assert_array_equal(np.where(got_faces < 0, -1, got_nodes[got_faces]),
+                                      np.where(faces < 0, -1, map_a[nodes[faces]]))
+    np.testing.assert_allclose(defined.frames, q.frames, atol=1e-14)  # (not near-axial)
 
 
 def test_a_damper_nothing_holds_is_reported_not_solved(sector):

@@ -113,7 +113,7 @@ def exceedance_text(p: float, error: float, n: int) -> str:
     """An exceedance probability for the terminal: "= p +- error", or where none (or
     every one) of the n values exceeded, where the standard error says nothing, the
     count and the exact one-sided 95 % bound 1 - 0.05^(1/n) (Clopper-Pearson; the rule of
-    three's 3 / n for large n, which exceeds 1 below n = 4)."""
+    three's 3 / n for large n, which reaches 1 at n = 3)."""
     if not n or not np.isfinite(p):
         return "= n/a (no value)"
     if p in (0.0, 1.0):
@@ -129,27 +129,29 @@ EDGE_SHARE = 1e-3
 
 
 def at_window_edge(omega: np.ndarray, window: tuple[float, float]) -> np.ndarray:
-    """(n,) bool: the peak frequencies ``omega`` (NaN: False) at an end of ``window``."""
+    """(n,) bool: the peak frequencies ``omega`` (NaN: False) at or beyond an end of
+    ``window`` (a branch may fold past it)."""
     lo, hi = window
     tol = EDGE_SHARE * (hi - lo)
     omega = np.asarray(omega, dtype=float)
     with np.errstate(invalid="ignore"):
-        return (np.abs(omega - lo) <= tol) | (np.abs(omega - hi) <= tol)
+        return (omega <= lo + tol) | (omega >= hi - tol)
 
 
 def window_edge_text(omega: np.ndarray, window: tuple[float, float], what: list[str]
                      ) -> str:
-    """"" where no peak of ``omega`` sits at an end of ``window``; else a line naming the
-    count, the first few of ``what`` (each peak's name) and what to do: such a peak is the
-    window's end, a lower bound of the resonance's."""
+    """"" where no peak of ``omega`` (NaN: a sample left out of the statistics) sits at an
+    end of ``window``; else a line naming the count among the finite ones, the first few
+    of ``what`` (each peak's name) and what to do: such a peak is where the window stops, a
+    lower bound of its resonance's."""
     edge = np.flatnonzero(at_window_edge(omega, window))
     if not edge.size:
         return ""
     named = ", ".join(f"{what[i]} ({omega[i]:.6g} rad/s)" for i in edge[:3])
     more = f" and {edge.size - 3} more" if edge.size > 3 else ""
-    return (f"{edge.size} of {len(omega)} peak at an end of the window "
+    return (f"{edge.size} of {int(np.isfinite(omega).sum())} peaks at an end of the window "
             f"[{window[0]:g}, {window[1]:g}] rad/s: {named}{more}; each is a lower bound "
-            "of its resonance's: widen window")
+            "of its resonance's: widen the window")
 
 
 def _ranks(a: np.ndarray) -> np.ndarray:

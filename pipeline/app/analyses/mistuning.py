@@ -383,8 +383,11 @@ def _summary(spec: MistuningStudy, label: str, levels: dict, table: dict, sector
                          f"({d['count'][k]} patterns)")
     names = ["the tuned disk"] + [f"sigma {s:g} pattern {j + 1}" for s in spec.sigma
                                   for j in range(spec.patterns)]
+    complete = table["status"] == "complete"
+    complete[0] = True  # (the tuned disk: its peak divides every amplification)
     for case, key in (("friction", "omega"), ("free", "free_omega")):
-        edge = window_edge_text(table[key], spec.window, names) if case in levels else ""
+        omega = np.where(complete, table[key], np.nan)  # (as the statistics: complete ones)
+        edge = window_edge_text(omega, spec.window, names) if case in levels else ""
         lines += [f"{pre}  {case}: {edge}"] if edge else []
     return lines
 

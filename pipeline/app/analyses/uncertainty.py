@@ -282,7 +282,8 @@ def run_uncertainty(case: Case, spec: Uncertainty, group: h5py.Group, run: Run
     levels = _levels(case, spec, run) if spec.levels and isinstance(
         run.models, AssemblyModels) and not stopped else {}
     _write_statistics(run.writer, group, spec, st, levels)
-    edge = window_edge_text(table["omega"], spec.window, [f"sample {i + 1}" for i in range(n)])
+    edge = window_edge_text(np.where(complete, table["omega"], np.nan), spec.window,
+                            [f"sample {i + 1}" for i in range(n)])
     run.progress(_summary(spec, names, st, levels, n, time.perf_counter() - t0, edge))
     draw_analysis(pictures.uncertainty, group, spec, run, keys, cached=not rows.to_compute)
     return rows_status(rows, status, messages, "samples", lambda i: f"sample {i + 1}")
