@@ -608,6 +608,7 @@ def test_a_study_of_separate_blades_refuses_the_disk_without_contacts():
         (True, False), (False, True)]
 
 
+@pytest.mark.slow  # (six reductions at every ND and two meshes: ~15 s quiet)
 def test_an_imported_sectors_mistuned_whole_disk_is_the_native_ones(tmp_path):
     """The coarse blisk and dampers written as a deck (quadratic tetrahedra in mm, its axis
     turned and moved), imported as a sector with its flanks declared between the deck's
