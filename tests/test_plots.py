@@ -206,8 +206,14 @@ def test_the_amplification_axis_spans_the_patterns_and_names_a_bound_above(tmp_p
     ax = fig.axes[0]
     low, high = ax.get_ylim()
     assert low < 1.0 and 1.2 < high < 1.5  # 15 % of the data's span above its top
-    assert [t.get_text() for t in ax.texts] == ["Whitehead = 3.96, above"]
+    assert ax.get_title() == "t\nWhitehead = 3.96: above the axis" and not ax.texts
     assert "tuned" in legend_texts(ax) and "Whitehead" not in legend_texts(ax)
+    # the note is the title's, outside the axes: the legend (inside them) cannot cover it
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    title = ax.title.get_window_extent(renderer)
+    assert not title.overlaps(ax.get_legend().get_window_extent(renderer))
+    assert title.y0 >= ax.get_window_extent(renderer).y1 - 1.0
     nan_only = plots.amplification(tmp_path / "b.png", "t", series[1:], levels)
     assert nan_only.axes[0].get_ylim()[1] > 1.0
 

@@ -354,16 +354,15 @@ def amplification(path: Path, title: str, series: Sequence[dict], levels: Sequen
     above = []
     for k, lv in enumerate(levels):
         if lv["y"] > top:
-            above.append(f"{lv['label']} = {lv['y']:.3g}, above")
+            above.append(f"{lv['label']} = {lv['y']:.3g}")
             continue
         ax.axhline(lv["y"], color="0.4", ls=(":", "-.")[k % 2], lw=1.0, label=lv["label"])
     ax.set_ylim(low - 0.05 * max(high - low, 0.05), top)
-    if above:
-        ax.text(0.01, 0.98, "; ".join(above), transform=ax.transAxes, fontsize=7,
-                va="top", color="0.3")
     ax.set_xlabel("mistuning: standard deviation of the blades' Young's modulus [%]")
     ax.set_ylabel("amplification: worst blade / tuned [-]")
-    ax.set_title(title, fontsize=10)
+    # (the note under the title, where the legend, placed inside the axes, cannot cover it)
+    note = f"\n{'; '.join(above)}: above the axis" if above else ""
+    ax.set_title(title + note, fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     return _save(fig, path)
