@@ -129,6 +129,56 @@ def test_damping_options():
     assert fem.damping_matrix(K, M, fem.Damping()) is None
 
 
+def test_modal_ratios_go_to_the_elastic_modes_of_a_free_chain():
+    # Three equal masses m joined by two springs k, free at both ends: omega^2 = (0, 1, 3) k/m
+    # by hand. The rigid mode takes no damping and the ratios go to the elastic modes in order.
+    k, m = 4.0e4, 2.0
+    K = k * np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+    M = m * np.eye(3)
+    C = fem.modal_damping(K, M, [0.01, 0.02])
+    np.testing.assert_allclose(C @ np.ones(3), 0.0, atol=1e-12 * np.abs(C).max())
+    w = np.sqrt(np.array([1.0, 3.0]) * k / m)
+    phi = np.array([[1.0, 0.0, -1.0], [1.0, -2.0, 1.0]]).T  # the elastic modes by hand
+    phi /= np.sqrt(np.einsum("ij,ij->j", phi, M @ phi))
+    np.testing.assert_allclose(phi.T @ C @ phi, np.diag(2.0 * np.array([0.01, 0.02]) * w),
+                               rtol=1e-12, atol=1e-12 * 2 * 0.02 * w[1])
+
+
+def _spring_network(points: np.ndarray, k: float) -> np.ndarray:
+    """Stiffness (3n, 3n) of axial springs k between every pair of ``points`` (n, 3)."""
+    n = len(points)
+    K = np.zeros((3 * n, 3 * n))
+    for a in range(n):
+        for b in range(a + 1, n):
+            e = points[b] - points[a]
+            e = np.outer(e, e) / (e @ e) * k
+            for i, j, sign in ((a, a, 1), (b, b, 1), (a, b, -1), (b, a, -1)):
+                K[3 * i:3 * i + 3, 3 * j:3 * j + 3] += sign * e
+    return K
+
+
+def test_modal_damping_of_a_free_body_turns_with_it():
+    # A free 3D body (springs between 5 points: 6 rigid modes with rounding eigenvalues) and
+    # its copy turned by 0.7 rad: the damping must be the turned one, C' = R C R^T. With the
+    # rigid modes damped in whatever basis eigh returned, the two differed by 6e-10 of the
+    # largest entry; 1e-12 leaves the elastic modes' own rounding (~1e-14) room.
+    rng = np.random.default_rng(3)
+    points = rng.normal(size=(5, 3))
+    c, s = np.cos(0.7), np.sin(0.7)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+        [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    Rb = np.kron(np.eye(5), R)
+    M = np.diag(np.repeat(rng.uniform(1.0, 2.0, 5), 3))
+    K = _spring_network(points, 1.0e12)
+    C = fem.modal_damping(K, M, [0.005])
+    C_turned = fem.modal_damping(_spring_network(points @ R.T, 1.0e12), M, [0.005])
+    assert np.abs(C_turned - Rb @ C @ Rb.T).max() < 1e-12 * np.abs(C).max()
+    # and the rigid motions are undamped: a translation and an infinitesimal rotation
+    rotation = np.cross(np.array([0.0, 0.0, 1.0]), points).ravel()
+    for rigid in (np.tile([1.0, 0.0, 0.0], 5), rotation):
+        assert np.abs(C @ rigid).max() < 1e-12 * np.abs(C).max() * np.abs(rigid).max()
+
+
 @pytest.mark.parametrize(
     ("kwargs", "word"),
     [

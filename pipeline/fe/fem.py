@@ -539,15 +539,20 @@ def centrifugal_load(body: BodyModel) -> FloatArray:
 
 # --- damping -------------------------------------------------------------------------------
 
+# a mode is rigid below this share of the largest eigenvalue: rounding on a free body is
+# ~1e-16 of it, a soft elastic mode (omega ratio 1e-4 to the stiffest) still 1e-8 above
+RIGID_SHARE = 1e-10
+
 
 @dataclass(frozen=True)
 class Damping:
     """Linear (viscous) damping of the structure, added on top of friction.
 
     rayleigh_alpha [1/s], rayleigh_beta [s]: C = alpha M + beta K.
-    modal_ratios: zeta per mode (scalar for all modes, or a sequence for the first modes; modes
-    beyond the sequence take its last value), C = M Phi diag(2 zeta omega) Phi^H M with Phi the
-    mass-normalised modes of the (reduced) model. Both parts add.
+    modal_ratios: zeta per elastic mode (scalar for all modes, or a sequence for the first
+    elastic modes; modes beyond the sequence take its last value), C = M Phi diag(2 zeta omega)
+    Phi^H M with Phi the mass-normalised modes of the (reduced) model; rigid-body modes are
+    left undamped. Both parts add.
     """
 
     rayleigh_alpha: float = 0.0
@@ -581,21 +586,25 @@ def modal_damping(K: NDArray, M: NDArray, ratios: Sequence[float],
                   modes: tuple[NDArray, NDArray] | None = None) -> NDArray:
     """Dense damping matrix with modal damping ratios on (K, M) (r, r), Hermitian.
 
-    C = M Phi diag(2 zeta_j omega_j) Phi^H M, Phi mass-normalised; rigid-body modes (omega = 0)
-    get no damping. ``ratios`` as in ``Damping.modal_ratios``; ``modes``: (lam, Phi) of
-    (K, M) where already known.
+    C = M Phi diag(2 zeta_j omega_j) Phi^H M, Phi mass-normalised. Rigid-body modes
+    (lam <= RIGID_SHARE * max lam) get no damping, and the ratios go to the elastic modes in
+    order: a free body's rigid eigenvalues are rounding (~1e-16 of the largest), and damping
+    them would depend on which basis of the rigid subspace the eigensolver returned, so a
+    body and its turned copy would differ. ``ratios`` as in ``Damping.modal_ratios``;
+    ``modes``: (lam, Phi) of (K, M) where already known.
     """
     K = np.asarray(K)
     M = np.asarray(M)
     lam, phi = sla.eigh(K, M) if modes is None else modes
-    omega = np.sqrt(np.clip(lam, 0.0, None))
     ratios = np.asarray(ratios, dtype=float).ravel()
     if ratios.size == 0:
         return np.zeros_like(K)
-    zeta = np.full(len(lam), ratios[-1])
-    zeta[: min(len(ratios), len(lam))] = ratios[: len(lam)]
-    mphi = M @ phi
-    return (mphi * (2.0 * zeta * omega)) @ mphi.conj().T
+    elastic = lam > RIGID_SHARE * max(float(np.max(lam, initial=0.0)), 0.0)
+    n = int(np.count_nonzero(elastic))
+    zeta = np.full(n, ratios[-1])
+    zeta[: min(len(ratios), n)] = ratios[:n]
+    mphi = M @ phi[:, elastic]
+    return (mphi * (2.0 * zeta * np.sqrt(lam[elastic]))) @ mphi.conj().T
 
 
 def damping_matrix(K: NDArray, M: NDArray, damping: Damping | None,
