@@ -472,31 +472,63 @@ def test_a_bodys_recovered_displacement_at_its_masters_is_the_solution_there(tmp
     assert np.abs(tip).max() > 0
 
 
-def test_the_code_digest_follows_the_computing_sources_only(tmp_path):
+def _copied_package(folders, to):
+    """The package's folders copied under ``to`` ({package: copy})."""
     import shutil
-    from pathlib import Path
+
+    copies = {name: to / name for name in folders}
+    for name, folder in folders.items():
+        shutil.copytree(folder, copies[name], ignore=shutil.ignore_patterns("__pycache__"))
+    return copies
+
+
+def test_the_code_digest_follows_the_computing_sources_only(tmp_path):
+    from microslip.app import store
+
+    folders = _copied_package(store.package_folders(), tmp_path)
+    package = folders["microslip"]
+    before = store.code_digest(folders)
+    drawn = store.code_digest(folders, store.DRAWING, ())
+    assert before == store.code_digest()  # the copy is complete
+    with open(package / "draw/shapes.py", "a") as f:
+        f.write("# a comment\n")
+    assert store.code_digest(folders) == before  # drawing: the curves stay
+    assert store.code_digest(folders, store.DRAWING, ()) != drawn  # ... the pictures not
+    (package / "draw/new_picture.py").write_text("# a module nobody listed\n")
+    assert store.code_digest(folders, store.DRAWING, ()) != drawn
+    (package / "app/new_runner.py").write_text("# a module nobody listed\n")
+    assert store.code_digest(folders) != before  # a new computing module counts
+    (package / "app/new_runner.py").unlink()
+    with open(package / "solve/hbm.py", "a") as f:
+        f.write("# a comment\n")
+    assert store.code_digest(folders) != before  # numerics: every curve is computed again
+    with open(folders["microslip.geometry"] / "blisk.py", "a") as f:
+        f.write("# a comment\n")
+    geometry = store.code_digest(folders, ("microslip.geometry",), ())
+    assert geometry != store.code_digest(parts=("microslip.geometry",), leave_out=())
+
+
+def test_the_code_digest_is_the_same_from_an_installed_wheel(tmp_path):
+    """`pip install .` nests geometry/ inside the package folder (pyproject's package-dir):
+    the same sources give the same digest there, and a folder without sources is an error,
+    not the digest of nothing (which had every installed version share one digest)."""
+    import shutil
 
     from microslip.app import store
 
-    root = Path(store.__file__).resolve().parents[2]
-    for part in store.COMPUTING:  # a copy of both folders
-        shutil.copytree(root / part, tmp_path / part,
+    source = store.package_folders()
+    wheel = tmp_path / "site-packages" / "microslip"
+    shutil.copytree(source["microslip"], wheel, ignore=shutil.ignore_patterns("__pycache__"))
+    if source["microslip.geometry"].parent != source["microslip"]:  # a checkout: nest it
+        shutil.copytree(source["microslip.geometry"], wheel / "geometry",
                         ignore=shutil.ignore_patterns("__pycache__"))
-    before = store.code_digest(tmp_path)
-    drawn = store.code_digest(tmp_path, store.DRAWING, ())
-    assert before == store.code_digest(root)  # the copy is complete
-    with open(tmp_path / "pipeline/draw/shapes.py", "a") as f:
-        f.write("# a comment\n")
-    assert store.code_digest(tmp_path) == before  # drawing: the curves stay
-    assert store.code_digest(tmp_path, store.DRAWING, ()) != drawn  # ... the pictures not
-    (tmp_path / "pipeline/draw/new_picture.py").write_text("# a module nobody listed\n")
-    assert store.code_digest(tmp_path, store.DRAWING, ()) != drawn
-    (tmp_path / "pipeline/app/new_runner.py").write_text("# a module nobody listed\n")
-    assert store.code_digest(tmp_path) != before  # a new computing module counts
-    (tmp_path / "pipeline/app/new_runner.py").unlink()
-    with open(tmp_path / "pipeline/solve/hbm.py", "a") as f:
-        f.write("# a comment\n")
-    assert store.code_digest(tmp_path) != before  # numerics: every curve is computed again
+    nested = {"microslip": wheel, "microslip.geometry": wheel / "geometry"}
+    for parts, leave_out in ((store.COMPUTING, store.NOT_COMPUTING), (store.DRAWING, ()),
+                             (("microslip.geometry", "microslip.case.geometry_table"), ())):
+        assert store.code_digest(nested, parts, leave_out) == store.code_digest(
+            parts=parts, leave_out=leave_out)
+    with pytest.raises(RuntimeError, match="no Python sources"):
+        store.code_digest({"microslip": tmp_path / "empty"})
 
 
 @pytest.mark.slow  # a backbone on the assembly with maps (5 s); the type runs in test_render

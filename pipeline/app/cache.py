@@ -219,6 +219,7 @@ def built_mesh(table, cache: SharedCache | None) -> tuple[object, Path | None]:
     from .store import code_digest
 
     # the meshing code, and the declared contacts' (case.geometry_table.with_contacts)
-    code = code_digest(parts=("geometry", "pipeline/case/geometry_table.py"), leave_out=())
+    code = code_digest(parts=("microslip.geometry", "microslip.case.geometry_table"),
+                       leave_out=())
     key = mesh_key(table.model, dict(table.parameters), table.contacts, code)
     return kept_mesh(cache, key, table.build)

@@ -31,36 +31,58 @@ DRAWING_KEYS = ("name", "family", "set", "map_types", "figure")
 FORMAT = 1  # bump when the stored layout changes
 
 
-#: The sources a curve's numbers do not depend on (relative to the package root): the
-#: drawing package, the benchmarks and the command line. Every other module of the two
-#: folders counts (COMPUTING): changing one invalidates every stored curve; changing these
-#: keeps them. Folders, not file lists, so that a new module is counted without a thought.
-COMPUTING = ("geometry", "pipeline")
-NOT_COMPUTING = ("pipeline/draw", "pipeline/bench", "pipeline/cli")
+#: The sources a curve's numbers do not depend on, as dotted module names: the drawing
+#: package, the benchmarks and the command line. Every other module of the package counts
+#: (COMPUTING): changing one invalidates every stored curve; changing these keeps them.
+#: Packages, not file lists, so that a new module is counted without a thought.
+COMPUTING = ("microslip",)
+NOT_COMPUTING = ("microslip.draw", "microslip.bench", "microslip.cli")
 #: The sources of the pictures: the drawing package and the results file it reads.
-DRAWING = ("pipeline/draw", "pipeline/results")
+DRAWING = ("microslip.draw", "microslip.results")
+#: The package's folders by dotted name. A source checkout holds two (pipeline/ and
+#: geometry/, joined by pyproject's package-dir), an installed wheel one nested folder.
+PACKAGES = ("microslip", "microslip.geometry")
 
 
-def sources(parts: tuple[str, ...], root: Path, leave_out: tuple[str, ...] = ()) -> list[Path]:
-    """The Python sources under ``parts`` (folders or files, relative to ``root``), without
-    those under ``leave_out``, in a fixed order."""
-    found = set()
-    for part in parts:
-        path = root / part
-        found |= {path} if path.suffix == ".py" else set(path.glob("**/*.py"))
-    out = [root / x for x in leave_out]
-    return sorted(p for p in found
-                  if not any(p == o or o in p.parents for o in out))
+def package_folders() -> dict[str, Path]:
+    """{dotted name: folder} of PACKAGES where this interpreter imports them from (a
+    checkout, an editable install or a wheel in site-packages)."""
+    from importlib.util import find_spec
+
+    return {name: Path(next(iter(find_spec(name).submodule_search_locations))).resolve()
+            for name in PACKAGES}
 
 
-def code_digest(root: Path | None = None, parts: tuple[str, ...] = COMPUTING,
+def sources(parts: tuple[str, ...], folders: Mapping[str, Path],
+            leave_out: tuple[str, ...] = ()) -> dict[str, Path]:
+    """{dotted module name: file} of the Python sources under ``parts`` (packages or modules
+    by dotted name, e.g. "microslip.fe", "microslip.case.geometry_table"), without those
+    under ``leave_out``, found in ``folders`` ({package: folder}), in name order. The names,
+    not the paths, identify a module: the same code has the same names in any layout."""
+    def under(name: str, prefixes: tuple[str, ...]) -> bool:
+        return any(name == x or name.startswith(x + ".") for x in prefixes)
+
+    found = {}
+    for package, folder in folders.items():
+        for path in Path(folder).glob("**/*.py"):
+            name = ".".join((package, *path.relative_to(folder).with_suffix("").parts))
+            if under(name, parts) and not under(name, leave_out):
+                found[name] = path
+    return dict(sorted(found.items()))
+
+
+def code_digest(folders: Mapping[str, Path] | None = None,
+                parts: tuple[str, ...] = COMPUTING,
                 leave_out: tuple[str, ...] = NOT_COMPUTING) -> str:
-    """SHA-256 of the sources (file names and contents) under the package's root (or
-    ``root``): by default those a curve's numbers depend on."""
-    root = root or Path(__file__).resolve().parents[2]
+    """SHA-256 of the sources (module names and contents) of the package (or of the copy in
+    ``folders``, as ``package_folders``): by default those a curve's numbers depend on.
+    RuntimeError where there are none: a digest of nothing would match any code."""
+    found = sources(parts, folders or package_folders(), leave_out)
+    if not found:
+        raise RuntimeError(f"no Python sources under {parts} in {folders}")
     h = hashlib.sha256()
-    for path in sources(parts, root, leave_out):
-        h.update(str(path.relative_to(root)).encode())
+    for name, path in found.items():
+        h.update(name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()
 
