@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from . import elements
@@ -154,28 +156,46 @@ def _copied_contacts(sector: Mesh, node_map: np.ndarray, phi: float
                     copy, a, b, node_map[k][p.nodes_a], node_map[kb][p.nodes_b],
                     rotation_z(k * phi) @ p.normal, p.area)
                 continue
-            contacts[copy] = _named_copy(p, copy, a, b, node_map[k], node_map[kb], k, kb,
-                                         k * phi)
-            pairs[copy] = turned_copy(sector_pairs, copy, a, b, node_map[k], node_map[kb],
-                                      k * phi)
+            place = _Copy(copy, a, b, k, kb, node_map[k], node_map[kb], k * phi)
+            contacts[copy] = _named_copy(p, place)
+            pairs[copy] = turned_copy(sector_pairs, copy, a, b, place.map_a, place.map_b,
+                                      place.angle)
     return contacts, pairs
 
 
-def _named_copy(c: SurfaceContact | AveragedContact, name: str, a: str, b: str | None,
-                map_a: np.ndarray, map_b: np.ndarray, k: int, kb: int, angle: float
+@dataclass(frozen=True)
+class _Copy:
+    """Where a sector's contact goes in the whole disk: its name and bodies there, side a on
+    copy k and side b on copy kb with their node maps (sector node -> disk node), turned by
+    ``angle`` [rad] about +z."""
+
+    name: str
+    body_a: str
+    body_b: str | None
+    k: int
+    kb: int
+    map_a: np.ndarray
+    map_b: np.ndarray
+    angle: float
+
+
+def _named_copy(c: SurfaceContact | AveragedContact, place: _Copy
                 ) -> SurfaceContact | AveragedContact:
-    """The definition of a contact between named surfaces on copy k (side b on copy kb):
-    its node sets' copies "<set>#k", or an averaged contact's points and facets through the
-    copies' node maps, turned by ``angle``."""
-    set_b = f"{c.set_b}#{kb}" if c.set_b else c.set_b  # (None or "": the ground)
+    """The definition of a contact between named surfaces in ``place``: its node sets'
+    copies "<set>#k", or an averaged contact's points and facets through the copies' node
+    maps, turned."""
+    k, a, b, map_a = place.k, place.body_a, place.body_b, place.map_a
+    set_b = f"{c.set_b}#{place.kb}" if c.set_b else c.set_b  # (None or "": the ground)
     if isinstance(c, SurfaceContact):
-        return SurfaceContact(name, a, f"{c.set_a}#{k}", b, set_b, 0, c.tolerance, c.spread)
+        return SurfaceContact(place.name, a, f"{c.set_a}#{k}", b, set_b, 0, c.tolerance,
+                              c.spread)
     faces = np.where(c.faces < 0, -1, map_a[np.maximum(c.faces, 0)])
     nodes = np.unique(c.faces[c.faces >= 0])
     return AveragedContact(
-        name, a, b, map_a[c.nodes_a], map_b[c.nodes_b], c.normals @ rotation_z(angle).T,
-        c.areas, c.gaps, faces, c.owner[np.argsort(map_a[nodes])], 0, c.spread, c.spacing,
-        f"{c.set_a}#{k}", set_b, c.dropped, c.reach)
+        place.name, a, b, map_a[c.nodes_a], place.map_b[c.nodes_b],
+        c.normals @ rotation_z(place.angle).T, c.areas, c.gaps, faces,
+        c.owner[np.argsort(map_a[nodes])], 0, c.spread, c.spacing, f"{c.set_a}#{k}", set_b,
+        c.dropped, c.reach)
 
 
 def _copied_curved_edges(sector: Mesh, node_map: np.ndarray, phi: float

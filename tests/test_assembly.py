@@ -375,7 +375,7 @@ def test_a_turned_copy_keeps_each_pair_and_map_cell_through_any_node_numbering(n
     takes the previous copy's numbers): through reversed and rolled numberings, every pair
     keeps its place (the per-pair stiffness follows it) and every facet node its averaged
     point, in the pairs and in the copied definition (the owner re-sorted with its nodes)."""
-    from microslip.geometry.full_disk import _named_copy
+    from microslip.geometry.full_disk import _Copy, _named_copy
     from microslip.geometry.pairing import _averaged_pairs, paired_contact, turned_copy
 
     (mesh, _), _ = named
@@ -387,8 +387,8 @@ def test_a_turned_copy_keeps_each_pair_and_map_cell_through_any_node_numbering(n
     np.testing.assert_array_equal(q.pairing.nodes_a, map_a[p.pairing.nodes_a])
     np.testing.assert_array_equal(q.pairing.nodes_b, map_b[p.pairing.nodes_b])
     nodes, owner, faces = p.map_cells()
-    defined = _averaged_pairs(_named_copy(c, "copy", c.body_a, c.body_b, map_a, map_b, 0, 1,
-                                          0.3))
+    place = _Copy("copy", c.body_a, c.body_b, 0, 1, map_a, map_b, 0.3)
+    defined = _averaged_pairs(_named_copy(c, place))
     for copy in (q, defined):
         got_nodes, got_owner, got_faces = copy.map_cells()
         assert np.all(np.diff(got_nodes) > 0)  # sorted, as map_cells' indices assume

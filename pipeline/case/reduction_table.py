@@ -57,6 +57,7 @@ from microslip.fe import bodies, contact_stiffness, cyclic, linalg, reduced_mode
 from microslip.fe.bodies import BodySpec
 from microslip.fe.fem import Damping, Material, MaterialZones
 from microslip.geometry.boundaries import ContactPatch, Support
+from microslip.geometry.full_disk import sector_count
 from microslip.geometry.pairing import paired_contact
 
 from .checks import is_int, is_number, unknown_keys
@@ -447,10 +448,10 @@ def _whole_disk_faults(mesh: Any) -> None:
         raise ValueError(f"assembly.mistuning: the whole disk joins its sectors node for node, "
                          f"but the cyclic faces of {apart} are tied by interpolation (meshed "
                          "apart): mesh them matching")
-    counts = sorted({c.sectors for c in mesh.cyclic.values()})
-    if len(counts) > 1:
-        raise ValueError(f"assembly.mistuning: the whole disk needs one sector count; the "
-                         f"cyclic bodies have {counts}")
+    try:
+        sector_count(mesh)
+    except ValueError as fault:
+        raise ValueError(f"assembly.mistuning: the whole disk: {fault}") from None
 
 
 def _region(mesh: Any, mistuning: MistuningTable | None, body: str) -> tuple[int, ...]:
