@@ -243,7 +243,7 @@ def frf(g: h5py.Group, name: str, out: Path, options: Options = Options()) -> li
     return paths + frf_maps(g, name, out, options) + slip_growth(g, name, out)
 
 
-def _blade(name: str) -> tuple[str, int | None]:
+def blade_of(name: str) -> tuple[str, int | None]:
     """("tip", 3) of a whole disk's "tip#3"; (name, None) of any other name."""
     base, _, s = name.rpartition("#")
     return (base, int(s)) if base and s.isdigit() else (name, None)
@@ -255,7 +255,7 @@ def _around_the_disk(series: dict[str, list[dict]]) -> dict[str, list[dict]]:
     the blades); other outputs as they are."""
     out: dict[str, list[dict]] = {}
     for n, lines in series.items():
-        base, s = _blade(n)
+        base, s = blade_of(n)
         if s is None:
             out[n] = lines
             continue
@@ -269,7 +269,7 @@ def _around_the_disk(series: dict[str, list[dict]]) -> dict[str, list[dict]]:
 def _first_sector(static: dict[str, list[dict]]) -> dict[str, list[dict]]:
     """A whole disk's contacts: sector 0's static forces only (one picture per contact of
     the sector, not N); other contacts as they are."""
-    return {c: v for c, v in static.items() if _blade(c)[1] in (None, 0)}
+    return {c: v for c, v in static.items() if blade_of(c)[1] in (None, 0)}
 
 
 def slip_at_peaks(g: h5py.Group) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -376,8 +376,8 @@ def _map_rows(points: list) -> list[tuple[Any, list[str]]]:
     rows = []
     for pt in points:
         blades: dict[int | None, list[str]] = {}
-        for p in sorted(pt.state, key=lambda p: (_blade(p)[1] or 0, p)):
-            blades.setdefault(_blade(p)[1], []).append(p)
+        for p in sorted(pt.state, key=lambda p: (blade_of(p)[1] or 0, p)):
+            blades.setdefault(blade_of(p)[1], []).append(p)
         rows += [(pt, row) for row in blades.values()]
     return rows
 
@@ -392,7 +392,7 @@ def frf_maps(g: h5py.Group, name: str, out: Path, options: Options = Options()) 
         return []
     grids = contact_grids(g.file)
     rows = _map_rows(points)
-    grids |= {p: grids[_blade(p)[0]] for _, row in rows for p in row if p not in grids}
+    grids |= {p: grids[blade_of(p)[0]] for _, row in rows for p in row if p not in grids}
     patches = [p for _, row in rows[:1] for p in row]
     paths = []
     if "status" in kinds:

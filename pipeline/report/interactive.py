@@ -9,7 +9,7 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from microslip.draw.pictures import analysis_spec, curves, lettered_maps
+from microslip.draw.pictures import analysis_spec, blade_of, curves, lettered_maps
 from microslip.draw.plots import LABELS, length_unit
 from microslip.results import schema
 from microslip.results.writer import attr_text
@@ -48,14 +48,16 @@ def _scaled(v: np.ndarray) -> tuple[list, list, list]:
     return ints.astype(int).tolist(), _finite(lo, 6), _finite(hi, 6)
 
 
-def _loops(c: h5py.Group) -> list[dict] | None:
+def _loops(c: h5py.Group, blade: int | None = None) -> list[dict] | None:
     """Per contact its stored hysteresis loops (the first tangential direction), one per
     point: {contact, unit, u, u0, u1, T, T0, T1} (:func:`_scaled`: the integers and each
     loop's least and largest value; u in unit: m, mm or um; T in N), or None where the run
-    stored none."""
+    stored none. ``blade`` (a whole disk's output "tip#s"): only that sector's contacts
+    ("<patch>#s"); every sector's would put 2N loops in a tooltip and N^2 on the page."""
     out = []
     for name, cd in sorted(c.get(schema.CONTACTS, {}).items()):
-        if "loop_u" not in cd or not len(cd["loop_u"]):
+        if "loop_u" not in cd or not len(cd["loop_u"]) or (
+                blade is not None and blade_of(name)[1] != blade):
             continue
         step = -(-cd["loop_u"].shape[-1] // LOOP_SAMPLES)
         u = cd["loop_u"][:, 0, ::step].astype(float)
@@ -83,7 +85,8 @@ def frf_plots(g: h5py.Group, name: str) -> list[dict]:
                    "x": _finite(c["parameter"][()]),
                    "y": _finite(scale * c["response"][:, k]),
                    "stable": [int(s) for s in c["stable"][()]] if "stable" in c else None,
-                   "slip": _slip(c), "loops": _loops(c)} for key, c in members]
+                   "slip": _slip(c), "loops": _loops(c, blade_of(out)[1])}
+                  for key, c in members]
         series += [{"label": attr_text(lg.attrs.get("label", key)), "kind": "limit",
                     "x": _finite(lg["omega"][()]), "y": _finite(scale * lg["response"][:, k]),
                     "stable": None, "slip": None, "loops": None}
