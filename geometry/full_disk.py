@@ -16,7 +16,7 @@ def sector_count(sector: Mesh) -> int:
     """Ns, the one sector count of a sector mesh's cyclic bodies (ValueError otherwise)."""
     counts = {c.sectors for c in sector.cyclic.values()}
     if len(counts) != 1:
-        raise ValueError(f"full_disk needs exactly one sector count, got {sorted(counts)}")
+        raise ValueError(f"the cyclic bodies need exactly one sector count, got {sorted(counts)}")
     return counts.pop()
 
 
@@ -163,7 +163,7 @@ def _copied_contacts(sector: Mesh, node_map: np.ndarray, phi: float
     return contacts, pairs
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # (arrays: no field-wise equality)
 class _Copy:
     """Where a sector's contact goes in the whole disk: its name and bodies there, side a on
     copy k and side b on copy kb with their node maps (sector node -> disk node), turned by

@@ -341,16 +341,17 @@ def test_a_whole_disks_tooltip_shows_its_own_blades_loops(tmp_path):
     """A whole disk's FRF has an output per blade ("tip#s") and every sector's patches
     ("damper_left#s"): the plot of blade s carries the loops of sector s's contacts only
     (all of them would be 2N loops a tooltip, N^2 on the page); a cyclic sector's output
-    keeps every contact's."""
+    keeps every contact's, and so does every output a contact of no sector."""
     from microslip.report.interactive import _loops
 
     with h5py.File(tmp_path / "r.h5", "w") as f:
         c = f.create_group("curve")
-        for name in ("damper_left#0", "damper_left#1", "damper_right#1", "damper_left#10"):
+        for name in ("damper_left#0", "damper_left#1", "damper_right#1", "damper_left#10",
+                     "slot"):
             cd = c.create_group(f"contacts/{name}")
             cd["loop_u"] = np.linspace(0, 1e-6, 2 * 64).reshape(2, 1, 64)
             cd["loop_T"] = np.linspace(-1.0, 1.0, 2 * 64).reshape(2, 1, 64)
-        assert [lp["contact"] for lp in _loops(c, 1)] == ["damper_left#1", "damper_right#1"]
-        assert [lp["contact"] for lp in _loops(c, 10)] == ["damper_left#10"]
-        assert len(_loops(c)) == 4
-        assert _loops(c, 2) is None
+        assert [lp["contact"] for lp in _loops(c, 1)] == [
+            "damper_left#1", "damper_right#1", "slot"]  # (a contact of no sector: kept)
+        assert [lp["contact"] for lp in _loops(c, 10)] == ["damper_left#10", "slot"]
+        assert len(_loops(c)) == 5

@@ -62,12 +62,14 @@ def sources(parts: tuple[str, ...], folders: Mapping[str, Path],
     def under(name: str, prefixes: tuple[str, ...]) -> bool:
         return any(name == x or name.startswith(x + ".") for x in prefixes)
 
-    found = {}
+    found: dict[str, Path] = {}
     for package, folder in folders.items():
         for path in Path(folder).glob("**/*.py"):
             name = ".".join((package, *path.relative_to(folder).with_suffix("").parts))
             if under(name, parts) and not under(name, leave_out):
-                found[name] = path
+                # (a wheel nests geometry/ in the package: the same file found twice)
+                if found.setdefault(name, path).resolve() != path.resolve():
+                    raise RuntimeError(f"module {name} in two places: {found[name]}, {path}")
     return dict(sorted(found.items()))
 
 
@@ -77,9 +79,10 @@ def code_digest(folders: Mapping[str, Path] | None = None,
     """SHA-256 of the sources (module names and contents) of the package (or of the copy in
     ``folders``, as ``package_folders``): by default those a curve's numbers depend on.
     RuntimeError where there are none: a digest of nothing would match any code."""
-    found = sources(parts, folders or package_folders(), leave_out)
+    folders = package_folders() if folders is None else folders
+    found = sources(parts, folders, leave_out)
     if not found:
-        raise RuntimeError(f"no Python sources under {parts} in {folders}")
+        raise RuntimeError(f"no Python sources of {parts} in {sorted(map(str, folders.values()))}")
     h = hashlib.sha256()
     for name, path in found.items():
         h.update(name.encode())

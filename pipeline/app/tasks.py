@@ -378,6 +378,10 @@ def workers_ready(client) -> str:
         return (f"worker {missing[0]} cannot import microslip ({len(missing)} of {len(found)}"
                 " workers); install it there as on this machine (pip install -e <repo>)")
     digests = client.run(code_digest, on_error="return")
+    failed = sorted(w for w, d in digests.items() if isinstance(d, BaseException))
+    if failed:
+        return (f"worker {failed[0]} cannot read its microslip sources "
+                f"({digests[failed[0]]}); install microslip there from its sources")
     mine = code_digest()
     other = sorted(w for w, d in digests.items() if d != mine)
     if other:

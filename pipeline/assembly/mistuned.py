@@ -178,7 +178,8 @@ def _annulus(body: str, per_nd: Mapping[int, ReducedModel], N: int) -> Annulus:
     spec = first.damping_spec
     if spec is not None and len(spec.modal_ratios) > 1:
         raise ValueError(f"body {body!r}: a list of modal damping ratios means each ND's "
-                         "lowest modes in the sector, not the annulus' lowest: give one ratio")
+                         "lowest elastic modes in the sector, not the annulus' lowest: give "
+                         "one ratio")
     for h, m in per_nd.items():
         if not np.array_equal(m.master_nodes, first.master_nodes):
             raise ValueError(f"body {body!r}: ND {h} has other master nodes than ND 0")

@@ -17,8 +17,8 @@ The table (all keys optional but one of ``nodal_diameters`` or
     poisson_ratio = 0.3
     density = 7850.0                 # [kg/m^3]
     [reduction.damping]              # linear damping of every body, applied to the reduced
-    modal_ratios = 0.001             # models (no re-reduction): zeta (one, or per mode) and/or
-    rayleigh_alpha = 0.0             # C = alpha M + beta K  [1/s], [s]
+    modal_ratios = 0.001             # models (no re-reduction): zeta (one, or per elastic
+    rayleigh_alpha = 0.0             # mode) and/or C = alpha M + beta K  [1/s], [s]
     [reduction.bodies.<body>]        # per body: material, damping, modes, clamped, masters,
                                      # recovery, supports:
     supports = [{ set = "hub", held = ["z"] },                             # x, y, z
@@ -259,7 +259,7 @@ def _check_damping(pre: str, d: Any, out: list[str]) -> None:
 
 def damping(table: Mapping[str, Any] | None) -> Damping | None:
     """Damping from a case table (rayleigh_alpha [1/s], rayleigh_beta [s], modal_ratios: one
-    zeta or a list per mode)."""
+    zeta or a list per elastic mode)."""
     if table is None:
         return None
     ratios = table.get("modal_ratios", ())
@@ -451,7 +451,7 @@ def _whole_disk_faults(mesh: Any) -> None:
     try:
         sector_count(mesh)
     except ValueError as fault:
-        raise ValueError(f"assembly.mistuning: the whole disk: {fault}") from None
+        raise ValueError(f"assembly.mistuning: a whole disk: {fault}") from None
 
 
 def _region(mesh: Any, mistuning: MistuningTable | None, body: str) -> tuple[int, ...]:

@@ -549,7 +549,7 @@ class Damping:
     """Linear (viscous) damping of the structure, added on top of friction.
 
     rayleigh_alpha [1/s], rayleigh_beta [s]: C = alpha M + beta K.
-    modal_ratios: zeta per elastic mode (scalar for all modes, or a sequence for the first
+    modal_ratios: zeta per elastic mode (scalar for all of them, or a sequence for the first
     elastic modes; modes beyond the sequence take its last value), C = M Phi diag(2 zeta omega)
     Phi^H M with Phi the mass-normalised modes of the (reduced) model; rigid-body modes are
     left undamped. Both parts add.
@@ -591,15 +591,18 @@ def modal_damping(K: NDArray, M: NDArray, ratios: Sequence[float],
     order: a free body's rigid eigenvalues are rounding (~1e-16 of the largest), and damping
     them would depend on which basis of the rigid subspace the eigensolver returned, so a
     body and its turned copy would differ. ``ratios`` as in ``Damping.modal_ratios``;
-    ``modes``: (lam, Phi) of (K, M) where already known.
+    ``modes``: every (lam, Phi) of (K, M) where already known (the rigid threshold is a
+    share of the largest eigenvalue: a subset would move it).
     """
     K = np.asarray(K)
     M = np.asarray(M)
-    lam, phi = sla.eigh(K, M) if modes is None else modes
+    lam, phi = sla.eigh(K, M) if modes is None else map(np.asarray, modes)
+    if len(lam) != len(K):
+        raise ValueError(f"modal_damping: {len(lam)} modes given of {len(K)}: needs them all")
     ratios = np.asarray(ratios, dtype=float).ravel()
     if ratios.size == 0:
         return np.zeros_like(K)
-    elastic = lam > RIGID_SHARE * max(float(np.max(lam, initial=0.0)), 0.0)
+    elastic = lam > RIGID_SHARE * np.max(lam, initial=0.0)
     n = int(np.count_nonzero(elastic))
     zeta = np.full(n, ratios[-1])
     zeta[: min(len(ratios), n)] = ratios[:n]

@@ -27,8 +27,9 @@ from numpy.typing import NDArray
 from . import cyclic, fem
 from .fem import Damping, IntArray, Material
 
-#: A reduced model's lowest frequency below this fraction of its highest is a rigid mode
-RIGID = 1e-5
+#: A reduced model's lowest frequency below this fraction of its highest is a rigid mode:
+#: modal damping's eigenvalue share (fem.RIGID_SHARE) as a frequency ratio
+RIGID = fem.RIGID_SHARE ** 0.5
 
 #: Bump when the stored layout or the algorithm changes (invalidates caches).
 #: 2: reduced load vectors (``ReducedModel.loads``, the centrifugal load at ND 0).

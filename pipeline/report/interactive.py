@@ -52,12 +52,13 @@ def _loops(c: h5py.Group, blade: int | None = None) -> list[dict] | None:
     """Per contact its stored hysteresis loops (the first tangential direction), one per
     point: {contact, unit, u, u0, u1, T, T0, T1} (:func:`_scaled`: the integers and each
     loop's least and largest value; u in unit: m, mm or um; T in N), or None where the run
-    stored none. ``blade`` (a whole disk's output "tip#s"): only that sector's contacts
-    ("<patch>#s"); every sector's would put 2N loops in a tooltip and N^2 on the page."""
+    stored none. ``blade`` (a whole disk's output "tip#s"): of a whole disk's contacts
+    ("<patch>#k") only sector s's; every sector's would put 2N loops in a tooltip and N^2
+    on the page. Contacts without a sector suffix are always kept."""
     out = []
     for name, cd in sorted(c.get(schema.CONTACTS, {}).items()):
         if "loop_u" not in cd or not len(cd["loop_u"]) or (
-                blade is not None and blade_of(name)[1] != blade):
+                blade is not None and blade_of(name)[1] not in (None, blade)):
             continue
         step = -(-cd["loop_u"].shape[-1] // LOOP_SAMPLES)
         u = cd["loop_u"][:, 0, ::step].astype(float)

@@ -33,6 +33,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from microslip.fe.fem import RIGID_SHARE
+
 from .condensation import real_product
 
 #: The modal route is taken where its per-iterate cost (complex multiply-adds) is at least
@@ -48,8 +50,9 @@ MODAL_FROM = 1e8
 #: as diagonal (modal damping formed from the same modes agrees to rounding, ~1e-13).
 DIAGONAL_TOL = 1e-8
 #: Eigenvalues below this share of the largest are rigid-body modes (an undamped elastic
-#: mode refuses the route: its receptance is infinite at its frequency, S finite there).
-RIGID = 1e-10
+#: mode refuses the route: its receptance is infinite at its frequency, S finite there):
+#: modal damping's own threshold, which leaves those modes undamped.
+RIGID = RIGID_SHARE
 #: Contact DOFs per component up to which the receptance is inverted (batched, small),
 #: above which it is LU-factored (a third of the work, one body at a time).
 INVERT_UP_TO = 256
@@ -395,10 +398,11 @@ def diagonal_modes(K: np.ndarray, M: np.ndarray, C: np.ndarray
     lam, phi = sla.eigh(K, M, check_finite=False)
     cm = phi.conj().T @ C @ phi
     c = np.real(np.diag(cm)).copy()
-    # against the largest: a body's rigid modes are degenerate and carry rounding-level
-    # damping (modal ratios on eigenvalues of 1e-4), which their arbitrary basis turns into
-    # off-diagonals far above their own damping but ~1e-9 of the largest, and negligible
-    # against their d = -w^2 (measured on the 24-blade disk's dampers: 9e-6 of 2e3)
+    # against the largest: a body's rigid modes are degenerate, and any rounding-level
+    # damping on them (a Rayleigh part's alpha M is exact there, but beta K is rounding)
+    # turns, in their arbitrary basis, into off-diagonals far above their own damping but
+    # ~1e-9 of the largest, negligible against their d = -w^2 (measured on the 24-blade
+    # disk's dampers, when modal ratios still damped rigid modes: 9e-6 of 2e3)
     off = np.abs(cm - np.diag(np.diag(cm))).max(initial=0.0)
     if off > DIAGONAL_TOL * max(np.abs(c).max(initial=0.0), 1e-300):
         raise ValueError("damping not diagonal in the modes")
