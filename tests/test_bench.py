@@ -78,3 +78,14 @@ def test_bench_solvers_finds_the_same_solutions_both_ways(capsys):
     assert {"solutions", "verdicts", "bifurcations"} <= set(rows), out
     size = float(rows["solutions"].split("largest difference ")[1].split()[0])
     assert size <= 1e-8, out
+
+
+def test_bench_solvers_without_cases_says_where_it_looked(tmp_path, monkeypatch, capsys):
+    """From an installed wheel there is no cases/ folder: one line and exit 2, not a silent
+    success over no case."""
+    from microslip.bench import solvers
+
+    monkeypatch.setattr(solvers, "CASES", tmp_path)
+    assert main(["bench", "solvers"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(tmp_path) in err[0] and "source checkout" in err[0]
