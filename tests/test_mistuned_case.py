@@ -115,6 +115,28 @@ def test_the_tuned_whole_disk_case_is_the_cyclic_sector_on_every_blade(tuned):
 
 
 @pytest.mark.slow
+def test_a_whole_disks_page_plot_gathers_its_blades(tuned):
+    """The page's interactive FRF of a whole disk: one plot of every blade (as its picture),
+    a series per blade with that blade's points, carrying the hysteresis loops of its own
+    sector's contacts only, no linear limits."""
+    from microslip.report.interactive import frf_plots
+
+    with h5py.File(tuned) as f:
+        plots = frf_plots(f["frf"], "frf")
+        response = f["frf/curve_000/response"][()]
+    assert [p["title"] for p in plots] == ["frf: tip"]
+    series = plots[0]["series"]
+    assert [x["label"] for x in series] == [f"blade {s}" for s in range(NS)]
+    assert all(x["kind"] == "curve" for x in series)
+    scale = {"m": 1.0, "mm": 1e3, "um": 1e6}[plots[0]["unit"]]
+    for s, x in enumerate(series):
+        np.testing.assert_allclose(x["y"], scale * response[:, s], rtol=1e-6)  # 7 digits
+        assert {lp["contact"] for lp in x["loops"]} <= {f"damper_left#{s}",
+                                                        f"damper_right#{s}"}
+        assert x["loops"]
+
+
+@pytest.mark.slow
 def test_a_mistuned_case_localizes_and_its_pattern_is_the_one_asked(tmp_path_factory):
     path = run(tmp_path_factory, "mistuned", [0.0, 0.04, -0.03, 0.06, -0.05, 0.02],
                maps=["peak"], map_types=["status"])

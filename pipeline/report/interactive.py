@@ -71,33 +71,51 @@ def _loops(c: h5py.Group, blade: int | None = None) -> list[dict] | None:
 
 
 def frf_plots(g: h5py.Group, name: str) -> list[dict]:
-    """One plot per output of the frf analysis group ``g``: {title, x, y, series: [{label,
-    x, y [unit], stable (1, 0, -1 or null), slip [%] or null, loops (:func:`_loops`) or
-    null, kind: curve | limit}], marks:
-    [{letter, x, y [unit], target: the id of the status maps' figure}], unit: m, mm or um
-    as the responses' size reads}."""
+    """One plot per output of the frf analysis group ``g`` (a whole disk's "tip#0" ..
+    "tip#N-1" gathered into one plot "tip", a series per blade and member, without the
+    linear limits: as its picture): {title, x, y, series: [{label, x, y [unit], stable (1,
+    0, -1 or null), slip [%] or null, loops (:func:`_loops`) or null, kind: curve |
+    limit}], marks: [{letter, x, y [unit] (a whole disk: its largest blade's), target: the
+    id of the status maps' figure}], unit: m, mm or um as the responses' size reads}."""
     par = analysis_spec(g).parameter
     members = [(k, c) for k, c in curves(g) if "response" in c and len(c["parameter"])]
     outputs = outputs_of(members[0][1]) if members else []
-    plots = []
+    groups: dict[str, list[int]] = {}
     for k, out in enumerate(outputs):
-        scale, unit = length_unit([np.nanmax(c["response"][:, k]) for _, c in members])
-        series = [{"label": attr_text(c.attrs.get("label", "")) or key, "kind": "curve",
-                   "x": _finite(c["parameter"][()]),
-                   "y": _finite(scale * c["response"][:, k]),
-                   "stable": [int(s) for s in c["stable"][()]] if "stable" in c else None,
-                   "slip": _slip(c), "loops": _loops(c, blade_of(out)[1])}
-                  for key, c in members]
+        base, blade = blade_of(out)
+        groups.setdefault(out if blade is None else base, []).append(k)
+    return [_frf_plot(g, name, par, members, title, ks, outputs)
+            for title, ks in groups.items()]
+
+
+def _frf_plot(g: h5py.Group, name: str, par: str, members: list, title: str,
+              ks: list[int], outputs: list[str]) -> dict:
+    """The plot of output ``title``: the responses' columns ``ks`` (one, or a whole disk's
+    blades) of every member, and the linear limits of a single output."""
+    whole = blade_of(outputs[ks[0]])[1] is not None
+    scale, unit = length_unit([np.nanmax(c["response"][:, ks]) for _, c in members])
+    series = []
+    for key, c in members:
+        label = attr_text(c.attrs.get("label", "")) or key
+        for k in ks:
+            blade = blade_of(outputs[k])[1]
+            series.append({
+                "label": (f"blade {blade}" + (f", {label}" if len(members) > 1 else "")
+                          if whole else label), "kind": "curve",
+                "x": _finite(c["parameter"][()]), "y": _finite(scale * c["response"][:, k]),
+                "stable": [int(s) for s in c["stable"][()]] if "stable" in c else None,
+                "slip": _slip(c), "loops": _loops(c, blade)})
+    if not whole:  # (a whole disk's N limits would hide its blades, as in its picture)
         series += [{"label": attr_text(lg.attrs.get("label", key)), "kind": "limit",
-                    "x": _finite(lg["omega"][()]), "y": _finite(scale * lg["response"][:, k]),
+                    "x": _finite(lg["omega"][()]),
+                    "y": _finite(scale * lg["response"][:, ks[0]]),
                     "stable": None, "slip": None, "loops": None}
                    for key, lg in sorted(g.items()) if schema.is_linear(key)
                    and "response" in lg and par == "frequency"]
-        # a map point's letter leads to the contact-status maps (the figure's id)
-        marks = [{"letter": letter, "x": float(p.attrs["parameter"]),
-                  "y": float(scale * p["response"][k]), "target": f"fig-{name}_status"}
-                 for letter, _, p in lettered_maps(g) if "response" in p]
-        plots.append({"title": f"{name}: {out}", "x": LABELS.get(par, par), "unit": unit,
-                      "y": f"{out}: response [{unit}]", "series": series, "marks": marks,
-                      "levels": LOOP_LEVELS})
-    return plots
+    # a map point's letter leads to the contact-status maps (the figure's id)
+    marks = [{"letter": letter, "x": float(p.attrs["parameter"]),
+              "y": float(scale * np.max(p["response"][ks])), "target": f"fig-{name}_status"}
+             for letter, _, p in lettered_maps(g) if "response" in p]
+    return {"title": f"{name}: {title}", "x": LABELS.get(par, par), "unit": unit,
+            "y": f"{title}: response [{unit}]", "series": series, "marks": marks,
+            "levels": LOOP_LEVELS}

@@ -250,8 +250,9 @@ def run_mistuning(case: Case, spec: MistuningStudy, group: h5py.Group, run: Run
         run, name, keys,
         lambda i: Task(pattern_task, (cases[i], spec), f"[{name}] {what(i)}", each), fill,
         lambda cached, todo: (
-            f"[{name}] the tuned disk and {patterns} patterns ({len(spec.sigma)} levels x "
-            f"{spec.patterns}, seed {spec.seed}) of {len(study[0].pairs[0][1])} blades"
+            f"[{name}] the tuned disk and {patterns} patterns ({len(spec.sigma)} "
+            f"level{'s' if len(spec.sigma) > 1 else ''} x {spec.patterns}, seed {spec.seed}) "
+            f"of {len(study[0].pairs[0][1])} blades"
             + (f", for each of {len(study)} members" if spec.family else "")
             + f": {cached} from the cache, {todo} to compute"), line)
     summary = []
