@@ -218,6 +218,24 @@ def test_the_amplification_axis_spans_the_patterns_and_names_a_bound_above(tmp_p
     assert nan_only.axes[0].get_ylim()[1] > 1.0
 
 
+def test_a_familys_long_amplification_legend_goes_below_the_axes(tmp_path):
+    """Three members' medians and largest, with and without the dampers (12 entries and
+    the tuned line): inside the axes the legend covered the curves and ran off the
+    picture's left edge; below them it overlaps neither the axes nor the picture's edges."""
+    x = np.array([0.0, 1.0])
+    series = [{"x": x, "y": np.array([1.0, 1.1 + 0.01 * k]), "label": f"member {k}"}
+              for k in range(12)]
+    fig = plots.amplification(tmp_path / "a.png", "t", series, [{"y": 1.0, "label": "tuned"}])
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    legend = fig.axes[0].get_legend().get_window_extent(renderer)
+    assert len(legend_texts(fig.axes[0])) == 13
+    assert legend.y1 <= fig.axes[0].get_window_extent(renderer).y0 and not (
+        legend.overlaps(fig.axes[0].get_window_extent(renderer)))
+    assert legend.x0 >= 0 and legend.y0 >= 0
+    assert legend.x1 <= fig.bbox.width
+
+
 def test_the_exceedance_curve_steps_down_by_one_nth_at_each_value(tmp_path):
     """P(A > a) of three values: 1 below the smallest, then 2/3, 1/3 and 0 from each value
     on (post steps); a curve with no value is left out; the limit is a vertical line."""

@@ -364,8 +364,25 @@ def amplification(path: Path, title: str, series: Sequence[dict], levels: Sequen
     note = f"\n{'; '.join(above)}: above the axis" if above else ""
     ax.set_title(title + note, fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    _legend_fitting(fig, ax)
     return _save(fig, path)
+
+
+#: legend entries that fit inside an amplification plot's axes without covering its curves
+INSIDE_LEGEND = 6
+
+
+def _legend_fitting(fig: Figure, ax) -> None:
+    """The legend inside the axes where it is short; below them, the figure taller by its
+    rows, where a family's members make it long (inside, it covered the curves)."""
+    entries = len(ax.get_legend_handles_labels()[0])
+    if entries <= INSIDE_LEGEND:
+        ax.legend(fontsize=7, ncol=2)
+        return
+    rows = -(-entries // 2)
+    width, height = fig.get_size_inches()
+    fig.set_size_inches(width, height + 0.17 * rows)
+    ax.legend(fontsize=7, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.16))
 
 
 def exceedance(path: Path, title: str, panels: Sequence[dict], limit: float | None = None
