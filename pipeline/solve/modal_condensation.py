@@ -49,10 +49,6 @@ MODAL_FROM = 1e8
 #: Largest off-diagonal of Phi^H C Phi, relative to its largest diagonal entry, that counts
 #: as diagonal (modal damping formed from the same modes agrees to rounding, ~1e-13).
 DIAGONAL_TOL = 1e-8
-#: Eigenvalues below this share of the largest are rigid-body modes (an undamped elastic
-#: mode refuses the route: its receptance is infinite at its frequency, S finite there):
-#: modal damping's own threshold, which leaves those modes undamped.
-RIGID = RIGID_SHARE
 #: Contact DOFs per component up to which the receptance is inverted (batched, small),
 #: above which it is LU-factored (a third of the work, one body at a time).
 INVERT_UP_TO = 256
@@ -406,7 +402,9 @@ def diagonal_modes(K: np.ndarray, M: np.ndarray, C: np.ndarray
     off = np.abs(cm - np.diag(np.diag(cm))).max(initial=0.0)
     if off > DIAGONAL_TOL * max(np.abs(c).max(initial=0.0), 1e-300):
         raise ValueError("damping not diagonal in the modes")
-    elastic = lam > RIGID * max(float(np.abs(lam).max(initial=0.0)), 1e-300)
+    # rigid below modal damping's own threshold, which leaves them undamped (an undamped
+    # elastic mode refuses the route: its receptance is infinite there, S finite)
+    elastic = lam > RIGID_SHARE * max(float(np.abs(lam).max(initial=0.0)), 1e-300)
     if np.any(elastic & (c <= 0.0)):  # (its receptance is infinite at its frequency)
         raise ValueError("an undamped elastic mode")
     return lam, phi, c
