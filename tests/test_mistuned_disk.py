@@ -208,13 +208,18 @@ def test_the_mistuned_whole_disk_against_the_full_disks_own_reduction(sector):
         np.testing.assert_allclose(amp_a, amp_b, rtol=3e-2)
 
 
-def test_the_modal_route_gives_the_whole_disks_balance_of_the_schur_route(sector, whole,
-                                                                          monkeypatch):
+@pytest.mark.parametrize("way", ["modal", "component"])
+def test_the_modal_and_component_routes_give_the_whole_disks_balance_of_the_schur_route(
+        sector, whole, monkeypatch, way):
     """The whole disk's residual, Jacobian, frequency derivative and recovered DOFs by the
-    modal route (solve.modal_condensation; the 6-blade disk is below the size it is chosen
-    at, so it is asked for) against the Schur complement's, at a state off the solution
-    (the contacts partly stuck, partly slipping). Both exact: 1e-9 of the largest entry
-    holds them to rounding amplified by the receptance's condition (measured 1e-12)."""
+    modal route (solve.modal_condensation) and by the component route (solve.
+    component_condensation: the blisk's D_ii factored, its S made only for the dense
+    Jacobian; the dampers formed in a batch) against the Schur complement's, at a state
+    off the solution (the contacts partly stuck, partly slipping). The 6-blade disk is
+    below the size either is chosen at, so each is asked for. All exact: 1e-9 of the
+    largest entry holds them to rounding amplified by the receptance's condition
+    (measured 1e-12)."""
+    from microslip.solve import component_condensation as component
     from microslip.solve import modal_condensation as modal
 
     mesh, red = sector
@@ -224,11 +229,20 @@ def test_the_modal_route_gives_the_whole_disks_balance_of_the_schur_route(sector
     disk_spec = annulus_spec(spec(0.5, 5, 15.0), NS, ("blisk",))
     point = OperatingPoint(first_bending(sector))
     schur = join(full, bodies, stiffness, disk_spec, h).hb
-    assert schur._modal_form(point) is None  # (made once: the route stays)
+    assert schur._form(point) is None  # (made once: the route stays)
     monkeypatch.setattr(modal, "MODAL_FROM", 0.0)
     monkeypatch.setattr(modal, "MODAL_GAIN", 0.0)
+    monkeypatch.setattr(component.ComponentForm, "cost",
+                        staticmethod(lambda parts: 0.0 if way == "component" else np.inf))
+    # the dampers' 10 other DOFs formed, the blisk's factored (at 6 blades it has fewer
+    # than the FORMED_UP_TO it would be formed below)
+    monkeypatch.setattr(component, "FORMED_UP_TO", 16)
     route = join(full, bodies, stiffness, disk_spec, h).hb
-    assert route._modal_form(point) is not None
+    form = route._form(point)
+    kind = component.ComponentForm if way == "component" else modal.ModalForm
+    assert isinstance(form, kind)
+    if way == "component":  # both kinds of component: formed (dampers) and factored
+        assert {b.formed for b in form.blocks[1]} == {True, False}
     x = schur.linear_guess(point, stuck=True)
     x = x * (1.0 + 0.3 * np.random.default_rng(0).standard_normal(x.size))
     got, want = (m.residual(x, point, "frequency") for m in (route, schur))

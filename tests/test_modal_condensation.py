@@ -121,3 +121,62 @@ def test_the_route_is_refused_where_it_does_not_hold_or_pay():
     assert form(np.zeros_like(C), True) is None
     # 52 DOFs: an iterate of either route costs microseconds, the Schur one stays
     assert form(C, False) is None
+
+
+def _component_routes(rng, parameter, hermitian, C_of=None):
+    """(Schur, component route) of :func:`_two_bodies` (its damping replaced by
+    ``C_of(C)``): the same condensation by solve.component_condensation."""
+    from microslip.solve.component_condensation import ComponentForm
+
+    K, M, C, dofs, others = _two_bodies(rng, hermitian)
+    C = C if C_of is None else C_of(C)
+    orders = (1, 2, 3) if hermitian else (0, 1, 3)
+    h = Harmonics(orders, 16)
+    lin = Reordered.of(LinearDynamics.create(K, M, C, harmonics=h, n_shared=K.shape[0]),
+                       dofs, others)
+    point = OperatingPoint(700.0)
+    n = K.shape[0]
+    F = [rng.standard_normal(n) + 1j * rng.standard_normal(n) for _ in orders]
+    dF = None if parameter is None else [rng.standard_normal(n) + 0j for _ in orders]
+    dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
+    schur = condense(lin.linear.dynamic_stiffness(point), lin.take(F), dofs.size, dD,
+                     None if dF is None else lin.take(dF))
+    form = ComponentForm.of(lin.linear, dofs.size, lin.linear.mass(point))
+    return schur, form.condensed(point.omega, lin.take(F),
+                                 None if dF is None else lin.take(dF), parameter)
+
+
+def _dashpot(C):
+    """A dashpot between two DOFs of the modal body: damping no mode diagonalizes (the
+    modal route refuses it; this one does not need it)."""
+    C = C.copy()
+    C[np.ix_([0, 1], [0, 1])] += 50.0 * np.array([[1, -1], [-1, 1]])
+    return C
+
+
+@pytest.mark.parametrize("formed_up_to", [0, 64])  # the 40-DOF body factored, or formed
+@pytest.mark.parametrize("parameter", [None, "frequency", "excitation"])
+@pytest.mark.parametrize("hermitian", [False, True])
+@pytest.mark.parametrize("damping", ["modal", "dashpot", "none"])
+def test_component_route_is_the_schur_complement(formed_up_to, parameter, hermitian,
+                                                 damping, monkeypatch):
+    # the same products as the modal route's test; rounding alone separates the routes
+    # (no receptance: its condition does not enter), TOL as there
+    from microslip.solve import component_condensation as component
+
+    monkeypatch.setattr(component, "FORMED_UP_TO", formed_up_to)
+    rng = np.random.default_rng(1)
+    C_of = {"modal": None, "dashpot": _dashpot, "none": np.zeros_like}[damping]
+    schur, route = _component_routes(rng, parameter, hermitian, C_of)
+    nc = schur.n_contact
+    X = rng.standard_normal((3, nc, 2)) + 1j * rng.standard_normal((3, nc, 2))
+    assert _err(route.F, schur.F) < TOL
+    assert _err(route.S_product(X), schur.S_product(X)) < TOL
+    for k in range(3):
+        assert _err(route.recover(k, X[k, :, 0]), schur.recover(k, X[k, :, 0])) < TOL
+    if parameter is not None:
+        assert _err(route.dF, schur.dF) < TOL
+    if parameter == "frequency":
+        assert _err(route.dS_product(X), schur.dS_product(X)) < TOL
+    assert "S" not in route.__dict__  # the products above went without the matrix
+    assert _err(route.S, schur.S) < TOL

@@ -90,12 +90,14 @@ def refined_peak(r: Response, shown: np.ndarray, rows, measure: str, settings
     tried = {float(lam[j]): r.branch.x[j] for j in (i - 1, i, i + 1)}
     # next to a natural sweep's jump the neighbours lie on two branches: no mix of them
     across = any(i in jump for jump in r.branch.jumps)
+    # the trials' scale: their neighbours' largest unknown, not a stuck linear solve each
+    scale = float(max(np.abs(x).max(initial=0.0) for x in tried.values()))
 
     def response(v: float) -> float:
         point = r.base.set(r.parameter, v)
         sol = solve_point(r.model, point, settings=settings,
                           x0=between(tried, v, interpolate=not across), retry=False,
-                          explain=False)
+                          explain=False, x_scale=scale or None)
         if not sol.converged:
             return 0.0
         tried[v] = sol.x

@@ -36,6 +36,7 @@ from microslip.fourier import Harmonics
 from microslip.laws.coulomb import ContactResponse
 from microslip.laws.interface import ContactSet
 from microslip.solve import modal_condensation as modal
+from microslip.solve.component_condensation import ComponentForm
 from microslip.solve.condensation import (
     Condensed,
     Reordered,
@@ -282,7 +283,7 @@ class HarmonicBalance:
         F, dF = self.forces(point, parameter)
         if parameter == "mass":  # a mass continuation: every point another multiplier
             self._cache.put(("mass varies",), True, 0, pinned=True)
-        form = self._modal_form(point) if parameter in modal.PARAMETERS \
+        form = self._form(point) if parameter in modal.PARAMETERS \
             and point.xi is None else None
         if form is not None:
             out = form.condensed(point.omega, lin.take(F),
@@ -296,20 +297,39 @@ class HarmonicBalance:
         self._cache.put(key, out, out.nbytes)
         return out
 
-    def _modal_form(self, point: OperatingPoint) -> modal.ModalForm | None:
-        """The modal route's form at the point's mass multiplier (None: the Schur
-        complement's route), made once per multiplier and pinned in the cache, the last
-        multiplier's only (a mass family's whole disk: each form holds its modes)."""
-        key, s = ("modal",), point.mass_multiplier
+    def _form(self, point: OperatingPoint) -> modal.ModalForm | ComponentForm | None:
+        """The form of the modal or the component route at the point's mass multiplier
+        (None: the Schur complement over every other DOF), made once per multiplier and
+        pinned in the cache, the last multiplier's only (a mass family's whole disk: each
+        form holds its modes)."""
+        key, s = ("form",), point.mass_multiplier
         hit = self._cache.get(key)
         if hit is not None and hit[0] != s and self._cache.get(("mass varies",)):
             return None  # (a form per point of a mass continuation: eigendecompositions)
         if hit is None or hit[0] != s:
-            lin = self.reordered().linear
-            form = modal.ModalForm.of(lin, self.dofs.size, lin.mass(point))
+            form = self._route(point)
             hit = (s, form)
             self._cache.put(key, hit, 0 if form is None else form.nbytes, pinned=True)
         return hit[1]
+
+    def _route(self, point: OperatingPoint) -> modal.ModalForm | ComponentForm | None:
+        """The cheapest route per iterate where it saves MODAL_GAIN x the Schur complement's
+        work of MODAL_FROM or more: the components' (the large ones' D_ii factored, S made
+        only when asked), else the modal one (the receptance), where it applies."""
+        lin, nc = self.reordered().linear, self.dofs.size
+        masses = lin.mass(point)
+        if nc == 0 or not any(o > 0 for o in lin.orders):
+            return None
+        parts, _ = modal._parts(lin, nc, masses)
+        schur, by_modes = modal.route_costs(lin, nc, masses, parts)
+        by_parts = ComponentForm.cost(parts)
+        if schur < modal.MODAL_FROM or min(by_modes, by_parts) * modal.MODAL_GAIN > schur:
+            return None
+        form = modal.ModalForm.of(lin, nc, masses, always=True) if by_modes < by_parts \
+            else None
+        if form is None and by_parts * modal.MODAL_GAIN <= schur:
+            return ComponentForm.of(lin, nc, masses)
+        return form
 
     def reordered(self) -> Reordered:
         """The linear part reordered for the condensation, built once (pinned in the cache:

@@ -130,19 +130,11 @@ class ModalForm:
         dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
         if not dynamic or nc == 0:
             return None
-        parts, same = {}, {}
-        for k in dynamic:  # orders with the same matrices (a lumped model) share theirs
-            same[k] = next((j for j in dynamic if j < k and _same(linear, masses, j, k)), k)
-            parts[k] = parts[same[k]] if same[k] != k else \
-                _components(linear.K[k], masses[k], linear.C[k], nc)
-        n_i = [linear.sizes[k] - nc for k in dynamic]
-        schur = sum(ni**3 / 3 + ni**2 * nc + nc**2 * ni for ni in n_i)
-        # real modes form the receptance by two real products: half a complex one
-        share = {k: 1.0 if _complex(linear, masses, k) else 0.5 for k in dynamic}
-        modal = sum(share[k] * c.size**2 * d.size + c.size**3 / 3 for k in dynamic
-                    for c, d in parts[k])
-        if not always and (schur < MODAL_FROM or modal * MODAL_GAIN > schur):
-            return None
+        parts, same = _parts(linear, nc, masses)
+        if not always:
+            schur, modal = route_costs(linear, nc, masses, parts)
+            if schur < MODAL_FROM or modal * MODAL_GAIN > schur:
+                return None
         groups: list[tuple[_Group, ...] | None] = [None] * len(linear.orders)
         for k in dynamic:
             if same[k] != k:
@@ -346,6 +338,33 @@ class ModalCondensed:
         held = sum(a.nbytes for at in self._at if at is not None for a in at)
         return held + self.F.nbytes * (2 if self.dF is not None else 1) + \
             sum(w.nbytes for zs in self._z if isinstance(zs, list) for w in zs)
+
+
+def _parts(linear, nc: int, masses: Sequence[np.ndarray]) -> tuple[dict, dict]:
+    """Per dynamic order k its components (:func:`_components`), and the first order with
+    the same matrices (a lumped model's orders share theirs)."""
+    dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
+    parts, same = {}, {}
+    for k in dynamic:
+        same[k] = next((j for j in dynamic if j < k and _same(linear, masses, j, k)), k)
+        parts[k] = parts[same[k]] if same[k] != k else \
+            _components(linear.K[k], masses[k], linear.C[k], nc)
+    return parts, same
+
+
+def route_costs(linear, nc: int, masses: Sequence[np.ndarray], parts: dict | None = None
+                ) -> tuple[float, float]:
+    """Complex multiply-adds of an iterate by the Schur complement over every other DOF
+    and by the modal route (``parts`` from :func:`_parts`, made where None)."""
+    dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
+    parts = _parts(linear, nc, masses)[0] if parts is None else parts
+    n_i = [linear.sizes[k] - nc for k in dynamic]
+    schur = sum(ni**3 / 3 + ni**2 * nc + nc**2 * ni for ni in n_i)
+    # real modes form the receptance by two real products: half a complex one
+    share = {k: 1.0 if _complex(linear, masses, k) else 0.5 for k in dynamic}
+    modal = sum(share[k] * c.size**2 * d.size + c.size**3 / 3 for k in dynamic
+                for c, d in parts[k])
+    return schur, modal
 
 
 def _components(K: np.ndarray, M: np.ndarray, C: np.ndarray, nc: int
