@@ -180,3 +180,21 @@ def test_component_route_is_the_schur_complement(formed_up_to, parameter, hermit
         assert _err(route.dS_product(X), schur.dS_product(X)) < TOL
     assert "S" not in route.__dict__  # the products above went without the matrix
     assert _err(route.S, schur.S) < TOL
+
+
+def test_a_large_components_S_is_made_after_many_products(monkeypatch):
+    # lazy products up to FORM_AFTER at a point, then S_b made once and used: the same
+    # products either way (to rounding, TOL)
+    from microslip.solve import component_condensation as component
+
+    monkeypatch.setattr(component, "FORMED_UP_TO", 0)
+    monkeypatch.setattr(component, "FORM_AFTER", 3)
+    rng = np.random.default_rng(4)
+    schur, route = _component_routes(rng, "frequency", False)
+    X = rng.standard_normal((3, schur.n_contact, 1)) + 0j
+    made = []
+    for _ in range(5):
+        assert _err(route.S_product(X), schur.S_product(X)) < TOL
+        made.append(all(a.S is not None for at in route._at if at for a in at))
+    assert made == [False, False, False, True, True]
+    assert _err(route.dS_product(X), schur.dS_product(X)) < TOL

@@ -35,6 +35,10 @@ from .modal_condensation import _components, _Static
 #: inverted in a batch with the others of its shape, S_b made): beyond, D_ii is LU-factored
 #: and S_b made only when asked.
 FORMED_UP_TO = 64
+#: Products at one point after which a large component's S_b is made: a lazy product
+#: reads D_cc, D_ci, D_ic and solves with D_ii's factors (~3.5 ms at 1,152 contact and 768
+#: other DOFs, one thread), S_b's costs 0.9 ms, and making it 380 ms: even after ~150.
+FORM_AFTER = 150
 #: Parameters whose derivatives the route forms (as the modal route: a mass continuation
 #: changes M at every point, a nonlinear mode's self-excitation takes the Schur complement).
 PARAMETERS = (None, "frequency", "excitation", "preload")
@@ -159,7 +163,8 @@ class _AtPoint:
     D: np.ndarray  # (G, nb, nb)
     inverse: np.ndarray | None  # (G, nib, nib) D_ii^-1 (formed)
     lus: tuple | None  # per component the LU of D_ii (large)
-    S: np.ndarray | None  # (G, ncb, ncb) (formed)
+    S: np.ndarray | None  # (G, ncb, ncb) (formed, or made)
+    products: int = 0  # lazy S products so far
 
     @classmethod
     def of(cls, b: _Block, order: int, omega: float, derivative: bool) -> _AtPoint:
@@ -190,8 +195,9 @@ class _AtPoint:
 
     def S_product(self, X: np.ndarray) -> np.ndarray:
         """S_b X per component, X (G, ncb, m)."""
-        if self.S is not None:
-            return self.S @ X
+        self.products += 1
+        if self.S is not None or self.products > FORM_AFTER:
+            return self.S_made() @ X
         n, D = self.block.nc, self.D
         return D[:, :n, :n] @ X - D[:, :n, n:] @ self.solve_ii(D[:, n:, :n] @ X)
 
