@@ -40,8 +40,13 @@ def _two_bodies(rng, hermitian: bool = False):
     return K, M, C, dofs, np.setdiff1d(np.arange(n), dofs)
 
 
-def _routes(rng, parameter, hermitian=False):
+def _routes(rng, parameter, hermitian=False, C_of=None, way="modal"):
+    """(Schur complement, the modal or component route) of :func:`_two_bodies` (its damping
+    replaced by ``C_of(C)``) at 700 rad/s, with random loads (and their derivatives)."""
+    from microslip.solve.component_condensation import ComponentForm
+
     K, M, C, dofs, others = _two_bodies(rng, hermitian)
+    C = C if C_of is None else C_of(C)
     orders = (1, 2, 3) if hermitian else (0, 1, 3)  # (order 0 is real: ND 0)
     h = Harmonics(orders, 16)
     lin = Reordered.of(LinearDynamics.create(K, M, C, harmonics=h, n_shared=K.shape[0]),
@@ -53,7 +58,9 @@ def _routes(rng, parameter, hermitian=False):
     dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
     schur = condense(lin.linear.dynamic_stiffness(point), lin.take(F), dofs.size, dD,
                      None if dF is None else lin.take(dF))
-    form = modal.ModalForm.of(lin.linear, dofs.size, lin.linear.mass(point), always=True)
+    masses = lin.linear.mass(point)
+    form = modal.ModalForm.of(lin.linear, dofs.size, masses, always=True) if way == "modal" \
+        else ComponentForm.of(lin.linear, dofs.size, masses)
     return schur, form.condensed(point.omega, lin.take(F),
                                  None if dF is None else lin.take(dF), parameter)
 
@@ -67,9 +74,15 @@ def _err(a, b) -> float:
 def test_modal_route_is_the_schur_complement(parameter, hermitian):
     rng = np.random.default_rng(1)
     schur, route = _routes(rng, parameter, hermitian)
+    assert _err(route.S, schur.S) < TOL
+    _agree(route, schur, parameter, rng)
+
+
+def _agree(route, schur, parameter, rng) -> None:
+    """The route's loads, products, recovered DOFs and derivatives are the Schur
+    complement's (TOL)."""
     nc = schur.n_contact
     X = rng.standard_normal((3, nc, 2)) + 1j * rng.standard_normal((3, nc, 2))
-    assert _err(route.S, schur.S) < TOL
     assert _err(route.F, schur.F) < TOL
     assert _err(route.S_product(X), schur.S_product(X)) < TOL
     for k in range(3):
@@ -123,29 +136,6 @@ def test_the_route_is_refused_where_it_does_not_hold_or_pay():
     assert form(C, False) is None
 
 
-def _component_routes(rng, parameter, hermitian, C_of=None):
-    """(Schur, component route) of :func:`_two_bodies` (its damping replaced by
-    ``C_of(C)``): the same condensation by solve.component_condensation."""
-    from microslip.solve.component_condensation import ComponentForm
-
-    K, M, C, dofs, others = _two_bodies(rng, hermitian)
-    C = C if C_of is None else C_of(C)
-    orders = (1, 2, 3) if hermitian else (0, 1, 3)
-    h = Harmonics(orders, 16)
-    lin = Reordered.of(LinearDynamics.create(K, M, C, harmonics=h, n_shared=K.shape[0]),
-                       dofs, others)
-    point = OperatingPoint(700.0)
-    n = K.shape[0]
-    F = [rng.standard_normal(n) + 1j * rng.standard_normal(n) for _ in orders]
-    dF = None if parameter is None else [rng.standard_normal(n) + 0j for _ in orders]
-    dD = lin.linear.d_dynamic_stiffness(point, parameter) if parameter else None
-    schur = condense(lin.linear.dynamic_stiffness(point), lin.take(F), dofs.size, dD,
-                     None if dF is None else lin.take(dF))
-    form = ComponentForm.of(lin.linear, dofs.size, lin.linear.mass(point))
-    return schur, form.condensed(point.omega, lin.take(F),
-                                 None if dF is None else lin.take(dF), parameter)
-
-
 def _dashpot(C):
     """A dashpot between two DOFs of the modal body: damping no mode diagonalizes (the
     modal route refuses it; this one does not need it)."""
@@ -167,17 +157,8 @@ def test_component_route_is_the_schur_complement(formed_up_to, parameter, hermit
     monkeypatch.setattr(component, "FORMED_UP_TO", formed_up_to)
     rng = np.random.default_rng(1)
     C_of = {"modal": None, "dashpot": _dashpot, "none": np.zeros_like}[damping]
-    schur, route = _component_routes(rng, parameter, hermitian, C_of)
-    nc = schur.n_contact
-    X = rng.standard_normal((3, nc, 2)) + 1j * rng.standard_normal((3, nc, 2))
-    assert _err(route.F, schur.F) < TOL
-    assert _err(route.S_product(X), schur.S_product(X)) < TOL
-    for k in range(3):
-        assert _err(route.recover(k, X[k, :, 0]), schur.recover(k, X[k, :, 0])) < TOL
-    if parameter is not None:
-        assert _err(route.dF, schur.dF) < TOL
-    if parameter == "frequency":
-        assert _err(route.dS_product(X), schur.dS_product(X)) < TOL
+    schur, route = _routes(rng, parameter, hermitian, C_of, "component")
+    _agree(route, schur, parameter, rng)
     assert "S" not in route.__dict__  # the products above went without the matrix
     assert _err(route.S, schur.S) < TOL
 
@@ -190,7 +171,7 @@ def test_a_large_components_S_is_made_after_many_products(monkeypatch):
     monkeypatch.setattr(component, "FORMED_UP_TO", 0)
     monkeypatch.setattr(component, "FORM_AFTER", 3)
     rng = np.random.default_rng(4)
-    schur, route = _component_routes(rng, "frequency", False)
+    schur, route = _routes(rng, "frequency", False, way="component")
     X = rng.standard_normal((3, schur.n_contact, 1)) + 0j
     made = []
     for _ in range(5):

@@ -28,8 +28,7 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as sla
 
-from .condensation import real_product
-from .modal_condensation import _components, _Static
+from .modal_condensation import GroupedCondensed, StaticPart, body_components
 
 #: Other DOFs per component up to which a component is formed at every point (its D_ii
 #: inverted in a batch with the others of its shape, S_b made): beyond, D_ii is LU-factored
@@ -88,7 +87,7 @@ class ComponentForm:
 
     orders: tuple[int, ...]
     blocks: tuple[tuple[_Block, ...] | None, ...]
-    static: _Static | None
+    static: StaticPart | None
     n_contact: int
     sizes: tuple[int, ...]
 
@@ -102,9 +101,9 @@ class ComponentForm:
             return None
         blocks: list[tuple[_Block, ...] | None] = [None] * len(linear.orders)
         for k in dynamic:
-            parts = _components(linear.K[k], masses[k], linear.C[k], nc)
+            parts = body_components(linear.K[k], masses[k], linear.C[k], nc)
             blocks[k] = _stacked(parts, linear.K[k], masses[k], linear.C[k], nc)
-        static = _Static.of(linear.K[0], nc) if linear.orders[0] == 0 else None
+        static = StaticPart.of(linear.K[0], nc) if linear.orders[0] == 0 else None
         return cls(tuple(linear.orders), tuple(blocks), static, nc, tuple(linear.sizes))
 
     @staticmethod
@@ -184,6 +183,11 @@ class _AtPoint:
         """(G, nb, nb) dD/dw, None where the derivative is not by frequency."""
         return self.block.d_dynamic(self.order, self.omega) if self.derivative else None
 
+    @property
+    def contact(self) -> np.ndarray:
+        """(G, ncb) the components' contact positions."""
+        return self.block.contact
+
     def solve_ii(self, X: np.ndarray) -> np.ndarray:
         """D_ii^-1 X per component, X (G, nib, m)."""
         if self.inverse is not None:
@@ -193,16 +197,19 @@ class _AtPoint:
         return np.stack([sla.lu_solve(lu, x, check_finite=False)
                          for lu, x in zip(self.lus, X)])
 
-    def S_product(self, X: np.ndarray) -> np.ndarray:
+    def product(self, X: np.ndarray) -> np.ndarray:
         """S_b X per component, X (G, ncb, m)."""
         self.products += 1
         if self.S is not None or self.products > FORM_AFTER:
-            return self.S_made() @ X
+            return self.S_b() @ X
         n, D = self.block.nc, self.D
         return D[:, :n, :n] @ X - D[:, :n, n:] @ self.solve_ii(D[:, n:, :n] @ X)
 
-    def dS_product(self, X: np.ndarray) -> np.ndarray:
-        """dS_b X per component (by frequency), X (G, ncb, m)."""
+    def d_product(self, X: np.ndarray) -> np.ndarray:
+        """dS_b X per component, X (G, ncb, m) (zero where the derivative is not by
+        frequency)."""
+        if not self.derivative:
+            return np.zeros_like(X)
         n, D, dD = self.block.nc, self.D, self.dD
         out = dD[:, :n, :n] @ X
         if self.block.other.shape[1] == 0:
@@ -211,7 +218,7 @@ class _AtPoint:
         V = dD[:, n:, :n] @ X - dD[:, n:, n:] @ W
         return out - dD[:, :n, n:] @ W - D[:, :n, n:] @ self.solve_ii(V)
 
-    def S_made(self) -> np.ndarray:
+    def S_b(self) -> np.ndarray:
         """(G, ncb, ncb) S_b."""
         if self.S is None:
             n, D = self.block.nc, self.D
@@ -227,7 +234,7 @@ class _AtPoint:
             (self.D.nbytes if self.derivative else 0)
 
 
-class ComponentCondensed:
+class ComponentCondensed(GroupedCondensed):
     """The condensation at one point by this route, with :class:`~microslip.solve.
     condensation.Condensed`'s interface for the balance (``S``, ``S_product``, ``F``,
     ``dS_product``, ``dF``, ``recover``)."""
@@ -245,9 +252,7 @@ class ComponentCondensed:
         self._z: list = [None] * len(F)  # per order: D_ii^-1 F_i (per group, or order 0's)
         for k, at in enumerate(self._at):
             if at is None:
-                self.F[k], self._z[k] = form.static.condensed_load(F[k])
-                if dF is not None:
-                    self.dF[k] = form.static.condensed_load(dF[k])[0]
+                self._static_loads(k, F[k], None if dF is None else dF[k])
                 continue
             self._z[k] = []
             for a in at:
@@ -266,51 +271,6 @@ class ComponentCondensed:
                     dFc = dFc - dD[:, :n, n:] @ z
                     rhs = rhs - dD[:, n:, n:] @ z
                 self.dF[k][b.contact] = (dFc - a.D[:, :n, n:] @ a.solve_ii(rhs))[..., 0]
-
-    @cached_property
-    def S(self) -> np.ndarray:
-        """(n_orders, nc, nc) complex, block-diagonal over the components at every dynamic
-        order."""
-        nc = self.n_contact
-        out = np.zeros((len(self._at), nc, nc), dtype=complex)
-        for k, at in enumerate(self._at):
-            if at is None:
-                out[k] = self.form.static.S
-                continue
-            for a in at:
-                c = a.block.contact
-                if c.shape[1]:
-                    out[k][c[:, :, None], c[:, None, :]] = a.S_made()
-        return out
-
-    def S_product(self, X: np.ndarray) -> np.ndarray:
-        """S_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
-        static = self.form.static
-        return self._per_group(X, lambda a, x: a.S_product(x),
-                               None if static is None else static.S)
-
-    def dS_product(self, X: np.ndarray) -> np.ndarray:
-        """dS_k X_k per order (by frequency; zero by the others)."""
-        return self._per_group(X, lambda a, x: a.dS_product(x) if a.derivative
-                               else np.zeros_like(x), None)
-
-    def _per_group(self, X: np.ndarray, apply, static: np.ndarray | None) -> np.ndarray:
-        """Per dynamic order ``apply(group at point, (G, ncb, m))`` scattered back; order 0
-        ``static @ X_0`` (zero where None)."""
-        out = np.zeros(X.shape, dtype=complex)
-        nc = self.n_contact
-        for k, at in enumerate(self._at):
-            x = X[k].reshape(nc, -1)
-            if at is None:
-                if static is not None:
-                    out[k] = real_product(static, x).reshape(X[k].shape)
-                continue
-            o = out[k].reshape(nc, -1)
-            for a in at:
-                c = a.block.contact
-                if c.shape[1]:
-                    o[c] = apply(a, x[c])
-        return out
 
     def recover(self, k: int, x: np.ndarray) -> np.ndarray:
         """The condensed DOFs' amplitudes (n_k - nc,), in the reordered layout, of order k

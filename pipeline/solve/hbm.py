@@ -320,7 +320,7 @@ class HarmonicBalance:
         masses = lin.mass(point)
         if nc == 0 or not any(o > 0 for o in lin.orders):
             return None
-        parts, _ = modal._parts(lin, nc, masses)
+        parts, _ = modal.component_parts(lin, nc, masses)
         schur, by_modes = modal.route_costs(lin, nc, masses, parts)
         by_parts = ComponentForm.cost(parts)
         if schur < modal.MODAL_FROM or min(by_modes, by_parts) * modal.MODAL_GAIN > schur:

@@ -27,6 +27,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -79,7 +80,7 @@ class _Group:
 
 
 @dataclass(frozen=True, eq=False)
-class _Static:
+class StaticPart:
     """Order 0's condensation, factored once: S_0 = D_cc - D_ci Y, Y = D_ii^-1 D_ic."""
 
     S: np.ndarray  # (nc, nc)
@@ -88,7 +89,7 @@ class _Static:
     lu: tuple | None
 
     @classmethod
-    def of(cls, D: np.ndarray, nc: int) -> _Static:
+    def of(cls, D: np.ndarray, nc: int) -> StaticPart:
         Dci = D[:nc, nc:]
         if D.shape[0] == nc:
             return cls(np.array(D[:nc, :nc]), Dci, np.zeros((0, nc), dtype=D.dtype), None)
@@ -116,7 +117,7 @@ class ModalForm:
 
     orders: tuple[int, ...]
     groups: tuple[tuple[_Group, ...] | None, ...]
-    static: _Static | None
+    static: StaticPart | None
     n_contact: int
 
     @classmethod
@@ -130,7 +131,7 @@ class ModalForm:
         dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
         if not dynamic or nc == 0:
             return None
-        parts, same = _parts(linear, nc, masses)
+        parts, same = component_parts(linear, nc, masses)
         if not always:
             schur, modal = route_costs(linear, nc, masses, parts)
             if schur < MODAL_FROM or modal * MODAL_GAIN > schur:
@@ -146,7 +147,7 @@ class ModalForm:
                 return None  # M not positive definite, or C not diagonal in the modes
         static = None
         if linear.orders[0] == 0:
-            static = _Static.of(linear.K[0], nc)
+            static = StaticPart.of(linear.K[0], nc)
         return cls(tuple(linear.orders), tuple(groups), static, nc)
 
     @property
@@ -194,13 +195,30 @@ class _OrderAtPoint:
         return cls(g, inv_d, delta, None,
                    tuple(sla.lu_factor(h, check_finite=False, overwrite_a=True) for h in H))
 
+    @property
+    def contact(self) -> np.ndarray:
+        """(G, ncb) the components' contact positions."""
+        return self.group.contact
+
     def solve(self, X: np.ndarray) -> np.ndarray:
         """S X = H_cc^-1 X per component, X (G, ncb, m) complex."""
         if self.inverse is not None:
             return self.inverse @ X
         return np.stack([_lu_solve(lu, x) for lu, x in zip(self.lus, X)])
 
-    def S(self) -> np.ndarray:
+    def product(self, X: np.ndarray) -> np.ndarray:
+        """S X per component (H_cc^-1 X)."""
+        return self.solve(X)
+
+    def d_product(self, X: np.ndarray) -> np.ndarray:
+        """dS X = -S dH S X per component, dH = Phi_c diag(d(1/d)/dw) Phi_c^H (zero where
+        the derivative is not by frequency)."""
+        if self.delta is None:
+            return np.zeros_like(X)
+        y = self.from_contacts(self.solve(X)) * self.delta[..., None]
+        return -self.solve(self.at_contacts(y))
+
+    def S_b(self) -> np.ndarray:
         """(G, ncb, ncb) H_cc^-1."""
         if self.inverse is not None:
             return self.inverse
@@ -226,7 +244,72 @@ class _OrderAtPoint:
         return held + self.inv_d.nbytes * (2 if self.delta is not None else 1)
 
 
-class ModalCondensed:
+class GroupedCondensed:
+    """S, S_product and dS_product of a condensation at one point held per order as groups
+    of components (``_at``: None at order 0, whose ``form.static`` serves it), each group
+    at the point giving its ``contact`` positions (G, ncb), ``S_b()`` (G, ncb, ncb),
+    ``product(x)`` S_b x and ``d_product(x)`` dS_b x for x (G, ncb, m)."""
+
+    _at: tuple
+    n_contact: int
+    form: Any
+    F: np.ndarray
+    dF: np.ndarray | None
+    _z: list
+
+    @cached_property
+    def S(self) -> np.ndarray:
+        """(n_orders, nc, nc) complex, block-diagonal over the components at every dynamic
+        order."""
+        nc = self.n_contact
+        out = np.zeros((len(self._at), nc, nc), dtype=complex)
+        for k, at in enumerate(self._at):
+            if at is None:
+                out[k] = self.form.static.S
+                continue
+            for a in at:
+                c = a.contact
+                if c.shape[1]:
+                    out[k][c[:, :, None], c[:, None, :]] = a.S_b()
+        return out
+
+    def S_product(self, X: np.ndarray) -> np.ndarray:
+        """S_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
+        static = self.form.static
+        return self._per_group(X, lambda a, x: a.product(x),
+                               None if static is None else static.S)
+
+    def dS_product(self, X: np.ndarray) -> np.ndarray:
+        """dS_k X_k per order (by frequency; zero by the other parameters and at order 0)."""
+        return self._per_group(X, lambda a, x: a.d_product(x), None)
+
+    def _static_loads(self, k: int, F: np.ndarray, dF: np.ndarray | None) -> None:
+        """Order 0's condensed load (and its derivative) into F[k] (dF[k]), z[k] kept."""
+        self.F[k], self._z[k] = self.form.static.condensed_load(F)
+        if dF is not None:
+            self.dF[k] = self.form.static.condensed_load(dF)[0]
+
+    def _per_group(self, X: np.ndarray, apply, static: np.ndarray | None) -> np.ndarray:
+        """Per dynamic order ``apply(group at the point, (G, ncb, m))`` on X gathered at the
+        group's contact positions and scattered back; order 0 ``static @ X_0`` (zero where
+        None)."""
+        out = np.zeros(X.shape, dtype=complex)
+        nc = self.n_contact
+        for k, at in enumerate(self._at):
+            x = X[k].reshape(nc, -1)
+            if at is None:
+                if static is not None:
+                    out[k] = real_product(static, x).reshape(X[k].shape)
+                continue
+            o = out[k].reshape(nc, -1)
+            for a in at:
+                c = a.contact
+                if c.shape[1]:
+                    o[c] = apply(a, x[c])
+        return out
+
+
+class ModalCondensed(GroupedCondensed):
     """The condensation at one point by the modal route, with :class:`~microslip.solve.
     condensation.Condensed`'s interface for the balance (``S``, ``S_product``, ``F``,
     ``dS_product``, ``dF``, ``recover``)."""
@@ -245,9 +328,7 @@ class ModalCondensed:
         self._z: list = [None] * len(F)  # order 0: D_ii^-1 F_i; dynamic: Phi^H F per group
         for k, at in enumerate(self._at):
             if at is None:
-                self.F[k], self._z[k] = form.static.condensed_load(F[k])
-                if dF is not None:
-                    self.dF[k] = form.static.condensed_load(dF[k])[0]
+                self._static_loads(k, F[k], None if dF is None else dF[k])
                 continue
             self._z[k] = []
             for a in at:
@@ -264,57 +345,6 @@ class ModalCondensed:
                 if a.delta is not None:
                     rhs = rhs + a.delta[..., None] * (w - a.from_contacts(Fe))
                 self.dF[k][g.contact] = a.solve(a.at_contacts(rhs))[..., 0]
-
-    @cached_property
-    def S(self) -> np.ndarray:
-        """(n_orders, nc, nc) complex, block-diagonal over the components at every dynamic
-        order."""
-        nc = self.n_contact
-        out = np.zeros((len(self._at), nc, nc), dtype=complex)
-        for k, at in enumerate(self._at):
-            if at is None:
-                out[k] = self.form.static.S
-                continue
-            for a in at:
-                c = a.group.contact
-                if c.shape[1]:
-                    out[k][c[:, :, None], c[:, None, :]] = a.S()
-        return out
-
-    def S_product(self, X: np.ndarray) -> np.ndarray:
-        """S_k X_k per order: X (n_orders, nc, ...) complex, the same shape back."""
-        static = self.form.static
-        return self._per_group(X, lambda a, x: a.solve(x),
-                               None if static is None else static.S)
-
-    def dS_product(self, X: np.ndarray) -> np.ndarray:
-        """dS_k X_k per order (by frequency: -S dH S; zero by the others)."""
-
-        def apply(a, x):
-            if a.delta is None:
-                return np.zeros_like(x)
-            y = a.from_contacts(a.solve(x)) * a.delta[..., None]
-            return -a.solve(a.at_contacts(y))
-
-        return self._per_group(X, apply, None)
-
-    def _per_group(self, X: np.ndarray, apply, static: np.ndarray | None) -> np.ndarray:
-        """Per dynamic order ``apply(order at point, (G, ncb, m))`` scattered back; order 0
-        ``static @ X_0`` (zero where None)."""
-        out = np.zeros(X.shape, dtype=complex)
-        nc = self.n_contact
-        for k, at in enumerate(self._at):
-            x = X[k].reshape(nc, -1)
-            if at is None:
-                if static is not None:
-                    out[k] = real_product(static, x).reshape(X[k].shape)
-                continue
-            o = out[k].reshape(nc, -1)
-            for a in at:
-                c = a.group.contact
-                if c.shape[1]:
-                    o[c] = apply(a, x[c])
-        return out
 
     def recover(self, k: int, x: np.ndarray) -> np.ndarray:
         """The condensed DOFs' amplitudes (n_k - nc,), in the reordered layout, of order k
@@ -340,24 +370,24 @@ class ModalCondensed:
             sum(w.nbytes for zs in self._z if isinstance(zs, list) for w in zs)
 
 
-def _parts(linear, nc: int, masses: Sequence[np.ndarray]) -> tuple[dict, dict]:
-    """Per dynamic order k its components (:func:`_components`), and the first order with
+def component_parts(linear, nc: int, masses: Sequence[np.ndarray]) -> tuple[dict, dict]:
+    """Per dynamic order k its components (:func:`body_components`), and the first order with
     the same matrices (a lumped model's orders share theirs)."""
     dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
     parts, same = {}, {}
     for k in dynamic:
         same[k] = next((j for j in dynamic if j < k and _same(linear, masses, j, k)), k)
         parts[k] = parts[same[k]] if same[k] != k else \
-            _components(linear.K[k], masses[k], linear.C[k], nc)
+            body_components(linear.K[k], masses[k], linear.C[k], nc)
     return parts, same
 
 
 def route_costs(linear, nc: int, masses: Sequence[np.ndarray], parts: dict | None = None
                 ) -> tuple[float, float]:
     """Complex multiply-adds of an iterate by the Schur complement over every other DOF
-    and by the modal route (``parts`` from :func:`_parts`, made where None)."""
+    and by the modal route (``parts`` from :func:`component_parts`, made where None)."""
     dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
-    parts = _parts(linear, nc, masses)[0] if parts is None else parts
+    parts = component_parts(linear, nc, masses)[0] if parts is None else parts
     n_i = [linear.sizes[k] - nc for k in dynamic]
     schur = sum(ni**3 / 3 + ni**2 * nc + nc**2 * ni for ni in n_i)
     # real modes form the receptance by two real products: half a complex one
@@ -367,7 +397,7 @@ def route_costs(linear, nc: int, masses: Sequence[np.ndarray], parts: dict | Non
     return schur, modal
 
 
-def _components(K: np.ndarray, M: np.ndarray, C: np.ndarray, nc: int
+def body_components(K: np.ndarray, M: np.ndarray, C: np.ndarray, nc: int
                 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Connected components of the pattern of K, M, C: per component (its contact
     positions < nc, every position: contact ones first)."""
