@@ -309,7 +309,6 @@ def test_a_watch_stops_the_branch_where_it_says_so():
     assert free.complete and np.array_equal(free.values, plain.values)
 
 
-
 def cusp(c):
     """R = x - lam + c sqrt(max(lam - 1, 0)): the branch x = lam - c sqrt(lam - 1) turns
     down at lam = 1 with an infinite slope, the square-root cusp of a 2D contact starting

@@ -159,6 +159,8 @@ def test_component_route_is_the_schur_complement(formed_up_to, parameter, hermit
     C_of = {"modal": None, "dashpot": _dashpot, "none": np.zeros_like}[damping]
     schur, route = _routes(rng, parameter, hermitian, C_of, "component")
     _agree(route, schur, parameter, rng)
+    dynamic = [b for b in route.form.blocks if b is not None]
+    assert all(b is dynamic[0] for b in dynamic)  # one matrix set: its blocks held once
     assert "S" not in route.__dict__  # the products above went without the matrix
     assert _err(route.S, schur.S) < TOL
 

@@ -233,6 +233,8 @@ class _Walk:
         leap from a shorter good step is shorter still)."""
         if self.leapt_short / EARLY_SPACING <= self.h_good <= self.leapt_short:
             return None
+        if abs(self.tangent[-1]) < 1e-3:  # at a fold: shorter steps round it, not a leap
+            return None
         leapt, tries = _leap(self.fun, self.x, self.lam, self.tangent, self.h_good, self.xs,
                              self.lam_scale, self.f_scale, self.settings, self.stop,
                              self.direction, EARLY_LEAPS)

@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as sla
 
-from .modal_condensation import GroupedCondensed, StaticPart, body_components
+from .modal_condensation import GroupedCondensed, StaticPart, component_parts
 
 #: Other DOFs per component up to which a component is formed at every point (its D_ii
 #: inverted in a batch with the others of its shape, S_b made): beyond, D_ii is LU-factored
@@ -99,10 +99,11 @@ class ComponentForm:
         dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
         if not dynamic or nc == 0:
             return None
+        parts, same = component_parts(linear, nc, masses)
         blocks: list[tuple[_Block, ...] | None] = [None] * len(linear.orders)
-        for k in dynamic:
-            parts = body_components(linear.K[k], masses[k], linear.C[k], nc)
-            blocks[k] = _stacked(parts, linear.K[k], masses[k], linear.C[k])
+        for k in dynamic:  # orders with the same matrices (a lumped model) share them
+            blocks[k] = blocks[same[k]] if same[k] != k else \
+                _stacked(parts[k], linear.K[k], masses[k], linear.C[k])
         static = StaticPart.of(linear.K[0], nc) if linear.orders[0] == 0 else None
         return cls(tuple(linear.orders), tuple(blocks), static, nc, tuple(linear.sizes))
 
@@ -121,8 +122,8 @@ class ComponentForm:
 
     @property
     def nbytes(self) -> int:
-        held = sum(b.nbytes for bs in self.blocks if bs for b in bs)
-        return held + (self.static.nbytes if self.static is not None else 0)
+        held = {id(b): b.nbytes for bs in self.blocks if bs for b in bs}  # (shared once)
+        return sum(held.values()) + (self.static.nbytes if self.static is not None else 0)
 
     def condensed(self, omega: float, F: Sequence[np.ndarray],
                   dF: Sequence[np.ndarray] | None, parameter: str | None
@@ -294,5 +295,6 @@ class ComponentCondensed(GroupedCondensed):
     @property
     def nbytes(self) -> int:
         held = sum(a.nbytes for at in self._at if at is not None for a in at)
+        held += len(self._at) * self.n_contact**2 * 16  # S, where the preconditioner asks
         return held + self.F.nbytes * (2 if self.dF is not None else 1) + \
             sum(z.nbytes for zs in self._z if isinstance(zs, list) for z in zs)
