@@ -139,33 +139,38 @@ class _Walk:
                 self.misses += 1
                 if not ok:
                     self.out.failed = (y_new[-1] * self.lam_scale, y_new[:-1] * self.xs)
-                early = self._early_leap() if self.misses == EARLY_LEAP_MISSES else None
-                if early is not None:
-                    y_new, its, res, info, self.h = early
-                    done = self._accept(y_new, its, res, info, y)
-                    if done is not None:
-                        return done
+                after = self._after_miss(ok, info)
+                if after is None:
                     continue
-                if self.h >= s.min_step and (self.misses != CORNER_MISSES
-                                             or self.corners >= MAX_CORNERS):
-                    continue
-                crossed = self._corner()
-                if crossed is not None:  # a point past it, or why the branch stops there
-                    if isinstance(crossed, Branch):
-                        return crossed
-                    continue
-                if self.h >= s.min_step:
-                    continue  # not a corner: shorter steps go on
-                leapt = self._leap()
-                if leapt is None:
-                    return self._stuck(ok, info)
-                y_new, its, res, info, self.h = leapt
+                if isinstance(after, Branch):
+                    return after
+                y_new, its, res, info, self.h = after
                 leapt_from = y  # past a non-smooth point: go on the way the leap went
             done = self._accept(y_new, its, res, info, leapt_from)
             if done is not None:
                 return done
         return self.out.finish("stopped", f"max_points = {s.max_points} reached at "
                                f"{self.lam:.6g}")
+
+    def _after_miss(self, ok: bool, info) -> tuple | Branch | None:
+        """After a missed corrector (the step already halved): a leap that landed (y,
+        iterations, residual, info, step), the Branch where the walk ends, or None to go on
+        (shorter steps, or from a corner's point past it)."""
+        s = self.settings
+        if self.misses == EARLY_LEAP_MISSES:
+            early = self._early_leap()
+            if early is not None:
+                return early
+        if self.h >= s.min_step and (self.misses != CORNER_MISSES
+                                     or self.corners >= MAX_CORNERS):
+            return None
+        crossed = self._corner()
+        if crossed is not None:  # a point past it (True), or why the branch stops there
+            return crossed if isinstance(crossed, Branch) else None
+        if self.h >= s.min_step:
+            return None  # not a corner: shorter steps go on
+        leapt = self._leap()
+        return leapt if leapt is not None else self._stuck(ok, info)
 
     def _land(self, y: np.ndarray, lam_p: float) -> Branch | None:
         """The predictor overshot ``stop``: Newton exactly on it, at fixed parameter. The

@@ -28,7 +28,7 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as sla
 
-from .modal_condensation import GroupedCondensed, StaticPart, component_parts
+from .modal_condensation import PARAMETERS, GroupedCondensed, StaticPart, component_parts
 
 #: Other DOFs per component up to which a component is formed at every point (its D_ii
 #: inverted in a batch with the others of its shape, S_b made): beyond, D_ii is LU-factored
@@ -38,9 +38,6 @@ FORMED_UP_TO = 64
 #: reads D_cc, D_ci, D_ic and solves with D_ii's factors (~3.5 ms at 1,152 contact and 768
 #: other DOFs, one thread), S_b's costs 0.9 ms, and making it 380 ms: even after ~150.
 FORM_AFTER = 150
-#: Parameters whose derivatives the route forms (as the modal route: a mass continuation
-#: changes M at every point, a nonlinear mode's self-excitation takes the Schur complement).
-PARAMETERS = (None, "frequency", "excitation", "preload")
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,14 +89,15 @@ class ComponentForm:
     sizes: tuple[int, ...]
 
     @classmethod
-    def of(cls, linear, nc: int, masses: Sequence[np.ndarray]) -> ComponentForm | None:
+    def of(cls, linear, nc: int, masses: Sequence[np.ndarray],
+           parts: tuple[dict, dict] | None = None) -> ComponentForm | None:
         """The form of a reordered ``linear.LinearDynamics`` (contact DOFs first, nc of
         them) at the masses ``masses`` (per order), None where it has no dynamic order or
-        no contact DOF."""
+        no contact DOF. ``parts``: :func:`component_parts`' of them, where made already."""
         dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
         if not dynamic or nc == 0:
             return None
-        parts, same = component_parts(linear, nc, masses)
+        parts, same = parts or component_parts(linear, nc, masses)
         blocks: list[tuple[_Block, ...] | None] = [None] * len(linear.orders)
         for k in dynamic:  # orders with the same matrices (a lumped model) share them
             blocks[k] = blocks[same[k]] if same[k] != k else \
@@ -245,36 +243,25 @@ class ComponentCondensed(GroupedCondensed):
 
     def __init__(self, form: ComponentForm, omega: float, F: tuple, dF: tuple | None,
                  parameter: str | None):
-        self.form, self.n_contact = form, form.n_contact
         derivative = parameter == "frequency"
-        self._at = tuple(
+        super().__init__(form, tuple(
             None if bs is None else tuple(_AtPoint.of(b, o, omega, derivative) for b in bs)
-            for o, bs in zip(form.orders, form.blocks))
-        nc = self.n_contact
-        self.F = np.empty((len(F), nc), dtype=complex)
-        self.dF = None if dF is None else np.zeros_like(self.F)
-        self._z: list = [None] * len(F)  # per order: D_ii^-1 F_i (per group, or order 0's)
-        for k, at in enumerate(self._at):
-            if at is None:
-                self._static_loads(k, F[k], None if dF is None else dF[k])
-                continue
-            self._z[k] = []
-            for a in at:
-                b, n = a.block, a.block.nc
-                z = a.solve_ii(np.asarray(F[k], dtype=complex)[b.other][..., None])
-                self._z[k].append(z)
-                Fc = np.asarray(F[k])[b.contact][..., None] - a.D[:, :n, n:] @ z
-                self.F[k][b.contact] = Fc[..., 0]
-                if dF is None:
-                    continue
-                dFk = np.asarray(dF[k], dtype=complex)
-                dFc = dFk[b.contact][..., None]
-                rhs = dFk[b.other][..., None]
-                if a.derivative:
-                    dD = a.dD
-                    dFc = dFc - dD[:, :n, n:] @ z
-                    rhs = rhs - dD[:, n:, n:] @ z
-                self.dF[k][b.contact] = (dFc - a.D[:, :n, n:] @ a.solve_ii(rhs))[..., 0]
+            for o, bs in zip(form.orders, form.blocks)), F, dF)
+
+    def _order_loads(self, k: int, a, F: np.ndarray, dF: np.ndarray | None) -> np.ndarray:
+        """F_e = F_c - D_ci z of group ``a``; z = D_ii^-1 F_i kept (G, nib, 1)."""
+        b, n = a.block, a.block.nc
+        F = np.asarray(F, dtype=complex)
+        z = a.solve_ii(F[b.other][..., None])
+        self.F[k][b.contact] = (F[b.contact][..., None] - a.D[:, :n, n:] @ z)[..., 0]
+        if dF is not None:
+            dF = np.asarray(dF, dtype=complex)
+            dFc, rhs = dF[b.contact][..., None], dF[b.other][..., None]
+            if a.derivative:
+                dFc = dFc - a.dD[:, :n, n:] @ z
+                rhs = rhs - a.dD[:, n:, n:] @ z
+            self.dF[k][b.contact] = (dFc - a.D[:, :n, n:] @ a.solve_ii(rhs))[..., 0]
+        return z
 
     def recover(self, k: int, x: np.ndarray) -> np.ndarray:
         """The condensed DOFs' amplitudes (n_k - nc,), in the reordered layout, of order k
@@ -288,8 +275,8 @@ class ComponentCondensed(GroupedCondensed):
             b, n = a.block, a.block.nc
             if not b.other.shape[1]:
                 continue
-            qi = z - a.solve_ii(a.D[:, n:, :n] @ np.asarray(x, dtype=complex)[b.contact][..., None])
-            q[b.other - nc] = qi[..., 0]
+            xc = np.asarray(x, dtype=complex)[b.contact][..., None]
+            q[b.other - nc] = (z - a.solve_ii(a.D[:, n:, :n] @ xc))[..., 0]
         return q
 
     @property

@@ -320,15 +320,15 @@ class HarmonicBalance:
         masses = lin.mass(point)
         if nc == 0 or not any(o > 0 for o in lin.orders):
             return None
-        parts, _ = modal.component_parts(lin, nc, masses)
-        schur, by_modes = modal.route_costs(lin, nc, masses, parts)
-        by_parts = ComponentForm.cost(parts)
+        parts = modal.component_parts(lin, nc, masses)
+        schur, by_modes = modal.route_costs(lin, nc, masses, parts[0])
+        by_parts = ComponentForm.cost(parts[0])
         if schur < modal.MODAL_FROM or min(by_modes, by_parts) * modal.MODAL_GAIN > schur:
             return None
-        form = modal.ModalForm.of(lin, nc, masses, always=True) if by_modes < by_parts \
-            else None
+        form = modal.ModalForm.of(lin, nc, masses, always=True, parts=parts) \
+            if by_modes < by_parts else None
         if form is None and by_parts * modal.MODAL_GAIN <= schur:
-            return ComponentForm.of(lin, nc, masses)
+            return ComponentForm.of(lin, nc, masses, parts)
         return form
 
     def reordered(self) -> Reordered:

@@ -121,8 +121,8 @@ class ModalForm:
     n_contact: int
 
     @classmethod
-    def of(cls, linear, nc: int, masses: Sequence[np.ndarray], always: bool = False
-           ) -> ModalForm | None:
+    def of(cls, linear, nc: int, masses: Sequence[np.ndarray], always: bool = False,
+           parts: tuple[dict, dict] | None = None) -> ModalForm | None:
         """The modal form of a reordered ``linear.LinearDynamics`` (contact DOFs first, nc
         of them) with the masses ``masses`` (per order, at the point's mass multiplier), or
         None where the damping is not diagonal in the modes, a mass matrix is not
@@ -131,7 +131,7 @@ class ModalForm:
         dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
         if not dynamic or nc == 0:
             return None
-        parts, same = component_parts(linear, nc, masses)
+        parts, same = parts or component_parts(linear, nc, masses)
         if not always:
             schur, modal = route_costs(linear, nc, masses, parts)
             if schur < MODAL_FROM or modal * MODAL_GAIN > schur:
@@ -250,12 +250,26 @@ class GroupedCondensed:
     at the point giving its ``contact`` positions (G, ncb), ``S_b()`` (G, ncb, ncb),
     ``product(x)`` S_b x and ``d_product(x)`` dS_b x for x (G, ncb, m)."""
 
-    _at: tuple
-    n_contact: int
-    form: Any
-    F: np.ndarray
-    dF: np.ndarray | None
-    _z: list
+    def __init__(self, form: Any, at: tuple, F: tuple, dF: tuple | None):
+        """Per order the groups ``at`` at the point (None at order 0) and the condensed
+        loads: order 0's by ``form.static``, each dynamic order's by :meth:`_order_loads`."""
+        self.form, self.n_contact, self._at = form, form.n_contact, at
+        self.F = np.empty((len(F), self.n_contact), dtype=complex)
+        self.dF = None if dF is None else np.zeros_like(self.F)
+        self._z: list = [None] * len(F)  # order 0: D_ii^-1 F_i; dynamic: per group
+        for k, groups in enumerate(at):
+            dFk = None if dF is None else dF[k]
+            if groups is None:
+                self.F[k], self._z[k] = form.static.condensed_load(F[k])
+                if dFk is not None:
+                    self.dF[k] = form.static.condensed_load(dFk)[0]
+            else:
+                self._z[k] = [self._order_loads(k, a, F[k], dFk) for a in groups]
+
+    def _order_loads(self, k: int, a, F: np.ndarray, dF: np.ndarray | None) -> np.ndarray:
+        """Group ``a``'s condensed loads of dynamic order k written into F[k] (and dF[k]);
+        what recovery keeps of them."""
+        raise NotImplementedError
 
     @cached_property
     def S(self) -> np.ndarray:
@@ -282,12 +296,6 @@ class GroupedCondensed:
     def dS_product(self, X: np.ndarray) -> np.ndarray:
         """dS_k X_k per order (by frequency; zero by the other parameters and at order 0)."""
         return self._per_group(X, lambda a, x: a.d_product(x), None)
-
-    def _static_loads(self, k: int, F: np.ndarray, dF: np.ndarray | None) -> None:
-        """Order 0's condensed load (and its derivative) into F[k] (dF[k]), z[k] kept."""
-        self.F[k], self._z[k] = self.form.static.condensed_load(F)
-        if dF is not None:
-            self.dF[k] = self.form.static.condensed_load(dF)[0]
 
     def _per_group(self, X: np.ndarray, apply, static: np.ndarray | None) -> np.ndarray:
         """Per dynamic order ``apply(group at the point, (G, ncb, m))`` on X gathered at the
@@ -316,35 +324,26 @@ class ModalCondensed(GroupedCondensed):
 
     def __init__(self, form: ModalForm, omega: float, F: tuple, dF: tuple | None,
                  parameter: str | None):
-        self.form, self.n_contact = form, form.n_contact
         derivative = parameter == "frequency"
-        self._at = tuple(
+        super().__init__(form, tuple(
             None if gs is None else tuple(_OrderAtPoint.of(g, o, omega, derivative)
                                           for g in gs)
-            for o, gs in zip(form.orders, form.groups))
-        nc = self.n_contact
-        self.F = np.empty((len(F), nc), dtype=complex)
-        self.dF = None if dF is None else np.zeros_like(self.F)
-        self._z: list = [None] * len(F)  # order 0: D_ii^-1 F_i; dynamic: Phi^H F per group
-        for k, at in enumerate(self._at):
-            if at is None:
-                self._static_loads(k, F[k], None if dF is None else dF[k])
-                continue
-            self._z[k] = []
-            for a in at:
-                g = a.group
-                w = a.modal(F[k][g.dofs][..., None])
-                self._z[k].append(w)
-                if not g.contact.shape[1]:
-                    continue
-                Fe = a.solve(a.at_contacts(w * a.inv_d[..., None]))
-                self.F[k][g.contact] = Fe[..., 0]
-                if dF is None:
-                    continue
-                rhs = a.modal(dF[k][g.dofs][..., None]) * a.inv_d[..., None]
-                if a.delta is not None:
-                    rhs = rhs + a.delta[..., None] * (w - a.from_contacts(Fe))
-                self.dF[k][g.contact] = a.solve(a.at_contacts(rhs))[..., 0]
+            for o, gs in zip(form.orders, form.groups)), F, dF)
+
+    def _order_loads(self, k: int, a, F: np.ndarray, dF: np.ndarray | None) -> np.ndarray:
+        """F_e = S H_c. F of group ``a``; its modal load Phi^H F kept (G, nb, 1)."""
+        g = a.group
+        w = a.modal(F[g.dofs][..., None])
+        if not g.contact.shape[1]:
+            return w
+        Fe = a.solve(a.at_contacts(w * a.inv_d[..., None]))
+        self.F[k][g.contact] = Fe[..., 0]
+        if dF is not None:
+            rhs = a.modal(dF[g.dofs][..., None]) * a.inv_d[..., None]
+            if a.delta is not None:
+                rhs = rhs + a.delta[..., None] * (w - a.from_contacts(Fe))
+            self.dF[k][g.contact] = a.solve(a.at_contacts(rhs))[..., 0]
+        return w
 
     def recover(self, k: int, x: np.ndarray) -> np.ndarray:
         """The condensed DOFs' amplitudes (n_k - nc,), in the reordered layout, of order k
@@ -382,12 +381,11 @@ def component_parts(linear, nc: int, masses: Sequence[np.ndarray]) -> tuple[dict
     return parts, same
 
 
-def route_costs(linear, nc: int, masses: Sequence[np.ndarray], parts: dict | None = None
+def route_costs(linear, nc: int, masses: Sequence[np.ndarray], parts: dict
                 ) -> tuple[float, float]:
     """Complex multiply-adds of an iterate by the Schur complement over every other DOF
-    and by the modal route (``parts`` from :func:`component_parts`, made where None)."""
+    and by the modal route (``parts``: :func:`component_parts`' first)."""
     dynamic = [k for k, o in enumerate(linear.orders) if o > 0]
-    parts = component_parts(linear, nc, masses)[0] if parts is None else parts
     n_i = [linear.sizes[k] - nc for k in dynamic]
     schur = sum(ni**3 / 3 + ni**2 * nc + nc**2 * ni for ni in n_i)
     # real modes form the receptance by two real products: half a complex one
@@ -398,7 +396,7 @@ def route_costs(linear, nc: int, masses: Sequence[np.ndarray], parts: dict | Non
 
 
 def body_components(K: np.ndarray, M: np.ndarray, C: np.ndarray, nc: int
-                ) -> list[tuple[np.ndarray, np.ndarray]]:
+                    ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Connected components of the pattern of K, M, C: per component (its contact
     positions < nc, every position: contact ones first)."""
     pattern = (K != 0) | (M != 0) | (C != 0)
