@@ -71,6 +71,27 @@ def test_natural_sweep_stops_where_the_solution_set_ends():
     assert -1e-5 <= b.values[-1] <= 1e-12
 
 
+def test_a_stalled_newton_gives_up_early_and_a_slow_steady_one_does_not():
+    """``stall``: R = x^2 + 1 has no real root, and Newton wanders with ||R|| >= 1 (its best
+    never halves): with stall 6 it stops after 6 of its 25 iterations and says why. R = x^3
+    converges only linearly (x shrinks by 2/3 an iterate, ||R|| by 8/27: halved every
+    iterate): never cut. A natural sweep uses it (continuation.STALL)."""
+    def no_root(x, lam, jac=True):
+        return np.array([x[0] ** 2 + 1]), np.array([[2 * x[0]]]), np.array([0.0])
+
+    def cubic(x, lam, jac=True):
+        return np.array([x[0] ** 3]), np.array([[3 * x[0] ** 2]]), np.array([0.0])
+
+    settings = cont.Settings(tol=1e-12)
+    full = cont.newton(no_root, np.array([0.3]), 0.0, settings=settings)
+    cut = cont.newton(no_root, np.array([0.3]), 0.0, settings=settings, stall=6)
+    assert not full.converged and full.iterations == 25
+    assert not cut.converged and cut.iterations == 6 and cut.reason.startswith("stalled")
+    slow = cont.newton(cubic, np.array([1.0]), 0.0, settings=settings, stall=6)
+    # (2/3)^3k <= 1e-12 from k = 23: within max_iter 25
+    assert slow.converged and slow.iterations == 23
+
+
 @pytest.mark.slow  # (Fig. 24's folds stay fast: test_fig24_natural_sweeps_jump_at_both_folds)
 def test_softening_fold_of_the_variable_normal_load_oscillator():
     """Firrone & Zucca Fig. 8 / 24: a preload that lets the contact open softens the peak

@@ -186,7 +186,7 @@ def analysis(table: Mapping[str, Any], cls: type[Analysis], index: int = 0) -> A
                               "given": dict(table)}
     for f in dataclasses.fields(cls):
         if f.name in table and f.name not in ("name", "given"):
-            values[f.name] = _typed(f.name, table[f.name])
+            values[f.name] = _typed(f.name, table[f.name], isinstance(f.default, tuple))
     return cls(**values)
 
 
@@ -202,14 +202,14 @@ def from_record(record: Mapping[str, Any], cls: type[Analysis]) -> Analysis:
 
 
 # ------------------------------------------------------------------ conversion
-def _typed(key: str, value: Any) -> Any:
+def _typed(key: str, value: Any, plural: bool = True) -> Any:
     """A TOML value as the spec holds it: lists as tuples, a method as a tuple of
-    methods, a family as a Family."""
+    methods where the spec takes several (``plural``), a family as a Family."""
     if key == "family":
         return Family(values=tuple(value["values"]), key=value.get("key", ""),
                       label=value.get("label", ""),
                       sets=tuple(dict(s) for s in value.get("sets", ())))
-    if key == "method" and isinstance(value, str):
+    if key == "method" and isinstance(value, str) and plural:
         return (value,)
     if key in ("set", "parameters"):
         return dict(value)

@@ -89,6 +89,15 @@ def natural(
                           f"{out.values[-1]:.6g}")
 
 
+#: A natural step's Newton gives up once its best ||R|| has not halved in STALL iterations
+#: (:func:`newton`'s ``stall``), and the step is halved: a step that fails is nearly always
+#: at a fold, which the sweep locates by halving down to min_step (Newton cannot converge
+#: past it however long it runs). Traced on a 48-blade mistuned disk at 10 N (its dampers
+#: lifting off and slipping; 265 natural-step Newton solves): the 46 that failed ran all
+#: 25 iterations, 55 % of the sweep's; 10 of the 219 that converged took 13-20.
+STALL = 6
+
+
 def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, settings,
                    progress, guesses, parameter):
     far = None  # (value, solution) Newton found far from the predictor, kept in case
@@ -96,11 +105,12 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
         step_now = min(step, abs(stop - lam) / abs(span))
         new = lam + np.sign(span) * step_now * abs(span)
         pred = out.extrapolate(new)
-        r = newton(fun, pred, new, x_scale=x_scale, f_scale=f_scale, settings=settings)
+        r = newton(fun, pred, new, x_scale=x_scale, f_scale=f_scale, settings=settings,
+                   stall=STALL)
         out.steps += 1
         if not r.converged:  # past a bend the secant points off the branch
             r = newton(fun, out.xs[-1], new, x_scale=x_scale, f_scale=f_scale,
-                       settings=settings)
+                       settings=settings, stall=STALL)
             out.steps += 1
         if r.converged and _off_branch(out, r.x, pred, new, x_scale, span):
             # another branch past a fold, or this one past a sharp kink: shorter steps tell

@@ -73,11 +73,16 @@ def newton(
     x_scale: float | np.ndarray = 1.0,
     f_scale: float = 1.0,
     settings: Settings = DEFAULT,
+    stall: int | None = None,
 ) -> NewtonResult:
-    """Damped Newton iterations on ``R(x, lam) = 0`` at fixed ``lam``."""
+    """Damped Newton iterations on ``R(x, lam) = 0`` at fixed ``lam``. ``stall``: give up
+    once the best ||R|| of the last ``stall`` iterations is not half the best before them
+    (Newton cycling between contact states: where the caller can shorten its step, that
+    costs less than the rest of ``max_iter``)."""
     x = np.array(x0, dtype=float)
     R, J, _ = fun(x, lam, True)
     res = _norm(R, f_scale)
+    history = []
     for it in range(settings.max_iter + 1):
         if not np.isfinite(res):
             return NewtonResult(x, False, it, res, "residual is NaN or Inf")
@@ -85,6 +90,11 @@ def newton(
             return NewtonResult(x, True, it, res)
         if it == settings.max_iter:
             break
+        history.append(res)
+        if stall and _stalled(history, stall):
+            return NewtonResult(x, False, it, res, (
+                f"stalled: ||R|| not halved in {stall} iterations (best "
+                f"{min(history):.3g} * f_scale after {it})"))
         try:
             dx = _capped(-_solve(J, R), x_scale)
         except (np.linalg.LinAlgError, ValueError) as err:
@@ -95,6 +105,13 @@ def newton(
         x, False, settings.max_iter, res,
         f"no convergence in {settings.max_iter} iterations (||R|| = {res:.3g} * f_scale)",
     )
+
+
+def _stalled(history: list[float], window: int) -> bool:
+    """Whether the best of the last ``window`` residual norms is not half the best of
+    those before them."""
+    return (len(history) > window
+            and min(history[-window:]) > 0.5 * min(history[:-window]))
 
 
 MAX_STEP = 1e4  # largest Newton step, in units of x_scale per unknown

@@ -177,18 +177,19 @@ class WindowSweeps:
 
 
 def swept_window(hb, window: tuple[float, float], base, solver,
-                 x0: np.ndarray | None = None) -> WindowSweeps:
+                 x0: np.ndarray | None = None, method: str = "arclength") -> WindowSweeps:
     """The window swept upwards (from ``x0`` where given: a guess at its start) and, where
     that stops short, downwards from its top; where the two do not cover it, each goes on
     from where it stopped at twice the samples per period (what stops them is nearly always
-    a stick/slip kink between samples)."""
-    up, down = _sweeps(hb, window, base, solver, _undersampled(hb, base), x0)
+    a stick/slip kink between samples). ``method``: the continuation (``natural``: stepped
+    in frequency, jumping at a fold as a rig's slow sine sweep does)."""
+    up, down = _sweeps(hb, window, base, solver, _undersampled(hb, base), x0, method)
     status, message = _coverage(up, down, *window)
     notes = []
     if status == "stopped" and not _interrupted(up, down):
         notes.append(f"at {hb.harmonics.n_samples} samples per period: {message}")
         fine = hb.with_samples(2 * hb.harmonics.n_samples)
-        up, down = (_resumed(fine, chain, end, base, solver)
+        up, down = (_resumed(fine, chain, end, base, solver, method)
                     for chain, end in ((up, window[1]), (down, window[0])))
         status, message = _coverage(up, down, *window)
     samples = max(r.model.harmonics.n_samples for r in (*up, *down))
@@ -196,27 +197,32 @@ def swept_window(hb, window: tuple[float, float], base, solver,
                         "; ".join([*notes, message]), samples, _interrupted(up, down))
 
 
-def _sweeps(model, window: tuple[float, float], base, solver, undersampled, x0=None
-            ) -> tuple[list, list]:
+def _sweeps(model, window: tuple[float, float], base, solver, undersampled, x0=None,
+            method: str = "arclength") -> tuple[list, list]:
     """(upward, downward) sweeps of the window: the downward one (from its top) only where
-    the upward one stops; each stopped where it crawls under-resolved (UnderResolved)."""
+    the upward one stops; each arclength sweep stopped where it crawls under-resolved
+    (UnderResolved)."""
     lo, hi = window
-    up = [sweep(model, "frequency", lo, hi, base, settings=solver, x0=x0,
-                watch=UnderResolved(undersampled, hi - lo))]
+
+    def swept(start: float, stop: float, x_start: np.ndarray | None):
+        watch = UnderResolved(undersampled, hi - lo) if method == "arclength" else None
+        return sweep(model, "frequency", start, stop, base.set("frequency", start),
+                     method=method, settings=solver, x0=x_start, watch=watch)
+
+    up = [swept(lo, hi, x0)]
     if x0 is not None and not len(up[0]) and up[0].branch.status == "stopped":
-        up = [sweep(model, "frequency", lo, hi, base, settings=solver,  # a cold start
-                    watch=UnderResolved(undersampled, hi - lo))]
+        up = [swept(lo, hi, None)]  # a cold start
     if up[0].branch.status != "stopped":
         return up, []
-    return up, [sweep(model, "frequency", hi, lo, base.set("frequency", hi), settings=solver,
-                      watch=UnderResolved(undersampled, hi - lo))]
+    return up, [swept(hi, lo, None)]
 
 
 def _interrupted(*chains: list) -> bool:
     return any(r.branch.status == "interrupted" for chain in chains for r in chain)
 
 
-def _resumed(model, chain: list, end: float, base, solver) -> list:
+def _resumed(model, chain: list, end: float, base, solver, method: str = "arclength"
+             ) -> list:
     """``chain`` (sweeps towards ``end``) with one more by ``model`` from its last point
     where its last sweep stopped (from its start if it found nothing)."""
     if not chain or chain[-1].branch.status != "stopped":
@@ -225,7 +231,7 @@ def _resumed(model, chain: list, end: float, base, solver) -> list:
     start, x0 = ((float(last.values[-1]), last.branch.x[-1]) if len(last) else
                  (last.base.get("frequency"), None))
     return [*chain, sweep(model, "frequency", start, end, base.set("frequency", start),
-                          settings=solver, x0=x0)]
+                          method=method, settings=solver, x0=x0)]
 
 
 def _coverage(up: list, down: list, lo: float, hi: float) -> tuple[str, str]:
