@@ -57,6 +57,31 @@ def test_natural_continuation_jumps_and_misses_the_middle_branch():
     assert "jumped at the fold at lambda = 0.38489" in up.message
 
 
+def test_a_natural_sweep_never_steps_past_a_value_where_it_failed(monkeypatch):
+    """Towards a fold the step halves; after a shorter step converged, the next one stops at
+    the value that failed (before: twice the step, past it, two more failing solves a
+    halving). The fold is located as before, with 177 Newton solves instead of 195."""
+    tried = []
+    plain = cont.newton
+
+    def logged(fun, x0, lam, **kw):
+        r = plain(fun, x0, lam, **kw)
+        tried.append((lam, r.converged))
+        return r
+
+    monkeypatch.setattr(cont, "newton", logged)
+    up = cont.natural(s_curve, np.array([-1.5]), -2.0, 2.0,
+                      settings=cont.Settings(tol=1e-12, step=0.01))
+    i, j = up.jumps[0]
+    fold = 2 / (3 * np.sqrt(3))
+    assert fold - 4 * 1e-6 <= up.values[i] <= fold  # (as before)
+    ahead = np.inf
+    for lam, ok in tried[:[v for v, _ in tried].index(up.values[j])]:  # up to the landing
+        assert lam <= ahead + 1e-12
+        ahead = min(ahead, lam) if not ok else (np.inf if lam >= ahead - 1e-12 else ahead)
+    assert up.steps <= 177
+
+
 def test_natural_sweep_stops_where_the_solution_set_ends():
     """R = x^2 + lam: no solution at all for lam > 0; the sweep up ends at the fold, says so
     and keeps what it computed."""

@@ -101,8 +101,10 @@ STALL = 6
 def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, settings,
                    progress, guesses, parameter):
     far = None  # (value, solution) Newton found far from the predictor, kept in case
+    ahead = stop  # the nearest value ahead where a step failed (a fold lies before it)
     while (lam - stop) * np.sign(span) < 0 and len(out) < settings.max_points:
-        step_now = min(step, abs(stop - lam) / abs(span))
+        # no step past a value that failed: towards a fold, halving brackets it
+        step_now = min(step, abs(ahead - lam) / abs(span))
         new = lam + np.sign(span) * step_now * abs(span)
         pred = out.extrapolate(new)
         r = newton(fun, pred, new, x_scale=x_scale, f_scale=f_scale, settings=settings,
@@ -119,12 +121,13 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
                 "Newton converged far from the predictor (on another branch?)"))
         if r.converged:
             lam, far = new, None
+            ahead = stop if (ahead - new) * np.sign(span) <= 1e-12 * abs(span) else ahead
             out.add(lam, r)
             if progress:
                 progress(len(out), lam, r.iterations)
-            step = min(settings.step, step * 2)
+            step = min(settings.step, step_now * 2)
             continue
-        step /= 2
+        step, ahead = step_now / 2, new
         out.failed = (new, r.x)
         if step >= settings.min_step:
             continue
@@ -150,7 +153,7 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
                 "the solution set, or a branch these solver settings cannot follow")
         if turned:
             out.jumps.append((len(out) - 1, len(out)))
-        lam, step, far = target, settings.step, None
+        lam, step, far, ahead = target, settings.step, None, stop
         out.add(lam, landed)
         if progress:
             progress(len(out), lam, landed.iterations)
