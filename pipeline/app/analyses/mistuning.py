@@ -59,10 +59,13 @@ MAX_PATTERNS = 100_000
 #: pattern against 140-240 s measured)
 PATTERN_SOLVES = 60
 #: a pattern's continuation: ``arclength`` follows every fold of the branch (where the
-#: dampers slip, the small folds and kinks of each sector's flanks one after another: hours
-#: a 48-blade pattern at 10 N); ``natural`` steps the frequency and jumps at a fold as a
-#: slow upward sine sweep does, so a peak on a fold's upper branch past the jump is missed
-METHODS = ("arclength", "natural")
+#: dampers slip and lift off, the small folds and kinks of each sector's flanks one after
+#: another: hours a 48-blade pattern at 10 N); ``natural`` steps the frequency upwards and
+#: jumps at a fold as a slow sine sweep does, ``natural-down`` downwards. Friction and
+#: lift-off soften a resonance (its peak leans to lower frequencies, over a fold): a sweep
+#: downwards climbs the upper branch to the peak and jumps down after it, one upwards jumps
+#: onto it past the peak, which it misses
+METHODS = ("arclength", "natural", "natural-down")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -72,8 +75,7 @@ class MistuningStudy(Analysis):
     (fractions of the blades' Young's modulus), ``seed``ed; ``free``: the disk without its
     dampers too (linear); ``limit``: the amplification whose exceedance probability is
     reported per level; ``family``: the study once per member; ``method``: each window's
-    continuation (``natural``: stepped in frequency, jumping at folds as a rig's upward
-    sine sweep does; far fewer points where many contacts slip, see METHODS)."""
+    continuation (see METHODS)."""
 
     type: ClassVar[str] = "mistuning"
     window: tuple[float, float]
@@ -106,7 +108,9 @@ def pattern_task(models: AssemblyModels, c: Case, spec: MistuningStudy,
     base = operating_point(c, spec.window[0])
     solver = settings(c)
     disk = isinstance(c.data["assembly"].get("mistuning"), dict)
-    start = _tuned_start(models, c, base, solver) if disk else None
+    downwards = spec.method.endswith("-down")  # the first sweep starts at the top
+    first = operating_point(c, spec.window[1]) if downwards else base
+    start = _tuned_start(models, c, first, solver) if disk else None
     swept = swept_window(models.model(c), spec.window, base, solver, start, spec.method)
     if swept.interrupted:
         return Outcome({}, {}, "interrupted", "interrupted by the user")

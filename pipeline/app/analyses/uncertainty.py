@@ -182,7 +182,8 @@ def swept_window(hb, window: tuple[float, float], base, solver,
     that stops short, downwards from its top; where the two do not cover it, each goes on
     from where it stopped at twice the samples per period (what stops them is nearly always
     a stick/slip kink between samples). ``method``: the continuation (``natural``: stepped
-    in frequency, jumping at a fold as a rig's slow sine sweep does)."""
+    in frequency, jumping at a fold as a rig's slow sine sweep does; ``natural-down``: the
+    same downwards first, from ``x0`` at the window's top)."""
     up, down = _sweeps(hb, window, base, solver, _undersampled(hb, base), x0, method)
     status, message = _coverage(up, down, *window)
     notes = []
@@ -199,22 +200,23 @@ def swept_window(hb, window: tuple[float, float], base, solver,
 
 def _sweeps(model, window: tuple[float, float], base, solver, undersampled, x0=None,
             method: str = "arclength") -> tuple[list, list]:
-    """(upward, downward) sweeps of the window: the downward one (from its top) only where
-    the upward one stops; each arclength sweep stopped where it crawls under-resolved
-    (UnderResolved)."""
+    """(upward, downward) sweeps of the window: the first (upwards; downwards for
+    ``natural-down``) from ``x0``, the other only where the first stops; each arclength
+    sweep stopped where it crawls under-resolved (UnderResolved)."""
     lo, hi = window
 
     def swept(start: float, stop: float, x_start: np.ndarray | None):
         watch = UnderResolved(undersampled, hi - lo) if method == "arclength" else None
         return sweep(model, "frequency", start, stop, base.set("frequency", start),
-                     method=method, settings=solver, x0=x_start, watch=watch)
+                     method=method.removesuffix("-down"), settings=solver, x0=x_start,
+                     watch=watch)
 
-    up = [swept(lo, hi, x0)]
-    if x0 is not None and not len(up[0]) and up[0].branch.status == "stopped":
-        up = [swept(lo, hi, None)]  # a cold start
-    if up[0].branch.status != "stopped":
-        return up, []
-    return up, [swept(hi, lo, None)]
+    first, then = ((hi, lo), (lo, hi)) if method.endswith("-down") else ((lo, hi), (hi, lo))
+    chain = [swept(*first, x0)]
+    if x0 is not None and not len(chain[0]) and chain[0].branch.status == "stopped":
+        chain = [swept(*first, None)]  # a cold start
+    other = [swept(*then, None)] if chain[0].branch.status == "stopped" else []
+    return (other, chain) if method.endswith("-down") else (chain, other)
 
 
 def _interrupted(*chains: list) -> bool:
@@ -231,17 +233,17 @@ def _resumed(model, chain: list, end: float, base, solver, method: str = "arclen
     start, x0 = ((float(last.values[-1]), last.branch.x[-1]) if len(last) else
                  (last.base.get("frequency"), None))
     return [*chain, sweep(model, "frequency", start, end, base.set("frequency", start),
-                          method=method, settings=solver, x0=x0)]
+                          method=method.removesuffix("-down"), settings=solver, x0=x0)]
 
 
 def _coverage(up: list, down: list, lo: float, hi: float) -> tuple[str, str]:
     """(status, message) of a sample's sweeps (each chain in the order swept): complete when
     one chain reached the end of the window or the upward and downward ones overlap (said
-    in the message); else the upward sweep's status and why each stopped."""
-    last_up = up[-1].branch
-    if not down:
-        return last_up.status, last_up.message
-    last_down = down[-1].branch
+    in the message); else the first sweep's status and why each stopped."""
+    if not up or not down:
+        last = (up or down)[-1].branch
+        return last.status, last.message
+    last_up, last_down = up[-1].branch, down[-1].branch
     reached_up = max((v for r in up for v in r.values), default=lo)
     reached_down = min((v for r in down for v in r.values), default=hi)
     if last_up.status == "complete" or last_down.status == "complete" \
