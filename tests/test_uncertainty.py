@@ -232,3 +232,70 @@ def test_a_sweep_is_stopped_where_it_crawls_under_resolved():
     # a crawl wider than CRAWL_SPAN of the window is a sweep still moving
     wide = UnderResolved(arcs(5), span=100.0)
     assert not any(wide(lam, x) for lam in 3150.0 + 1.1 * (crawl - 3150.0) / 0.9)
+
+
+def _softening_duffing(x, w, jac=True):
+    """The amplitude a of a softening Duffing oscillator at frequency w (k = -0.05, damping
+    0.02, force 0.04): a^2 ((1 - w^2 + 3/4 k a^2)^2 + (c w)^2) = F^2, its peak ~2.21 at
+    w ~ 0.90 leaning over a fold."""
+    k, c, f = -0.05, 0.02, 0.04
+    a = x[0]
+    g = 1 - w * w + 0.75 * k * a * a
+    return (np.array([a * a * (g * g + (c * w) ** 2) - f * f]),
+            np.array([[2 * a * (g * g + (c * w) ** 2) + 3 * k * g * a ** 3]]),
+            np.array([a * a * (-4 * g * w + 2 * c * c * w)]))
+
+
+class _Point:
+    """An operating point of one parameter (what swept_window sets and reads)."""
+
+    def __init__(self, w=None):
+        self.w = w
+
+    def set(self, key, value):
+        return _Point(value)
+
+    def get(self, key):
+        return self.w
+
+
+class _Swept:
+    """A sweep's Response as swept_window reads it."""
+
+    def __init__(self, branch, base, model):
+        self.branch, self.values, self.base, self.model = branch, branch.values, base, model
+
+    def __len__(self):
+        return len(self.values)
+
+
+def test_a_downward_natural_sweep_covered_by_an_upward_one_that_jumped_is_not_complete(
+        monkeypatch):
+    """natural-down whose downward sweep stops above the softened peak (at w = 1, as at a
+    fold it cannot get round): the upward sweep from the window's start that covers the
+    rest jumps onto the resonance past its peak (1.47 against 2.21: the peak missed), so
+    the window is not reported complete, and says why."""
+    from types import SimpleNamespace
+
+    from microslip.app.analyses import uncertainty as u
+    from microslip.solve import continuation as cont
+
+    settings = cont.Settings(tol=1e-14, step=0.005)
+    model = SimpleNamespace(harmonics=SimpleNamespace(n_samples=8))
+    model.with_samples = lambda n: model
+
+    def sweep(hb, parameter, start, stop, base, *, method, settings, x0=None, watch=None):
+        assert method == "natural"
+        down = start > stop
+        b = cont.natural(_softening_duffing, np.array([0.015 if down else 0.05]), start,
+                         max(stop, 1.0) if down else stop, settings=settings)
+        if down:
+            b.status, b.message = "stopped", "stopped at 1 (a fold it could not get round)"
+        return _Swept(b, base, model)
+
+    monkeypatch.setattr(u, "sweep", sweep)
+    monkeypatch.setattr(u, "_undersampled", lambda m, b: None)
+    w = u.swept_window(model, (0.6, 1.4), _Point(0.6), settings, None, "natural-down")
+    top = max(float(r.branch.x[:, 0].max()) for r in w.found)
+    assert top < 1.6  # (the missed peak: arclength finds 2.21)
+    assert w.status == "stopped" and "jumped at a fold" in w.message

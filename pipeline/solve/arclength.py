@@ -84,6 +84,21 @@ def arclength(
                           f"{out.values[-1]:.6g}")
 
 
+def walk_to(fun: Problem, x: np.ndarray, lam: float, tangent: np.ndarray, orientation: float,
+            stop: float, *, lam_scale: float, xs: np.ndarray, f_scale: float,
+            settings: Settings, parameter: str = "lambda") -> Branch:
+    """Pseudo-arclength from the solution ``x`` (n,) at ``lam`` along its unit tangent (in
+    y = [x / xs, lam / lam_scale], oriented by the sign ``orientation`` of det [J dR; t]),
+    until ``stop`` is passed, with :func:`arclength`'s corners and leaps. The branch after
+    (x, lam), its ``steps`` the correctors spent; it stops where the parameter turns back
+    more than lam_scale / 2 behind ``lam``."""
+    out = Collector(parameter)
+    walk = _Walk(fun, out, lam, stop, lam_scale, float(np.sign(stop - lam)), f_scale,
+                 settings, parameter, None, None, x, lam, tangent, orientation, xs,
+                 rms_norm(x))
+    return walk.steps()
+
+
 @dataclass
 class _Walk:
     """A pseudo-arclength continuation under way: the problem and its fixed scales, and the

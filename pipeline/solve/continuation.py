@@ -27,14 +27,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arclength import arclength
+from .arclength import arclength, walk_to
 from .branch import Branch, Collector, NewtonResult, check_range, same_solution
 from .newton import (
     DEFAULT,
-    ON_BRANCH,
     Problem,
     Settings,
-    adapted_step,
     branch_tangent,
     corrector,
     newton,
@@ -206,10 +204,11 @@ def _from_guesses(fun, out, target, x_scale, f_scale, settings, guesses):
 def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):
     """Follow the branch from the sweep's last point by pseudo-arclength (in the sweep's
     metric: unknowns by ``x_scale`` rms, parameter by ``|span|``) until the parameter passes
-    ``target``; Newton at ``target`` from the chord there. Returns (NewtonResult or None,
-    turned): ``turned`` when the parameter went back on the way (a fold passed: the landing
-    point lies on another branch of the sweep's). The detour keeps within one span of the
-    sweep's range and stops after DETOUR_POINTS points."""
+    ``target``, crossing corners and leaping cusps as :func:`arclength` does; Newton at
+    ``target`` from the chord there. Returns (NewtonResult or None, turned): ``turned`` when
+    the parameter went back on the way (a fold passed: the landing point lies on another
+    branch of the sweep's). The detour turns back at most half the sweep's span and stops
+    after DETOUR_POINTS points."""
     x, lam = out.xs[-1], out.values[-1]
     direction, lam_scale = np.sign(span), abs(span)
     rms = rms_norm(x)
@@ -223,36 +222,16 @@ def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):
     if first is None:
         return None, False
     tangent, orientation = first  # the branch's orientation: det [J dR; t] keeps its sign
-    lo, hi = min(start, stop) - lam_scale, max(start, stop) + lam_scale
-    h, turned, points = settings.step, False, 0
-    while points < DETOUR_POINTS:
-        pred = np.append(x / xs, lam / lam_scale) + h * tangent
-        ok, y, its, _, info = corrector(fun, pred, tangent, xs, lam_scale, f_scale, settings)
-        out.steps += 1
-        if not ok or np.linalg.norm(y - pred) > ON_BRANCH * h:
-            h /= 2
-            if h < settings.min_step:
-                return None, turned
-            continue
-        points += 1
-        x_new, lam_new = y[:-1] * xs, y[-1] * lam_scale
-        turned = turned or (lam_new - lam) * direction < 0
-        if (lam_new - target) * direction >= 0:  # passed the target: land there
-            chord = x + (target - lam) / (lam_new - lam) * (x_new - x)
-            r = newton(fun, chord, target, x_scale=xs / rms, f_scale=f_scale,
-                       settings=settings)
-            out.steps += 1
-            return (r if r.converged else None), turned
-        if not (lo <= lam_new <= hi and settings.lower < lam_new < settings.upper):
-            return None, turned
-        new_tangent = branch_tangent(fun, x_new, lam_new, xs, lam_scale, f_scale, tangent,
-                               direction, info)
-        if new_tangent is None:
-            return None, turned
-        t_new = new_tangent[0] * new_tangent[1] * orientation
-        h = adapted_step(h, t_new, tangent, its, settings)
-        x, lam, tangent = x_new, lam_new, t_new
-    return None, turned
+    # (arclength's corners and leaps: the fold of a contact problem is often a corner)
+    walked = walk_to(fun, x, lam, tangent, orientation, target, lam_scale=lam_scale, xs=xs,
+                     f_scale=f_scale, settings=dataclasses.replace(
+                         settings, max_points=DETOUR_POINTS))
+    out.steps += walked.steps
+    turned = bool(np.any(np.diff(np.append(lam, walked.values)) * direction < 0))
+    if walked.status != "complete":
+        return None, turned
+    return NewtonResult(walked.x[-1], True, int(walked.iterations[-1]),
+                        float(walked.residuals[-1])), turned
 
 
 #: Halvings of a segment before :func:`solutions_at` gives up on it: 2^-8 of its length is

@@ -193,6 +193,10 @@ def swept_window(hb, window: tuple[float, float], base, solver,
         up, down = (_resumed(fine, chain, end, base, solver, method)
                     for chain, end in ((up, window[1]), (down, window[0])))
         status, message = _coverage(up, down, *window)
+    if status == "complete" and method == "natural-down" and any(r.branch.jumps for r in up):
+        status = "stopped"  # (the upward sweep lands on a softened resonance past its peak)
+        message += ("; where the downward sweep stopped, the upward one that covered the rest "
+                    "jumped at a fold, past any peak leaning over it: not complete")
     samples = max(r.model.harmonics.n_samples for r in (*up, *down))
     return WindowSweeps([r for r in (*up, *down) if len(r)], status,
                         "; ".join([*notes, message]), samples, _interrupted(up, down))
