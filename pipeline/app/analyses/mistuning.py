@@ -53,11 +53,13 @@ from .uncertainty import swept_window
 PERCENTS = (5.0, 50.0, 95.0)
 #: the largest number of patterns per level
 MAX_PATTERNS = 100_000
-#: Newton solves of a pattern: its sweep and the worst blade's refined peak (the shipped
-#: 48-blade case: 31 points at sigma 0.25 %, 63 at 5 % over a window the mistuned family
-#: spans, and ~12 trials; a generic curve's CURVE_POINTS + PEAK_SOLVES = 100 said 510 s a
-#: pattern against 140-240 s measured)
-PATTERN_SOLVES = 60
+#: Newton solves of a pattern per method: its sweep and the worst blade's refined peak (the
+#: shipped 48-blade case at 1 N by arclength: 31 points at sigma 0.25 %, 63 at 5 % over a
+#: window the mistuned family spans, and ~12 trials; a generic curve's CURVE_POINTS +
+#: PEAK_SOLVES = 100 said 510 s a pattern against 140-240 s measured. Its friction study
+#: (mu 0.1, 3 N) swept downwards: 186 natural solves, 1,154 iterations, 839 s with its
+#: tuned disk)
+PATTERN_SOLVES = {"arclength": 60, "natural": 200, "natural-down": 200}
 #: a pattern's continuation: ``arclength`` follows every fold of the branch (where the
 #: dampers slip and lift off, the small folds and kinks of each sector's flanks one after
 #: another: hours a 48-blade pattern at 10 N); ``natural`` steps the frequency upwards and
@@ -441,8 +443,8 @@ def check(c: Checking) -> None:
 
 
 def seconds(data: dict, spec: MistuningStudy, variant: dict | None = None) -> float:
-    """One pattern: PATTERN_SOLVES Newton solves of the whole disk."""
-    return PATTERN_SOLVES * balance_point_seconds(data, spec, variant)
+    """One pattern: PATTERN_SOLVES Newton solves of the whole disk (its method's)."""
+    return PATTERN_SOLVES[spec.method] * balance_point_seconds(data, spec, variant)
 
 
 def plan(case: Case, spec: MistuningStudy, context: PlanContext) -> list[Stage]:
