@@ -132,8 +132,7 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
         # the branch ends or bends sharply within min_step: a fold, a kink (a contact
         # changing state all at once), or the end of the solution set
         target = lam + np.sign(span) * min(settings.step, abs(stop - lam) / abs(span)) * abs(span)
-        landed, turned = _detour(fun, out, target, start, stop, span, x_scale, f_scale,
-                                 settings)
+        landed, turned = _detour(fun, out, target, span, x_scale, f_scale, settings)
         if landed is None and far is not None:
             # the branch could not be followed round the bend, but Newton found a solution
             # just past it: kept as before, not claimed as a jump
@@ -201,7 +200,7 @@ def _from_guesses(fun, out, target, x_scale, f_scale, settings, guesses):
     return None
 
 
-def _detour(fun, out, target, start, stop, span, x_scale, f_scale, settings):
+def _detour(fun, out, target, span, x_scale, f_scale, settings):
     """Follow the branch from the sweep's last point by pseudo-arclength (in the sweep's
     metric: unknowns by ``x_scale`` rms, parameter by ``|span|``) until the parameter passes
     ``target``, crossing corners and leaping cusps as :func:`arclength` does; Newton at

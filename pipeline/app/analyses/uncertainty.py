@@ -215,12 +215,13 @@ def _sweeps(model, window: tuple[float, float], base, solver, undersampled, x0=N
                      method=method.removesuffix("-down"), settings=solver, x0=x_start,
                      watch=watch)
 
-    first, then = ((hi, lo), (lo, hi)) if method.endswith("-down") else ((lo, hi), (hi, lo))
+    downwards = method.endswith("-down")
+    first, then = ((hi, lo), (lo, hi)) if downwards else ((lo, hi), (hi, lo))
     chain = [swept(*first, x0)]
     if x0 is not None and not len(chain[0]) and chain[0].branch.status == "stopped":
         chain = [swept(*first, None)]  # a cold start
     other = [swept(*then, None)] if chain[0].branch.status == "stopped" else []
-    return (other, chain) if method.endswith("-down") else (chain, other)
+    return (other, chain) if downwards else (chain, other)
 
 
 def _interrupted(*chains: list) -> bool:
