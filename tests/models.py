@@ -43,25 +43,31 @@ def three_dof_cyclic_like(h, coupled=True):
 
 
 def friction_grid(n_points: int, H: int = 1, ns: int = 64, *, cyclic: bool = True,
-                  shared: bool = False):
+                  shared: bool = False, dampers: bool = False):
     """A sector-like model with ``n_points`` law-D contacts (2D friction, variable normal
     load), each between two nodes of 3 DOFs (6 n_points shared DOFs, plus 4 no contact
     touches, condensed): complex Hermitian stiffness per order (a nodal diameter's),
     complex kinematics on one side (the neighbour sector's phase), proportional damping, a
     static normal preload and a tangential excitation. ``shared``: neighbouring points
-    share a node (their blocks overlap, as on a patch whose grid reuses nodes)."""
+    share a node (their blocks overlap, as on a patch whose grid reuses nodes). ``dampers``:
+    each point's second node a body of its own (as a disk's dampers are), the first nodes
+    and the 4 others one body."""
     h = Harmonics.up_to(H, ns)
     rng = np.random.default_rng(n_points)
     nodes = n_points + 1 if shared else 2 * n_points
     n = 3 * nodes + 4
     A = rng.normal(size=(n, n)) / np.sqrt(n)
     base = 4.0 * np.eye(n) + 0.5 * (A + A.T) + np.diag(np.arange(n) / n)
+    body = np.zeros(n, dtype=int)  # (the first nodes and the 4 others: body 0)
+    if dampers:
+        body[:3 * nodes] = np.where(np.arange(3 * nodes) // 3 % 2, np.arange(3 * nodes) // 6 + 1, 0)
+    apart = body[:, None] != body[None, :]
     K, M, C = {}, {}, {}
     for o in h.orders:
         E = rng.normal(size=(n, n)) / np.sqrt(n)
-        K[o] = base + (0.2j * (E - E.T) if o else 0.0)
+        K[o] = np.where(apart, 0.0, base + (0.2j * (E - E.T) if o else 0.0))
         M[o] = np.eye(n)
-        C[o] = 0.01 * base
+        C[o] = np.where(apart, 0.0, 0.01 * base)
     B = {}
     for o in h.orders:
         ph = np.exp(0.4j * o) if (cyclic and o) else 1.0

@@ -142,3 +142,50 @@ def test_real_matrix_matches_its_formula(orders):
     assert np.array_equal(h.real_matrix(S), ref)  # pure copies: bit for bit
     x = rng.normal(size=n * nc)
     np.testing.assert_allclose(h.real_apply(S, x), ref @ x, rtol=0, atol=1e-13)
+
+
+def test_a_block_diagonal_matrix_held_by_its_blocks_is_the_dense_one():
+    """Three bodies of 2, 2 and 3 DOFs interleaved (a permutation away from block-diagonal):
+    the blocks found from the pattern, their products (real and complex vectors, one and
+    several), inverse and determinant's sign against numpy's on the dense matrix (both
+    exact to rounding: 1e-12 of the norms)."""
+    from microslip.solve.blocks import BlockDiagonal
+
+    rng = np.random.default_rng(4)
+    body = np.array([0, 1, 2, 0, 2, 1, 2])
+    A = np.where(body[:, None] == body[None, :], rng.normal(size=(7, 7)), 0.0) + 3 * np.eye(7)
+    blocks = BlockDiagonal.of(A)
+    assert sorted(i.shape[1] * i.shape[0] for i in blocks.index) == [3, 4]  # 2 x 2, 1 x 3
+    assert blocks.largest == 3
+    np.testing.assert_array_equal(blocks.dense(), A)
+    for x in (rng.normal(size=7), rng.normal(size=(7, 2)) + 1j * rng.normal(size=(7, 2))):
+        np.testing.assert_allclose(blocks.product(x), A @ x, rtol=0, atol=1e-12 * np.abs(x).max())
+    np.testing.assert_allclose(blocks.inverse().dense(), np.linalg.inv(A), atol=1e-12)
+    assert blocks.sign() == np.sign(np.linalg.det(A))
+    A[6, 6] = -50.0  # a negative determinant
+    assert BlockDiagonal.of(A).sign() == np.sign(np.linalg.det(A)) == -1.0
+
+
+def test_the_static_condensation_is_held_per_body():
+    """Two bodies, each with contact and other DOFs: S_0 (the Schur complement on the
+    contact DOFs) by its blocks against the dense Schur complement, one block a body."""
+    from microslip.solve.modal_condensation import StaticPart
+
+    rng = np.random.default_rng(5)
+    body = np.array([0, 1, 0, 1, 0, 0, 1, 1])  # contact DOFs: the first 4
+    R = rng.normal(size=(8, 8))
+    D = np.where(body[:, None] == body[None, :], R + R.T, 0.0) + 8 * np.eye(8)
+    s = StaticPart.of(D, 4)
+    want = D[:4, :4] - D[:4, 4:] @ np.linalg.solve(D[4:, 4:], D[4:, :4])
+    np.testing.assert_allclose(s.S, want, atol=1e-13 * np.abs(want).max())
+    assert [i.shape for i in s.blocks.index] == [(2, 2)]  # two bodies of 2 contact DOFs
+    x = rng.normal(size=(4, 3)) + 1j * rng.normal(size=(4, 3))
+    np.testing.assert_allclose(s.product(x), want @ x, atol=1e-12 * np.abs(want @ x).max())
+    # a weak tie between the bodies (as a static condensation's between a damper and its
+    # platforms): the bodies' blocks as given, the tie held apart, the same S_0 and products
+    D[0, 1] = D[1, 0] = 0.1
+    s = StaticPart.of(D, 4, [np.array([0, 2]), np.array([1, 3])])
+    want = D[:4, :4] - D[:4, 4:] @ np.linalg.solve(D[4:, 4:], D[4:, :4])
+    np.testing.assert_allclose(s.S, want, atol=1e-13 * np.abs(want).max())
+    assert [i.shape for i in s.blocks.index] == [(2, 2)] and s.blocks.rest.nnz > 0
+    np.testing.assert_allclose(s.product(x), want @ x, atol=1e-12 * np.abs(want @ x).max())

@@ -5,6 +5,7 @@ linear         its linear part per order, the external forces, the operating poi
 condensation   the linear part condensed on the contact DOFs, per harmonic order
 modal_condensation  the same through each body's modes, where its damping is modal
 component_condensation  the same body by body, the large bodies lazily (the whole disk's)
+blocks         block-diagonal matrices held as their bodies' blocks
 jacobian       the balance's Jacobian as a structured operator and its solves
 memory         the memory a balance will hold, from its sizes alone
 newton         Newton's method at a fixed parameter and on the bordered system

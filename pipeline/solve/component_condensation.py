@@ -28,7 +28,13 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg as sla
 
-from .modal_condensation import PARAMETERS, GroupedCondensed, StaticPart, component_parts
+from .modal_condensation import (
+    PARAMETERS,
+    GroupedCondensed,
+    StaticPart,
+    component_parts,
+    contact_bodies,
+)
 
 #: Other DOFs per component up to which a component is formed at every point (its D_ii
 #: inverted in a batch with the others of its shape, S_b made): beyond, D_ii is LU-factored
@@ -102,7 +108,8 @@ class ComponentForm:
         for k in dynamic:  # orders with the same matrices (a lumped model) share them
             blocks[k] = blocks[same[k]] if same[k] != k else \
                 _stacked(parts[k], linear.K[k], masses[k], linear.C[k])
-        static = StaticPart.of(linear.K[0], nc) if linear.orders[0] == 0 else None
+        static = StaticPart.of(linear.K[0], nc, contact_bodies(parts[dynamic[0]])) \
+            if linear.orders[0] == 0 else None
         return cls(tuple(linear.orders), tuple(blocks), static, nc, tuple(linear.sizes))
 
     @staticmethod
