@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .branch import NewtonResult
-from .jacobian import STRUCTURED, BalanceJacobian, BorderedJacobian, lu_sign
+from .jacobian import RTOL, STRUCTURED, BalanceJacobian, BorderedJacobian, lu_sign
 
 Problem = Callable[[np.ndarray, float, bool], tuple[np.ndarray, np.ndarray, np.ndarray]]
 
@@ -82,7 +82,8 @@ def newton(
     x = np.array(x0, dtype=float)
     R, J, _ = fun(x, lam, True)
     res = _norm(R, f_scale)
-    history = []
+    history: list[float] = []
+    merit = None  # the last iterate's ||R||_2
     for it in range(settings.max_iter + 1):
         if not np.isfinite(res):
             return NewtonResult(x, False, it, res, "residual is NaN or Inf")
@@ -95,8 +96,10 @@ def newton(
             return NewtonResult(x, False, it, res, (
                 f"stalled: ||R|| not halved in {stall} iterations (best "
                 f"{min(history):.3g} * f_scale after {it})"))
+        merit, last = float(np.linalg.norm(R)), merit
         try:
-            dx = _capped(-_solve(J, R), x_scale)
+            eta = forcing(merit, last, settings.tol * f_scale)
+            dx = _capped(-_solve(J, R, rtol=eta), x_scale)
         except (np.linalg.LinAlgError, ValueError) as err:
             return NewtonResult(x, False, it, res, f"singular Jacobian ({err})")
         x, R, J = _damped(fun, x, dx, lam, R)
@@ -105,6 +108,23 @@ def newton(
         x, False, settings.max_iter, res,
         f"no convergence in {settings.max_iter} iterations (||R|| = {res:.3g} * f_scale)",
     )
+
+
+#: Inexact Newton (Eisenstat & Walker 1996): a structured Jacobian's step is solved by
+#: GMRES only as far as the iteration needs, never looser than ETA_MAX (Newton's
+#: convergence then stays nearly quadratic) nor tighter than the GMRES default.
+ETA_MAX = 1e-3
+
+
+def forcing(merit: float, last: float | None, tolerance: float) -> float:
+    """GMRES's relative tolerance for a Newton step at ||R||_2 = ``merit`` (``last``: the
+    iterate before's, None at the first): the loosest of (a) a step whose linear residual
+    is a tenth of the convergence ``tolerance`` (max norm <= 2-norm: the next iterate can
+    converge) and (b) Eisenstat & Walker's choice 2, 0.9 (merit / last)^2 (far from the
+    solution the quadratic term dominates what a tighter solve would remove)."""
+    need = 0.1 * tolerance / merit if merit > 0 else 1.0
+    walker = 0.9 * (merit / last) ** 2 if last else 0.0
+    return float(np.clip(max(need, walker), RTOL, ETA_MAX))
 
 
 def _stalled(history: list[float], window: int) -> bool:
@@ -155,11 +175,11 @@ def _norm(R: np.ndarray, f_scale: float) -> float:
 
 
 def _solve(J: np.ndarray | BalanceJacobian | BorderedJacobian, R: np.ndarray,
-           keep: list | None = None) -> np.ndarray:
-    """J^-1 R by LU (a structured J: its own solve); the LU factors are put in ``keep`` if
-    given (for reuse)."""
+           keep: list | None = None, rtol: float = RTOL) -> np.ndarray:
+    """J^-1 R by LU (a structured J: its own solve, to ``rtol``); the LU factors are put in
+    ``keep`` if given (for reuse)."""
     if isinstance(J, STRUCTURED):
-        return J.solve(R)
+        return J.solve(R, rtol)
     if not np.all(np.isfinite(J)):
         raise ValueError("Jacobian has NaN or Inf")
     with warnings.catch_warnings():  # a zero pivot is reported below, as an error
