@@ -59,6 +59,31 @@ def test_natural_continuation_jumps_and_misses_the_middle_branch():
     assert "jumped at the fold at lambda = 0.38489" in up.message
 
 
+def test_a_fold_of_one_unknown_among_many_is_located_and_jumped():
+    """The S-curve's unknown beside 399 that follow the parameter smoothly (a whole disk's
+    fold is one blade's among thousands of unknowns): the jump past the fold lands one
+    unknown far from the secant, which the rms over all of them dilutes below the steps
+    (~1.7 / 20 against 3 x ~0.05); the largest of them does not. The sweep locates the
+    fold and records the jump as the S-curve alone does."""
+    n = 400
+    slope = np.linspace(0.5, 1.5, n - 1)
+
+    def many(x, lam, jac=True):
+        R0, J0, L0 = s_curve(x[:1], lam)
+        J = np.eye(n)
+        J[0, 0] = J0[0, 0]
+        return (np.concatenate([R0, x[1:] - slope * lam]), J,
+                np.concatenate([L0, -slope]))
+
+    x0 = np.concatenate([[-1.5], slope * -2.0])
+    up = cont.natural(many, x0, -2.0, 2.0, settings=cont.Settings(tol=1e-12, step=0.01))
+    assert up.complete and len(up.jumps) == 1
+    i, _ = up.jumps[0]
+    fold = 2 / (3 * np.sqrt(3))
+    assert fold - 4 * 1e-6 <= up.values[i] <= fold  # located to min_step x the range
+    assert not np.any(np.abs(up.x[:, 0]) < 1 / np.sqrt(3) - 0.05)  # never the middle
+
+
 def test_a_natural_sweep_never_steps_past_a_value_where_it_failed(monkeypatch):
     """Towards a fold the step halves; after a shorter step converged, the next one stops at
     the value that failed (before: twice the step, past it, two more failing solves a

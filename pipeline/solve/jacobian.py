@@ -17,7 +17,8 @@ of that size per Newton iteration. Here it is kept as the two parts:
   ``S_n + sum_p B_pn^H K_pn B_pn``, with ``K_pn`` the part of point p's order-n block that a
   complex stiffness can represent (the mean over the period of its tangent stiffness;
   what is left, the stiffness's harmonics that couple orders, GMRES resolves). One LU per
-  order: memory ``N_dof^2`` per order, factorization ``N_dof^3`` per order.
+  order: memory ``N_dof^2`` per order, factorization ``N_dof^3`` per order; the small
+  bodies' DOFs (a whole disk's dampers) eliminated first, block by block (``_Split``).
 * :class:`Preconditioner` keeps those factors across Newton iterations and continuation
   points (a point's neighbour has nearly the same Jacobian) and is refreshed when GMRES
   needs more than ``REFRESH_ITERATIONS`` iterations.
