@@ -128,7 +128,7 @@ def test_a_stalled_newton_gives_up_early_and_a_slow_steady_one_does_not():
     """``stall``: R = x^2 + 1 has no real root, and Newton wanders with ||R|| >= 1 (its best
     never halves): with stall 6 it stops after 6 of its 25 iterations and says why. R = x^3
     converges only linearly (x shrinks by 2/3 an iterate, ||R|| by 8/27: halved every
-    iterate): never cut. A natural sweep uses it (continuation.STALL)."""
+    iterate): never cut. A natural sweep uses it (newton.STALL), and so does arclength's landing."""
     def no_root(x, lam, jac=True):
         return np.array([x[0] ** 2 + 1]), np.array([[2 * x[0]]]), np.array([0.0])
 

@@ -14,6 +14,7 @@ from .branch import Branch, Collector, NewtonResult, check_range
 from .newton import (
     DEFAULT,
     ON_BRANCH,
+    STALL,
     Problem,
     Settings,
     adapted_step,
@@ -193,7 +194,7 @@ class _Walk:
         frac = (self.stop - self.lam) / (lam_p - self.lam)
         guess = (y + frac * self.h * self.tangent)[:-1] * self.xs
         r = newton(self.fun, guess, self.stop, x_scale=self.xs / self.rms,
-                   f_scale=self.f_scale, settings=self.settings)
+                   f_scale=self.f_scale, settings=self.settings, stall=STALL)
         self.out.steps += 1
         if r.converged:
             self._add(self.stop, r)

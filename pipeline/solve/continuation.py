@@ -31,6 +31,7 @@ from .arclength import arclength, walk_to
 from .branch import Branch, Collector, NewtonResult, check_range, same_solution
 from .newton import (
     DEFAULT,
+    STALL,
     Problem,
     Settings,
     branch_tangent,
@@ -87,15 +88,6 @@ def natural(
     except KeyboardInterrupt:
         return out.finish("interrupted", f"interrupted by the user after {parameter} = "
                           f"{out.values[-1]:.6g}")
-
-
-#: A natural step's Newton gives up once its best ||R|| has not halved in STALL iterations
-#: (:func:`newton`'s ``stall``), and the step is halved: a step that fails is nearly always
-#: at a fold, which the sweep locates by halving down to min_step (Newton cannot converge
-#: past it however long it runs). Traced on a 48-blade mistuned disk at 10 N (its dampers
-#: lifting off and slipping; 265 natural-step Newton solves): the 46 that failed ran all
-#: 25 iterations, 55 % of the sweep's; 10 of the 219 that converged took 13-20.
-STALL = 6
 
 
 def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, settings,
