@@ -359,7 +359,8 @@ def _cross_corner(fun, x, lam, slope, lam_scale, xs, f_scale, settings):
         lam_c = lam + sign * frac * lam_scale
         if not settings.lower < lam_c < settings.upper:
             return None
-        r = newton(fun, x, lam_c, x_scale=xs / rms_norm(x), f_scale=f_scale, settings=settings)
+        r = newton(fun, x, lam_c, x_scale=xs / rms_norm(x), f_scale=f_scale, settings=settings,
+                   stall=STALL)  # (a crossing that stalls: the next, longer one)
         if r.converged:
             return lam_c, r
     return None

@@ -65,14 +65,14 @@ class Settings:
 DEFAULT = Settings()
 
 
-#: A Newton solve that its caller can shorten (a natural step, arclength's landing on the
-#: end value: both halve their step) gives up once its best ||R|| has not halved in STALL
-#: iterations (:func:`newton`'s ``stall``): a step that fails is nearly always at a fold,
-#: where Newton cannot converge however long it runs. Traced on a 48-blade mistuned disk at
-#: 10 N (its dampers lifting off and slipping; 265 natural-step Newton solves): the 46 that
-#: failed ran all 25 iterations, 55 % of the sweep's; 10 of the 219 that converged took
-#: 13-20. A fold's detour on the disk at 3 N spent ten minutes in failed landings of 25
-#: iterations, each with its line search's residuals.
+#: A Newton solve that its caller can do without (a natural step, arclength's landing on
+#: the end value: both halve their step; a corner's crossing: the next is longer) gives up
+#: once its best ||R|| has not halved in STALL iterations (:func:`newton`'s ``stall``): a
+#: step that fails is nearly always at a fold, where Newton cannot converge however long it
+#: runs. Traced on a 48-blade mistuned disk at 10 N (its dampers lifting off and slipping;
+#: 265 natural-step Newton solves): the 46 that failed ran all 25 iterations, 55 % of the
+#: sweep's; 10 of the 219 that converged took 13-20. A fold's detour on the disk at 3 N
+#: spent ten minutes in failed landings and crossings of 25 iterations each.
 STALL = 6
 
 
