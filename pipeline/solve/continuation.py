@@ -60,9 +60,7 @@ def natural(
     """Natural continuation from ``start`` to ``stop`` in steps of
     ``settings.step * |stop - start|`` (halved down to ``min_step`` on failure).
 
-    Where Newton fails from the secant predictor, the step is halved (not restarted from
-    the last solution: near a fold that lands, unmarked, on another branch, the unstable
-    one too; measured on the 48-blade disk, a spurious peak there). Where the step has
+    Where the predictor fails, Newton restarts from the last solution. Where the step has
     fallen below ``min_step``, the branch ends within it: a fold. The sweep then jumps, as a
     slow physical sweep does (Firrone & Zucca Fig. 24): it lands at the next value, one
     regular step on, on the branch that the fold's own branch reaches there after turning
@@ -102,6 +100,10 @@ def _natural_steps(fun, out, lam, start, stop, span, step, x_scale, f_scale, set
         r = newton(fun, pred, new, x_scale=x_scale, f_scale=f_scale, settings=settings,
                    stall=STALL)
         out.steps += 1
+        if not r.converged:  # past a bend the secant points off the branch
+            r = newton(fun, out.xs[-1], new, x_scale=x_scale, f_scale=f_scale,
+                       settings=settings, stall=STALL)
+            out.steps += 1
         if r.converged and _off_branch(out, r.x, pred, new, x_scale, span):
             # another branch past a fold, or this one past a sharp kink: shorter steps tell
             far = (new, r)
