@@ -57,8 +57,9 @@ MAX_PATTERNS = 100_000
 #: shipped 48-blade case at 1 N by arclength: 31 points at sigma 0.25 %, 63 at 5 % over a
 #: window the mistuned family spans, and ~12 trials; a generic curve's CURVE_POINTS +
 #: PEAK_SOLVES = 100 said 510 s a pattern against 140-240 s measured. Its friction study
-#: (mu 0.1, 3 N) swept downwards: 186 natural solves, 1,154 iterations, 839 s with its
-#: tuned disk)
+#: (mu 0.1, 3 N) swept downwards: 186-244 natural solves, 839 s with its tuned disk, 297 s
+#: since the dampers are eliminated first in the preconditioner and Newton is inexact;
+#: ~1e3 s said, an upper bound where a pattern's folds cost detours: up to ~30 min)
 PATTERN_SOLVES = {"arclength": 60, "natural": 200, "natural-down": 200}
 #: a pattern's continuation: ``arclength`` follows every fold of the branch (where the
 #: dampers slip and lift off, the small folds and kinks of each sector's flanks one after
