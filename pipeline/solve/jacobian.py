@@ -46,9 +46,10 @@ from microslip.fourier import Harmonics
 
 from .blocks import BlockDiagonal, pattern_components
 
-#: GMRES: relative tolerance of a Newton step's solve (||J dx - r|| <= RTOL ||r||): the
-#: step is then Newton's to 1e-10, so the iterates and converged points are those of a
-#: direct solve to well below the continuation's tolerance (1e-9 of the force scale).
+#: GMRES: relative tolerance of a solve (||J dx - r|| <= RTOL ||r||) unless its caller asks
+#: for less (a Newton step, newton.forcing): arclength's correctors and tangents are then
+#: those of a direct solve to well below the continuation's tolerance (1e-9 of the force
+#: scale).
 RTOL = 1e-10
 #: Krylov vectors kept before a solve counts as failed (the memory: n x this many floats).
 MAX_KRYLOV = 80
